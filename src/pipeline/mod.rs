@@ -1,0 +1,1 @@
+//! YAML specs, the stage graph, the content-hash cache and the executors.

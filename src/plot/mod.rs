@@ -1,0 +1,1 @@
+//! Figure drawing with plotters (SVG and PNG, embedded font).
