@@ -82,7 +82,13 @@ fn rescaled(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Vec<Log
             let mut pts: Vec<(f64, f64, f64)> = Vec::with_capacity(c.x.len());
             for i in 0..c.x.len() {
                 let (x, y, s) = rescale(p, c, c.x[i], c.y[i], c.sigma[i]);
-                if !(x > 0.0 && y > 0.0 && s > 0.0 && x.is_finite() && y.is_finite() && s.is_finite()) {
+                if !(x > 0.0
+                    && y > 0.0
+                    && s > 0.0
+                    && x.is_finite()
+                    && y.is_finite()
+                    && s.is_finite())
+                {
                     return Err(FitError::invalid(
                         FORM,
                         format!(
@@ -122,7 +128,10 @@ fn interpolate(c: &LogCurve, x: f64) -> Option<(f64, f64)> {
 /// rescaled curves do not all overlap, directly or through each other.
 pub fn quality(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Quality, FitError> {
     if curves.len() < 2 {
-        return Err(FitError::invalid(FORM, "a collapse needs at least two curves"));
+        return Err(FitError::invalid(
+            FORM,
+            "a collapse needs at least two curves",
+        ));
     }
     for c in curves {
         if c.y.len() != c.x.len() || c.sigma.len() != c.x.len() {
@@ -201,10 +210,18 @@ pub fn collapse(
     if n == 0 || bounds.len() != n {
         return Err(FitError::invalid(
             FORM,
-            format!("{} names and {} bounds; give one finite bound pair per parameter", n, bounds.len()),
+            format!(
+                "{} names and {} bounds; give one finite bound pair per parameter",
+                n,
+                bounds.len()
+            ),
         ));
     }
-    if let Some((j, b)) = bounds.iter().enumerate().find(|(_, b)| !(b.0.is_finite() && b.1.is_finite() && b.0 < b.1)) {
+    if let Some((j, b)) = bounds
+        .iter()
+        .enumerate()
+        .find(|(_, b)| !(b.0.is_finite() && b.1.is_finite() && b.0 < b.1))
+    {
         return Err(FitError::invalid(
             FORM,
             format!("bounds of `{}` = {b:?}; need finite lo < hi", names[j]),
@@ -212,7 +229,10 @@ pub fn collapse(
     }
     // Work in unit coordinates u in [0, 1]^n.
     let to_p = |u: &[f64]| -> Vec<f64> {
-        u.iter().zip(bounds).map(|(u, (lo, hi))| lo + u * (hi - lo)).collect()
+        u.iter()
+            .zip(bounds)
+            .map(|(u, (lo, hi))| lo + u * (hi - lo))
+            .collect()
     };
     let s_at = |u: &[f64]| -> f64 {
         if u.iter().any(|v| !(0.0..=1.0).contains(v)) {
@@ -303,7 +323,12 @@ fn nelder_mead(start: Vec<f64>, f: &dyn Fn(&[f64]) -> f64) -> Vec<f64> {
         let size = simplex
             .iter()
             .skip(1)
-            .map(|(_, v)| v.iter().zip(&simplex[0].1).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
+            .map(|(_, v)| {
+                v.iter()
+                    .zip(&simplex[0].1)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            })
             .fold(0.0, f64::max);
         if size < 1e-9 {
             break;
@@ -313,7 +338,11 @@ fn nelder_mead(start: Vec<f64>, f: &dyn Fn(&[f64]) -> f64) -> Vec<f64> {
             .collect();
         let worst = simplex[n].1.clone();
         let along = |t: f64| -> Vec<f64> {
-            centroid.iter().zip(&worst).map(|(c, w)| c + t * (c - w)).collect()
+            centroid
+                .iter()
+                .zip(&worst)
+                .map(|(c, w)| c + t * (c - w))
+                .collect()
         };
         let r = along(1.0);
         let fr = f(&r);
@@ -331,7 +360,11 @@ fn nelder_mead(start: Vec<f64>, f: &dyn Fn(&[f64]) -> f64) -> Vec<f64> {
             } else {
                 let best = simplex[0].1.clone();
                 for s in simplex.iter_mut().skip(1) {
-                    s.1 = s.1.iter().zip(&best).map(|(v, b)| b + 0.5 * (v - b)).collect();
+                    s.1 =
+                        s.1.iter()
+                            .zip(&best)
+                            .map(|(v, b)| b + 0.5 * (v - b))
+                            .collect();
                     s.0 = f(&s.1);
                 }
             }
@@ -370,7 +403,8 @@ fn hessian(u: &[f64], f0: f64, f: &dyn Fn(&[f64]) -> f64) -> Vec<Vec<f64>> {
     for i in 0..n {
         hess[i][i] = (shifted(&[(i, h[i])]) - 2.0 * f0 + shifted(&[(i, -h[i])])) / (h[i] * h[i]);
         for j in 0..i {
-            let v = (shifted(&[(i, h[i]), (j, h[j])]) - shifted(&[(i, h[i]), (j, -h[j])])
+            let v = (shifted(&[(i, h[i]), (j, h[j])])
+                - shifted(&[(i, h[i]), (j, -h[j])])
                 - shifted(&[(i, -h[i]), (j, h[j])])
                 + shifted(&[(i, -h[i]), (j, -h[j])]))
                 / (4.0 * h[i] * h[j]);

@@ -30,7 +30,9 @@ pub enum FitError {
     },
 
     /// J^T J is singular: some parameter (combination) is not determined by the data.
-    #[error("{form} fit is ill-conditioned: parameter `{parameter}` is not determined by the data ({hint})")]
+    #[error(
+        "{form} fit is ill-conditioned: parameter `{parameter}` is not determined by the data ({hint})"
+    )]
     IllConditioned {
         form: String,
         parameter: String,

@@ -97,13 +97,23 @@ pub fn least_squares(
             ));
         }
     }
-    let fixed: Vec<bool> = (0..np).map(|j| opts.fixed.get(j).copied().unwrap_or(false)).collect();
+    let fixed: Vec<bool> = (0..np)
+        .map(|j| opts.fixed.get(j).copied().unwrap_or(false))
+        .collect();
     let bounds: Vec<(f64, f64)> = (0..np)
-        .map(|j| opts.bounds.get(j).copied().unwrap_or((f64::NEG_INFINITY, f64::INFINITY)))
+        .map(|j| {
+            opts.bounds
+                .get(j)
+                .copied()
+                .unwrap_or((f64::NEG_INFINITY, f64::INFINITY))
+        })
         .collect();
     let free = fixed.iter().filter(|f| !**f).count();
     if free == 0 {
-        return Err(FitError::invalid(form, "every parameter is fixed; nothing to fit"));
+        return Err(FitError::invalid(
+            form,
+            "every parameter is fixed; nothing to fit",
+        ));
     }
     data.validate(form, free)?;
     for j in 0..np {
@@ -153,7 +163,12 @@ pub fn least_squares(
                 ),
             ));
         }
-        Err(e) => return Err(FitError::invalid(form, format!("MPFIT rejected the problem: {e}"))),
+        Err(e) => {
+            return Err(FitError::invalid(
+                form,
+                format!("MPFIT rejected the problem: {e}"),
+            ));
+        }
     };
     let iterations = status.n_iter;
     if status.success == MPSuccess::MaxIter || p.iter().any(|v| !v.is_finite()) {
@@ -215,7 +230,10 @@ pub fn least_squares(
             (None, None) => {
                 return Err(FitError::unreliable(
                     form,
-                    format!("cannot differentiate with respect to `{}` at {}", names[j], p[j]),
+                    format!(
+                        "cannot differentiate with respect to `{}` at {}",
+                        names[j], p[j]
+                    ),
                 ));
             }
         };
@@ -223,7 +241,11 @@ pub fn least_squares(
     }
     let jtj: Vec<Vec<f64>> = jac
         .iter()
-        .map(|a| jac.iter().map(|b| a.iter().zip(b).map(|(x, y)| x * y).sum()).collect())
+        .map(|a| {
+            jac.iter()
+                .map(|b| a.iter().zip(b).map(|(x, y)| x * y).sum())
+                .collect()
+        })
         .collect();
     let inv = spd_inverse(&jtj).map_err(|k| FitError::IllConditioned {
         form: form.to_string(),
@@ -253,5 +275,6 @@ pub fn least_squares(
         converged: true,
         iterations,
         errors_scaled: opts.scale_errors,
+        warnings: Vec::new(),
     })
 }

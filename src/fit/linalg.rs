@@ -71,7 +71,10 @@ mod tests {
         for i in 0..3 {
             for j in 0..3 {
                 let p: f64 = (0..3).map(|k| a[i][k] * inv[k][j]).sum();
-                assert!((p - if i == j { 1.0 } else { 0.0 }).abs() < 1e-10, "{i}{j}: {p}");
+                assert!(
+                    (p - if i == j { 1.0 } else { 0.0 }).abs() < 1e-10,
+                    "{i}{j}: {p}"
+                );
             }
         }
     }

@@ -30,8 +30,7 @@ pub fn linear_least_squares(
     let cov = spd_inverse(&ata).map_err(|j| FitError::IllConditioned {
         form: form.to_string(),
         parameter: names[j].to_string(),
-        hint: "the basis functions are degenerate on these x values (e.g. all x equal)"
-            .to_string(),
+        hint: "the basis functions are degenerate on these x values (e.g. all x equal)".to_string(),
     })?;
     let params: Vec<f64> = (0..k)
         .map(|a| (0..k).map(|b| cov[a][b] * aty[b]).sum())
@@ -56,6 +55,7 @@ pub fn linear_least_squares(
         converged: true,
         iterations: 0,
         errors_scaled: false,
+        warnings: Vec::new(),
     })
 }
 
@@ -89,7 +89,9 @@ pub fn scale_errors(mut fit: FitResult) -> FitResult {
             *c *= s;
         }
     }
-    fit.stderr = (0..fit.params.len()).map(|j| fit.covariance[j][j].sqrt()).collect();
+    fit.stderr = (0..fit.params.len())
+        .map(|j| fit.covariance[j][j].sqrt())
+        .collect();
     fit.errors_scaled = true;
     fit
 }

@@ -99,6 +99,9 @@ pub struct FitResult {
     pub iterations: usize,
     /// True when the errors were multiplied by sqrt(reduced chi2) (data errors unknown).
     pub errors_scaled: bool,
+    /// Reasons to distrust an otherwise successful fit (empty when none), e.g.
+    /// a singular point within 3 sigma of the last data point.
+    pub warnings: Vec<String>,
 }
 
 impl FitResult {
@@ -116,7 +119,10 @@ impl FitResult {
     pub fn value(&self, name: &str) -> f64 {
         match self.get(name) {
             Some((v, _)) => v,
-            None => panic!("fit {} has no parameter `{name}` (has {:?})", self.form, self.names),
+            None => panic!(
+                "fit {} has no parameter `{name}` (has {:?})",
+                self.form, self.names
+            ),
         }
     }
 
@@ -124,7 +130,10 @@ impl FitResult {
     pub fn error(&self, name: &str) -> f64 {
         match self.get(name) {
             Some((_, e)) => e,
-            None => panic!("fit {} has no parameter `{name}` (has {:?})", self.form, self.names),
+            None => panic!(
+                "fit {} has no parameter `{name}` (has {:?})",
+                self.form, self.names
+            ),
         }
     }
 }

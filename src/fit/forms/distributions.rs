@@ -11,19 +11,39 @@ pub fn gaussian_van_hove(data: Data<'_>, t: f64) -> Result<FitResult, FitError> 
     const FORM: &str = "gaussian_van_hove";
     data.validate(FORM, 1)?;
     if !(t > 0.0 && t.is_finite()) {
-        return Err(FitError::invalid(FORM, format!("lag time t = {t} must be > 0")));
+        return Err(FitError::invalid(
+            FORM,
+            format!("lag time t = {t} must be > 0"),
+        ));
     }
     // Start from the second moment of the histogram (equal bins assumed): <dx^2> = 2 D t.
     let norm: f64 = data.y.iter().map(|p| p.max(0.0)).sum();
-    let m2: f64 = data.x.iter().zip(data.y).map(|(x, p)| x * x * p.max(0.0)).sum::<f64>() / norm;
+    let m2: f64 = data
+        .x
+        .iter()
+        .zip(data.y)
+        .map(|(x, p)| x * x * p.max(0.0))
+        .sum::<f64>()
+        / norm;
     if !(m2 > 0.0) {
-        return Err(FitError::unreliable(FORM, "the distribution has no positive weight off dx = 0"));
+        return Err(FitError::unreliable(
+            FORM,
+            "the distribution has no positive weight off dx = 0",
+        ));
     }
     let model = move |x: f64, p: &[f64]| {
         let w = 4.0 * p[0] * t;
         (-x * x / w).exp() / (std::f64::consts::PI * w).sqrt()
     };
-    fit_form(FORM, &["D"], &model, data, vec![m2 / (2.0 * t)], vec![(0.0, f64::INFINITY)], &[])
+    fit_form(
+        FORM,
+        &["D"],
+        &model,
+        data,
+        vec![m2 / (2.0 * t)],
+        vec![(0.0, f64::INFINITY)],
+        &[],
+    )
 }
 
 /// Exponential tail P(dx) = A exp(-|dx| / x0). Parameters: `A`, `x0`.
@@ -37,7 +57,10 @@ pub fn exponential_tail(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, F
         .map_err(|_| FitError::invalid(FORM, "all |dx| are equal; the tail needs a range of dx"))?;
     let slope = start.value("slope");
     if !(slope < 0.0) {
-        return Err(FitError::unreliable(FORM, "P does not decrease with |dx| in the given range"));
+        return Err(FitError::unreliable(
+            FORM,
+            "P does not decrease with |dx| in the given range",
+        ));
     }
     let model = |x: f64, p: &[f64]| p[0] * (-x.abs() / p[1]).exp();
     let p0 = vec![start.value("intercept").exp(), -1.0 / slope];
@@ -53,7 +76,10 @@ pub fn log_normal(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitErro
     const FORM: &str = "log_normal";
     data.validate(FORM, 3usize.saturating_sub(fixed.len()))?;
     if let Some(i) = data.x.iter().position(|&n| !(n > 0.0)) {
-        return Err(FitError::invalid(FORM, format!("Nc[{i}] = {} must be > 0", data.x[i])));
+        return Err(FitError::invalid(
+            FORM,
+            format!("Nc[{i}] = {} must be > 0", data.x[i]),
+        ));
     }
     // ln P = c0 + c1 u + c2 u^2 with u = ln Nc: a parabola on log-log axes.
     let (ly, ls) = log_y(FORM, data)?;
@@ -81,5 +107,13 @@ pub fn log_normal(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitErro
     };
     let model = |n: f64, p: &[f64]| p[0] * (-(n / p[1]).ln().powi(2) / (2.0 * p[2] * p[2])).exp();
     let bounds = vec![(0.0, f64::INFINITY); 3];
-    fit_form(FORM, &["P0", "N_sigma", "sigma"], &model, data, p0, bounds, fixed)
+    fit_form(
+        FORM,
+        &["P0", "N_sigma", "sigma"],
+        &model,
+        data,
+        p0,
+        bounds,
+        fixed,
+    )
 }

@@ -37,7 +37,13 @@ fn fit_form(
     let bounds = bounds
         .into_iter()
         .zip(&mask)
-        .map(|(b, &f)| if f { (f64::NEG_INFINITY, f64::INFINITY) } else { b })
+        .map(|(b, &f)| {
+            if f {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            } else {
+                b
+            }
+        })
         .collect();
     let opts = FitOptions {
         bounds,
@@ -63,7 +69,10 @@ fn fixed_mask(
             ));
         };
         if !value.is_finite() {
-            return Err(FitError::invalid(form, format!("fixed value of `{name}` is {value}")));
+            return Err(FitError::invalid(
+                form,
+                format!("fixed value of `{name}` is {value}"),
+            ));
         }
         mask[j] = true;
         p0[j] = value;

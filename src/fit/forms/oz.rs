@@ -20,8 +20,16 @@ pub fn oz(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     };
     let model = |q: f64, p: &[f64]| p[0] / (1.0 + (q * p[1]).powi(2));
     let bounds = vec![(0.0, f64::INFINITY), (0.0, f64::INFINITY)];
-    let fit = fit_form(FORM, &["chi0", "xi"], &model, data, vec![chi0, xi], bounds, fixed)?;
-    check_plateau(FORM, data, &fit)?;
+    let mut fit = fit_form(
+        FORM,
+        &["chi0", "xi"],
+        &model,
+        data,
+        vec![chi0, xi],
+        bounds,
+        fixed,
+    )?;
+    check_plateau(FORM, data, &mut fit)?;
     Ok(fit)
 }
 
@@ -41,16 +49,28 @@ pub fn oz_quartic(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitErro
         let u = (q * p[1]).powi(2);
         p[0] / (1.0 + u + p[2] * p[2] * u * u)
     };
-    let bounds = vec![(0.0, f64::INFINITY), (0.0, f64::INFINITY), (0.0, f64::INFINITY)];
-    let fit = fit_form(FORM, &["chi0", "xi", "A"], &model, data, vec![chi0, xi, a], bounds, fixed)
-        .map_err(|e| match e {
-            FitError::AtBound { parameter, .. } if parameter == "A" => FitError::unreliable(
-                FORM,
-                "A -> 0: the data show no q^4 term; use the plain OZ form (oz)",
-            ),
-            e => e,
-        })?;
-    check_plateau(FORM, data, &fit)?;
+    let bounds = vec![
+        (0.0, f64::INFINITY),
+        (0.0, f64::INFINITY),
+        (0.0, f64::INFINITY),
+    ];
+    let mut fit = fit_form(
+        FORM,
+        &["chi0", "xi", "A"],
+        &model,
+        data,
+        vec![chi0, xi, a],
+        bounds,
+        fixed,
+    )
+    .map_err(|e| match e {
+        FitError::AtBound { parameter, .. } if parameter == "A" => FitError::unreliable(
+            FORM,
+            "A -> 0: the data show no q^4 term; use the plain OZ form (oz)",
+        ),
+        e => e,
+    })?;
+    check_plateau(FORM, data, &mut fit)?;
     Ok(fit)
 }
 
@@ -64,13 +84,24 @@ fn inverse_polynomial(
 ) -> Result<Vec<f64>, FitError> {
     data.validate(form, terms.saturating_sub(n_fixed))?;
     if let Some(i) = data.x.iter().position(|&q| !(q > 0.0)) {
-        return Err(FitError::invalid(form, format!("q[{i}] = {} must be > 0", data.x[i])));
+        return Err(FitError::invalid(
+            form,
+            format!("q[{i}] = {} must be > 0", data.x[i]),
+        ));
     }
     if let Some(i) = data.y.iter().position(|&s| !(s > 0.0)) {
-        return Err(FitError::invalid(form, format!("S4[{i}] = {} must be > 0", data.y[i])));
+        return Err(FitError::invalid(
+            form,
+            format!("S4[{i}] = {} must be > 0", data.y[i]),
+        ));
     }
     let inv: Vec<f64> = data.y.iter().map(|s| 1.0 / s).collect();
-    let sig: Vec<f64> = data.y.iter().zip(data.sigma).map(|(s, e)| e / (s * s)).collect();
+    let sig: Vec<f64> = data
+        .y
+        .iter()
+        .zip(data.sigma)
+        .map(|(s, e)| e / (s * s))
+        .collect();
     let names = ["c0", "c1", "c2", "c3"];
     let basis = |q: f64, b: &mut [f64]| {
         let mut v = 1.0;
@@ -102,7 +133,8 @@ fn rough_start(data: Data<'_>) -> (f64, f64) {
 }
 
 /// The fit is only meaningful if some q resolves the plateau (q xi < 1).
-fn check_plateau(form: &str, data: Data<'_>, fit: &FitResult) -> Result<(), FitError> {
+/// With fewer than 3 such points the fit is kept but carries a warning.
+fn check_plateau(form: &str, data: Data<'_>, fit: &mut FitResult) -> Result<(), FitError> {
     let xi = fit.value("xi");
     let qmin = data.x.iter().copied().fold(f64::INFINITY, f64::min);
     if qmin * xi >= 1.0 {
@@ -115,6 +147,12 @@ fn check_plateau(form: &str, data: Data<'_>, fit: &FitResult) -> Result<(), FitE
                 qmin * xi,
                 std::f64::consts::TAU / qmin
             ),
+        ));
+    }
+    let on_plateau = data.x.iter().filter(|&&q| q * xi < 1.0).count();
+    if on_plateau < 3 {
+        fit.warnings.push(format!(
+            "only {on_plateau} wavevector(s) with q xi < 1: chi0 and xi rest on few points"
         ));
     }
     Ok(())

@@ -11,7 +11,10 @@ pub fn power_law(data: Data<'_>) -> Result<FitResult, FitError> {
     const FORM: &str = "power_law";
     data.validate(FORM, 2)?;
     if let Some(i) = data.x.iter().position(|&x| !(x > 0.0)) {
-        return Err(FitError::invalid(FORM, format!("x[{i}] = {} must be > 0", data.x[i])));
+        return Err(FitError::invalid(
+            FORM,
+            format!("x[{i}] = {} must be > 0", data.x[i]),
+        ));
     }
     let (ly, ls) = log_y(FORM, data)?;
     let lx: Vec<f64> = data.x.iter().map(|x| x.ln()).collect();

@@ -12,7 +12,10 @@ const FORM: &str = "q_relaxation";
 pub fn q_relaxation(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     data.validate(FORM, 2usize.saturating_sub(fixed.len()))?;
     if let Some(i) = data.x.iter().position(|&t| !(t > 0.0)) {
-        return Err(FitError::invalid(FORM, format!("t[{i}] = {} must be > 0", data.x[i])));
+        return Err(FitError::invalid(
+            FORM,
+            format!("t[{i}] = {} must be > 0", data.x[i]),
+        ));
     }
     let (mut lt, mut lq) = (Vec::new(), Vec::new());
     for (&t, &q) in data.x.iter().zip(data.y) {
@@ -39,5 +42,13 @@ pub fn q_relaxation(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitEr
     let tau0 = (-start.value("intercept") / beta).exp();
     let model = |t: f64, p: &[f64]| 1.0 / ((t / p[0]).powf(p[1]) + 1.0);
     let bounds = vec![(0.0, f64::INFINITY), (0.0, f64::INFINITY)];
-    fit_form(FORM, &["tau0", "beta"], &model, data, vec![tau0, beta], bounds, fixed)
+    fit_form(
+        FORM,
+        &["tau0", "beta"],
+        &model,
+        data,
+        vec![tau0, beta],
+        bounds,
+        fixed,
+    )
 }

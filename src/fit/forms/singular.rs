@@ -57,7 +57,10 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
     let min = data.x.iter().copied().fold(f64::INFINITY, f64::min);
     let span = max - min;
     if !(span > 0.0) {
-        return Err(FitError::invalid(s.form, "all phi are equal; need a range of phi"));
+        return Err(FitError::invalid(
+            s.form,
+            "all phi are equal; need a range of phi",
+        ));
     }
     let candidates: Vec<f64> = match fixed_value(fixed, s.names[1]) {
         Some(c) if c <= max => {
@@ -74,7 +77,9 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
     let mut best: Option<(f64, Vec<f64>)> = None;
     for c in candidates {
         let u: Vec<f64> = data.x.iter().map(|&phi| (s.regressor)(phi, c)).collect();
-        let Ok(l) = line(Data::new(&u, &ly, &ls)) else { continue };
+        let Ok(l) = line(Data::new(&u, &ly, &ls)) else {
+            continue;
+        };
         let p = vec![l.value("intercept").exp(), c, l.value("slope")];
         let chi2: f64 = (0..data.len())
             .map(|i| ((data.y[i] - s.model(data.x[i], &p)) / data.sigma[i]).powi(2))
@@ -86,7 +91,10 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
     let Some((_, p0)) = best else {
         return Err(FitError::unreliable(
             s.form,
-            format!("no {} above max(phi) = {max} gives a finite start", s.names[1]),
+            format!(
+                "no {} above max(phi) = {max} gives a finite start",
+                s.names[1]
+            ),
         ));
     };
     let bounds = vec![
@@ -95,5 +103,14 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
         (f64::NEG_INFINITY, f64::INFINITY),
     ];
     let model = |phi: f64, p: &[f64]| s.model(phi, p);
-    fit_form(s.form, &s.names, &model, data, p0, bounds, fixed)
+    let mut fit = fit_form(s.form, &s.names, &model, data, p0, bounds, fixed)?;
+    let (c, dc) = fit.get(s.names[1]).expect("singular point is a parameter");
+    if c - max < 3.0 * dc {
+        fit.warnings.push(format!(
+            "{} = {c} is within 3 sigma ({dc:.2e}) of max(phi) = {max}: the divergence is not \
+             resolved by the data (add points further from it, or fix {})",
+            s.names[1], s.names[1]
+        ));
+    }
+    Ok(fit)
 }
