@@ -46,9 +46,9 @@ struct Problem<'a> {
 impl MPFitter for Problem<'_> {
     fn eval(&mut self, p: &[f64], dev: &mut [f64]) -> MPResult<()> {
         let d = self.data;
-        for i in 0..d.len() {
-            dev[i] = (d.y[i] - (self.model)(d.x[i], p)) / d.sigma[i];
-            if !dev[i].is_finite() {
+        for (i, dev) in dev.iter_mut().enumerate() {
+            *dev = (d.y[i] - (self.model)(d.x[i], p)) / d.sigma[i];
+            if !dev.is_finite() {
                 self.bad_params = Some(p.to_vec());
                 return Err(MPError::Nan);
             }

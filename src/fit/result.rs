@@ -48,7 +48,7 @@ impl<'a> Data<'a> {
                     format!("point {i} is not finite (x = {x}, y = {y})"),
                 ));
             }
-            if !(s > 0.0 && s.is_finite()) {
+            if !(positive(s) && s.is_finite()) {
                 return Err(FitError::invalid(
                     form,
                     format!("sigma[{i}] = {s}; errors must be finite and > 0"),
@@ -77,6 +77,22 @@ impl<'a> Data<'a> {
             }
         }
         out
+    }
+}
+
+/// True for finite-or-infinite v > 0; false for NaN (unlike `!(v <= 0.0)`).
+pub(crate) fn positive(v: f64) -> bool {
+    v > 0.0
+}
+
+/// Fails naming the first entry of `values` that is not > 0 (NaN included).
+pub(crate) fn require_positive(form: &str, what: &str, values: &[f64]) -> Result<(), FitError> {
+    match values.iter().position(|&v| !positive(v)) {
+        Some(i) => Err(FitError::invalid(
+            form,
+            format!("{what}[{i}] = {} must be > 0 for this form", values[i]),
+        )),
+        None => Ok(()),
     }
 }
 

@@ -3,6 +3,7 @@
 
 use super::{Data, FitError, FitResult, Fixed, fit_form, log_y};
 use crate::fit::linear::{line, linear_least_squares};
+use crate::fit::result::{positive, require_positive};
 
 /// Gaussian self part of the van Hove function at lag `t`,
 /// P(dx) = exp(-dx^2 / (4 D t)) / sqrt(4 pi D t), with the diffusion coefficient
@@ -25,7 +26,7 @@ pub fn gaussian_van_hove(data: Data<'_>, t: f64) -> Result<FitResult, FitError> 
         .map(|(x, p)| x * x * p.max(0.0))
         .sum::<f64>()
         / norm;
-    if !(m2 > 0.0) {
+    if !positive(m2) {
         return Err(FitError::unreliable(
             FORM,
             "the distribution has no positive weight off dx = 0",
@@ -56,7 +57,7 @@ pub fn exponential_tail(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, F
     let start = line(Data::new(&ax, &ly, &ls))
         .map_err(|_| FitError::invalid(FORM, "all |dx| are equal; the tail needs a range of dx"))?;
     let slope = start.value("slope");
-    if !(slope < 0.0) {
+    if !positive(-slope) {
         return Err(FitError::unreliable(
             FORM,
             "P does not decrease with |dx| in the given range",
@@ -75,12 +76,7 @@ pub fn exponential_tail(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, F
 pub fn log_normal(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     const FORM: &str = "log_normal";
     data.validate(FORM, 3usize.saturating_sub(fixed.len()))?;
-    if let Some(i) = data.x.iter().position(|&n| !(n > 0.0)) {
-        return Err(FitError::invalid(
-            FORM,
-            format!("Nc[{i}] = {} must be > 0", data.x[i]),
-        ));
-    }
+    require_positive(FORM, "Nc", data.x)?;
     // ln P = c0 + c1 u + c2 u^2 with u = ln Nc: a parabola on log-log axes.
     let (ly, ls) = log_y(FORM, data)?;
     let u: Vec<f64> = data.x.iter().map(|n| n.ln()).collect();

@@ -15,6 +15,7 @@ pub use relaxation::q_relaxation;
 pub use singular::{power_law_offset, vft};
 
 use super::least_squares::Model;
+use super::result::require_positive;
 use super::{Data, FitError, FitOptions, FitResult, least_squares};
 
 /// Parameters held fixed: (name, value).
@@ -87,12 +88,7 @@ fn fixed_value(fixed: Fixed<'_>, name: &str) -> Option<f64> {
 
 /// (ln y, sigma / y) for positive y: the log-space data used for starting values.
 fn log_y(form: &str, data: Data<'_>) -> Result<(Vec<f64>, Vec<f64>), FitError> {
-    if let Some(i) = data.y.iter().position(|&y| !(y > 0.0)) {
-        return Err(FitError::invalid(
-            form,
-            format!("y[{i}] = {} must be > 0 for this form", data.y[i]),
-        ));
-    }
+    require_positive(form, "y", data.y)?;
     Ok((
         data.y.iter().map(|y| y.ln()).collect(),
         data.y.iter().zip(data.sigma).map(|(y, s)| s / y).collect(),

@@ -8,6 +8,7 @@
 
 use super::{Data, FitError, FitResult, Fixed, fit_form};
 use crate::fit::linear::linear_least_squares;
+use crate::fit::result::require_positive;
 
 /// S4 = chi0 / (1 + (q xi)^2). Parameters: `chi0`, `xi`. `data.x` is q > 0.
 pub fn oz(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
@@ -83,18 +84,8 @@ fn inverse_polynomial(
     n_fixed: usize,
 ) -> Result<Vec<f64>, FitError> {
     data.validate(form, terms.saturating_sub(n_fixed))?;
-    if let Some(i) = data.x.iter().position(|&q| !(q > 0.0)) {
-        return Err(FitError::invalid(
-            form,
-            format!("q[{i}] = {} must be > 0", data.x[i]),
-        ));
-    }
-    if let Some(i) = data.y.iter().position(|&s| !(s > 0.0)) {
-        return Err(FitError::invalid(
-            form,
-            format!("S4[{i}] = {} must be > 0", data.y[i]),
-        ));
-    }
+    require_positive(form, "q", data.x)?;
+    require_positive(form, "S4", data.y)?;
     let inv: Vec<f64> = data.y.iter().map(|s| 1.0 / s).collect();
     let sig: Vec<f64> = data
         .y

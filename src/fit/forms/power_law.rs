@@ -3,6 +3,7 @@
 
 use super::{Data, FitError, FitResult, log_y};
 use crate::fit::linear::line;
+use crate::fit::result::require_positive;
 
 /// y = A x^exponent via ln y = ln A + exponent ln x, with sigma_ln y = sigma / y.
 /// Parameters: `A`, `exponent`. Needs x > 0 and y > 0; errors of A by the delta
@@ -10,12 +11,7 @@ use crate::fit::linear::line;
 pub fn power_law(data: Data<'_>) -> Result<FitResult, FitError> {
     const FORM: &str = "power_law";
     data.validate(FORM, 2)?;
-    if let Some(i) = data.x.iter().position(|&x| !(x > 0.0)) {
-        return Err(FitError::invalid(
-            FORM,
-            format!("x[{i}] = {} must be > 0", data.x[i]),
-        ));
-    }
+    require_positive(FORM, "x", data.x)?;
     let (ly, ls) = log_y(FORM, data)?;
     let lx: Vec<f64> = data.x.iter().map(|x| x.ln()).collect();
     let mut f = line(Data::new(&lx, &ly, &ls)).map_err(|e| match e {

@@ -2,6 +2,7 @@
 
 use super::{Data, FitError, FitResult, Fixed, fit_form};
 use crate::fit::linear::line;
+use crate::fit::result::{positive, require_positive};
 
 const FORM: &str = "q_relaxation";
 
@@ -11,12 +12,7 @@ const FORM: &str = "q_relaxation";
 /// through the points with 0.05 < Q < 0.95; the decay must be visible there.
 pub fn q_relaxation(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     data.validate(FORM, 2usize.saturating_sub(fixed.len()))?;
-    if let Some(i) = data.x.iter().position(|&t| !(t > 0.0)) {
-        return Err(FitError::invalid(
-            FORM,
-            format!("t[{i}] = {} must be > 0", data.x[i]),
-        ));
-    }
+    require_positive(FORM, "t", data.x)?;
     let (mut lt, mut lq) = (Vec::new(), Vec::new());
     for (&t, &q) in data.x.iter().zip(data.y) {
         if q > 0.05 && q < 0.95 {
@@ -36,7 +32,7 @@ pub fn q_relaxation(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitEr
         )
     })?;
     let beta = start.value("slope");
-    if !(beta > 0.0) {
+    if !positive(beta) {
         return Err(FitError::unreliable(FORM, "Q(t) does not decrease with t"));
     }
     let tau0 = (-start.value("intercept") / beta).exp();

@@ -9,6 +9,7 @@
 
 use super::{Data, FitError, FitResult, Fixed, fit_form, fixed_value, log_y};
 use crate::fit::linear::line;
+use crate::fit::result::positive;
 
 /// One divergent form, ln y = ln A + k u(phi, c), parameters [A, c, k].
 struct Singular {
@@ -56,7 +57,7 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
     let max = data.x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let min = data.x.iter().copied().fold(f64::INFINITY, f64::min);
     let span = max - min;
-    if !(span > 0.0) {
+    if !positive(span) {
         return Err(FitError::invalid(
             s.form,
             "all phi are equal; need a range of phi",
