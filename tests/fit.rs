@@ -283,33 +283,37 @@ fn distribution_forms_cover_truth() {
     );
 }
 
-/// Finite-size scaling as in Fig. 19: chi4P(N) = xi^g F(sqrt(N)/xi), F(X) = X^2/(1 + X^2).
+/// Finite-size scaling as in Fig. 19: chi4P(N) = xi^g F(sqrt(N)/xi), F(X) = X^2/(1 + X^2),
+/// sampled over 0.1 <= sqrt(N)/xi <= 10 with relative errors `rel_err`.
+fn fss_curve(rng: &mut ChaCha8Rng, xi: f64, g: f64, rel_err: f64, param: f64) -> Curve {
+    let x: Vec<f64> = logspace(0.01 * xi * xi, 100.0 * xi * xi, 15);
+    let y_true: Vec<f64> = x
+        .iter()
+        .map(|n| {
+            let s = n.sqrt() / xi;
+            xi.powf(g) * s * s / (1.0 + s * s)
+        })
+        .collect();
+    let sigma: Vec<f64> = y_true.iter().map(|y| rel_err * y).collect();
+    let y = y_true
+        .iter()
+        .zip(&sigma)
+        .map(|(y, s)| y + s * gauss(rng))
+        .collect();
+    Curve {
+        label: format!("xi={xi:.3}"),
+        param,
+        x,
+        y,
+        sigma,
+    }
+}
+
+/// Five curves labelled by their xi.
 fn fss_curves(rng: &mut ChaCha8Rng, g: f64, rel_err: f64) -> Vec<Curve> {
     [2.0, 4.0, 8.0, 16.0, 32.0]
         .iter()
-        .map(|&xi: &f64| {
-            let x: Vec<f64> = logspace(0.1 * xi * xi, 100.0 * xi * xi, 15);
-            let y_true: Vec<f64> = x
-                .iter()
-                .map(|n| {
-                    let s = n.sqrt() / xi;
-                    xi.powf(g) * s * s / (1.0 + s * s)
-                })
-                .collect();
-            let sigma: Vec<f64> = y_true.iter().map(|y| rel_err * y).collect();
-            let y = y_true
-                .iter()
-                .zip(&sigma)
-                .map(|(y, s)| y + s * gauss(rng))
-                .collect();
-            Curve {
-                label: format!("xi={xi}"),
-                param: xi,
-                x,
-                y,
-                sigma,
-            }
-        })
+        .map(|&xi| fss_curve(rng, xi, g, rel_err, xi))
         .collect()
 }
 
@@ -345,6 +349,37 @@ fn collapse_finds_exponent_and_covers_truth() {
         (0.7..1.3).contains(&s_mean),
         "mean S = {s_mean} for a collapse within errors"
     );
+}
+
+#[test]
+fn collapse_finds_two_exponents_with_xi_from_a_power_law() {
+    // Curves labelled by phi; xi = (0.82 - phi)^-gamma_xi is not given but fitted.
+    let (g, gamma_xi) = (1.125, 1.6);
+    let mut rng = ChaCha8Rng::seed_from_u64(19);
+    let curves: Vec<Curve> = [0.70, 0.74, 0.76, 0.78, 0.79]
+        .iter()
+        .map(|&phi: &f64| fss_curve(&mut rng, (0.82 - phi).powf(-gamma_xi), g, 0.03, phi))
+        .collect();
+    let rescale = |p: &[f64], c: &Curve, n: f64, y: f64, s: f64| {
+        let xi = (0.82 - c.param).powf(-p[1]);
+        let f = xi.powf(-p[0]);
+        (n.sqrt() / xi, y * f, s * f)
+    };
+    let r = collapse(
+        &curves,
+        &["g", "gamma_xi"],
+        &[(0.0, 3.0), (0.5, 3.0)],
+        &rescale,
+    )
+    .unwrap();
+    for (name, truth) in [("g", g), ("gamma_xi", gamma_xi)] {
+        let (v, e) = r.get(name).unwrap();
+        assert!(
+            (v - truth).abs() < 4.0 * e && e < 0.1,
+            "{name} = {v} +- {e}, truth {truth}"
+        );
+    }
+    assert!(r.quality.s < 2.0, "S = {}", r.quality.s);
 }
 
 #[test]

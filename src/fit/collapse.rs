@@ -289,11 +289,12 @@ pub fn collapse(
     })
 }
 
-/// Best point of a regular grid over the unit cube (1-2 parameters), else the centre.
+/// Best point of a regular grid over the unit cube (1-3 parameters), else the centre.
 fn grid_start(n: usize, f: &dyn Fn(&[f64]) -> f64) -> Vec<f64> {
     let g: usize = match n {
         1 => 101,
         2 => 31,
+        3 => 11,
         _ => return vec![0.5; n],
     };
     let mut best = (f64::INFINITY, vec![0.5; n]);
