@@ -577,4 +577,25 @@ fn undecayed_q_and_redundant_parameters_fail_clearly() {
     )
     .unwrap_err();
     assert!(matches!(e, FitError::IllConditioned { .. }), "{e}");
+
+    // One iteration from a far start cannot reach the minimum.
+    let y: Vec<f64> = x.iter().map(|x| 3.0 * (-x / 1.5f64).exp()).collect();
+    let decay = |x: f64, p: &[f64]| p[0] * (-x / p[1]).exp();
+    let opts = FitOptions {
+        max_iter: 1,
+        ..FitOptions::default()
+    };
+    let e = least_squares(
+        "decay",
+        &["a", "b"],
+        &decay,
+        Data::new(&x, &y, &[0.01; 10]),
+        &[30.0, 0.1],
+        &opts,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, FitError::NotConverged { iterations: 1, .. }),
+        "{e}"
+    );
 }

@@ -131,25 +131,23 @@ impl FitResult {
         self.index(name).map(|i| (self.params[i], self.stderr[i]))
     }
 
-    /// Value of a parameter by name; panics on an unknown name (a programming error).
-    pub fn value(&self, name: &str) -> f64 {
-        match self.get(name) {
-            Some((v, _)) => v,
-            None => panic!(
+    /// (value, standard error) by name; panics on an unknown name (a programming error).
+    pub fn expect(&self, name: &str) -> (f64, f64) {
+        self.get(name).unwrap_or_else(|| {
+            panic!(
                 "fit {} has no parameter `{name}` (has {:?})",
                 self.form, self.names
-            ),
-        }
+            )
+        })
+    }
+
+    /// Value of a parameter by name; panics on an unknown name.
+    pub fn value(&self, name: &str) -> f64 {
+        self.expect(name).0
     }
 
     /// Standard error of a parameter by name; panics on an unknown name.
     pub fn error(&self, name: &str) -> f64 {
-        match self.get(name) {
-            Some((_, e)) => e,
-            None => panic!(
-                "fit {} has no parameter `{name}` (has {:?})",
-                self.form, self.names
-            ),
-        }
+        self.expect(name).1
     }
 }
