@@ -484,6 +484,22 @@ fn power_law_with_unresolved_phi_c_is_flagged_never_nan() {
 }
 
 #[test]
+fn divergent_forms_on_data_without_divergence_fail_clearly() {
+    // tau = exp(10 phi): no singular point at finite phi; phi_c would run to infinity.
+    let phi = linspace(0.60, 0.79, 20);
+    let tau: Vec<f64> = phi.iter().map(|p| (10.0 * p).exp()).collect();
+    let sigma: Vec<f64> = tau.iter().map(|t| 0.05 * t).collect();
+    for r in [
+        forms::power_law_offset(Data::new(&phi, &tau, &sigma), &[]),
+        forms::vft(Data::new(&phi, &tau, &sigma), &[]),
+    ] {
+        let e = r.unwrap_err();
+        assert!(matches!(e, FitError::NotConverged { .. }), "{e}");
+        assert!(e.to_string().contains("no divergence"), "{e}");
+    }
+}
+
+#[test]
 fn oz_with_xi_beyond_the_box_is_unreliable() {
     // xi = 50 but the smallest q is 0.1: every q xi >= 5, no plateau.
     let q = linspace(0.1, 1.0, 20);

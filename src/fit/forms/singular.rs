@@ -104,7 +104,18 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
         (f64::NEG_INFINITY, f64::INFINITY),
     ];
     let model = |phi: f64, p: &[f64]| s.model(phi, p);
-    let mut fit = fit_form(s.form, &s.names, &model, data, p0, bounds, fixed)?;
+    let mut fit = fit_form(s.form, &s.names, &model, data, p0, bounds, fixed).map_err(|e| match e {
+        FitError::NotConverged { form, iterations, .. } => FitError::NotConverged {
+            form,
+            iterations,
+            hint: format!(
+                "{} runs away from the data: they may show no divergence above max(phi) = {max} \
+                 (try the other divergent form, or fix {})",
+                s.names[1], s.names[1]
+            ),
+        },
+        e => e,
+    })?;
     let (c, dc) = fit.get(s.names[1]).expect("singular point is a parameter");
     if c - max < 3.0 * dc {
         fit.warnings.push(format!(
