@@ -383,6 +383,53 @@ fn collapse_finds_two_exponents_with_xi_from_a_power_law() {
 }
 
 #[test]
+fn collapse_finds_three_parameters_of_cluster_scaling() {
+    // Fig. 13: P(Nc) = Nc^-kappa exp(-Nc/N*), N* = (phi_c - phi)^(-1/rho); collapse
+    // P Nc^kappa against Nc/N* with kappa, rho and phi_c all unknown.
+    let (kappa, rho, phi_c) = (1.8, 1.63, 0.82);
+    let mut rng = ChaCha8Rng::seed_from_u64(20);
+    let curves: Vec<Curve> = [0.70, 0.73, 0.76, 0.78, 0.79]
+        .iter()
+        .map(|&phi: &f64| {
+            let n_star = (phi_c - phi).powf(-1.0 / rho);
+            let x = logspace(1.0, 5.0 * n_star, 20);
+            let y_true: Vec<f64> = x
+                .iter()
+                .map(|n| n.powf(-kappa) * (-n / n_star).exp())
+                .collect();
+            let sigma: Vec<f64> = y_true.iter().map(|y| 0.03 * y).collect();
+            let y = y_true
+                .iter()
+                .zip(&sigma)
+                .map(|(y, s)| y + s * gauss(&mut rng))
+                .collect();
+            Curve {
+                label: format!("phi={phi}"),
+                param: phi,
+                x,
+                y,
+                sigma,
+            }
+        })
+        .collect();
+    let rescale = |p: &[f64], c: &Curve, n: f64, y: f64, s: f64| {
+        let f = n.powf(p[0]);
+        (n * (p[2] - c.param).powf(1.0 / p[1]), y * f, s * f)
+    };
+    let bounds = [(1.0, 3.0), (0.8, 3.0), (0.795, 0.9)];
+    let r = collapse(&curves, &["kappa", "rho", "phi_c"], &bounds, &rescale).unwrap();
+    for (name, truth) in [("kappa", kappa), ("rho", rho), ("phi_c", phi_c)] {
+        let (v, e) = r.get(name).unwrap();
+        eprintln!("{name} = {v} +- {e} (truth {truth})");
+        assert!(
+            (v - truth).abs() < 4.0 * e,
+            "{name} = {v} +- {e}, truth {truth}"
+        );
+    }
+    assert!(r.quality.s < 2.0, "S = {}", r.quality.s);
+}
+
+#[test]
 fn collapse_quality_is_bad_for_wrong_exponent() {
     let mut rng = ChaCha8Rng::seed_from_u64(15);
     let curves = fss_curves(&mut rng, 1.125, 0.03);
