@@ -1,0 +1,417 @@
+//! Data collapse: find scaling exponents by minimising the spread of rescaled
+//! curves (paper H, Fig. 13, 19, 24).
+//!
+//! Each curve (x_i, y_i, sigma_i) is mapped by a user closure to rescaled
+//! points (X, Y, sigma_Y) that depend on the parameters (e.g. X = sqrt(N)/xi,
+//! Y = chi4P xi^-g). The quality measure follows Houdayer and Hartmann (PRB 70,
+//! 014418, 2004) on log-log axes: every point of every curve is compared with
+//! the linear interpolation of each other curve that spans its X, in units of
+//! both errors. With K curves overlapping at a point, the K(K-1) ordered
+//! comparisons there are weighted 1/K, which makes the sum equal to the
+//! chi-square of the points about their common (master) curve; S divides it by
+//! its expectation, so S ~ 1 for a collapse within the errors.
+//!
+//! The parameters minimise S (grid scan, then Nelder-Mead within the bounds).
+//! Their covariance is 2 H^-1 with H the Hessian of that chi-square at the
+//! minimum, multiplied by S when S > 1 (scatter beyond the errors).
+
+use serde::Serialize;
+
+use super::FitError;
+use super::linalg::spd_inverse;
+
+const FORM: &str = "collapse";
+
+/// One measured curve, with the control parameter that labels it (phi, xi, ...).
+#[derive(Debug, Clone, Serialize)]
+pub struct Curve {
+    pub label: String,
+    pub param: f64,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub sigma: Vec<f64>,
+}
+
+/// Maps (scaling parameters, curve, x, y, sigma) to a rescaled point (X, Y, sigma_Y).
+/// X and Y must come out > 0 (the comparison is on log-log axes).
+pub type Rescale<'a> = &'a dyn Fn(&[f64], &Curve, f64, f64, f64) -> (f64, f64, f64);
+
+/// How well the rescaled curves fall on one another.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Quality {
+    /// chi2 / expected chi2: ~1 for a collapse within the errors.
+    pub s: f64,
+    /// Chi-square of the points about the common curve (see module doc).
+    pub chi2: f64,
+    /// Its expectation for a perfect collapse.
+    pub expected: f64,
+    /// Number of point-versus-curve comparisons made.
+    pub comparisons: usize,
+}
+
+/// Best scaling parameters with 1-sigma errors.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CollapseResult {
+    pub names: Vec<String>,
+    pub params: Vec<f64>,
+    pub stderr: Vec<f64>,
+    pub covariance: Vec<Vec<f64>>,
+    pub quality: Quality,
+}
+
+impl CollapseResult {
+    /// (value, standard error) of a parameter by name.
+    pub fn get(&self, name: &str) -> Option<(f64, f64)> {
+        let j = self.names.iter().position(|n| n == name)?;
+        Some((self.params[j], self.stderr[j]))
+    }
+}
+
+/// One rescaled curve on log-log axes, sorted by ln X.
+struct LogCurve {
+    lx: Vec<f64>,
+    ly: Vec<f64>,
+    /// Error of ln Y.
+    ls: Vec<f64>,
+}
+
+fn rescaled(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Vec<LogCurve>, FitError> {
+    curves
+        .iter()
+        .map(|c| {
+            let mut pts: Vec<(f64, f64, f64)> = Vec::with_capacity(c.x.len());
+            for i in 0..c.x.len() {
+                let (x, y, s) = rescale(p, c, c.x[i], c.y[i], c.sigma[i]);
+                if !(x > 0.0
+                    && y > 0.0
+                    && s > 0.0
+                    && x.is_finite()
+                    && y.is_finite()
+                    && s.is_finite())
+                {
+                    return Err(FitError::invalid(
+                        FORM,
+                        format!(
+                            "curve `{}` point {i} rescales to X = {x}, Y = {y}, sigma = {s} at \
+                             parameters {p:?}; X, Y and sigma must be finite and > 0",
+                            c.label
+                        ),
+                    ));
+                }
+                pts.push((x.ln(), y.ln(), s / y));
+            }
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Ok(LogCurve {
+                lx: pts.iter().map(|p| p.0).collect(),
+                ly: pts.iter().map(|p| p.1).collect(),
+                ls: pts.iter().map(|p| p.2).collect(),
+            })
+        })
+        .collect()
+}
+
+/// Linear interpolation of `c` at ln X = `x`: (ln Y, variance), if `c` spans `x`.
+fn interpolate(c: &LogCurve, x: f64) -> Option<(f64, f64)> {
+    let n = c.lx.len();
+    if n < 2 || x < c.lx[0] || x > c.lx[n - 1] {
+        return None;
+    }
+    let k = c.lx.partition_point(|&v| v <= x).clamp(1, n - 1);
+    let (x0, x1) = (c.lx[k - 1], c.lx[k]);
+    let t = if x1 > x0 { (x - x0) / (x1 - x0) } else { 0.0 };
+    let y = (1.0 - t) * c.ly[k - 1] + t * c.ly[k];
+    let var = ((1.0 - t) * c.ls[k - 1]).powi(2) + (t * c.ls[k]).powi(2);
+    Some((y, var))
+}
+
+/// Collapse quality at parameters `p`. Fails (naming the curves) when the
+/// rescaled curves do not all overlap, directly or through each other.
+pub fn quality(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Quality, FitError> {
+    if curves.len() < 2 {
+        return Err(FitError::invalid(
+            FORM,
+            "a collapse needs at least two curves",
+        ));
+    }
+    for c in curves {
+        if c.y.len() != c.x.len() || c.sigma.len() != c.x.len() {
+            return Err(FitError::invalid(
+                FORM,
+                format!("curve `{}`: x, y, sigma lengths differ", c.label),
+            ));
+        }
+    }
+    let logs = rescaled(curves, rescale, p)?;
+    let k = logs.len();
+    // Union-find over curves: which ones are linked by overlaps.
+    let mut root: Vec<usize> = (0..k).collect();
+    fn find(root: &mut [usize], mut a: usize) -> usize {
+        while root[a] != a {
+            root[a] = root[root[a]];
+            a = root[a];
+        }
+        a
+    }
+    let (mut chi2, mut expected, mut comparisons) = (0.0, 0.0, 0usize);
+    for (a, ca) in logs.iter().enumerate() {
+        for j in 0..ca.lx.len() {
+            let (mut sum, mut m) = (0.0, 0usize);
+            for (b, cb) in logs.iter().enumerate() {
+                if a == b {
+                    continue;
+                }
+                if let Some((y, var)) = interpolate(cb, ca.lx[j]) {
+                    sum += (ca.ly[j] - y).powi(2) / (ca.ls[j].powi(2) + var);
+                    m += 1;
+                    let (ra, rb) = (find(&mut root, a), find(&mut root, b));
+                    root[ra] = rb;
+                }
+            }
+            if m > 0 {
+                chi2 += sum / (m + 1) as f64;
+                expected += m as f64 / (m + 1) as f64;
+                comparisons += m;
+            }
+        }
+    }
+    let r0 = find(&mut root, 0);
+    let apart: Vec<&str> = (0..k)
+        .filter(|&c| find(&mut root, c) != r0)
+        .map(|c| curves[c].label.as_str())
+        .collect();
+    if comparisons == 0 || !apart.is_empty() {
+        return Err(FitError::unreliable(
+            FORM,
+            format!(
+                "after rescaling with parameters {p:?} the curves do not overlap enough to judge a \
+                 collapse ({comparisons} comparisons; not linked to `{}`: {apart:?}); widen the x \
+                 ranges or narrow the parameter bounds",
+                curves[0].label
+            ),
+        ));
+    }
+    Ok(Quality {
+        s: chi2 / expected,
+        chi2,
+        expected,
+        comparisons,
+    })
+}
+
+/// Finds the parameters (named `names`, searched within finite `bounds`) that
+/// minimise the collapse quality S.
+pub fn collapse(
+    curves: &[Curve],
+    names: &[&str],
+    bounds: &[(f64, f64)],
+    rescale: Rescale<'_>,
+) -> Result<CollapseResult, FitError> {
+    let n = names.len();
+    if n == 0 || bounds.len() != n {
+        return Err(FitError::invalid(
+            FORM,
+            format!(
+                "{} names and {} bounds; give one finite bound pair per parameter",
+                n,
+                bounds.len()
+            ),
+        ));
+    }
+    if let Some((j, b)) = bounds
+        .iter()
+        .enumerate()
+        .find(|(_, b)| !(b.0.is_finite() && b.1.is_finite() && b.0 < b.1))
+    {
+        return Err(FitError::invalid(
+            FORM,
+            format!("bounds of `{}` = {b:?}; need finite lo < hi", names[j]),
+        ));
+    }
+    // Work in unit coordinates u in [0, 1]^n.
+    let to_p = |u: &[f64]| -> Vec<f64> {
+        u.iter()
+            .zip(bounds)
+            .map(|(u, (lo, hi))| lo + u * (hi - lo))
+            .collect()
+    };
+    let s_at = |u: &[f64]| -> f64 {
+        if u.iter().any(|v| !(0.0..=1.0).contains(v)) {
+            return f64::INFINITY;
+        }
+        quality(curves, rescale, &to_p(u)).map_or(f64::INFINITY, |q| q.s)
+    };
+    let start = grid_start(n, &s_at);
+    let u = nelder_mead(start, &s_at);
+    let p = to_p(&u);
+    // Report the real reason if even the best point has no usable overlap.
+    let q = quality(curves, rescale, &p)?;
+    if q.expected < (n + 1) as f64 {
+        return Err(FitError::unreliable(
+            FORM,
+            format!(
+                "only {} comparisons between overlapping curves for {n} parameters; extend the \
+                 curves so they overlap",
+                q.comparisons
+            ),
+        ));
+    }
+    for j in 0..n {
+        if u[j] < 1e-6 || u[j] > 1.0 - 1e-6 {
+            return Err(FitError::AtBound {
+                form: FORM.into(),
+                parameter: names[j].into(),
+                value: p[j],
+                bound: if u[j] < 0.5 { bounds[j].0 } else { bounds[j].1 },
+                hint: "the best collapse lies at or beyond the search bounds; widen them".into(),
+            });
+        }
+    }
+    // chi2 about the master curve, with the overlap count frozen at the minimum.
+    let chi2_at = |v: &[f64]| s_at(v) * q.expected;
+    let hess = hessian(&u, q.chi2, &chi2_at);
+    let inv = spd_inverse(&hess).map_err(|j| FitError::IllConditioned {
+        form: FORM.into(),
+        parameter: names[j].into(),
+        hint: "the collapse quality does not change with this parameter (or a combination); fix it"
+            .into(),
+    })?;
+    let scale = 2.0 * q.s.max(1.0);
+    let w: Vec<f64> = bounds.iter().map(|(lo, hi)| hi - lo).collect();
+    let covariance: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| scale * inv[i][j] * w[i] * w[j]).collect())
+        .collect();
+    Ok(CollapseResult {
+        names: names.iter().map(|s| s.to_string()).collect(),
+        stderr: (0..n).map(|j| covariance[j][j].sqrt()).collect(),
+        params: p,
+        covariance,
+        quality: q,
+    })
+}
+
+/// Best point of a regular grid over the unit cube (1-3 parameters), else the centre.
+fn grid_start(n: usize, f: &dyn Fn(&[f64]) -> f64) -> Vec<f64> {
+    let g: usize = match n {
+        1 => 101,
+        2 => 31,
+        3 => 11,
+        _ => return vec![0.5; n],
+    };
+    let mut best = (f64::INFINITY, vec![0.5; n]);
+    for idx in 0..g.pow(n as u32) {
+        let u: Vec<f64> = (0..n)
+            .map(|d| ((idx / g.pow(d as u32)) % g) as f64 / (g - 1) as f64)
+            .collect();
+        let v = f(&u);
+        if v < best.0 {
+            best = (v, u);
+        }
+    }
+    best.1
+}
+
+/// Nelder-Mead in the unit cube (points outside evaluate to +inf).
+fn nelder_mead(start: Vec<f64>, f: &dyn Fn(&[f64]) -> f64) -> Vec<f64> {
+    let n = start.len();
+    let mut simplex: Vec<(f64, Vec<f64>)> = vec![(f(&start), start.clone())];
+    for d in 0..n {
+        let mut v = start.clone();
+        v[d] += if v[d] > 0.5 { -0.02 } else { 0.02 };
+        simplex.push((f(&v), v));
+    }
+    for _ in 0..2000 {
+        simplex.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let size = simplex
+            .iter()
+            .skip(1)
+            .map(|(_, v)| {
+                v.iter()
+                    .zip(&simplex[0].1)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        if size < 1e-9 {
+            break;
+        }
+        let centroid: Vec<f64> = (0..n)
+            .map(|d| simplex[..n].iter().map(|(_, v)| v[d]).sum::<f64>() / n as f64)
+            .collect();
+        let worst = simplex[n].1.clone();
+        let along = |t: f64| -> Vec<f64> {
+            centroid
+                .iter()
+                .zip(&worst)
+                .map(|(c, w)| c + t * (c - w))
+                .collect()
+        };
+        let r = along(1.0);
+        let fr = f(&r);
+        if fr < simplex[0].0 {
+            let e = along(2.0);
+            let fe = f(&e);
+            simplex[n] = if fe < fr { (fe, e) } else { (fr, r) };
+        } else if fr < simplex[n - 1].0 {
+            simplex[n] = (fr, r);
+        } else {
+            let c = along(-0.5);
+            let fc = f(&c);
+            if fc < simplex[n].0 {
+                simplex[n] = (fc, c);
+            } else {
+                let best = simplex[0].1.clone();
+                for s in simplex.iter_mut().skip(1) {
+                    s.1 =
+                        s.1.iter()
+                            .zip(&best)
+                            .map(|(v, b)| b + 0.5 * (v - b))
+                            .collect();
+                    s.0 = f(&s.1);
+                }
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.0.total_cmp(&b.0));
+    simplex.swap_remove(0).1
+}
+
+/// Finite-difference Hessian of `f` at `u` (f(u) = `f0`), each step sized so
+/// that f rises by about 1 (the 1-sigma scale of a chi-square).
+fn hessian(u: &[f64], f0: f64, f: &dyn Fn(&[f64]) -> f64) -> Vec<Vec<f64>> {
+    let n = u.len();
+    let shifted = |steps: &[(usize, f64)]| {
+        let mut v = u.to_vec();
+        for &(d, h) in steps {
+            v[d] += h;
+        }
+        f(&v)
+    };
+    let room: Vec<f64> = u.iter().map(|v| v.min(1.0 - v)).collect();
+    let h: Vec<f64> = (0..n)
+        .map(|d| {
+            let mut h = 1e-3f64.min(0.5 * room[d]);
+            for _ in 0..3 {
+                let rise = 0.5 * (shifted(&[(d, h)]) + shifted(&[(d, -h)])) - f0;
+                if !(rise > 0.0 && rise.is_finite()) {
+                    break;
+                }
+                h = (h / rise.sqrt()).min(0.5 * room[d]).max(1e-9);
+            }
+            h
+        })
+        .collect();
+    let mut hess = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        hess[i][i] = (shifted(&[(i, h[i])]) - 2.0 * f0 + shifted(&[(i, -h[i])])) / (h[i] * h[i]);
+        for j in 0..i {
+            let v = (shifted(&[(i, h[i]), (j, h[j])])
+                - shifted(&[(i, h[i]), (j, -h[j])])
+                - shifted(&[(i, -h[i]), (j, h[j])])
+                + shifted(&[(i, -h[i]), (j, -h[j])]))
+                / (4.0 * h[i] * h[j]);
+            hess[i][j] = v;
+            hess[j][i] = v;
+        }
+    }
+    hess
+}

@@ -1,0 +1,150 @@
+//! Ornstein-Zernike fits of the four-point structure factor (paper H):
+//! S4(q) = chi0 / (1 + (q xi)^2) (Eq. 18) and its extension
+//! S4(q) = chi0 / (1 + (q xi)^2 + A^2 (q xi)^4) (Eq. 20).
+//!
+//! Both need wavevectors below 1/xi: when xi approaches the box size no q
+//! reaches the plateau, only chi0/xi^2 is determined, and the fit fails with a
+//! clear error instead of returning a number.
+
+use super::{Data, FitError, FitResult, Fixed, fit_form};
+use crate::fit::linear::linear_least_squares;
+use crate::fit::result::require_positive;
+
+/// S4 = chi0 / (1 + (q xi)^2). Parameters: `chi0`, `xi`. `data.x` is q > 0.
+pub fn oz(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
+    const FORM: &str = "oz";
+    let c = inverse_polynomial(FORM, data, 2, fixed.len())?;
+    let (chi0, xi) = if c[0] > 0.0 && c[1] > 0.0 {
+        (1.0 / c[0], (c[1] / c[0]).sqrt())
+    } else {
+        rough_start(data)
+    };
+    let model = |q: f64, p: &[f64]| p[0] / (1.0 + (q * p[1]).powi(2));
+    let bounds = vec![(0.0, f64::INFINITY), (0.0, f64::INFINITY)];
+    let mut fit = fit_form(
+        FORM,
+        &["chi0", "xi"],
+        &model,
+        data,
+        vec![chi0, xi],
+        bounds,
+        fixed,
+    )?;
+    check_plateau(FORM, data, &mut fit)?;
+    Ok(fit)
+}
+
+/// S4 = chi0 / (1 + (q xi)^2 + A^2 (q xi)^4). Parameters: `chi0`, `xi`, `A` (>= 0).
+pub fn oz_quartic(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
+    const FORM: &str = "oz_quartic";
+    let c = inverse_polynomial(FORM, data, 3, fixed.len())?;
+    let (chi0, xi, a) = if c[0] > 0.0 && c[1] > 0.0 {
+        // 1/S4 = (1 + (q xi)^2 + A^2 (q xi)^4) / chi0.
+        let a2 = c[2] * c[0] / (c[1] * c[1]);
+        (1.0 / c[0], (c[1] / c[0]).sqrt(), a2.max(0.01).sqrt())
+    } else {
+        let (chi0, xi) = rough_start(data);
+        (chi0, xi, 0.1)
+    };
+    let model = |q: f64, p: &[f64]| {
+        let u = (q * p[1]).powi(2);
+        p[0] / (1.0 + u + p[2] * p[2] * u * u)
+    };
+    let bounds = vec![
+        (0.0, f64::INFINITY),
+        (0.0, f64::INFINITY),
+        (0.0, f64::INFINITY),
+    ];
+    let mut fit = fit_form(
+        FORM,
+        &["chi0", "xi", "A"],
+        &model,
+        data,
+        vec![chi0, xi, a],
+        bounds,
+        fixed,
+    )
+    .map_err(|e| match e {
+        FitError::AtBound { parameter, .. } if parameter == "A" => FitError::unreliable(
+            FORM,
+            "A -> 0: the data show no q^4 term; use the plain OZ form (oz)",
+        ),
+        e => e,
+    })?;
+    check_plateau(FORM, data, &mut fit)?;
+    Ok(fit)
+}
+
+/// Coefficients of 1/S4 = c0 + c1 q^2 + c2 q^4 + ... (`terms` of them), a
+/// linear fit that gives starting values; also validates the data.
+fn inverse_polynomial(
+    form: &str,
+    data: Data<'_>,
+    terms: usize,
+    n_fixed: usize,
+) -> Result<Vec<f64>, FitError> {
+    data.validate(form, terms.saturating_sub(n_fixed))?;
+    require_positive(form, "q", data.x)?;
+    require_positive(form, "S4", data.y)?;
+    let inv: Vec<f64> = data.y.iter().map(|s| 1.0 / s).collect();
+    let sig: Vec<f64> = data
+        .y
+        .iter()
+        .zip(data.sigma)
+        .map(|(s, e)| e / (s * s))
+        .collect();
+    let names = ["c0", "c1", "c2", "c3"];
+    let basis = |q: f64, b: &mut [f64]| {
+        let mut v = 1.0;
+        for bk in b.iter_mut() {
+            *bk = v;
+            v *= q * q;
+        }
+    };
+    match linear_least_squares(form, &names[..terms], &basis, Data::new(data.x, &inv, &sig)) {
+        Ok(f) => Ok(f.params),
+        // Too few points for the start polynomial: fall back to a rough start.
+        Err(_) => Ok(vec![-1.0; terms]),
+    }
+}
+
+/// chi0 from the largest S4, xi from the q where S4 halves.
+fn rough_start(data: Data<'_>) -> (f64, f64) {
+    let chi0 = data.y.iter().copied().fold(0.0, f64::max);
+    let half = data
+        .x
+        .iter()
+        .zip(data.y)
+        .filter(|(_, s)| **s <= 0.5 * chi0)
+        .map(|(q, _)| *q)
+        .fold(f64::INFINITY, f64::min);
+    let qmin = data.x.iter().copied().fold(f64::INFINITY, f64::min);
+    let q_half = if half.is_finite() { half } else { qmin };
+    (chi0, 1.0 / q_half)
+}
+
+/// The fit is only meaningful if some q resolves the plateau (q xi < 1).
+/// With fewer than 3 such points the fit is kept but carries a warning.
+fn check_plateau(form: &str, data: Data<'_>, fit: &mut FitResult) -> Result<(), FitError> {
+    let xi = fit.value("xi");
+    let qmin = data.x.iter().copied().fold(f64::INFINITY, f64::min);
+    if qmin * xi >= 1.0 {
+        return Err(FitError::unreliable(
+            form,
+            format!(
+                "xi = {xi:.4} but the smallest q = {qmin:.4} gives q xi = {:.2} >= 1: no wavevector \
+                 resolves the plateau, only chi0/xi^2 is determined (xi approaches the box size \
+                 2 pi / q_min = {:.4}; use a larger system)",
+                qmin * xi,
+                std::f64::consts::TAU / qmin
+            ),
+        ));
+    }
+    let on_plateau = data.x.iter().filter(|&&q| q * xi < 1.0).count();
+    if on_plateau < 3 {
+        fit.warnings.push(format!(
+            "only {on_plateau} wavevector(s) with q xi < 1: chi0 and xi rest on few points"
+        ));
+    }
+    Ok(())
+}

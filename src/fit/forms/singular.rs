@@ -1,0 +1,128 @@
+//! Divergences at a packing fraction above the data (Fig. 4, 15, 23):
+//! power law tau = A (phi_c - phi)^-gamma and VFT tau = A exp[B/(phi_0 - phi)].
+//!
+//! Both are hard fits: the singular point sits just beyond the last data point.
+//! Starting values come from a scan of the singular point on a log grid above
+//! max(phi), solving the (linear) log-space fit of the rest at each grid value;
+//! Levenberg-Marquardt then refines all three with the singular point bounded
+//! above max(phi). If it runs onto that bound the fit fails with `AtBound`.
+
+use super::{Data, FitError, FitResult, Fixed, fit_form, fixed_value, log_y};
+use crate::fit::linear::line;
+use crate::fit::result::positive;
+
+/// One divergent form, ln y = ln A + k u(phi, c), parameters [A, c, k].
+struct Singular {
+    form: &'static str,
+    names: [&'static str; 3],
+    /// Regressor u(phi, c) that makes ln y linear in (ln A, k).
+    regressor: fn(f64, f64) -> f64,
+}
+
+impl Singular {
+    fn model(&self, phi: f64, p: &[f64]) -> f64 {
+        p[0] * ((p[2] * (self.regressor)(phi, p[1])).exp())
+    }
+}
+
+const POWER_LAW: Singular = Singular {
+    form: "power_law_offset",
+    names: ["A", "phi_c", "gamma"],
+    regressor: |phi, c| -(c - phi).ln(),
+};
+
+const VFT: Singular = Singular {
+    form: "vft",
+    names: ["A", "phi_0", "B"],
+    regressor: |phi, c| 1.0 / (c - phi),
+};
+
+/// tau = A (phi_c - phi)^(-gamma). Parameters: `A`, `phi_c`, `gamma`.
+///
+/// `data.x` is phi, `data.y` is tau (> 0) with errors `data.sigma`.
+/// `fixed` may hold any of them, e.g. `&[("phi_c", 0.82)]`.
+pub fn power_law_offset(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
+    fit_singular(&POWER_LAW, data, fixed)
+}
+
+/// tau = A exp[B / (phi_0 - phi)] (Vogel-Fulcher-Tammann form in phi).
+/// Parameters: `A`, `phi_0`, `B`.
+pub fn vft(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
+    fit_singular(&VFT, data, fixed)
+}
+
+fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
+    data.validate(s.form, 3usize.saturating_sub(fixed.len()))?;
+    let (ly, ls) = log_y(s.form, data)?;
+    let max = data.x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let min = data.x.iter().copied().fold(f64::INFINITY, f64::min);
+    let span = max - min;
+    if !positive(span) {
+        return Err(FitError::invalid(
+            s.form,
+            "all phi are equal; need a range of phi",
+        ));
+    }
+    let candidates: Vec<f64> = match fixed_value(fixed, s.names[1]) {
+        Some(c) if c <= max => {
+            return Err(FitError::invalid(
+                s.form,
+                format!("fixed {} = {c} must exceed max(phi) = {max}", s.names[1]),
+            ));
+        }
+        Some(c) => vec![c],
+        None => (0..=160)
+            .map(|i| max + span * 10f64.powf(-5.0 + 5.5 * i as f64 / 160.0))
+            .collect(),
+    };
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    for c in candidates {
+        let u: Vec<f64> = data.x.iter().map(|&phi| (s.regressor)(phi, c)).collect();
+        let Ok(l) = line(Data::new(&u, &ly, &ls)) else {
+            continue;
+        };
+        let p = vec![l.value("intercept").exp(), c, l.value("slope")];
+        let chi2: f64 = (0..data.len())
+            .map(|i| ((data.y[i] - s.model(data.x[i], &p)) / data.sigma[i]).powi(2))
+            .sum();
+        if chi2.is_finite() && best.as_ref().is_none_or(|(b, _)| chi2 < *b) {
+            best = Some((chi2, p));
+        }
+    }
+    let Some((_, p0)) = best else {
+        return Err(FitError::unreliable(
+            s.form,
+            format!(
+                "no {} above max(phi) = {max} gives a finite start",
+                s.names[1]
+            ),
+        ));
+    };
+    let bounds = vec![
+        (0.0, f64::INFINITY),
+        (max + 1e-6 * span, f64::INFINITY),
+        (f64::NEG_INFINITY, f64::INFINITY),
+    ];
+    let model = |phi: f64, p: &[f64]| s.model(phi, p);
+    let mut fit = fit_form(s.form, &s.names, &model, data, p0, bounds, fixed).map_err(|e| match e {
+        FitError::NotConverged { form, iterations, .. } => FitError::NotConverged {
+            form,
+            iterations,
+            hint: format!(
+                "{} runs away from the data: they may show no divergence above max(phi) = {max} \
+                 (try the other divergent form, or fix {})",
+                s.names[1], s.names[1]
+            ),
+        },
+        e => e,
+    })?;
+    let (c, dc) = fit.get(s.names[1]).expect("singular point is a parameter");
+    if c - max < 3.0 * dc {
+        fit.warnings.push(format!(
+            "{} = {c} is within 3 sigma ({dc:.2e}) of max(phi) = {max}: the divergence is not \
+             resolved by the data (add points further from it, or fix {})",
+            s.names[1], s.names[1]
+        ));
+    }
+    Ok(fit)
+}
