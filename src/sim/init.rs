@@ -127,6 +127,7 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     if s0 < 1.0 {
         compress(&mut e, cfg, s0, progress)?;
     }
+    e.sort_by_cell();
     Ok(e)
 }
 

@@ -159,6 +159,29 @@ fn advance(e: &mut Engine, t: f64, s: &mut Sampler, stage: Stage, end: f64, cloc
     }
 }
 
+/// The driving of `cfg`: which pairs, how many pair kicks per unit time in the
+/// whole system (starting value for the balanced rule), and the amplitude
+/// p_dr = sqrt((1 - eps^2) m1 m2 / (m1 + m2)). `enskog` is the Enskog collision
+/// frequency per particle at T = 1. No kicks when eps = 1 (zero amplitude).
+pub(crate) fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
+    let masses = cfg.species_masses();
+    let nf = cfg.n as f64;
+    let p_dr = ((1.0 - cfg.eps * cfg.eps) * masses[0] * masses[1] / (masses[0] + masses[1])).sqrt();
+    let kicks = match cfg.drive {
+        _ if cfg.eps == 1.0 => Kicks::Off,
+        Drive::None => Kicks::Off,
+        Drive::NeighbourPairs => Kicks::NeighbourPairs,
+        Drive::RandomPairs => Kicks::RandomPairs,
+    };
+    // Each pair kick (like each collision) involves two particles.
+    let rate = match cfg.kick_rate {
+        KickRate::Balanced => enskog * nf / 2.0,
+        KickRate::Enskog { prefactor } => prefactor * enskog * nf / 2.0,
+        KickRate::PerParticle(r) => r * nf / 2.0,
+    };
+    (kicks, rate, p_dr)
+}
+
 /// Run one simulation: returns the frames of `cfg.schedule` and the summary.
 pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, RunSummary)> {
     cfg.validate()?;
@@ -172,22 +195,9 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let masses = cfg.species_masses();
     let enskog_rate = |t: f64| enskog::collision_frequency(cfg.phi, &radii, &masses, &fractions, t);
 
-    // Driving: pair kicks of amplitude p_dr^2 = (1 - eps^2) m1 m2 / (m1 + m2).
     e.eps = cfg.eps;
     e.tc = cfg.collapse_tc;
-    let p_dr = ((1.0 - cfg.eps * cfg.eps) * masses[0] * masses[1] / (masses[0] + masses[1])).sqrt();
-    let kicks = match cfg.drive {
-        _ if cfg.eps == 1.0 => Kicks::Off,
-        Drive::None => Kicks::Off,
-        Drive::NeighbourPairs => Kicks::NeighbourPairs,
-        Drive::RandomPairs => Kicks::RandomPairs,
-    };
-    // System-wide pair kicks per unit time; each kick involves two particles.
-    let mut rate = match cfg.kick_rate {
-        KickRate::Balanced => enskog_rate(1.0) * nf / 2.0,
-        KickRate::Enskog { prefactor } => prefactor * enskog_rate(1.0) * nf / 2.0,
-        KickRate::PerParticle(r) => r * nf / 2.0,
-    };
+    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(1.0));
     e.set_kicks(kicks, rate, p_dr);
 
     let prod = cfg.schedule.end();
@@ -243,7 +253,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     for ft in cfg.schedule.times() {
         advance(&mut e, t0 + ft, &mut s, Stage::Production, t0 + prod, clock, progress);
         let (x, y) = e.unwrapped_positions();
-        let (vx, vy) = if cfg.record_velocities { (e.vx.clone(), e.vy.clone()) } else { (vec![], vec![]) };
+        let (vx, vy) = if cfg.record_velocities { e.velocities() } else { (vec![], vec![]) };
         frames.push(Frame { time: ft, x, y, vx, vy });
     }
     let end = t0 + prod;

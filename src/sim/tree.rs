@@ -2,80 +2,92 @@
 //!
 //! Each particle owns exactly one pending event (its earliest predicted collision
 //! or cell crossing), so the calendar never grows and never allocates after
-//! construction. Leaf `i` holds particle `i`; every internal node stores the leaf
-//! with the earlier time of its two children, so the root is the next event and an
-//! update climbs one path of length log2(N).
+//! construction. Leaf `i` holds particle `i`'s event time; every internal node
+//! keeps the winner (earliest leaf) of its subtree and that winner's time, so the
+//! root is the next event. An update climbs towards the root and stops as soon as
+//! a node's winner and time are unchanged, which for late events is after a few
+//! levels.
 
 pub struct EventTree {
     /// Number of leaves (a power of two >= number of particles).
     leaves: usize,
-    /// `node[k]` for k in 1..leaves: winning particle of the subtree at k.
-    node: Vec<u32>,
+    /// Winner (leaf index) of each node; leaves at `leaves..2 leaves`.
+    win: Vec<u32>,
+    /// Event time of each node's winner (infinity for padding leaves).
+    time: Vec<f64>,
 }
 
 impl EventTree {
-    pub fn new(n: usize, times: &[f64]) -> Self {
+    /// A tree over `n` particles, all without events (time infinity).
+    pub fn new(n: usize) -> Self {
         let leaves = n.next_power_of_two().max(2);
         let mut t = EventTree {
             leaves,
-            node: vec![0; leaves],
+            win: vec![0; 2 * leaves],
+            time: vec![f64::INFINITY; 2 * leaves],
         };
-        t.rebuild(n, times);
+        for i in 0..leaves {
+            t.win[leaves + i] = i as u32;
+        }
+        t.rebuild();
         t
     }
 
-    /// Recompute every internal node (after all event times changed).
-    pub fn rebuild(&mut self, n: usize, times: &[f64]) {
+    /// Set a leaf's time without fixing the tree (call [`Self::rebuild`] after).
+    #[inline]
+    pub fn set_lazy(&mut self, i: usize, t: f64) {
+        self.time[self.leaves + i] = t;
+    }
+
+    /// Recompute every internal node.
+    pub fn rebuild(&mut self) {
         for k in (1..self.leaves).rev() {
-            let (a, b) = (self.child(2 * k, n), self.child(2 * k + 1, n));
-            self.node[k] = Self::earlier(a, b, times);
+            let w = self.better(2 * k);
+            self.win[k] = self.win[w];
+            self.time[k] = self.time[w];
         }
     }
 
-    /// Winner of node `k` (internal or leaf); u32::MAX for an empty leaf.
+    /// The child of `k`'s parent-to-be pair (`l`, `l + 1`) that wins; ties go to
+    /// the left (lower index), so the order of events is reproducible.
     #[inline]
-    fn child(&self, k: usize, n: usize) -> u32 {
-        if k >= self.leaves {
-            let i = k - self.leaves;
-            if i < n { i as u32 } else { u32::MAX }
-        } else {
-            self.node[k]
-        }
+    fn better(&self, l: usize) -> usize {
+        if self.time[l + 1] < self.time[l] { l + 1 } else { l }
     }
 
+    /// Particle with the earliest event, and its time.
     #[inline]
-    fn earlier(a: u32, b: u32, times: &[f64]) -> u32 {
-        if b == u32::MAX {
-            return a;
-        }
-        if a == u32::MAX {
-            return b;
-        }
-        // Ties go to the lower index, so the order of events is reproducible.
-        if times[b as usize] < times[a as usize] { b } else { a }
+    pub fn min(&self) -> (usize, f64) {
+        (self.win[1] as usize, self.time[1])
     }
 
-    /// Particle with the earliest event.
+    /// Event time of particle `i`.
     #[inline]
-    pub fn min(&self) -> usize {
-        self.node[1] as usize
+    pub fn time(&self, i: usize) -> f64 {
+        self.time[self.leaves + i]
     }
 
-    /// Re-establish the tree after the event time of particle `i` changed.
+    /// Give particle `i` the event time `t`.
     #[inline]
-    pub fn update(&mut self, i: usize, times: &[f64]) {
-        let n = times.len();
-        let mut k = (i + self.leaves) / 2;
+    pub fn update(&mut self, i: usize, t: f64) {
+        let mut k = self.leaves + i;
+        self.time[k] = t;
+        k /= 2;
         while k >= 1 {
-            let (a, b) = (self.child(2 * k, n), self.child(2 * k + 1, n));
-            self.node[k] = Self::earlier(a, b, times);
+            let w = self.better(2 * k);
+            let (nw, nt) = (self.win[w], self.time[w]);
+            if self.win[k] == nw && self.time[k] == nt && nw as usize != i {
+                break;
+            }
+            self.win[k] = nw;
+            self.time[k] = nt;
             k /= 2;
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.node.len() * 4
+        self.win.len() * 4 + self.time.len() * 8
     }
 }
 
@@ -85,16 +97,22 @@ mod tests {
 
     #[test]
     fn root_is_the_earliest_after_random_updates() {
-        let mut times: Vec<f64> = (0..37).map(|i| ((i * 7919) % 101) as f64).collect();
-        let mut tree = EventTree::new(times.len(), &times);
-        for step in 0..500usize {
-            let i = (step * 31) % times.len();
-            times[i] = ((step * 104729) % 997) as f64 * 0.5;
-            tree.update(i, &times);
-            let best = (0..times.len())
+        let n = 37;
+        let mut times: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64).collect();
+        let mut tree = EventTree::new(n);
+        for (i, &t) in times.iter().enumerate() {
+            tree.set_lazy(i, t);
+        }
+        tree.rebuild();
+        for step in 0..2000usize {
+            let i = (step * 31 + step / 7) % n;
+            // Coarse times make ties frequent: they must go to the lower index.
+            times[i] = ((step * 104729) % 97) as f64;
+            tree.update(i, times[i]);
+            let best = (0..n)
                 .min_by(|&a, &b| times[a].total_cmp(&times[b]).then(a.cmp(&b)))
                 .unwrap();
-            assert_eq!(tree.min(), best, "step {step}");
+            assert_eq!(tree.min(), (best, times[best]), "step {step}");
         }
     }
 }
