@@ -498,3 +498,56 @@ pub fn status(
     }
     out
 }
+
+/// Keys of the cache entries that running `nodes` could use. A stage whose key is
+/// known contributes that key. A stage whose key is not yet known (an input reruns
+/// first) may still be cut off early onto an older entry with the same kind,
+/// parameters and code, whose inputs are themselves reachable: those are kept too.
+pub fn reachable_keys(
+    graph: &Graph,
+    nodes: &[usize],
+    reg: &Registry,
+    store: &Store,
+    by_label: &std::collections::HashMap<String, Vec<Entry>>,
+) -> std::collections::HashSet<String> {
+    use std::collections::HashSet;
+    let mut keep = HashSet::new();
+    // Digests each node may produce: one if cached, else those of its candidates.
+    let mut possible: BTreeMap<usize, HashSet<String>> = BTreeMap::new();
+    for (i, s) in status(graph, nodes, reg, store, &[]) {
+        let node = &graph.nodes[i];
+        let mut digests = HashSet::new();
+        match s {
+            State::Cached { key } => {
+                if let Some(e) = store.lookup(&key) {
+                    digests.insert(e.digest);
+                }
+                keep.insert(key);
+            }
+            State::Stale { .. } => {
+                let fp = reg.fingerprint(&node.kind);
+                for e in node
+                    .labels
+                    .iter()
+                    .flat_map(|l| by_label.get(l).into_iter().flatten())
+                {
+                    let inputs_possible = e.inputs.len() == node.inputs.len()
+                        && e.inputs
+                            .iter()
+                            .zip(&node.inputs)
+                            .all(|((_, d), j)| possible.get(j).is_some_and(|p| p.contains(d)));
+                    if e.kind == node.kind
+                        && e.fingerprint == fp
+                        && e.params == node.params
+                        && inputs_possible
+                    {
+                        digests.insert(e.digest.clone());
+                        keep.insert(e.key.clone());
+                    }
+                }
+            }
+        }
+        possible.insert(i, digests);
+    }
+    keep
+}

@@ -20,7 +20,7 @@ pub mod spec;
 pub mod store;
 pub mod toy;
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, bail};
@@ -131,15 +131,17 @@ pub fn figure_status(
     Ok((graph, st))
 }
 
-/// Free what no current spec reaches, at any profile. Entries of stages whose key
-/// is not yet known (an input is stale) are all kept, since early cut-off may
-/// reach them again. Refuses when a spec is broken (it could not tell what is
+/// Free what no current spec reaches, at any profile (see
+/// [`exec::reachable_keys`]: entries early cut-off could reuse are kept). Refuses when a spec is broken (it could not tell what is
 /// reachable) or another `repro` uses the store.
 pub fn gc(ws: &Workspace, reg: &Registry, dry_run: bool) -> Result<GcReport> {
     let cat = Catalogue::load(&ws.root)?;
     let store = Store::open_exclusive(&ws.store)?;
+    let mut by_label: HashMap<String, Vec<store::Entry>> = HashMap::new();
+    for e in store.entries() {
+        by_label.entry(e.label.clone()).or_default().push(e);
+    }
     let mut keep: HashSet<String> = HashSet::new();
-    let mut keep_labels: HashSet<String> = HashSet::new();
     for profile in spec::PROFILES {
         for id in cat.pipelines.keys() {
             let graph = match graph::plan(&cat, std::slice::from_ref(id), profile, reg) {
@@ -157,21 +159,13 @@ pub fn gc(ws: &Workspace, reg: &Registry, dry_run: bool) -> Result<GcReport> {
                     )));
                 }
             };
-            for (i, s) in exec::status(&graph, &needed_nodes(&graph), reg, &store, &[]) {
-                match s {
-                    State::Cached { key } => {
-                        keep.insert(key);
-                    }
-                    State::Stale { .. } => {
-                        keep_labels.extend(graph.nodes[i].labels.iter().cloned())
-                    }
-                }
-            }
-        }
-    }
-    for e in store.entries() {
-        if keep_labels.contains(&e.label) {
-            keep.insert(e.key);
+            keep.extend(exec::reachable_keys(
+                &graph,
+                &needed_nodes(&graph),
+                reg,
+                &store,
+                &by_label,
+            ));
         }
     }
     store.gc(&keep, dry_run)

@@ -113,7 +113,9 @@ pub fn publish(
     // Remove files of an earlier publish that this run no longer produces.
     for e in std::fs::read_dir(&dir)?.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
-        if e.path().is_file() && name != "provenance.json" && !published.contains_key(&name) {
+        // `.tmp*` files are another process's writes in flight: not ours to remove.
+        let ours = !name.starts_with(".tmp") && name != "provenance.json";
+        if e.path().is_file() && ours && !published.contains_key(&name) {
             std::fs::remove_file(e.path())?;
         }
     }
