@@ -19,7 +19,8 @@ pub mod traj;
 pub mod fingerprints {
     include!(concat!(env!("OUT_DIR"), "/fingerprints.rs"));
 
-    /// The fingerprint of one module folder (e.g. "sim"), if it exists.
+    /// The fingerprint of one module folder or file under src/ (e.g. "sim",
+    /// "stages/simulate"), if it exists.
     pub fn of(module: &str) -> Option<&'static str> {
         FINGERPRINTS
             .iter()
