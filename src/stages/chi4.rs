@@ -6,7 +6,7 @@
 use anyhow::{Result, bail};
 use serde_json::Value;
 
-use super::tables::{interp_log_t, trajectories};
+use super::tables::{every_origin_lags, interp_log_t, trajectories};
 use crate::analysis::chi4::{self, Params};
 use crate::analysis::overlap;
 use crate::pipeline::registry::typed;
@@ -65,6 +65,7 @@ impl StageKind for Chi4 {
         let mut p = params("chi4", v)?;
         let trajs = trajectories("chi4", inputs)?;
         clamp_sizes(&mut p, &trajs);
+        p.lags = every_origin_lags(&trajs, p.lags.take(), p.rel_tol)?;
         let refs: Vec<&Trajectory> = trajs.iter().collect();
         let b = chi4::compute_pooled(&refs, &p)?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
@@ -91,6 +92,7 @@ impl StageKind for Chi4Peaks {
         let mut p = params("chi4_peaks", v)?;
         let trajs = trajectories("chi4_peaks", inputs)?;
         clamp_sizes(&mut p, &trajs);
+        p.lags = every_origin_lags(&trajs, p.lags.take(), p.rel_tol)?;
         let refs: Vec<&Trajectory> = trajs.iter().collect();
         let peaks = chi4::peaks(&refs, &p)?;
         let op = overlap::Params {

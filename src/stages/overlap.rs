@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use anyhow::Result;
 use serde_json::Value;
 
-use super::tables::trajectories;
+use super::tables::{every_origin_lags, trajectories};
 use crate::analysis::overlap::{self, Params};
 use crate::analysis::stats::crossing_time;
 use crate::pipeline::registry::typed;
@@ -52,8 +52,9 @@ impl StageKind for Overlap {
         typed::<Params>("overlap", params).map(|_| ())
     }
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: Params = typed("overlap", params)?;
+        let mut p: Params = typed("overlap", params)?;
         let trajs = trajectories("overlap", inputs)?;
+        p.lags = every_origin_lags(&trajs, p.lags.take(), p.rel_tol)?;
         let (t, q, n) = overlap::q_curve(&refs(&trajs), &p)?;
         parquet(f64_batch(&[
             ("t", t),
@@ -81,8 +82,9 @@ impl StageKind for TauAlpha {
         typed::<Params>("tau_alpha", params).map(|_| ())
     }
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: Params = typed("tau_alpha", params)?;
+        let mut p: Params = typed("tau_alpha", params)?;
         let trajs = trajectories("tau_alpha", inputs)?;
+        p.lags = every_origin_lags(&trajs, p.lags.take(), p.rel_tol)?;
         let tau = overlap::tau_alpha(&refs(&trajs), &p)?;
         parquet(f64_batch(&[
             ("tau_alpha", vec![tau.value]),
@@ -130,8 +132,9 @@ impl StageKind for Aging {
         typed::<Params>("aging", params).map(|_| ())
     }
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: Params = typed("aging", params)?;
+        let mut p: Params = typed("aging", params)?;
         let trajs = trajectories("aging", inputs)?;
+        p.lags = every_origin_lags(&trajs, p.lags.take(), p.rel_tol)?;
         let level = (-1f64).exp();
         let mut cols: [Vec<f64>; 3] = Default::default();
         let (mut t0s, mut taus) = (Vec::new(), Vec::new());

@@ -5,8 +5,6 @@
 //! and draws column `y` against `x`, one series per distinct value of `group`
 //! (e.g. one curve per phi) or a single series.
 
-use std::collections::BTreeMap;
-
 use anyhow::{Context, Result};
 use serde::Deserialize;
 use serde_json::Value;
@@ -89,16 +87,18 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     let rows = c.select(&layer.filter)?;
     let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
     let e = layer.y_err.as_ref().map(|n| c.col(n)).transpose()?;
-    let mut groups: BTreeMap<u64, (f64, Vec<usize>)> = BTreeMap::new();
     let g = layer.group.as_ref().map(|n| c.col(n)).transpose()?;
+    let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
     for &i in &rows {
         let key = g.map(|g| g[i]).unwrap_or(0.0);
-        // Order groups by value (positive floats order like their bits; NaN last).
-        let bits = if key.is_nan() { u64::MAX } else { (key + 1e300).to_bits() };
-        groups.entry(bits).or_insert((key, vec![])).1.push(i);
+        match groups.iter_mut().find(|(k, _)| k.total_cmp(&key).is_eq()) {
+            Some((_, v)) => v.push(i),
+            None => groups.push((key, vec![i])),
+        }
     }
+    groups.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
-    for (_, (key, mut idx)) in groups {
+    for (key, mut idx) in groups {
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match &layer.group {
             Some(_) => format!("{}{}", layer.label, key),

@@ -10,6 +10,20 @@ use serde::Deserialize;
 use crate::pipeline::Artifact;
 use crate::traj::Trajectory;
 
+/// The lags every time origin of every replica realises: the schedule's own
+/// log-spaced lags. Differences between frames of different origins also match
+/// some lags, but with fewer samples; mixing them in makes curves jagged.
+pub fn every_origin_lags(trajs: &[Trajectory], requested: Option<Vec<f64>>, rel_tol: f64) -> Result<Option<Vec<f64>>> {
+    if requested.is_some() {
+        return Ok(requested);
+    }
+    let refs: Vec<&Trajectory> = trajs.iter().collect();
+    let lags = crate::analysis::lags::select(&refs, None, rel_tol)?;
+    // The shortest lag is realised once per origin and replica, and only then.
+    let every = lags.first().map(|l| l.pairs.len()).unwrap_or(0);
+    Ok(Some(lags.iter().filter(|l| l.pairs.len() >= every).map(|l| l.t).collect()))
+}
+
 /// The stage name in an artifact label: `fig4/tau[phi=0.6]` -> `tau`,
 /// `eps09[phi=0.6,replica=0]` -> `eps09` (an experiment).
 pub fn stage_of(label: &str) -> &str {
