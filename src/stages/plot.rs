@@ -84,6 +84,10 @@ pub struct PlotParams {
 
 /// The series of one layer.
 fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
+    // An empty table (e.g. the curve of a fit that failed, see its note) draws nothing.
+    if c.rows == 0 {
+        return Ok(Vec::new());
+    }
     let rows = c.select(&layer.filter)?;
     let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
     let e = layer.y_err.as_ref().map(|n| c.col(n)).transpose()?;
