@@ -21,8 +21,9 @@ use crate::pipeline::{self, Registry, RunOptions, Workspace};
 
 #[derive(Subcommand, Debug)]
 pub enum Commands {
-    /// Check the key numbers of built figures (results/ID/compare.parquet) against
-    /// the golden bands in tests/golden/PROFILE.json; exit non-zero naming figure,
+    /// Check the key numbers of built figures (results/ID: compare.parquet and the
+    /// fit tables) against the golden bands in tests/golden/PROFILE.json; exit
+    /// non-zero naming figure,
     /// quantity, value and band on any regression. With --record, rebuild the
     /// goldens from several master seeds instead.
     Regress(RegressArgs),
@@ -111,6 +112,37 @@ pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
                 paper: p.value(i),
                 tolerance: t.value(i),
             });
+        }
+    }
+    Ok(out)
+}
+
+/// Every key number of a built figure: the `ours` column of compare.parquet and
+/// the `value` of every published fit table (quantity, value, error), by name.
+pub fn key_numbers(dir: &Path) -> Result<BTreeMap<String, f64>> {
+    let mut out = BTreeMap::new();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "parquet") && !p.ends_with("compare.parquet"))
+        .collect();
+    files.sort();
+    for f in files {
+        let (batches, _) = crate::table::read_parquet(&f)?;
+        for b in batches {
+            let q = b.column_by_name("quantity").and_then(|c| c.as_any().downcast_ref::<StringArray>());
+            let v = b.column_by_name("value").and_then(|c| c.as_any().downcast_ref::<Float64Array>());
+            if let (Some(q), Some(v)) = (q, v) {
+                for i in 0..b.num_rows() {
+                    out.insert(q.value(i).to_string(), if v.is_null(i) { f64::NAN } else { v.value(i) });
+                }
+            }
+        }
+    }
+    if dir.join("compare.parquet").exists() {
+        for c in read_compare(dir)? {
+            out.insert(c.quantity, c.ours);
         }
     }
     Ok(out)
@@ -267,9 +299,9 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
                 g.profile
             );
         }
-        let got = read_compare(&dir)?;
+        let got = key_numbers(&dir)?;
         for q in qs {
-            let v = got.iter().find(|c| c.quantity == q.quantity).map(|c| c.ours).unwrap_or(f64::NAN);
+            let v = got.get(&q.quantity).copied().unwrap_or(f64::NAN);
             let inside = v >= q.band[0] && v <= q.band[1];
             let line = format!(
                 "{fig} {}: {v:.5} {} band [{:.5}, {:.5}] (golden mean {:.5}, seed-to-seed std {:.5})",
@@ -328,17 +360,15 @@ fn record(a: &RegressArgs, path: &Path) -> Result<()> {
         eprintln!("regress --record: master seed {seed}");
         build(&ws, &ids, &a.profile, a.jobs)?;
         for id in &ids {
-            let dir = ws.results.join(id);
-            if !dir.join("compare.parquet").exists() {
-                continue;
-            }
-            for c in read_compare(&dir)? {
-                values.entry((id.clone(), c.quantity)).or_default().push(c.ours);
+            for (q, v) in key_numbers(&ws.results.join(id))? {
+                values.entry((id.clone(), q)).or_default().push(v);
             }
         }
     }
+    // A number no seed produced (a fit failing at this profile) has no band.
     let quantities = values
         .iter()
+        .filter(|(_, v)| v.iter().filter(|x| x.is_finite()).count() >= 2)
         .map(|((f, q), v)| golden(f, q, &a.seeds, v, SIGMAS, FLOOR))
         .collect();
     let g = GoldenFile {

@@ -60,8 +60,9 @@ fn default_points() -> usize {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FitParams {
-    /// `power_law_offset`, `vft`, `power_law`, `line` or `drift` (a line whose
-    /// slope is reported as the relative change of y over the x range).
+    /// `power_law_offset`, `vft`, `power_law`, `line`, `drift` (a line whose
+    /// slope is reported as the relative change of y over the x range) or `value`
+    /// (no fit: the mean of y over the selected rows, e.g. tau_alpha at one phi).
     pub form: String,
     /// Stage whose table holds the data.
     pub data: String,
@@ -86,7 +87,7 @@ pub struct FitParams {
     pub curve: Option<CurveSpec>,
 }
 
-const FORMS: &[&str] = &["power_law_offset", "vft", "power_law", "line", "drift"];
+const FORMS: &[&str] = &["power_law_offset", "vft", "power_law", "line", "drift", "value"];
 
 /// The fitted model at x.
 fn model(form: &str, f: &FitResult, x: f64) -> f64 {
@@ -173,6 +174,17 @@ impl StageKind for Fit {
         }
         let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
+        if p.form == "value" {
+            let k = y.len() as f64;
+            let (mean, err) = if y.is_empty() {
+                (f64::NAN, f64::NAN)
+            } else {
+                (y.iter().sum::<f64>() / k, s.iter().map(|e| e * e).sum::<f64>().sqrt() / k)
+            };
+            let note = if y.is_empty() { "no row passes `where`" } else { "" };
+            let t = quantity_table(&[(name("value"), mean, err)], note)?;
+            return Ok(Output::single("parquet", to_parquet_bytes(&[t], &[])?));
+        }
         let (rows, note, curve) = match fit_form(&p, &x, &y, &s, &fixed_ref) {
             Ok(f) => {
                 let mut rows: Vec<(String, f64, f64)> = if p.form == "drift" {
