@@ -94,7 +94,9 @@ fn column(path: &Path, name: &str) -> Vec<f64> {
     batches
         .iter()
         .flat_map(|b| {
-            let c = b.column_by_name(name).unwrap_or_else(|| panic!("no column {name} in {}", path.display()));
+            let c = b
+                .column_by_name(name)
+                .unwrap_or_else(|| panic!("no column {name} in {}", path.display()));
             let f = c.as_any().downcast_ref::<Float64Array>().unwrap();
             (0..f.len()).map(|i| f.value(i)).collect::<Vec<_>>()
         })
@@ -106,12 +108,22 @@ fn tiny_figure_end_to_end_then_regression_check() {
     let dir = tempfile::tempdir().unwrap();
     write_specs(dir.path());
     let ws = Workspace::new(dir.path());
-    let opts = RunOptions { jobs: 2, ..RunOptions::default() };
+    let opts = RunOptions {
+        jobs: 2,
+        ..RunOptions::default()
+    };
     let ids = vec!["tinyfig".to_string()];
     let run = run_figures(&ws, &Registry::builtin(), &ids, "ci", &opts).unwrap();
     run.check().unwrap();
     let out = ws.results.join("tinyfig");
-    for f in ["tau_table.parquet", "peaks_table.parquet", "compare.parquet", "figure.svg", "figure.png", "provenance.json"] {
+    for f in [
+        "tau_table.parquet",
+        "peaks_table.parquet",
+        "compare.parquet",
+        "figure.svg",
+        "figure.png",
+        "provenance.json",
+    ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
 
@@ -119,17 +131,40 @@ fn tiny_figure_end_to_end_then_regression_check() {
     let phi = column(&out.join("tau_table.parquet"), "phi");
     let tau = column(&out.join("tau_table.parquet"), "tau_alpha");
     assert_eq!(phi, vec![0.55, 0.62, 0.68, 0.72]);
-    assert!(tau.windows(2).all(|w| w[0] < w[1]), "tau_alpha not increasing with phi: {tau:?}");
+    assert!(
+        tau.windows(2).all(|w| w[0] < w[1]),
+        "tau_alpha not increasing with phi: {tau:?}"
+    );
     // chi4 of the whole system is clamped to N = 200 and chi4 >= 0 by construction.
     let n = column(&out.join("peaks_table.parquet"), "N");
-    assert!(n.iter().all(|&x| x == 25.0 || x == 50.0 || x == 200.0), "{n:?}");
-    assert!(column(&out.join("peaks_table.parquet"), "chi4P").iter().all(|&c| c > 0.0));
+    assert!(
+        n.iter().all(|&x| x == 25.0 || x == 50.0 || x == 200.0),
+        "{n:?}"
+    );
+    assert!(
+        column(&out.join("peaks_table.parquet"), "chi4P")
+            .iter()
+            .all(|&c| c > 0.0)
+    );
 
     // Rerunning is all cached and bit-identical.
     let before = std::fs::read(out.join("tau_table.parquet")).unwrap();
-    let again = run_figures(&ws, &Registry::builtin(), &ids, "ci", &RunOptions { jobs: 1, ..opts }).unwrap();
-    assert!(again.report.executed(&again.graph).is_empty(), "a rerun executed stages");
-    assert_eq!(before, std::fs::read(out.join("tau_table.parquet")).unwrap());
+    let again = run_figures(
+        &ws,
+        &Registry::builtin(),
+        &ids,
+        "ci",
+        &RunOptions { jobs: 1, ..opts },
+    )
+    .unwrap();
+    assert!(
+        again.report.executed(&again.graph).is_empty(),
+        "a rerun executed stages"
+    );
+    assert_eq!(
+        before,
+        std::fs::read(out.join("tau_table.parquet")).unwrap()
+    );
 
     // The regression check: inside the band passes, outside names figure,
     // quantity, value and band.
@@ -140,22 +175,48 @@ fn tiny_figure_end_to_end_then_regression_check() {
         how: "test".into(),
         sigmas: 4.0,
         relative_floor: 0.01,
-        quantities: vec![golden("tinyfig", "phi_0", &[1, 2], &[phi_0, phi_0], 4.0, 0.01)],
+        quantities: vec![golden(
+            "tinyfig",
+            "phi_0",
+            &[1, 2],
+            &[phi_0, phi_0],
+            4.0,
+            0.01,
+        )],
     };
     let (lines, failures) = check(&good, &ws.results, &[]).unwrap();
     assert_eq!(lines.len(), 1);
     assert!(failures.is_empty(), "{failures:?}");
     let bad = GoldenFile {
-        quantities: vec![golden("tinyfig", "phi_0", &[1, 2], &[phi_0 + 1.0, phi_0 + 1.0], 4.0, 0.01)],
+        quantities: vec![golden(
+            "tinyfig",
+            "phi_0",
+            &[1, 2],
+            &[phi_0 + 1.0, phi_0 + 1.0],
+            4.0,
+            0.01,
+        )],
         ..good.clone()
     };
     let (_, failures) = check(&bad, &ws.results, &[]).unwrap();
     assert_eq!(failures.len(), 1);
     let msg = &failures[0];
-    assert!(msg.contains("tinyfig") && msg.contains("phi_0") && msg.contains(&format!("{phi_0:.5}")), "{msg}");
-    assert!(msg.contains(&format!("{:.5}", bad.quantities[0].band[0])), "{msg}");
+    assert!(
+        msg.contains("tinyfig") && msg.contains("phi_0") && msg.contains(&format!("{phi_0:.5}")),
+        "{msg}"
+    );
+    assert!(
+        msg.contains(&format!("{:.5}", bad.quantities[0].band[0])),
+        "{msg}"
+    );
     // Goldens of another profile are refused with the command to run.
-    let other = GoldenFile { profile: "small".into(), ..good };
+    let other = GoldenFile {
+        profile: "small".into(),
+        ..good
+    };
     let e = format!("{:#}", check(&other, &ws.results, &[]).unwrap_err());
-    assert!(e.contains("profile 'ci'") && e.contains("repro figure tinyfig --profile small"), "{e}");
+    assert!(
+        e.contains("profile 'ci'") && e.contains("repro figure tinyfig --profile small"),
+        "{e}"
+    );
 }

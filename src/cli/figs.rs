@@ -125,17 +125,26 @@ pub fn key_numbers(dir: &Path) -> Result<BTreeMap<String, f64>> {
         .with_context(|| format!("listing {}", dir.display()))?
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "parquet") && !p.ends_with("compare.parquet"))
+        .filter(|p| {
+            p.extension().is_some_and(|x| x == "parquet") && !p.ends_with("compare.parquet")
+        })
         .collect();
     files.sort();
     for f in files {
         let (batches, _) = crate::table::read_parquet(&f)?;
         for b in batches {
-            let q = b.column_by_name("quantity").and_then(|c| c.as_any().downcast_ref::<StringArray>());
-            let v = b.column_by_name("value").and_then(|c| c.as_any().downcast_ref::<Float64Array>());
+            let q = b
+                .column_by_name("quantity")
+                .and_then(|c| c.as_any().downcast_ref::<StringArray>());
+            let v = b
+                .column_by_name("value")
+                .and_then(|c| c.as_any().downcast_ref::<Float64Array>());
             if let (Some(q), Some(v)) = (q, v) {
                 for i in 0..b.num_rows() {
-                    out.insert(q.value(i).to_string(), if v.is_null(i) { f64::NAN } else { v.value(i) });
+                    out.insert(
+                        q.value(i).to_string(),
+                        if v.is_null(i) { f64::NAN } else { v.value(i) },
+                    );
                 }
             }
         }
@@ -172,22 +181,37 @@ pub struct Variant {
 
 /// A copy of the specs under `root` with `experiment` changed, in a temporary
 /// directory; the returned workspace shares the project's cache store.
-pub fn variant_workspace(root: &Path, experiment: &str, profile: &str, v: &Variant) -> Result<(tempfile::TempDir, Workspace)> {
+pub fn variant_workspace(
+    root: &Path,
+    experiment: &str,
+    profile: &str,
+    v: &Variant,
+) -> Result<(tempfile::TempDir, Workspace)> {
     let tmp = tempfile::tempdir().context("creating a temporary spec directory")?;
     for sub in ["experiments", "pipelines"] {
         let dst = tmp.path().join(sub);
         std::fs::create_dir_all(&dst)?;
-        for e in std::fs::read_dir(root.join(sub)).with_context(|| format!("listing {}/{sub}", root.display()))? {
+        for e in std::fs::read_dir(root.join(sub))
+            .with_context(|| format!("listing {}/{sub}", root.display()))?
+        {
             let p = e?.path();
             if p.extension().is_some_and(|x| x == "yaml") {
                 std::fs::copy(&p, dst.join(p.file_name().unwrap()))?;
             }
         }
     }
-    let file = tmp.path().join("experiments").join(format!("{experiment}.yaml"));
-    let text = std::fs::read_to_string(&file)
-        .with_context(|| format!("no experiment '{experiment}' (experiments/{experiment}.yaml) under {}", root.display()))?;
-    let mut spec: Value = serde_saphyr::from_str(&text).with_context(|| format!("parsing {}", file.display()))?;
+    let file = tmp
+        .path()
+        .join("experiments")
+        .join(format!("{experiment}.yaml"));
+    let text = std::fs::read_to_string(&file).with_context(|| {
+        format!(
+            "no experiment '{experiment}' (experiments/{experiment}.yaml) under {}",
+            root.display()
+        )
+    })?;
+    let mut spec: Value =
+        serde_saphyr::from_str(&text).with_context(|| format!("parsing {}", file.display()))?;
     if let Some(s) = v.seed {
         spec["seed"] = Value::from(s);
     }
@@ -250,7 +274,14 @@ pub struct GoldenFile {
 }
 
 /// Band = mean +- max(sigmas x seed-to-seed standard deviation, relative_floor x |mean|).
-pub fn golden(figure: &str, quantity: &str, seeds: &[u64], values: &[f64], sigmas: f64, floor: f64) -> Golden {
+pub fn golden(
+    figure: &str,
+    quantity: &str,
+    seeds: &[u64],
+    values: &[f64],
+    sigmas: f64,
+    floor: f64,
+) -> Golden {
     let ok: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
     let n = ok.len() as f64;
     let mean = ok.iter().sum::<f64>() / n;
@@ -289,7 +320,11 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
     for (fig, qs) in by_fig {
         let dir = results.join(fig);
         let (profile, _) = provenance(&dir).with_context(|| {
-            format!("{fig}: no built figure in {}; run `repro figure {fig} --profile {}` first", dir.display(), g.profile)
+            format!(
+                "{fig}: no built figure in {}; run `repro figure {fig} --profile {}` first",
+                dir.display(),
+                g.profile
+            )
         })?;
         if profile != g.profile {
             bail!(
@@ -325,12 +360,18 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
 }
 
 fn regress(a: RegressArgs) -> Result<()> {
-    let golden_path = a.golden.clone().unwrap_or_else(|| a.root.join("tests").join("golden").join(format!("{}.json", a.profile)));
+    let golden_path = a.golden.clone().unwrap_or_else(|| {
+        a.root
+            .join("tests")
+            .join("golden")
+            .join(format!("{}.json", a.profile))
+    });
     if a.record {
         return record(&a, &golden_path);
     }
     let g: GoldenFile = serde_json::from_slice(
-        &std::fs::read(&golden_path).with_context(|| format!("reading the golden file {}", golden_path.display()))?,
+        &std::fs::read(&golden_path)
+            .with_context(|| format!("reading the golden file {}", golden_path.display()))?,
     )
     .with_context(|| format!("parsing {}", golden_path.display()))?;
     let (lines, failures) = check(&g, &Workspace::new(&a.root).results, &a.ids)?;
@@ -338,7 +379,11 @@ fn regress(a: RegressArgs) -> Result<()> {
         println!("{l}");
     }
     if !failures.is_empty() {
-        bail!("{} key number(s) regressed:\n{}", failures.len(), failures.join("\n"));
+        bail!(
+            "{} key number(s) regressed:\n{}",
+            failures.len(),
+            failures.join("\n")
+        );
     }
     println!("all {} key numbers inside their golden bands", lines.len());
     Ok(())
@@ -349,13 +394,19 @@ const FLOOR: f64 = 0.01;
 
 fn record(a: &RegressArgs, path: &Path) -> Result<()> {
     let ids: Vec<String> = if a.ids.is_empty() {
-        vec!["fig2", "fig3", "fig4", "fig15", "fig19"].into_iter().map(String::from).collect()
+        vec!["fig2", "fig3", "fig4", "fig15", "fig19"]
+            .into_iter()
+            .map(String::from)
+            .collect()
     } else {
         a.ids.clone()
     };
     let mut values: BTreeMap<(String, String), Vec<f64>> = BTreeMap::new();
     for &seed in &a.seeds {
-        let v = Variant { seed: Some(seed), ..Variant::default() };
+        let v = Variant {
+            seed: Some(seed),
+            ..Variant::default()
+        };
         let (_tmp, ws) = variant_workspace(&a.root, &a.experiment, &a.profile, &v)?;
         eprintln!("regress --record: master seed {seed}");
         build(&ws, &ids, &a.profile, a.jobs)?;
@@ -377,7 +428,11 @@ fn record(a: &RegressArgs, path: &Path) -> Result<()> {
             "`repro regress --record --profile {} --seeds {}`: the figures built with experiment '{}' at each master seed; \
              band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|)",
             a.profile,
-            a.seeds.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(","),
+            a.seeds
+                .iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>()
+                .join(","),
             a.experiment
         ),
         sigmas: SIGMAS,
@@ -411,21 +466,37 @@ fn frontier(a: FrontierArgs) -> Result<()> {
             let mut per_q: BTreeMap<String, (Vec<f64>, f64, f64)> = BTreeMap::new();
             let mut cpu = Vec::new();
             for &seed in &a.seeds {
-                let v = Variant { seed: Some(seed), n: Some(n), replicas: Some(r) };
+                let v = Variant {
+                    seed: Some(seed),
+                    n: Some(n),
+                    replicas: Some(r),
+                };
                 let (_tmp, ws) = variant_workspace(&a.root, &a.experiment, &a.profile, &v)?;
                 eprintln!("frontier {}: N = {n}, replicas = {r}, seed {seed}", a.id);
                 build(&ws, &ids, &a.profile, a.jobs)?;
                 let dir = ws.results.join(&a.id);
                 cpu.push(provenance(&dir)?.1);
                 for c in read_compare(&dir)? {
-                    let e = per_q.entry(c.quantity).or_insert((vec![], c.paper, c.tolerance));
+                    let e = per_q
+                        .entry(c.quantity)
+                        .or_insert((vec![], c.paper, c.tolerance));
                     e.0.push(c.ours);
                 }
             }
             let cpu_s = cpu.iter().sum::<f64>() / cpu.len() as f64;
             for (q, (vals, paper, tol)) in per_q {
                 let g = golden(&a.id, &q, &a.seeds, &vals, 1.0, 0.0);
-                rows.push(FrontierRow { n, replicas: r, quantity: q, mean: g.mean, spread: g.std, paper, tolerance: tol, cpu_s, values: vals });
+                rows.push(FrontierRow {
+                    n,
+                    replicas: r,
+                    quantity: q,
+                    mean: g.mean,
+                    spread: g.std,
+                    paper,
+                    tolerance: tol,
+                    cpu_s,
+                    values: vals,
+                });
             }
         }
     }
@@ -440,19 +511,32 @@ fn frontier(a: FrontierArgs) -> Result<()> {
         ("tolerance", rows.iter().map(|r| r.tolerance).collect()),
         ("cpu_s", rows.iter().map(|r| r.cpu_s).collect()),
     ])?;
-    let q = arrow_array::StringArray::from(rows.iter().map(|r| r.quantity.clone()).collect::<Vec<_>>());
+    let q =
+        arrow_array::StringArray::from(rows.iter().map(|r| r.quantity.clone()).collect::<Vec<_>>());
     let b = {
         let schema = b.schema();
-        let mut cols: Vec<(&str, arrow_array::ArrayRef)> = vec![("quantity", std::sync::Arc::new(q))];
+        let mut cols: Vec<(&str, arrow_array::ArrayRef)> =
+            vec![("quantity", std::sync::Arc::new(q))];
         for (f, c) in schema.fields().iter().zip(b.columns()) {
             cols.push((f.name().as_str(), c.clone()));
         }
         arrow_array::RecordBatch::try_from_iter(cols)?
     };
-    crate::table::write_parquet(&out.join(format!("{}.parquet", a.id)), &[b], &[("seeds", &format!("{:?}", a.seeds))])?;
-    std::fs::write(out.join(format!("{}.json", a.id)), serde_json::to_string_pretty(&rows)?)?;
+    crate::table::write_parquet(
+        &out.join(format!("{}.parquet", a.id)),
+        &[b],
+        &[("seeds", &format!("{:?}", a.seeds))],
+    )?;
+    std::fs::write(
+        out.join(format!("{}.json", a.id)),
+        serde_json::to_string_pretty(&rows)?,
+    )?;
     let fig = frontier_chart(&a.id, &rows);
-    crate::plot::draw(&fig, &out.join(format!("{}.svg", a.id)), &out.join(format!("{}.png", a.id)))?;
+    crate::plot::draw(
+        &fig,
+        &out.join(format!("{}.svg", a.id)),
+        &out.join(format!("{}.png", a.id)),
+    )?;
     for r in &rows {
         println!(
             "{} N = {:>6} replicas = {} : {} = {:.4} +- {:.4} (seed spread; paper {} +- {}), {:.1} CPU s",
@@ -473,9 +557,16 @@ pub fn smallest(rows: &[FrontierRow]) -> String {
         let e = configs.entry((r.n, r.replicas)).or_insert((r.cpu_s, true));
         e.1 &= ok;
     }
-    match configs.iter().filter(|(_, (_, ok))| *ok).min_by(|a, b| a.1.0.total_cmp(&b.1.0)) {
-        Some(((n, r), (cpu, _))) => format!("smallest configuration within the paper's tolerance: N = {n}, replicas = {r} ({cpu:.1} CPU s)"),
-        None => "no configuration tried reproduces every key number within the paper's tolerance".to_string(),
+    match configs
+        .iter()
+        .filter(|(_, (_, ok))| *ok)
+        .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
+    {
+        Some(((n, r), (cpu, _))) => format!(
+            "smallest configuration within the paper's tolerance: N = {n}, replicas = {r} ({cpu:.1} CPU s)"
+        ),
+        None => "no configuration tried reproduces every key number within the paper's tolerance"
+            .to_string(),
     }
 }
 
@@ -494,10 +585,17 @@ fn frontier_chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
             let series = reps
                 .iter()
                 .map(|&rep| {
-                    let mut pts: Vec<&&FrontierRow> = mine.iter().filter(|r| r.replicas == rep).collect();
+                    let mut pts: Vec<&&FrontierRow> =
+                        mine.iter().filter(|r| r.replicas == rep).collect();
                     pts.sort_by(|a, b| a.cpu_s.total_cmp(&b.cpu_s));
                     Series {
-                        label: format!("{rep} replicas, N = {}", pts.iter().map(|r| r.n.to_string()).collect::<Vec<_>>().join(", ")),
+                        label: format!(
+                            "{rep} replicas, N = {}",
+                            pts.iter()
+                                .map(|r| r.n.to_string())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
                         x: pts.iter().map(|r| r.cpu_s).collect(),
                         y: pts.iter().map(|r| r.mean).collect(),
                         y_err: Some(pts.iter().map(|r| r.spread).collect()),
@@ -511,10 +609,23 @@ fn frontier_chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
             let paper = mine.first().map(|r| r.paper).unwrap_or(f64::NAN);
             Panel {
                 title: format!("{id}: {q}"),
-                x: Axis { label: "CPU seconds (all stages)".into(), log: true, range: None },
-                y: Axis { label: q.to_string(), log: false, range: None },
+                x: Axis {
+                    label: "CPU seconds (all stages)".into(),
+                    log: true,
+                    range: None,
+                },
+                y: Axis {
+                    label: q.to_string(),
+                    log: false,
+                    range: None,
+                },
                 series,
-                hlines: vec![RefLine { at: paper, label: "paper".into(), dashed: true, color: None }],
+                hlines: vec![RefLine {
+                    at: paper,
+                    label: "paper".into(),
+                    dashed: true,
+                    color: None,
+                }],
                 vlines: vec![],
                 legend: Legend::Auto,
                 legend_title: String::new(),
@@ -523,7 +634,13 @@ fn frontier_chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
         })
         .collect();
     let n = panels.len().max(1) as u32;
-    Figure { title: String::new(), panels, columns: None, width: 480 * n, height: 400 }
+    Figure {
+        title: String::new(),
+        panels,
+        columns: None,
+        width: 480 * n,
+        height: 400,
+    }
 }
 
 pub fn run(c: Commands) -> Result<()> {
@@ -543,7 +660,10 @@ mod tests {
         assert!((g.mean - 2.0).abs() < 1e-12 && (g.std - 1.0).abs() < 1e-12);
         assert_eq!(g.band, [-2.0, 6.0]);
         let flat = golden("fig4", "phi_c", &[1, 2], &[0.8, 0.8], 4.0, 0.01);
-        assert!((flat.band[1] - 0.808).abs() < 1e-12, "floor applies when seeds agree");
+        assert!(
+            (flat.band[1] - 0.808).abs() < 1e-12,
+            "floor applies when seeds agree"
+        );
     }
 
     #[test]

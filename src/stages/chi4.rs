@@ -30,7 +30,9 @@ const MODULES: &[&str] = &[
 fn params(kind: &str, v: &Value) -> Result<Params> {
     let p: Params = typed(kind, v)?;
     if p.n.is_empty() {
-        bail!("{kind}: `n` (sub-box particle numbers) is empty; give at least one, e.g. n: [100, 400]");
+        bail!(
+            "{kind}: `n` (sub-box particle numbers) is empty; give at least one, e.g. n: [100, 400]"
+        );
     }
     Ok(p)
 }
@@ -105,8 +107,12 @@ impl StageKind for Chi4Peaks {
         let tau = overlap::tau_alpha(&refs, &op).ok();
         let table = chi4::compute_pooled(&refs, &p)?;
         let cols = super::tables::Columns::from_batch(&table)?;
-        let (n_col, t_col, c_col, e_col) =
-            (cols.col("N")?, cols.col("t")?, cols.col("chi4")?, cols.col("chi4_err")?);
+        let (n_col, t_col, c_col, e_col) = (
+            cols.col("N")?,
+            cols.col("t")?,
+            cols.col("chi4")?,
+            cols.col("chi4_err")?,
+        );
         let mut at_tau = Vec::new();
         let mut at_tau_err = Vec::new();
         for pk in &peaks {
@@ -125,8 +131,14 @@ impl StageKind for Chi4Peaks {
             ("tau4_err", peaks.iter().map(|x| x.tau4.err).collect()),
             ("chi4P", peaks.iter().map(|x| x.chi4p.value).collect()),
             ("chi4P_err", peaks.iter().map(|x| x.chi4p.err).collect()),
-            ("tau_alpha", vec![tau.map(|x| x.value).unwrap_or(f64::NAN); k]),
-            ("tau_alpha_err", vec![tau.map(|x| x.err).unwrap_or(f64::NAN); k]),
+            (
+                "tau_alpha",
+                vec![tau.map(|x| x.value).unwrap_or(f64::NAN); k],
+            ),
+            (
+                "tau_alpha_err",
+                vec![tau.map(|x| x.err).unwrap_or(f64::NAN); k],
+            ),
             ("chi4_tau_alpha", at_tau),
             ("chi4_tau_alpha_err", at_tau_err),
         ])?;

@@ -87,7 +87,14 @@ pub struct FitParams {
     pub curve: Option<CurveSpec>,
 }
 
-const FORMS: &[&str] = &["power_law_offset", "vft", "power_law", "line", "drift", "value"];
+const FORMS: &[&str] = &[
+    "power_law_offset",
+    "vft",
+    "power_law",
+    "line",
+    "drift",
+    "value",
+];
 
 /// The fitted model at x.
 fn model(form: &str, f: &FitResult, x: f64) -> f64 {
@@ -101,7 +108,13 @@ fn model(form: &str, f: &FitResult, x: f64) -> f64 {
 }
 
 /// The fit itself; the data are finite points with positive errors.
-fn fit_form(p: &FitParams, x: &[f64], y: &[f64], s: &[f64], fixed: &[(&str, f64)]) -> Result<FitResult> {
+fn fit_form(
+    p: &FitParams,
+    x: &[f64],
+    y: &[f64],
+    s: &[f64],
+    fixed: &[(&str, f64)],
+) -> Result<FitResult> {
     let d = Data::new(x, y, s);
     let f = match p.form.as_str() {
         "power_law_offset" => forms::power_law_offset(d, fixed)?,
@@ -109,15 +122,34 @@ fn fit_form(p: &FitParams, x: &[f64], y: &[f64], s: &[f64], fixed: &[(&str, f64)
         "power_law" => forms::power_law(d)?,
         _ => linear::line(d)?,
     };
-    Ok(if p.y_err.is_none() { linear::scale_errors(f) } else { f })
+    Ok(if p.y_err.is_none() {
+        linear::scale_errors(f)
+    } else {
+        f
+    })
 }
 
 /// Table quantity, value, error, note.
 fn quantity_table(rows: &[(String, f64, f64)], note: &str) -> Result<RecordBatch> {
     Ok(RecordBatch::try_from_iter([
-        ("quantity", Arc::new(StringArray::from(rows.iter().map(|r| r.0.clone()).collect::<Vec<_>>())) as ArrayRef),
-        ("value", Arc::new(Float64Array::from(rows.iter().map(|r| r.1).collect::<Vec<_>>()))),
-        ("error", Arc::new(Float64Array::from(rows.iter().map(|r| r.2).collect::<Vec<_>>()))),
+        (
+            "quantity",
+            Arc::new(StringArray::from(
+                rows.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+            )) as ArrayRef,
+        ),
+        (
+            "value",
+            Arc::new(Float64Array::from(
+                rows.iter().map(|r| r.1).collect::<Vec<_>>(),
+            )),
+        ),
+        (
+            "error",
+            Arc::new(Float64Array::from(
+                rows.iter().map(|r| r.2).collect::<Vec<_>>(),
+            )),
+        ),
         ("note", Arc::new(StringArray::from(vec![note; rows.len()]))),
     ])?)
 }
@@ -125,16 +157,33 @@ fn quantity_table(rows: &[(String, f64, f64)], note: &str) -> Result<RecordBatch
 /// Finite points only; missing or non-positive errors replaced by the largest
 /// valid one (conservative), logged.
 fn clean(ctx: &StageCtx, x: Vec<f64>, y: Vec<f64>, s: Vec<f64>) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let keep: Vec<usize> = (0..x.len()).filter(|&i| x[i].is_finite() && y[i].is_finite()).collect();
+    let keep: Vec<usize> = (0..x.len())
+        .filter(|&i| x[i].is_finite() && y[i].is_finite())
+        .collect();
     if keep.len() < x.len() {
-        ctx.log(format!("dropped {} point(s) with non-finite x or y", x.len() - keep.len()));
+        ctx.log(format!(
+            "dropped {} point(s) with non-finite x or y",
+            x.len() - keep.len()
+        ));
     }
-    let smax = keep.iter().map(|&i| s[i]).filter(|v| v.is_finite() && *v > 0.0).fold(0.0, f64::max);
+    let smax = keep
+        .iter()
+        .map(|&i| s[i])
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold(0.0, f64::max);
     let fill = if smax > 0.0 { smax } else { 1.0 };
     (
         pick(&x, &keep),
         pick(&y, &keep),
-        keep.iter().map(|&i| if s[i].is_finite() && s[i] > 0.0 { s[i] } else { fill }).collect(),
+        keep.iter()
+            .map(|&i| {
+                if s[i].is_finite() && s[i] > 0.0 {
+                    s[i]
+                } else {
+                    fill
+                }
+            })
+            .collect(),
     )
 }
 
@@ -153,7 +202,11 @@ impl StageKind for Fit {
     fn validate(&self, params: &Value) -> Result<()> {
         let p: FitParams = typed("fit", params)?;
         if !FORMS.contains(&p.form.as_str()) {
-            bail!("fit: unknown form '{}'; valid forms: {}", p.form, FORMS.join(", "));
+            bail!(
+                "fit: unknown form '{}'; valid forms: {}",
+                p.form,
+                FORMS.join(", ")
+            );
         }
         Ok(())
     }
@@ -179,9 +232,16 @@ impl StageKind for Fit {
             let (mean, err) = if y.is_empty() {
                 (f64::NAN, f64::NAN)
             } else {
-                (y.iter().sum::<f64>() / k, s.iter().map(|e| e * e).sum::<f64>().sqrt() / k)
+                (
+                    y.iter().sum::<f64>() / k,
+                    s.iter().map(|e| e * e).sum::<f64>().sqrt() / k,
+                )
             };
-            let note = if y.is_empty() { "no row passes `where`" } else { "" };
+            let note = if y.is_empty() {
+                "no row passes `where`"
+            } else {
+                ""
+            };
             let t = quantity_table(&[(name("value"), mean, err)], note)?;
             return Ok(Output::single("parquet", to_parquet_bytes(&[t], &[])?));
         }
@@ -204,14 +264,22 @@ impl StageKind for Fit {
                 rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
                 rows.push((name("points"), x.len() as f64, 0.0));
                 let curve = p.curve.as_ref().map(|cs| {
-                    let lo = cs.x_min.unwrap_or_else(|| x.iter().cloned().fold(f64::INFINITY, f64::min));
-                    let hi = cs.x_max.unwrap_or_else(|| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+                    let lo = cs
+                        .x_min
+                        .unwrap_or_else(|| x.iter().cloned().fold(f64::INFINITY, f64::min));
+                    let hi = cs
+                        .x_max
+                        .unwrap_or_else(|| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
                     let n = cs.points.max(2);
                     let log = p.form == "power_law" && lo > 0.0;
                     let xs: Vec<f64> = (0..n)
                         .map(|i| {
                             let u = i as f64 / (n - 1) as f64;
-                            if log { lo * (hi / lo).powf(u) } else { lo + u * (hi - lo) }
+                            if log {
+                                lo * (hi / lo).powf(u)
+                            } else {
+                                lo + u * (hi - lo)
+                            }
                         })
                         .collect();
                     let ys: Vec<f64> = xs.iter().map(|&v| model(&p.form, &f, v)).collect();
@@ -229,13 +297,26 @@ impl StageKind for Fit {
                     "drift" => &["drift"],
                     _ => &["intercept", "slope"],
                 };
-                let rows = names.iter().map(|n| (name(n), f64::NAN, f64::NAN)).collect();
-                (rows, format!("fit failed: {msg}"), p.curve.as_ref().map(|_| (vec![], vec![])))
+                let rows = names
+                    .iter()
+                    .map(|n| (name(n), f64::NAN, f64::NAN))
+                    .collect();
+                (
+                    rows,
+                    format!("fit failed: {msg}"),
+                    p.curve.as_ref().map(|_| (vec![], vec![])),
+                )
             }
         };
-        let mut out = Output::single("parquet", to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?);
+        let mut out = Output::single(
+            "parquet",
+            to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?,
+        );
         if let Some((cx, cy)) = curve {
-            out = out.with("curve.parquet", to_parquet_bytes(&[f64_batch(&[("x", cx), ("y", cy)])?], &[])?);
+            out = out.with(
+                "curve.parquet",
+                to_parquet_bytes(&[f64_batch(&[("x", cx), ("y", cy)])?], &[])?,
+            );
         }
         Ok(out)
     }
@@ -281,7 +362,9 @@ impl StageKind for Collapse {
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CollapseParams = typed("collapse", params)?;
         if p.phi_c.is_some() == p.phi_c_from.is_some() {
-            bail!("collapse: give exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})");
+            bail!(
+                "collapse: give exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
+            );
         }
         for k in ["g", "gamma_xi"] {
             if !p.bounds.contains_key(k) {
@@ -302,10 +385,16 @@ impl StageKind for Collapse {
         };
         let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
         let rows = c.select(&p.filter)?;
-        let (xc, yc, ec, bc) = (c.col(&p.x)?, c.col(&p.y)?, c.col(&p.y_err)?, c.col(&p.curve_by)?);
+        let (xc, yc, ec, bc) = (
+            c.col(&p.x)?,
+            c.col(&p.y)?,
+            c.col(&p.y_err)?,
+            c.col(&p.curve_by)?,
+        );
         let mut by: BTreeMap<u64, Curve> = BTreeMap::new();
         for &i in &rows {
-            let ok = xc[i] > 0.0 && yc[i] > 0.0 && ec[i] > 0.0 && yc[i].is_finite() && ec[i].is_finite();
+            let ok =
+                xc[i] > 0.0 && yc[i] > 0.0 && ec[i] > 0.0 && yc[i].is_finite() && ec[i].is_finite();
             if !ok {
                 continue;
             }
@@ -329,16 +418,22 @@ impl StageKind for Collapse {
             (x.sqrt() / l, y * f, s * f)
         };
         let result = if curves.iter().any(|c| c.param >= phi_c) {
-            Err(anyhow::anyhow!("phi_c = {phi_c} is not above every {} of the data", p.curve_by))
+            Err(anyhow::anyhow!(
+                "phi_c = {phi_c} is not above every {} of the data",
+                p.curve_by
+            ))
         } else {
-            collapse::collapse(&curves, &["g", "gamma_xi"], &bounds, &rescale).map_err(anyhow::Error::from)
+            collapse::collapse(&curves, &["g", "gamma_xi"], &bounds, &rescale)
+                .map_err(anyhow::Error::from)
         };
         let (rows, note, best) = match result {
             Ok(r) => {
                 let (g, dg) = r.get("g").expect("named");
                 let (gx, dgx) = r.get("gamma_xi").expect("named");
                 let cov = r.covariance[0][1];
-                let dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov).max(0.0).sqrt();
+                let dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
+                    .max(0.0)
+                    .sqrt();
                 (
                     vec![
                         ("gamma_chi_over_gamma_xi".to_string(), g, dg),
@@ -355,9 +450,16 @@ impl StageKind for Collapse {
             Err(e) => {
                 let msg = format!("collapse failed: {e:#}");
                 ctx.log(msg.clone());
-                let names = ["gamma_chi_over_gamma_xi", "gamma_xi", "gamma_chi", "collapse_S"];
-                let mut rows: Vec<(String, f64, f64)> =
-                    names.iter().map(|n| (n.to_string(), f64::NAN, f64::NAN)).collect();
+                let names = [
+                    "gamma_chi_over_gamma_xi",
+                    "gamma_xi",
+                    "gamma_chi",
+                    "collapse_S",
+                ];
+                let mut rows: Vec<(String, f64, f64)> = names
+                    .iter()
+                    .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+                    .collect();
                 rows.push(("phi_c_used".to_string(), phi_c, 0.0));
                 (rows, msg, None)
             }
@@ -374,8 +476,17 @@ impl StageKind for Collapse {
             }
         }
         let [phi, n, x, y, s] = cols;
-        let resc = f64_batch(&[(p.curve_by.as_str(), phi), (p.x.as_str(), n), ("X", x), ("Y", y), ("Y_err", s)])?;
-        Ok(Output::single("parquet", to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?)
-            .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
+        let resc = f64_batch(&[
+            (p.curve_by.as_str(), phi),
+            (p.x.as_str(), n),
+            ("X", x),
+            ("Y", y),
+            ("Y_err", s),
+        ])?;
+        Ok(Output::single(
+            "parquet",
+            to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?,
+        )
+        .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
     }
 }

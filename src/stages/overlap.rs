@@ -105,15 +105,21 @@ pub fn aging_curves(trajs: &[Trajectory], p: &Params) -> Result<Vec<(f64, Vec<f6
         for (t0, t, q) in overlap::per_origin(tr, p)? {
             // Waiting times agree across replicas up to rounding: key them on 1e-9.
             let key = (t0 * 1e9).round() as u64;
-            let e = acc.entry(key).or_insert_with(|| (t0, t.clone(), vec![0.0; q.len()], 0));
+            let e = acc
+                .entry(key)
+                .or_insert_with(|| (t0, t.clone(), vec![0.0; q.len()], 0));
             if e.1 == t {
                 e.2.iter_mut().zip(&q).for_each(|(s, v)| *s += v);
                 e.3 += 1;
             }
         }
     }
+    // A true time origin realises every lag; frames that only pair with another
+    // origin's frames at a few lags are not waiting times of their own.
+    let full = acc.values().map(|e| e.1.len()).max().unwrap_or(0);
     Ok(acc
         .into_values()
+        .filter(|e| e.1.len() == full)
         .map(|(t0, t, s, k)| (t0, t, s.into_iter().map(|v| v / k as f64).collect()))
         .collect())
 }

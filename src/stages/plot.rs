@@ -105,7 +105,8 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     for (key, mut idx) in groups {
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match &layer.group {
-            Some(_) => format!("{}{}", layer.label, key),
+            // Three decimals are enough to tell phi (0.785) or t0 apart in a legend.
+            Some(_) => format!("{}{}", layer.label, (key * 1e3).round() / 1e3),
             None => layer.label.clone(),
         };
         out.push(Series {

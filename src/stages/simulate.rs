@@ -95,7 +95,11 @@ impl RunLength {
             }
         }
         if !(g.b.is_finite() && g.b >= 0.0 && g.phi0.is_finite()) {
-            bail!("simulate: tau_guess needs B >= 0 and a finite phi0, got B = {}, phi0 = {}", g.b, g.phi0);
+            bail!(
+                "simulate: tau_guess needs B >= 0 and a finite phi0, got B = {}, phi0 = {}",
+                g.b,
+                g.phi0
+            );
         }
         if self.origins == 0 || self.lags_per_decade == 0 {
             bail!("simulate: `origins` and `lags_per_decade` must be at least 1");
@@ -106,9 +110,13 @@ impl RunLength {
 
 /// Split the stage parameters into the run-length rule and the SimConfig.
 pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
-    let obj = params.as_object().context("simulate: parameters must be a map")?;
-    let (rule, rest): (Map<String, Value>, Map<String, Value>) =
-        obj.clone().into_iter().partition(|(k, _)| RULE_KEYS.contains(&k.as_str()));
+    let obj = params
+        .as_object()
+        .context("simulate: parameters must be a map")?;
+    let (rule, rest): (Map<String, Value>, Map<String, Value>) = obj
+        .clone()
+        .into_iter()
+        .partition(|(k, _)| RULE_KEYS.contains(&k.as_str()));
     let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
     rule.check()?;
     let mut cfg: SimConfig = serde_json::from_value(Value::Object(rest.clone())).with_context(|| {
@@ -152,16 +160,27 @@ impl StageKind for Simulate {
             ctx.progress(
                 p.time,
                 p.end,
-                &format!("{:?} t = {:.1}/{:.1}, {:.2e} events/s", p.stage, p.time, p.end, p.events_per_second),
+                &format!(
+                    "{:?} t = {:.1}/{:.1}, {:.2e} events/s",
+                    p.stage, p.time, p.end, p.events_per_second
+                ),
             )
         };
         let (traj, summary) = sim::run(&cfg, &report)?;
         ctx.log(format!(
             "n = {}, phi = {}, T = {:.4}, {} collisions, {:.1} CPU s, {} guard activations",
-            summary.n, summary.phi, summary.temperature, summary.collisions, summary.cpu_seconds, summary.guard_activations
+            summary.n,
+            summary.phi,
+            summary.temperature,
+            summary.collisions,
+            summary.cpu_seconds,
+            summary.guard_activations
         ));
-        Ok(Output::single("parquet", crate::table::trajectory::to_parquet_bytes(&traj)?)
-            .with("json", serde_json::to_vec_pretty(&summary)?))
+        Ok(Output::single(
+            "parquet",
+            crate::table::trajectory::to_parquet_bytes(&traj)?,
+        )
+        .with("json", serde_json::to_vec_pretty(&summary)?))
     }
 }
 

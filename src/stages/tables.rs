@@ -13,7 +13,11 @@ use crate::traj::Trajectory;
 /// The lags every time origin of every replica realises: the schedule's own
 /// log-spaced lags. Differences between frames of different origins also match
 /// some lags, but with fewer samples; mixing them in makes curves jagged.
-pub fn every_origin_lags(trajs: &[Trajectory], requested: Option<Vec<f64>>, rel_tol: f64) -> Result<Option<Vec<f64>>> {
+pub fn every_origin_lags(
+    trajs: &[Trajectory],
+    requested: Option<Vec<f64>>,
+    rel_tol: f64,
+) -> Result<Option<Vec<f64>>> {
     if requested.is_some() {
         return Ok(requested);
     }
@@ -21,7 +25,12 @@ pub fn every_origin_lags(trajs: &[Trajectory], requested: Option<Vec<f64>>, rel_
     let lags = crate::analysis::lags::select(&refs, None, rel_tol)?;
     // The shortest lag is realised once per origin and replica, and only then.
     let every = lags.first().map(|l| l.pairs.len()).unwrap_or(0);
-    Ok(Some(lags.iter().filter(|l| l.pairs.len() >= every).map(|l| l.t).collect()))
+    Ok(Some(
+        lags.iter()
+            .filter(|l| l.pairs.len() >= every)
+            .map(|l| l.t)
+            .collect(),
+    ))
 }
 
 /// The stage name in an artifact label: `fig4/tau[phi=0.6]` -> `tau`,
@@ -37,7 +46,11 @@ pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> 
     if sims.is_empty() {
         bail!(
             "{kind}: no simulated trajectory among the inputs ({}); gather a `simulate` experiment",
-            inputs.iter().map(|a| a.label.as_str()).collect::<Vec<_>>().join(", ")
+            inputs
+                .iter()
+                .map(|a| a.label.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     sims.iter()
@@ -50,7 +63,10 @@ pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> 
 
 /// The inputs produced by stage `name`.
 pub fn inputs_of<'a>(kind: &str, inputs: &'a [Artifact], name: &str) -> Result<Vec<&'a Artifact>> {
-    let v: Vec<&Artifact> = inputs.iter().filter(|a| stage_of(&a.label) == name).collect();
+    let v: Vec<&Artifact> = inputs
+        .iter()
+        .filter(|a| stage_of(&a.label) == name)
+        .collect();
     if v.is_empty() {
         let mut known: Vec<&str> = inputs.iter().map(|a| stage_of(&a.label)).collect();
         known.dedup();
@@ -81,7 +97,11 @@ impl Columns {
     /// with each artifact's numeric point values (phi, ...) added as columns.
     pub fn read_file(arts: &[&Artifact], ext: &str) -> Result<Columns> {
         let mut c = Columns {
-            source: arts.iter().map(|a| a.label.as_str()).collect::<Vec<_>>().join(", "),
+            source: arts
+                .iter()
+                .map(|a| a.label.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
             ..Columns::default()
         };
         for a in arts {
@@ -113,7 +133,10 @@ impl Columns {
 
     /// One record batch as columns.
     pub fn from_batch(b: &RecordBatch) -> Result<Columns> {
-        let mut c = Columns { source: "a computed table".into(), ..Columns::default() };
+        let mut c = Columns {
+            source: "a computed table".into(),
+            ..Columns::default()
+        };
         c.push(b)?;
         Ok(c)
     }
@@ -160,10 +183,17 @@ impl Columns {
     /// Value of a `quantity` row of a fit table (columns quantity, value, error).
     pub fn quantity(&self, name: &str) -> Result<(f64, f64)> {
         let q = self.str.get("quantity").with_context(|| {
-            format!("table from {} has no 'quantity' column (not a fit table)", self.source)
+            format!(
+                "table from {} has no 'quantity' column (not a fit table)",
+                self.source
+            )
         })?;
         let i = q.iter().position(|s| s == name).with_context(|| {
-            format!("fit table from {} reports no quantity '{name}'; it has: {}", self.source, q.join(", "))
+            format!(
+                "fit table from {} reports no quantity '{name}'; it has: {}",
+                self.source,
+                q.join(", ")
+            )
         })?;
         Ok((self.col("value")?[i], self.col("error")?[i]))
     }
@@ -211,7 +241,11 @@ pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
     }
     let k = t.partition_point(|&x| x <= t0).clamp(1, t.len() - 1);
     let (la, lb) = (t[k - 1].ln(), t[k].ln());
-    let s = if lb > la { (t0.ln() - la) / (lb - la) } else { 0.0 };
+    let s = if lb > la {
+        (t0.ln() - la) / (lb - la)
+    } else {
+        0.0
+    };
     Some(y[k - 1] + s * (y[k] - y[k - 1]))
 }
 
@@ -230,7 +264,10 @@ mod tests {
     fn conditions_select_rows() {
         assert!(Cond::Equal(0.78).accepts(0.78));
         assert!(!Cond::Equal(0.78).accepts(0.785));
-        let r = Cond::Range { min: None, max: Some(0.80) };
+        let r = Cond::Range {
+            min: None,
+            max: Some(0.80),
+        };
         assert!(r.accepts(0.80) && !r.accepts(0.805));
         assert!(Cond::OneOf(vec![0.6, 0.7]).accepts(0.7));
     }
