@@ -76,18 +76,10 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         .collect();
     let mut subsets = Vec::new();
     for &g in &groups {
-        subsets.push(Subset {
-            species: g,
-            select: 0,
-            fraction: 1.0,
-        });
+        subsets.push(Subset { species: g, select: 0, fraction: 1.0 });
         for &f in &p.fractions {
             for select in [1, -1] {
-                subsets.push(Subset {
-                    species: g,
-                    select,
-                    fraction: f,
-                });
+                subsets.push(Subset { species: g, select, fraction: f });
             }
         }
     }

@@ -143,15 +143,7 @@ impl Sampler {
 }
 
 /// Advance to `t`, taking the samples that fall on the way.
-fn advance(
-    e: &mut Engine,
-    t: f64,
-    s: &mut Sampler,
-    stage: Stage,
-    end: f64,
-    clock: Instant,
-    progress: &dyn Fn(Progress),
-) {
+fn advance(e: &mut Engine, t: f64, s: &mut Sampler, stage: Stage, end: f64, clock: Instant, progress: &dyn Fn(Progress)) {
     loop {
         let stop = t.min(s.next);
         while !e.run_until(stop, 1 << 20) {
@@ -236,15 +228,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
             let sub = 8;
             let mut tsum = 0.0;
             for m in 1..=sub {
-                advance(
-                    &mut e,
-                    start + w * m as f64 / sub as f64,
-                    &mut s,
-                    Stage::Relax,
-                    t0,
-                    clock,
-                    progress,
-                );
+                advance(&mut e, start + w * m as f64 / sub as f64, &mut s, Stage::Relax, t0, clock, progress);
                 tsum += e.kinetic_energy() / nf;
             }
             let tmean = tsum / sub as f64;
@@ -267,28 +251,10 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let mut frames = Vec::new();
     let clock = Instant::now();
     for ft in cfg.schedule.times() {
-        advance(
-            &mut e,
-            t0 + ft,
-            &mut s,
-            Stage::Production,
-            t0 + prod,
-            clock,
-            progress,
-        );
+        advance(&mut e, t0 + ft, &mut s, Stage::Production, t0 + prod, clock, progress);
         let (x, y) = e.unwrapped_positions();
-        let (vx, vy) = if cfg.record_velocities {
-            e.velocities()
-        } else {
-            (vec![], vec![])
-        };
-        frames.push(Frame {
-            time: ft,
-            x,
-            y,
-            vx,
-            vy,
-        });
+        let (vx, vy) = if cfg.record_velocities { e.velocities() } else { (vec![], vec![]) };
+        frames.push(Frame { time: ft, x, y, vx, vy });
     }
     let end = t0 + prod;
     advance(&mut e, end, &mut s, Stage::Production, end, clock, progress);
@@ -300,17 +266,12 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let temps: Vec<f64> = prod_samples.iter().map(|x| x.temperature).collect();
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let temperature = mean(&temps);
-    let temperature_std = (temps.iter().map(|t| (t - temperature).powi(2)).sum::<f64>()
-        / temps.len().max(1) as f64)
-        .sqrt();
+    let temperature_std = (temps.iter().map(|t| (t - temperature).powi(2)).sum::<f64>() / temps.len().max(1) as f64).sqrt();
     let half = temps.len() / 2;
     let zs: Vec<f64> = prod_samples.iter().map(|x| x.z).collect();
     let z = 1.0 + (st.virial - before.virial) / (2.0 * prod * nf * temperature);
     let zm = mean(&zs);
-    let z_err = (zs.iter().map(|v| (v - zm).powi(2)).sum::<f64>()
-        / (zs.len().max(2) - 1) as f64
-        / zs.len().max(1) as f64)
-        .sqrt();
+    let z_err = (zs.iter().map(|v| (v - zm).powi(2)).sum::<f64>() / (zs.len().max(2) - 1) as f64 / zs.len().max(1) as f64).sqrt();
     let ke1 = e.kinetic_energy();
     let injected = st.injected - before.injected;
     let dissipated = st.dissipated - before.dissipated;
