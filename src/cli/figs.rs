@@ -501,6 +501,7 @@ fn frontier(a: FrontierArgs) -> Result<()> {
         }
     }
     let out = Workspace::new(&a.root).results.join("frontier");
+    let stem = format!("{}-{}", a.id, a.profile);
     std::fs::create_dir_all(&out)?;
     let b = crate::table::f64_batch(&[
         ("N", rows.iter().map(|r| r.n as f64).collect()),
@@ -523,19 +524,19 @@ fn frontier(a: FrontierArgs) -> Result<()> {
         arrow_array::RecordBatch::try_from_iter(cols)?
     };
     crate::table::write_parquet(
-        &out.join(format!("{}.parquet", a.id)),
+        &out.join(format!("{stem}.parquet")),
         &[b],
         &[("seeds", &format!("{:?}", a.seeds))],
     )?;
     std::fs::write(
-        out.join(format!("{}.json", a.id)),
+        out.join(format!("{stem}.json")),
         serde_json::to_string_pretty(&rows)?,
     )?;
-    let fig = frontier_chart(&a.id, &rows);
+    let fig = frontier_chart(&format!("{} ({})", a.id, a.profile), &rows);
     crate::plot::draw(
         &fig,
-        &out.join(format!("{}.svg", a.id)),
-        &out.join(format!("{}.png", a.id)),
+        &out.join(format!("{stem}.svg")),
+        &out.join(format!("{stem}.png")),
     )?;
     for r in &rows {
         println!(
@@ -544,7 +545,7 @@ fn frontier(a: FrontierArgs) -> Result<()> {
         );
     }
     println!("{}", smallest(&rows));
-    println!("wrote {}/{}.{{parquet,json,svg,png}}", out.display(), a.id);
+    println!("wrote {}/{stem}.{{parquet,json,svg,png}}", out.display());
     Ok(())
 }
 
@@ -607,6 +608,12 @@ fn frontier_chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                 })
                 .collect();
             let paper = mine.first().map(|r| r.paper).unwrap_or(f64::NAN);
+            // Show the paper's value even when every configuration misses it.
+            let (lo, hi) = mine.iter().fold((paper, paper), |(lo, hi), r| {
+                (lo.min(r.mean - r.spread), hi.max(r.mean + r.spread))
+            });
+            let pad = 0.08 * (hi - lo).max(1e-9);
+            let range = (lo.is_finite() && hi.is_finite()).then_some((lo - pad, hi + pad));
             Panel {
                 title: format!("{id}: {q}"),
                 x: Axis {
@@ -617,7 +624,7 @@ fn frontier_chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                 y: Axis {
                     label: q.to_string(),
                     log: false,
-                    range: None,
+                    range,
                 },
                 series,
                 hlines: vec![RefLine {
