@@ -363,3 +363,55 @@ panels:
         "{e}"
     );
 }
+
+mod robustness {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            4 => -1e3..1e3f64,
+            2 => (-300.0..300.0f64).prop_map(|e| 10f64.powf(e)),
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => Just(-f64::MAX),
+            1 => Just(0.0),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        /// Whatever the numbers, drawing a valid figure succeeds (never panics) and
+        /// every legend label is in the SVG.
+        #[test]
+        fn any_data_draws(
+            data in proptest::collection::vec(proptest::collection::vec((value(), value(), value()), 0..12), 1..5),
+            xlog: bool,
+            ylog: bool,
+            legend in prop_oneof![Just(Legend::Auto), Just(Legend::Right), Just(Legend::BottomLeft), Just(Legend::None)],
+        ) {
+            let series: Vec<Series> = data
+                .iter()
+                .enumerate()
+                .map(|(i, pts)| {
+                    let mut s = series(&format!("s{i}"), pts.iter().map(|p| p.0).collect(), pts.iter().map(|p| p.1).collect());
+                    s.y_err = Some(pts.iter().map(|p| p.2).collect());
+                    s.style = [Style::Line, Style::Points, Style::LinePoints][i % 3];
+                    s.dashed = i % 2 == 1;
+                    s
+                })
+                .collect();
+            let mut p = panel("(a)", axis("x", xlog), axis("y", ylog), series);
+            p.legend = legend;
+            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into() };
+            let texts = svg_texts(&draw_svg_string(&f).unwrap());
+            if legend != Legend::None {
+                for i in 0..data.len() {
+                    let label = format!("s{i}");
+                    prop_assert!(texts.contains(&label));
+                }
+            }
+        }
+    }
+}

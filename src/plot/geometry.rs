@@ -89,6 +89,9 @@ pub fn dashes(line: &[P], on: f64, off: f64) -> Vec<Vec<P>> {
     for w in line.windows(2) {
         let (mut a, b) = (w[0], w[1]);
         let mut len = (b.0 - a.0).hypot(b.1 - a.1);
+        if !len.is_finite() {
+            continue; // cannot be cut into dashes; callers pass clipped, finite lines
+        }
         while len > left {
             let f = left / len;
             let m = (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1));

@@ -165,12 +165,15 @@ struct Frame {
 
 impl Frame {
     fn at(&self, x: f64, y: f64) -> Option<P> {
-        (self.x.accepts(x) && self.y.accepts(y)).then(|| {
-            (
-                self.rect.x0 + self.x.fraction(x) * self.rect.width(),
-                self.rect.y1 - self.y.fraction(y) * self.rect.height(),
-            )
-        })
+        if !(self.x.accepts(x) && self.y.accepts(y)) {
+            return None;
+        }
+        let p = (
+            self.rect.x0 + self.x.fraction(x) * self.rect.width(),
+            self.rect.y1 - self.y.fraction(y) * self.rect.height(),
+        );
+        // An axis spanning more than f64 can hold (data near f64::MAX) maps to NaN.
+        (p.0.is_finite() && p.1.is_finite()).then_some(p)
     }
 
     fn points(&self, s: &Series) -> Vec<Option<P>> {
@@ -342,7 +345,8 @@ fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P>
         if s.style != Style::Points {
             for piece in clip_polyline(&pts, &r) {
                 for w in piece.windows(2) {
-                    let n = ((w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) / 2.0).ceil() as usize;
+                    let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
+                    let n = (len / 2.0).ceil().min(1e5) as usize;
                     samples.extend((1..n).map(|k| {
                         let t = k as f64 / n as f64;
                         (

@@ -47,15 +47,25 @@ impl Scale {
             (true, true) => {
                 let (a, b) = (lo.log10(), hi.log10());
                 let pad = if a == b { 0.5 } else { 0.04 * (b - a) };
-                (10f64.powf(a - pad), 10f64.powf(b + pad))
+                // Stay within normal f64 (a pad past 1e308 would give infinity).
+                (
+                    10f64.powf((a - pad).max(-307.0)),
+                    10f64.powf((b + pad).min(308.0)),
+                )
             }
             (true, false) if lo == hi => {
                 let d = 0.5 * lo.abs().max(1.0);
                 (lo - d, hi + d)
             }
             (true, false) => {
+                // No margin where it would overflow (data near f64::MAX).
                 let pad = 0.04 * (hi - lo);
-                (lo - pad, hi + pad)
+                let (a, b) = (lo - pad, hi + pad);
+                if a.is_finite() && b.is_finite() {
+                    (a, b)
+                } else {
+                    (lo, hi)
+                }
             }
         };
         Scale { lo, hi, log }
@@ -77,8 +87,9 @@ impl Scale {
     }
 
     fn log_ticks(&self) -> Vec<Tick> {
-        let first = (self.lo.log10() - 1e-9).floor() as i32;
-        let last = (self.hi.log10() + 1e-9).ceil() as i32;
+        // Clamped to the f64 range, so a degenerate scale cannot loop for long.
+        let first = ((self.lo.log10() - 1e-9).floor() as i32).max(-330);
+        let last = ((self.hi.log10() + 1e-9).ceil() as i32).min(310);
         let decades: Vec<i32> = (first..=last)
             .filter(|&k| self.inside(10f64.powi(k)))
             .collect();
@@ -118,6 +129,9 @@ impl Scale {
 
     fn linear_ticks(&self) -> Vec<Tick> {
         let span = self.hi - self.lo;
+        if !(span.is_finite() && span > 0.0) {
+            return Vec::new();
+        }
         let mag = 10f64.powf((span / 6.0).log10().floor());
         let mult = [1.0, 2.0, 5.0, 10.0]
             .into_iter()
@@ -127,7 +141,10 @@ impl Scale {
         let minor = step / if mult == 2.0 { 4.0 } else { 5.0 };
         let first = (self.lo / minor - 1e-9).ceil() as i64;
         let last = (self.hi / minor + 1e-9).floor() as i64;
-        let per_major = (step / minor).round() as i64;
+        let per_major = ((step / minor).round() as i64).max(1);
+        if last.saturating_sub(first) > 1000 {
+            return Vec::new(); // rounding broke down (|values| >> their spread)
+        }
         (first..=last)
             .map(|i| {
                 let at = i as f64 * minor;
