@@ -1,1 +1,54 @@
 //! Figure drawing with plotters (SVG and PNG, embedded font).
+//!
+//! A [`Figure`] is plain data (serde), so a pipeline YAML holds it; [`draw`] turns it
+//! into an SVG and a PNG written atomically. Log axes get decade ticks, points an
+//! axis cannot show (NaN, inf, non-positive on a log axis) are skipped, the legend
+//! goes where it covers no data.
+
+mod font;
+mod geometry;
+mod palette;
+mod render;
+mod scale;
+mod spec;
+
+use std::path::Path;
+
+use anyhow::{Context, Result, anyhow};
+use plotters::prelude::*;
+
+pub use palette::viridis;
+pub use scale::{Scale, Tick};
+pub use spec::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style};
+
+/// The figure as SVG text. Deterministic: the same figure gives the same bytes.
+pub fn draw_svg_string(fig: &Figure) -> Result<String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (fig.width, fig.height)).into_drawing_area();
+        render::render(&root, fig)?;
+    }
+    Ok(svg)
+}
+
+/// The figure as PNG bytes, `width` x `height` pixels.
+pub fn draw_png_bytes(fig: &Figure) -> Result<Vec<u8>> {
+    // plotters encodes PNG only to a path: draw into a private temporary directory.
+    let dir = tempfile::tempdir().context("creating a temporary directory for the PNG")?;
+    let path = dir.path().join("figure.png");
+    {
+        let root = BitMapBackend::new(&path, (fig.width, fig.height)).into_drawing_area();
+        render::render(&root, fig)?;
+    }
+    std::fs::read(&path).map_err(|e| anyhow!("reading back the drawn PNG: {e}"))
+}
+
+/// Draw `fig` to `svg_path` and `png_path`, each written atomically.
+pub fn draw(fig: &Figure, svg_path: &Path, png_path: &Path) -> Result<()> {
+    let svg = draw_svg_string(fig).with_context(|| format!("drawing {}", svg_path.display()))?;
+    crate::table::write_atomic(svg_path, svg.as_bytes())
+        .with_context(|| format!("writing {}", svg_path.display()))?;
+    let png = draw_png_bytes(fig).with_context(|| format!("drawing {}", png_path.display()))?;
+    crate::table::write_atomic(png_path, &png)
+        .with_context(|| format!("writing {}", png_path.display()))
+}

@@ -5,6 +5,8 @@
 //! leaves a truncated file under the final name (write to a temporary file in the
 //! same directory, fsync, rename).
 
+pub mod trajectory;
+
 use std::fs::File;
 use std::io::Write;
 use std::path::Path;

@@ -1,0 +1,598 @@
+//! Lay out and draw a [`Figure`] on any plotters backend (SVG or bitmap).
+//!
+//! Drawn in pixel space by hand (frame, inward ticks on all sides, decade labels,
+//! clipping, legend placement) rather than with plotters' chart builder, whose meshes,
+//! outward ticks and unclipped series do not read like a physics paper.
+
+use anyhow::{Result, anyhow};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::Color as _;
+use plotters::style::FontTransform;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::geometry::{P, Rect, clip_polyline, clip_segment, dashes};
+use super::palette;
+use super::scale::Scale;
+use super::spec::{Color, Figure, Legend, Marker, Panel, Series, Style};
+
+const FONT: &str = "sans-serif";
+const INK: RGBColor = RGBColor(0, 0, 0);
+const GREY: RGBColor = RGBColor(0x80, 0x80, 0x80);
+
+type Area<DB> = DrawingArea<DB, Shift>;
+
+fn err<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> anyhow::Error {
+    anyhow!("drawing failed: {e}")
+}
+
+fn rgb(c: Color) -> RGBColor {
+    RGBColor(c.0[0], c.0[1], c.0[2])
+}
+
+fn px(p: P) -> (i32, i32) {
+    (p.0.round() as i32, p.1.round() as i32)
+}
+
+/// Sizes derived from the font size of one panel.
+#[derive(Clone, Copy)]
+struct Sizes {
+    label: f64,
+    tick: f64,
+    legend: f64,
+    line: u32,
+    marker: f64,
+}
+
+impl Sizes {
+    fn for_cell(w: f64, h: f64) -> Sizes {
+        let label = (w.min(h) / 28.0).clamp(11.0, 22.0);
+        Sizes {
+            label,
+            tick: 0.85 * label,
+            legend: 0.78 * label,
+            line: if label >= 14.0 { 2 } else { 1 },
+            marker: 0.24 * label,
+        }
+    }
+}
+
+fn text_style(size: f64, color: RGBColor, h: HPos, v: VPos) -> TextStyle<'static> {
+    (FONT, size).into_font().color(&color).pos(Pos::new(h, v))
+}
+
+fn text_size<DB: DrawingBackend>(area: &Area<DB>, text: &str, size: f64) -> Result<(f64, f64)> {
+    if text.is_empty() {
+        return Ok((0.0, 0.0));
+    }
+    let (w, h) = area
+        .estimate_text_size(text, &TextStyle::from((FONT, size).into_font()))
+        .map_err(err)?;
+    Ok((w as f64, h as f64))
+}
+
+fn draw_text<DB: DrawingBackend>(
+    area: &Area<DB>,
+    text: &str,
+    style: &TextStyle,
+    at: P,
+) -> Result<()> {
+    if text.is_empty() {
+        return Ok(());
+    }
+    area.draw_text(text, style, px(at)).map_err(err)
+}
+
+fn polyline<DB: DrawingBackend>(
+    area: &Area<DB>,
+    pts: &[P],
+    color: RGBColor,
+    width: u32,
+) -> Result<()> {
+    let style = ShapeStyle::from(&color).stroke_width(width);
+    area.draw(&PathElement::new(
+        pts.iter().map(|&p| px(p)).collect::<Vec<_>>(),
+        style,
+    ))
+    .map_err(err)
+}
+
+/// Draw the whole figure on `root` (already sized to the figure).
+pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
+    fig.validate()?;
+    super::font::register()?;
+    root.fill(&WHITE).map_err(err)?;
+    let (w, h) = (fig.width as f64, fig.height as f64);
+    let title_size = (w.min(h) / 26.0).clamp(12.0, 24.0);
+    let top = if fig.title.is_empty() {
+        0.0
+    } else {
+        let (_, th) = text_size(root, &fig.title, title_size)?;
+        let style = text_style(title_size, INK, HPos::Center, VPos::Top);
+        draw_text(root, &fig.title, &style, (w / 2.0, 0.4 * th))?;
+        1.8 * th
+    };
+    let cols = fig
+        .columns
+        .unwrap_or(fig.panels.len())
+        .min(fig.panels.len());
+    let rows = fig.panels.len().div_ceil(cols);
+    let (cw, ch) = (w / cols as f64, (h - top) / rows as f64);
+    for (i, panel) in fig.panels.iter().enumerate() {
+        let cell = Rect {
+            x0: (i % cols) as f64 * cw,
+            y0: top + (i / cols) as f64 * ch,
+            x1: (i % cols + 1) as f64 * cw,
+            y1: top + (i / cols + 1) as f64 * ch,
+        };
+        draw_panel(root, panel, cell)?;
+    }
+    root.present().map_err(err)
+}
+
+/// Axis scales of a panel: the given ranges, or ranges fitted to all its data.
+fn scales(p: &Panel) -> (Scale, Scale) {
+    let fit = |axis: &super::spec::Axis, values: Vec<f64>| match axis.range {
+        Some((lo, hi)) => Scale {
+            lo,
+            hi,
+            log: axis.log,
+        },
+        None => Scale::fit(values, axis.log),
+    };
+    let xs = p.series.iter().flat_map(|s| s.x.iter().copied()).collect();
+    let ys = p
+        .series
+        .iter()
+        .flat_map(|s| {
+            let err = s.y_err.clone().unwrap_or_default();
+            let bars =
+                s.y.iter()
+                    .zip(err)
+                    .flat_map(|(&y, e)| [y - e.abs(), y + e.abs()]);
+            s.y.iter().copied().chain(bars).collect::<Vec<_>>()
+        })
+        .collect();
+    (fit(&p.x, xs), fit(&p.y, ys))
+}
+
+/// Where data goes on screen.
+struct Frame {
+    rect: Rect,
+    x: Scale,
+    y: Scale,
+}
+
+impl Frame {
+    fn at(&self, x: f64, y: f64) -> Option<P> {
+        if !(self.x.accepts(x) && self.y.accepts(y)) {
+            return None;
+        }
+        let p = (
+            self.rect.x0 + self.x.fraction(x) * self.rect.width(),
+            self.rect.y1 - self.y.fraction(y) * self.rect.height(),
+        );
+        // An axis spanning more than f64 can hold (data near f64::MAX) maps to NaN.
+        (p.0.is_finite() && p.1.is_finite()).then_some(p)
+    }
+
+    fn points(&self, s: &Series) -> Vec<Option<P>> {
+        s.x.iter().zip(&s.y).map(|(&x, &y)| self.at(x, y)).collect()
+    }
+}
+
+/// The legend's entries and measured size.
+struct LegendBox {
+    entries: Vec<(usize, String)>,
+    row: f64,
+    sample: f64,
+    width: f64,
+    height: f64,
+}
+
+fn measure_legend<DB: DrawingBackend>(area: &Area<DB>, p: &Panel, sz: Sizes) -> Result<LegendBox> {
+    let entries: Vec<(usize, String)> = p
+        .series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !s.label.is_empty())
+        .map(|(i, s)| (i, s.label.clone()))
+        .collect();
+    let row = 1.35 * sz.legend;
+    let sample = 2.2 * sz.legend;
+    let mut text_w: f64 = text_size(area, &p.legend_title, sz.legend)?.0 - sample - 0.4 * sz.legend;
+    for (_, l) in &entries {
+        text_w = text_w.max(text_size(area, l, sz.legend)?.0);
+    }
+    let rows = entries.len() + usize::from(!p.legend_title.is_empty());
+    Ok(LegendBox {
+        width: 0.5 * sz.legend + sample + 0.4 * sz.legend + text_w + 0.6 * sz.legend,
+        height: rows as f64 * row + 0.5 * sz.legend,
+        entries,
+        row,
+        sample,
+    })
+}
+
+fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Result<()> {
+    let sz = Sizes::for_cell(cell.width(), cell.height());
+    let (xs, ys) = scales(p);
+    let (xticks, yticks) = (xs.ticks(), ys.ticks());
+    let pad = 0.6 * sz.label;
+    let mut ytick_w: f64 = 0.0;
+    for t in yticks.iter().filter_map(|t| t.label.as_ref()) {
+        ytick_w = ytick_w.max(text_size(root, t, sz.tick)?.0);
+    }
+    let tick_h = text_size(root, "10⁰", sz.tick)?.1;
+    let label_h = text_size(root, "Xg", sz.label)?.1;
+    let last_xtick = xticks.iter().rev().find_map(|t| t.label.as_ref());
+    let xtick_half = text_size(root, last_xtick.map_or("", |s| s), sz.tick)?.0 / 2.0;
+    // Room for an axis label: none when it is empty.
+    let room = |label: &str, gap: f64| if label.is_empty() { 0.0 } else { label_h + gap };
+    let left = pad + room(&p.y.label, 0.5 * sz.label) + ytick_w + 0.5 * sz.tick;
+    let bottom = pad + room(&p.x.label, 0.4 * sz.label) + tick_h + 0.5 * sz.tick;
+    let top = pad + room(&p.title, 0.4 * sz.label).max(0.5 * tick_h);
+    let right = pad + xtick_half.max(0.3 * sz.label) + 0.2 * sz.label;
+
+    let legend = measure_legend(root, p, sz)?;
+    let inside = Rect {
+        x0: cell.x0 + left,
+        y0: cell.y0 + top,
+        x1: cell.x1 - right,
+        y1: cell.y1 - bottom,
+    };
+    let frame = |rect| Frame { rect, x: xs, y: ys };
+    let (frame, legend_at) = match (p.legend, legend.entries.is_empty()) {
+        (Legend::None, _) | (_, true) => (frame(inside), None),
+        (Legend::Right, _) => right_legend(frame, inside, &legend, sz),
+        (Legend::Auto, _) => {
+            let f = frame(inside);
+            match free_corner(&f, p, &legend, sz) {
+                Some(at) => (f, Some(at)),
+                None => right_legend(frame, inside, &legend, sz),
+            }
+        }
+        (corner, _) => {
+            let f = frame(inside);
+            let at = corner_position(&f.rect, corner, &legend, sz);
+            (f, Some(at))
+        }
+    };
+    let r = frame.rect;
+
+    // Reference lines under the data.
+    for l in &p.hlines {
+        let y = r.y1 - ys.fraction(l.at) * r.height();
+        if y >= r.y0 && y <= r.y1 {
+            let color = l.color.map_or(GREY, rgb);
+            stroke(root, &[(r.x0, y), (r.x1, y)], color, 1, l.dashed, sz)?;
+            let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
+            draw_text(
+                root,
+                &l.label,
+                &style,
+                (r.x1 - 0.4 * sz.legend, y - 0.2 * sz.legend),
+            )?;
+        }
+    }
+    for l in &p.vlines {
+        let x = r.x0 + xs.fraction(l.at) * r.width();
+        if x >= r.x0 && x <= r.x1 {
+            let color = l.color.map_or(GREY, rgb);
+            stroke(root, &[(x, r.y0), (x, r.y1)], color, 1, l.dashed, sz)?;
+            let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
+            draw_text(
+                root,
+                &l.label,
+                &style,
+                (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend),
+            )?;
+        }
+    }
+
+    for (i, s) in p.series.iter().enumerate() {
+        let color = rgb(s
+            .color
+            .unwrap_or_else(|| palette::color(p.palette, i, p.series.len())));
+        draw_series(root, &frame, s, color, sz)?;
+    }
+
+    draw_axes(root, &frame, p, sz, (ytick_w, tick_h, label_h), cell)?;
+    if let Some(at) = legend_at {
+        draw_legend(root, p, &legend, at, sz)?;
+    }
+    Ok(())
+}
+
+/// Shrink the axes to make room for the legend on the right.
+fn right_legend(
+    frame: impl Fn(Rect) -> Frame,
+    inside: Rect,
+    legend: &LegendBox,
+    sz: Sizes,
+) -> (Frame, Option<P>) {
+    let mut rect = inside;
+    rect.x1 -= legend.width + 0.6 * sz.label;
+    let at = (rect.x1 + 0.6 * sz.label, rect.y0);
+    (frame(rect), Some(at))
+}
+
+fn corner_position(r: &Rect, corner: Legend, legend: &LegendBox, sz: Sizes) -> P {
+    let m = 0.5 * sz.label;
+    let left = r.x0 + m;
+    let right = r.x1 - m - legend.width;
+    let top = r.y0 + m;
+    let bottom = r.y1 - m - legend.height;
+    match corner {
+        Legend::TopLeft => (left, top),
+        Legend::BottomLeft => (left, bottom),
+        Legend::BottomRight => (right, bottom),
+        _ => (right, top),
+    }
+}
+
+/// The first inside corner whose legend box covers no data (lines sampled every
+/// pixel or two, markers and error bars as points), if the legend fits at all.
+fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P> {
+    let r = f.rect;
+    if legend.width > 0.6 * r.width() || legend.height > 0.9 * r.height() {
+        return None;
+    }
+    let mut samples: Vec<P> = Vec::new();
+    for s in &p.series {
+        let pts = f.points(s);
+        samples.extend(pts.iter().flatten());
+        if s.style != Style::Points {
+            for piece in clip_polyline(&pts, &r) {
+                for w in piece.windows(2) {
+                    let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
+                    let n = (len / 2.0).ceil().min(1e5) as usize;
+                    samples.extend((1..n).map(|k| {
+                        let t = k as f64 / n as f64;
+                        (
+                            w[0].0 + t * (w[1].0 - w[0].0),
+                            w[0].1 + t * (w[1].1 - w[0].1),
+                        )
+                    }));
+                }
+            }
+        }
+    }
+    let pad = sz.marker + 1.0;
+    [
+        Legend::TopRight,
+        Legend::TopLeft,
+        Legend::BottomLeft,
+        Legend::BottomRight,
+    ]
+    .into_iter()
+    .map(|c| corner_position(&r, c, legend, sz))
+    .find(|&(x, y)| {
+        let b = Rect {
+            x0: x - pad,
+            y0: y - pad,
+            x1: x + legend.width + pad,
+            y1: y + legend.height + pad,
+        };
+        !samples.iter().any(|&q| b.contains(q))
+    })
+}
+
+/// A solid or dashed polyline.
+fn stroke<DB: DrawingBackend>(
+    area: &Area<DB>,
+    line: &[P],
+    color: RGBColor,
+    width: u32,
+    dashed: bool,
+    sz: Sizes,
+) -> Result<()> {
+    if dashed {
+        let w = width as f64;
+        for d in dashes(line, 0.45 * sz.label + 2.0 * w, 0.25 * sz.label + w) {
+            polyline(area, &d, color, width)?;
+        }
+        Ok(())
+    } else {
+        polyline(area, line, color, width)
+    }
+}
+
+fn draw_series<DB: DrawingBackend>(
+    area: &Area<DB>,
+    f: &Frame,
+    s: &Series,
+    color: RGBColor,
+    sz: Sizes,
+) -> Result<()> {
+    let r = f.rect;
+    if let Some(errs) = &s.y_err {
+        let cap = 0.6 * sz.marker + 1.0;
+        for ((&x, &y), &e) in s.x.iter().zip(&s.y).zip(errs) {
+            let (Some(mid), true) = (f.at(x, y), e.is_finite() && e > 0.0) else {
+                continue;
+            };
+            // A lower end a log axis cannot show runs to the bottom of the axes.
+            let lo = f.at(x, y - e).map_or(r.y1 + 1.0, |p| p.1);
+            let hi = f.at(x, y + e).map_or(r.y0 - 1.0, |p| p.1);
+            if let Some((a, b)) = clip_segment((mid.0, lo), (mid.0, hi), &r) {
+                polyline(area, &[a, b], color, 1)?;
+                for end in [(mid.0, lo), (mid.0, hi)] {
+                    if r.contains(end) {
+                        polyline(
+                            area,
+                            &[(end.0 - cap, end.1), (end.0 + cap, end.1)],
+                            color,
+                            1,
+                        )?;
+                    }
+                }
+            }
+        }
+    }
+    let pts = f.points(s);
+    if s.style != Style::Points {
+        for piece in clip_polyline(&pts, &r) {
+            stroke(area, &piece, color, sz.line, s.dashed, sz)?;
+        }
+    }
+    if s.style != Style::Line {
+        for q in pts.into_iter().flatten().filter(|&q| r.contains(q)) {
+            marker(area, s.marker, q, sz.marker, color)?;
+        }
+    }
+    Ok(())
+}
+
+fn marker<DB: DrawingBackend>(
+    area: &Area<DB>,
+    m: Marker,
+    (x, y): P,
+    size: f64,
+    color: RGBColor,
+) -> Result<()> {
+    let fill = ShapeStyle::from(&color).filled();
+    let line = ShapeStyle::from(&color).stroke_width(1);
+    let s = size.max(2.0);
+    let poly = |pts: &[P]| {
+        pts.iter()
+            .map(|&(dx, dy)| px((x + dx * s, y + dy * s)))
+            .collect::<Vec<_>>()
+    };
+    match m {
+        Marker::Circle => area.draw(&Circle::new(px((x, y)), s.round() as i32, fill)),
+        Marker::OpenCircle => area
+            .draw(&Circle::new(px((x, y)), s.round() as i32, WHITE.filled()))
+            .and_then(|_| area.draw(&Circle::new(px((x, y)), s.round() as i32, line))),
+        Marker::Square | Marker::OpenSquare => {
+            let c = poly(&[(-0.9, -0.9), (0.9, 0.9)]);
+            let inner = if m == Marker::Square {
+                fill
+            } else {
+                WHITE.filled()
+            };
+            area.draw(&Rectangle::new([c[0], c[1]], inner))
+                .and_then(|_| area.draw(&Rectangle::new([c[0], c[1]], line)))
+        }
+        Marker::Triangle => area.draw(&Polygon::new(
+            poly(&[(0.0, -1.2), (1.1, 0.8), (-1.1, 0.8)]),
+            fill,
+        )),
+        Marker::Diamond => area.draw(&Polygon::new(
+            poly(&[(0.0, -1.3), (1.0, 0.0), (0.0, 1.3), (-1.0, 0.0)]),
+            fill,
+        )),
+        Marker::Cross => area
+            .draw(&PathElement::new(
+                poly(&[(-1.0, -1.0), (1.0, 1.0)]),
+                line.stroke_width(2),
+            ))
+            .and_then(|_| {
+                area.draw(&PathElement::new(
+                    poly(&[(-1.0, 1.0), (1.0, -1.0)]),
+                    line.stroke_width(2),
+                ))
+            }),
+    }
+    .map_err(err)
+}
+
+/// Frame, inward ticks on all four sides, tick labels, axis labels, panel title.
+fn draw_axes<DB: DrawingBackend>(
+    area: &Area<DB>,
+    f: &Frame,
+    p: &Panel,
+    sz: Sizes,
+    (ytick_w, tick_h, label_h): (f64, f64, f64),
+    cell: Rect,
+) -> Result<()> {
+    let r = f.rect;
+    area.draw(&Rectangle::new(
+        [px((r.x0, r.y0)), px((r.x1, r.y1))],
+        INK.stroke_width(1),
+    ))
+    .map_err(err)?;
+    let major = 0.45 * sz.label;
+    let minor = 0.25 * sz.label;
+    let tick_style = text_style(sz.tick, INK, HPos::Center, VPos::Top);
+    for t in f.x.ticks() {
+        let x = r.x0 + f.x.fraction(t.at) * r.width();
+        let len = if t.label.is_some() { major } else { minor };
+        polyline(area, &[(x, r.y1), (x, r.y1 - len)], INK, 1)?;
+        polyline(area, &[(x, r.y0), (x, r.y0 + len)], INK, 1)?;
+        if let Some(l) = &t.label {
+            draw_text(area, l, &tick_style, (x, r.y1 + 0.4 * sz.tick))?;
+        }
+    }
+    let tick_style = text_style(sz.tick, INK, HPos::Right, VPos::Center);
+    for t in f.y.ticks() {
+        let y = r.y1 - f.y.fraction(t.at) * r.height();
+        let len = if t.label.is_some() { major } else { minor };
+        polyline(area, &[(r.x0, y), (r.x0 + len, y)], INK, 1)?;
+        polyline(area, &[(r.x1, y), (r.x1 - len, y)], INK, 1)?;
+        if let Some(l) = &t.label {
+            draw_text(area, l, &tick_style, (r.x0 - 0.4 * sz.tick, y))?;
+        }
+    }
+    let label_style = text_style(sz.label, INK, HPos::Center, VPos::Top);
+    let below = r.y1 + 0.4 * sz.tick + tick_h + 0.4 * sz.label;
+    draw_text(area, &p.x.label, &label_style, ((r.x0 + r.x1) / 2.0, below))?;
+    let ylabel_style =
+        text_style(sz.label, INK, HPos::Center, VPos::Center).transform(FontTransform::Rotate270);
+    let x = (r.x0 - 0.4 * sz.tick - ytick_w - 0.5 * sz.label - label_h / 2.0)
+        .max(cell.x0 + label_h / 2.0);
+    draw_text(area, &p.y.label, &ylabel_style, (x, (r.y0 + r.y1) / 2.0))?;
+    let title_style = text_style(sz.label, INK, HPos::Left, VPos::Bottom);
+    draw_text(area, &p.title, &title_style, (r.x0, r.y0 - 0.3 * sz.label))
+}
+
+fn draw_legend<DB: DrawingBackend>(
+    area: &Area<DB>,
+    p: &Panel,
+    lb: &LegendBox,
+    (x, y): P,
+    sz: Sizes,
+) -> Result<()> {
+    let box_style = RGBColor(0xb0, 0xb0, 0xb0).stroke_width(1);
+    let corners = [px((x, y)), px((x + lb.width, y + lb.height))];
+    area.draw(&Rectangle::new(corners, WHITE.filled()))
+        .map_err(err)?;
+    area.draw(&Rectangle::new(corners, box_style))
+        .map_err(err)?;
+    let style = text_style(sz.legend, INK, HPos::Left, VPos::Center);
+    let x_sample = x + 0.5 * sz.legend;
+    let x_text = x_sample + lb.sample + 0.4 * sz.legend;
+    let mut row_y = y + 0.25 * sz.legend + lb.row / 2.0;
+    if !p.legend_title.is_empty() {
+        draw_text(area, &p.legend_title, &style, (x_sample, row_y))?;
+        row_y += lb.row;
+    }
+    for (i, label) in &lb.entries {
+        let s = &p.series[*i];
+        let color = rgb(s
+            .color
+            .unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
+        if s.style != Style::Points {
+            stroke(
+                area,
+                &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
+                color,
+                sz.line,
+                s.dashed,
+                sz,
+            )?;
+        }
+        if s.style != Style::Line {
+            marker(
+                area,
+                s.marker,
+                (x_sample + lb.sample / 2.0, row_y),
+                sz.marker,
+                color,
+            )?;
+        }
+        draw_text(area, label, &style, (x_text, row_y))?;
+        row_y += lb.row;
+    }
+    Ok(())
+}

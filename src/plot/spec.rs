@@ -1,0 +1,259 @@
+//! The declarative figure description a pipeline YAML holds.
+
+use anyhow::{Result, bail, ensure};
+use serde::{Deserialize, Serialize};
+
+/// A whole figure: panels in a grid (an inset of the paper becomes a second panel).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Figure {
+    /// Drawn above all panels; empty for none.
+    #[serde(default)]
+    pub title: String,
+    pub panels: Vec<Panel>,
+    /// Panels per row; default: all panels in one row.
+    #[serde(default)]
+    pub columns: Option<usize>,
+    /// Size in pixels (PNG) and SVG user units.
+    #[serde(default = "default_width")]
+    pub width: u32,
+    #[serde(default = "default_height")]
+    pub height: u32,
+}
+
+fn default_width() -> u32 {
+    720
+}
+fn default_height() -> u32 {
+    540
+}
+
+/// One set of axes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Panel {
+    /// Drawn at the top left, e.g. "(a)"; empty for none.
+    #[serde(default)]
+    pub title: String,
+    pub x: Axis,
+    pub y: Axis,
+    #[serde(default)]
+    pub series: Vec<Series>,
+    /// Horizontal reference lines, e.g. Q = 1/e.
+    #[serde(default)]
+    pub hlines: Vec<RefLine>,
+    /// Vertical reference lines, e.g. t = tau_alpha.
+    #[serde(default)]
+    pub vlines: Vec<RefLine>,
+    #[serde(default)]
+    pub legend: Legend,
+    /// Heading of the legend, e.g. "φ"; empty for none.
+    #[serde(default)]
+    pub legend_title: String,
+    /// Default colours of series without one.
+    #[serde(default)]
+    pub palette: Palette,
+}
+
+/// One axis. Labels may use any symbol of DejaVu Sans (τ_α as "τ_α" or "τₐ", χ₄, φ, ξ).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    #[serde(default)]
+    pub label: String,
+    #[serde(default)]
+    pub log: bool,
+    /// Fixed (min, max); default: fitted to the data (whole decades on log axes).
+    #[serde(default)]
+    pub range: Option<(f64, f64)>,
+}
+
+/// One curve or point set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Series {
+    /// Legend entry; empty to leave the series out of the legend.
+    #[serde(default)]
+    pub label: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    /// Symmetric error bars on y.
+    #[serde(default)]
+    pub y_err: Option<Vec<f64>>,
+    #[serde(default)]
+    pub style: Style,
+    #[serde(default)]
+    pub dashed: bool,
+    /// "#rrggbb"; default: the panel palette at this series' index.
+    #[serde(default)]
+    pub color: Option<Color>,
+    #[serde(default)]
+    pub marker: Marker,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Style {
+    #[default]
+    #[serde(rename = "line")]
+    Line,
+    #[serde(rename = "points")]
+    Points,
+    #[serde(rename = "line+points")]
+    LinePoints,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Marker {
+    #[default]
+    Circle,
+    Square,
+    Triangle,
+    Diamond,
+    Cross,
+    OpenCircle,
+    OpenSquare,
+}
+
+/// Where the legend goes: a corner inside the axes, outside on the right, or nowhere.
+/// `auto` takes the inside corner covering the fewest data points, else the right.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Legend {
+    #[default]
+    Auto,
+    TopRight,
+    TopLeft,
+    BottomLeft,
+    BottomRight,
+    Right,
+    None,
+}
+
+/// Default series colours: `sequential` (viridis, one curve per phi reads as an
+/// ordered family) or `categorical` (distinct hues for unordered sets).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Palette {
+    #[default]
+    Sequential,
+    Categorical,
+}
+
+/// A horizontal or vertical reference line.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefLine {
+    pub at: f64,
+    /// Written next to the line, e.g. "1/e"; empty for none.
+    #[serde(default)]
+    pub label: String,
+    #[serde(default = "yes")]
+    pub dashed: bool,
+    /// Default: grey.
+    #[serde(default)]
+    pub color: Option<Color>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// An sRGB colour, written "#rrggbb" in YAML.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Color(pub [u8; 3]);
+
+impl Color {
+    pub fn parse(s: &str) -> Result<Color> {
+        let hex = s.strip_prefix('#').unwrap_or("");
+        ensure!(
+            hex.len() == 6 && hex.chars().all(|c| c.is_ascii_hexdigit()),
+            "colour {s:?} is not of the form \"#rrggbb\" (e.g. \"#1f77b4\")"
+        );
+        let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).expect("checked hex");
+        Ok(Color([byte(0), byte(2), byte(4)]))
+    }
+}
+
+impl std::fmt::Display for Color {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [r, g, b] = self.0;
+        write!(f, "#{r:02x}{g:02x}{b:02x}")
+    }
+}
+
+impl Serialize for Color {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(&self.to_string())
+    }
+}
+
+impl<'de> Deserialize<'de> for Color {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        Color::parse(&s).map_err(|e| serde::de::Error::custom(format!("{e:#}")))
+    }
+}
+
+impl Figure {
+    /// Check what drawing relies on; errors name the panel, series and what is valid.
+    pub fn validate(&self) -> Result<()> {
+        ensure!(!self.panels.is_empty(), "figure has no panels");
+        ensure!(
+            (64..=10_000).contains(&self.width) && (64..=10_000).contains(&self.height),
+            "figure size {}x{} is outside 64..=10000 pixels per side",
+            self.width,
+            self.height
+        );
+        if let Some(c) = self.columns {
+            ensure!(c >= 1, "columns must be at least 1");
+        }
+        for (i, p) in self.panels.iter().enumerate() {
+            let name = format!("panel {} {:?}", i + 1, p.title);
+            for (axis, a) in [("x", &p.x), ("y", &p.y)] {
+                if let Some((lo, hi)) = a.range {
+                    ensure!(
+                        lo.is_finite() && hi.is_finite() && lo < hi,
+                        "{name}: {axis} range ({lo}, {hi}) must be finite with min < max"
+                    );
+                    ensure!(
+                        !a.log || lo > 0.0,
+                        "{name}: {axis} axis is logarithmic, its range ({lo}, {hi}) must be positive"
+                    );
+                }
+            }
+            for (kind, lines, axis) in [("hline", &p.hlines, &p.y), ("vline", &p.vlines, &p.x)] {
+                for l in lines {
+                    if !l.at.is_finite() || (axis.log && l.at <= 0.0) {
+                        bail!(
+                            "{name}: {kind} at {} cannot be drawn on a {} axis",
+                            l.at,
+                            if axis.log { "logarithmic" } else { "linear" }
+                        );
+                    }
+                }
+            }
+            for (j, s) in p.series.iter().enumerate() {
+                ensure!(
+                    s.x.len() == s.y.len(),
+                    "{name}, series {} {:?}: {} x values but {} y values",
+                    j + 1,
+                    s.label,
+                    s.x.len(),
+                    s.y.len()
+                );
+                if let Some(e) = &s.y_err {
+                    ensure!(
+                        e.len() == s.y.len(),
+                        "{name}, series {} {:?}: {} y_err values but {} y values",
+                        j + 1,
+                        s.label,
+                        e.len(),
+                        s.y.len()
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+}
