@@ -53,6 +53,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let mut tmp = tempfile::NamedTempFile::new_in(dir)
         .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
     tmp.write_all(bytes)?;
+    // NamedTempFile is created 0600; results are meant to be shared (0644).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
     tmp.as_file().sync_all()?;
     tmp.persist(path)
         .with_context(|| format!("renaming into {}", path.display()))?;
@@ -137,6 +143,11 @@ mod tests {
             .downcast_ref::<Float64Array>()
             .unwrap();
         assert_eq!(q.value(2), 1e-300);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o644);
+        }
         assert_eq!(
             to_parquet_bytes(&[b.clone()], &[]).unwrap(),
             to_parquet_bytes(&[b], &[]).unwrap()
