@@ -332,8 +332,7 @@ fn plan_error(rel: &str, text: &str, figure: &str) -> String {
     std::fs::write(d.path().join(rel), text).unwrap();
     let e = Workspace::new(d.path())
         .plan(&reg(), &ids(&[figure]), "ci")
-        .err()
-        .expect("planning must fail");
+        .expect_err("planning must fail");
     format!("{e:#}")
 }
 
