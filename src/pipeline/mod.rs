@@ -55,6 +55,12 @@ impl Workspace {
     /// Load the catalogue and plan figures `ids` (all if empty) at `profile`.
     pub fn plan(&self, reg: &Registry, ids: &[String], profile: &str) -> Result<Graph> {
         let cat = Catalogue::load(&self.root)?;
+        if cat.pipelines.is_empty() {
+            bail!(
+                "no figures: {} has no pipelines/*.yaml (set --root or REPRO_ROOT to the project directory)",
+                self.root.display()
+            );
+        }
         graph::plan(&cat, ids, profile, reg)
     }
 }
