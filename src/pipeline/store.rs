@@ -80,7 +80,7 @@ impl Store {
             Ok(v) if v.trim() == STORE_VERSION => {}
             Ok(v) => bail!(
                 "the store {} has format '{}', but this repro uses '{STORE_VERSION}'; \
-                 remove that directory (or pick another with --store) to start a fresh cache",
+                 remove that directory to start a fresh cache (or use the matching repro version)",
                 dir.display(),
                 v.trim()
             ),
