@@ -169,10 +169,12 @@ pub fn run(c: Commands) -> Result<()> {
                 count(|o| *o == Outcome::Executed),
                 count(|o| *o == Outcome::Cached)
             );
-            run.check()?;
             for f in &run.graph.figures {
-                eprintln!("wrote {}", ws.results.join(&f.id).display());
+                if run.report.complete(f) {
+                    eprintln!("wrote {}", ws.results.join(&f.id).display());
+                }
             }
+            run.check()?;
             Ok(())
         }
         Commands::List { profile, root } => {

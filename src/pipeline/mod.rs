@@ -114,8 +114,7 @@ pub fn run_figures(
     let nodes = needed_nodes(&graph);
     let report = exec::execute(&graph, &nodes, reg, &store, opts)?;
     for fig in &graph.figures {
-        let ok = fig.nodes.iter().all(|i| report.results[i].entry.is_some());
-        if ok {
+        if report.complete(fig) {
             publish::publish(&ws.root, &ws.results, &graph, fig, &report, reg, &store)?;
         }
     }
