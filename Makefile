@@ -1,8 +1,14 @@
 # repro: regenerate the figures of the driven-granular-fluid papers.
+#   make all-figures            every figure (profile: small)
+#   make figure FIG=fig19       one figure; PROFILE=ci|small|paper, JOBS=N
+#   make test / bench / ci
 CARGO ?= cargo
 PROFILE ?= small
+JOBS ?=
+REPRO ?= $(CARGO) run --release --locked --quiet --
+JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: build test bench ci
+.PHONY: build test bench ci ci-figures all-figures figure status gc
 
 build:
 	$(CARGO) build --release --locked
@@ -15,4 +21,22 @@ test:
 bench:
 	$(CARGO) bench --locked
 
-ci: test
+all-figures:
+	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)
+
+figure:
+	@test -n "$(FIG)" || { echo "usage: make figure FIG=fig19 [PROFILE=ci|small|paper] [JOBS=N]"; exit 2; }
+	$(REPRO) figure $(FIG) --profile $(PROFILE) $(JOBS_FLAG)
+
+status:
+	@test -n "$(FIG)" || { echo "usage: make status FIG=fig19 [PROFILE=...]"; exit 2; }
+	$(REPRO) why $(FIG) --profile $(PROFILE)
+
+gc:
+	$(REPRO) gc
+
+# Small-N versions of every figure, as CI checks them.
+ci-figures:
+	@if ls pipelines/*.yaml >/dev/null 2>&1; then $(REPRO) figure --all --profile ci $(JOBS_FLAG); else echo "no pipelines/*.yaml yet"; fi
+
+ci: test ci-figures

@@ -1,15 +1,228 @@
 //! `repro figure`, `list`, `status`, `why`, `gc`: the pipeline commands.
 
-use clap::Subcommand;
+use std::path::PathBuf;
+
+use anyhow::{Result, bail};
+use clap::{Args, Subcommand};
+
+use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
+
+/// Where the specs and the cache are.
+#[derive(Args, Debug, Clone)]
+pub struct RootArgs {
+    /// Project directory holding experiments/ and pipelines/; results/ and the
+    /// cache (.repro/store) are written beside them. Default: $REPRO_ROOT, else
+    /// the current directory.
+    #[arg(long, value_name = "DIR")]
+    pub root: Option<PathBuf>,
+}
+
+impl RootArgs {
+    fn workspace(&self) -> Workspace {
+        let root = self
+            .root
+            .clone()
+            .or_else(|| std::env::var_os("REPRO_ROOT").map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from("."));
+        Workspace::new(&root)
+    }
+}
+
+/// One figure at one profile.
+#[derive(Args, Debug, Clone)]
+pub struct OneFigure {
+    /// Figure id (pipelines/ID.yaml).
+    #[arg(value_name = "ID")]
+    pub id: String,
+    #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
+    pub profile: String,
+    #[command(flatten)]
+    pub root: RootArgs,
+}
 
 #[derive(Subcommand, Debug)]
 pub enum Commands {
-    /// Build one figure from its pipeline spec (not yet built: issue 4).
-    Figure,
+    /// Build figures: simulate, analyse, fit and plot what is not cached, then
+    /// write results/ID/ (Parquet tables, compare.parquet, the figure, provenance.json).
+    ///
+    /// Examples: `repro figure fig19`, `repro figure fig19 --profile ci`,
+    /// `repro figure --all --jobs 2`, `repro figure fig19 --dry-run`.
+    Figure {
+        /// Figure ids (file names of pipelines/ID.yaml without .yaml).
+        #[arg(value_name = "ID", required_unless_present = "all")]
+        ids: Vec<String>,
+        /// Build every figure in pipelines/.
+        #[arg(long, conflicts_with = "ids")]
+        all: bool,
+        /// Size of the runs: `ci` (seconds, for tests), `small` (a laptop, minutes;
+        /// shows every qualitative feature), `paper` (the paper's N and run lengths).
+        #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
+        profile: String,
+        /// Stages run at once (default: all cores). Results are identical for any value.
+        #[arg(long, value_name = "N")]
+        jobs: Option<usize>,
+        /// Print what would run, and why, without running anything.
+        #[arg(long)]
+        dry_run: bool,
+        /// Rerun every stage of this kind even if cached (e.g. `--force plot`);
+        /// repeatable. Dependents rerun only if the output bytes change.
+        #[arg(long, value_name = "STAGE-KIND")]
+        force: Vec<String>,
+        #[command(flatten)]
+        root: RootArgs,
+    },
+    /// List the figures with a one-line description and their cache state.
+    List {
+        #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
+        profile: String,
+        #[command(flatten)]
+        root: RootArgs,
+    },
+    /// Show, per stage of a figure, whether it is cached or stale.
+    Status(OneFigure),
+    /// Explain why stages of a figure would rerun: which parameter, input or code
+    /// fingerprint differs from the cached result.
+    Why(OneFigure),
+    /// Free cache entries and artifacts that no current spec (at any profile) reaches.
+    Gc {
+        /// Only report what would be freed.
+        #[arg(long)]
+        dry_run: bool,
+        #[command(flatten)]
+        root: RootArgs,
+    },
 }
 
-pub fn run(c: Commands) -> anyhow::Result<()> {
+fn print_status(graph: &pipeline::Graph, st: &[(usize, State)], only_stale: bool) {
+    for (i, s) in st {
+        let n = &graph.nodes[*i];
+        match s {
+            State::Cached { key } if !only_stale => {
+                println!("cached  {}  ({}, key {})", n.label(), n.kind, &key[..12])
+            }
+            State::Cached { .. } => {}
+            State::Stale { reasons } => {
+                println!("stale   {}  ({})", n.label(), n.kind);
+                for r in reasons {
+                    println!("          - {r}");
+                }
+            }
+        }
+    }
+    let stale = st
+        .iter()
+        .filter(|(_, s)| matches!(s, State::Stale { .. }))
+        .count();
+    println!(
+        "{} stage(s): {} cached, {stale} stale",
+        st.len(),
+        st.len() - stale
+    );
+}
+
+fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
+    let ws = f.root.workspace();
+    let (graph, st) =
+        pipeline::figure_status(&ws, reg, std::slice::from_ref(&f.id), &f.profile, &[])?;
+    print_status(&graph, &st, only_stale);
+    Ok(())
+}
+
+pub fn run(c: Commands) -> Result<()> {
+    let reg = Registry::builtin();
     match c {
-        Commands::Figure => anyhow::bail!("`repro figure` is not built yet (issue 4)"),
+        Commands::Figure {
+            ids,
+            all,
+            profile,
+            jobs,
+            dry_run,
+            force,
+            root,
+        } => {
+            let ws = root.workspace();
+            let ids = if all { Vec::new() } else { ids };
+            for k in &force {
+                reg.get(k)?;
+            }
+            if dry_run {
+                let (graph, st) = pipeline::figure_status(&ws, &reg, &ids, &profile, &force)?;
+                print_status(&graph, &st, false);
+                return Ok(());
+            }
+            let opts = RunOptions {
+                jobs: jobs.unwrap_or(RunOptions::default().jobs),
+                force,
+                progress: true,
+            };
+            let run = pipeline::run_figures(&ws, &reg, &ids, &profile, &opts)?;
+            let count = |f: fn(&Outcome) -> bool| {
+                run.report
+                    .results
+                    .values()
+                    .filter(|r| f(&r.outcome))
+                    .count()
+            };
+            eprintln!(
+                "{} stage(s): {} executed, {} cached",
+                run.report.results.len(),
+                count(|o| *o == Outcome::Executed),
+                count(|o| *o == Outcome::Cached)
+            );
+            for f in &run.graph.figures {
+                if run.report.complete(f) {
+                    eprintln!("wrote {}", ws.results.join(&f.id).display());
+                }
+            }
+            run.check()?;
+            Ok(())
+        }
+        Commands::List { profile, root } => {
+            let ws = root.workspace();
+            let cat = pipeline::Catalogue::load(&ws.root)?;
+            if cat.pipelines.is_empty() {
+                bail!(
+                    "no figures: {} has no pipelines/*.yaml (use --root or REPRO_ROOT)",
+                    ws.root.display()
+                );
+            }
+            for (id, (_, spec)) in &cat.pipelines {
+                let state = match pipeline::figure_status(
+                    &ws,
+                    &reg,
+                    std::slice::from_ref(id),
+                    &profile,
+                    &[],
+                ) {
+                    Ok((_, st)) => {
+                        let stale = st
+                            .iter()
+                            .filter(|(_, s)| matches!(s, State::Stale { .. }))
+                            .count();
+                        if stale == 0 {
+                            "cached".to_string()
+                        } else {
+                            format!("{stale}/{} stages to run", st.len())
+                        }
+                    }
+                    Err(e) => format!("cannot plan: {e:#}"),
+                };
+                println!("{id:<16} {:<60} [{profile}: {state}]", spec.description);
+            }
+            Ok(())
+        }
+        Commands::Status(f) => status(&reg, &f, false),
+        Commands::Why(f) => status(&reg, &f, true),
+        Commands::Gc { dry_run, root } => {
+            let r = pipeline::gc(&root.workspace(), &reg, dry_run)?;
+            println!(
+                "{} {} entries, {} artifacts, {:.1} MB",
+                if dry_run { "would free" } else { "freed" },
+                r.entries,
+                r.objects,
+                r.bytes as f64 / 1e6
+            );
+            Ok(())
+        }
     }
 }

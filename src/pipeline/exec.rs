@@ -1,0 +1,559 @@
+//! Run the stage graph: cache lookups, parallel execution on a rayon pool, early
+//! cut-off, failure isolation; and `status`/`why` explanations without running.
+//!
+//! A stage's key is blake3(kind, canonical params, input digests, code fingerprint).
+//! Input digests are hashes of the upstream *files*, so a stage whose upstream
+//! reran but produced byte-identical files keeps its key and is not rerun
+//! (early cut-off). Keys are therefore known only once the inputs are: nodes are
+//! scheduled as soon as their inputs finish.
+
+use std::collections::BTreeMap;
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
+
+use anyhow::Result;
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use super::canon::{canonical, diff_params, hash_fields};
+use super::graph::{Graph, Node};
+use super::registry::{Artifact, ProgressSink, Registry, StageCtx};
+use super::store::{Entry, Store};
+
+/// How to run.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Worker threads (stages run at once).
+    pub jobs: usize,
+    /// Stage kinds to rerun even when cached.
+    pub force: Vec<String>,
+    /// Draw progress bars (only when stderr is a terminal).
+    pub progress: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            jobs: std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1),
+            force: Vec::new(),
+            progress: false,
+        }
+    }
+}
+
+/// What happened to one stage.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Found in the cache.
+    Cached,
+    /// Run now.
+    Executed,
+    /// Its kind returned an error (or panicked): message and log.
+    Failed { error: String, log: Vec<String> },
+    /// Not run because an input failed.
+    Skipped { failed_input: String },
+}
+
+/// One stage's result.
+#[derive(Debug, Clone)]
+pub struct StageResult {
+    pub outcome: Outcome,
+    /// The cache entry (cached or executed stages).
+    pub entry: Option<Entry>,
+}
+
+/// The results of a run, indexed by node.
+#[derive(Debug, Clone)]
+pub struct RunReport {
+    pub results: BTreeMap<usize, StageResult>,
+}
+
+impl RunReport {
+    /// Labels of the stages executed in this run, sorted.
+    pub fn executed(&self, graph: &Graph) -> Vec<String> {
+        self.labels_where(graph, |o| *o == Outcome::Executed)
+    }
+    /// Whether every stage of `fig` succeeded (so the figure is published).
+    pub fn complete(&self, fig: &super::graph::FigurePlan) -> bool {
+        fig.nodes
+            .iter()
+            .all(|i| self.results.get(i).is_some_and(|r| r.entry.is_some()))
+    }
+    /// Labels of failed or skipped stages, sorted.
+    pub fn not_done(&self, graph: &Graph) -> Vec<String> {
+        self.labels_where(graph, |o| !matches!(o, Outcome::Executed | Outcome::Cached))
+    }
+    fn labels_where(&self, graph: &Graph, f: impl Fn(&Outcome) -> bool) -> Vec<String> {
+        let mut v: Vec<String> = self
+            .results
+            .iter()
+            .filter(|(_, r)| f(&r.outcome))
+            .map(|(&i, _)| graph.nodes[i].label().to_string())
+            .collect();
+        v.sort();
+        v
+    }
+    /// Readable report of every failure: stage, kind, parameters, error, log.
+    pub fn failure_report(&self, graph: &Graph) -> String {
+        let mut s = String::new();
+        for (&i, r) in &self.results {
+            let n = &graph.nodes[i];
+            match &r.outcome {
+                Outcome::Failed { error, log } => {
+                    s += &format!(
+                        "stage {} (kind {}, declared at {}:{}) failed: {error}\n  parameters: {}\n",
+                        n.label(),
+                        n.kind,
+                        n.origin.0.display(),
+                        n.origin.1,
+                        canonical(&n.params)
+                    );
+                    for l in log {
+                        s += &format!("  log: {l}\n");
+                    }
+                }
+                Outcome::Skipped { failed_input } => {
+                    s += &format!(
+                        "stage {} not run: its input {failed_input} failed\n",
+                        n.label()
+                    );
+                }
+                _ => {}
+            }
+        }
+        s
+    }
+}
+
+/// The cache key of a stage.
+pub fn stage_key(
+    kind: &str,
+    params: &serde_json::Value,
+    input_digests: &[&str],
+    fingerprint: &str,
+) -> String {
+    let canon = canonical(params);
+    let mut fields: Vec<&[u8]> = vec![kind.as_bytes(), canon.as_bytes(), fingerprint.as_bytes()];
+    fields.extend(input_digests.iter().map(|d| d.as_bytes()));
+    hash_fields("repro-stage-v1", &fields).to_hex().to_string()
+}
+
+/// Hash of a stage's files (extension, file hash pairs in sorted order).
+fn files_digest(files: &BTreeMap<String, String>) -> String {
+    let fields: Vec<&[u8]> = files
+        .iter()
+        .flat_map(|(k, v)| [k.as_bytes(), v.as_bytes()])
+        .collect();
+    hash_fields("repro-digest-v1", &fields).to_hex().to_string()
+}
+
+/// CPU time of the calling thread (Linux), in seconds.
+fn thread_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14, 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0) // USER_HZ is 100 on Linux
+}
+
+struct Shared<'a> {
+    graph: &'a Graph,
+    reg: &'a Registry,
+    store: &'a Store,
+    opts: &'a RunOptions,
+    dependents: Vec<Vec<usize>>,
+    remaining: Vec<AtomicUsize>,
+    results: Vec<Mutex<Option<StageResult>>>,
+    bars: Option<MultiProgress>,
+    overall: ProgressBar,
+}
+
+/// Run `nodes` (and nothing else; they must be closed under inputs) of `graph`.
+pub fn execute(
+    graph: &Graph,
+    nodes: &[usize],
+    reg: &Registry,
+    store: &Store,
+    opts: &RunOptions,
+) -> Result<RunReport> {
+    let n = graph.nodes.len();
+    let mut in_set = vec![false; n];
+    for &i in nodes {
+        in_set[i] = true;
+    }
+    let mut dependents = vec![Vec::new(); n];
+    let remaining: Vec<AtomicUsize> = (0..n).map(|_| AtomicUsize::new(0)).collect();
+    for &i in nodes {
+        for &j in &graph.nodes[i].inputs {
+            anyhow::ensure!(in_set[j], "internal: node set not closed under inputs");
+            dependents[j].push(i);
+            remaining[i].fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    let draw = opts.progress && std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let bars = draw.then(MultiProgress::new);
+    let overall = match &bars {
+        Some(mp) => {
+            let b = mp.add(ProgressBar::new(nodes.len() as u64));
+            b.set_style(
+                ProgressStyle::with_template("stages [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+                    .unwrap()
+                    .progress_chars("=> "),
+            );
+            b
+        }
+        None => {
+            ProgressBar::with_draw_target(Some(nodes.len() as u64), ProgressDrawTarget::hidden())
+        }
+    };
+    let sh = Shared {
+        graph,
+        reg,
+        store,
+        opts,
+        dependents,
+        remaining,
+        results: (0..n).map(|_| Mutex::new(None)).collect(),
+        bars,
+        overall,
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.jobs.max(1))
+        .build()?;
+    let roots: Vec<usize> = nodes
+        .iter()
+        .copied()
+        .filter(|&i| graph.nodes[i].inputs.is_empty())
+        .collect();
+    let shr = &sh;
+    pool.scope(|s| {
+        for i in roots {
+            s.spawn(move |s| process(s, shr, i));
+        }
+    });
+    sh.overall.finish_and_clear();
+    let mut results = BTreeMap::new();
+    for &i in nodes {
+        let r = sh.results[i].lock().unwrap().take();
+        results.insert(i, r.expect("every node of the set was processed"));
+    }
+    Ok(RunReport { results })
+}
+
+fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
+    let r = run_node(sh, i);
+    *sh.results[i].lock().unwrap() = Some(r);
+    sh.overall.inc(1);
+    for &d in &sh.dependents[i] {
+        if sh.remaining[d].fetch_sub(1, Ordering::AcqRel) == 1 {
+            s.spawn(move |s| process(s, sh, d));
+        }
+    }
+}
+
+fn artifact(store: &Store, node: &Node, e: &Entry) -> Artifact {
+    Artifact {
+        label: node.label().to_string(),
+        kind: node.kind.clone(),
+        point: node.point.clone(),
+        params: node.params.clone(),
+        digest: e.digest.clone(),
+        files: e
+            .files
+            .iter()
+            .map(|(k, h)| (k.clone(), (h.clone(), store.object_path(h))))
+            .collect(),
+    }
+}
+
+fn run_node(sh: &Shared, i: usize) -> StageResult {
+    let node = &sh.graph.nodes[i];
+    let mut inputs = Vec::with_capacity(node.inputs.len());
+    for &j in &node.inputs {
+        let r = sh.results[j].lock().unwrap();
+        match r.as_ref().and_then(|r| r.entry.as_ref()) {
+            Some(e) => inputs.push(artifact(sh.store, &sh.graph.nodes[j], e)),
+            None => {
+                return StageResult {
+                    outcome: Outcome::Skipped {
+                        failed_input: sh.graph.nodes[j].label().to_string(),
+                    },
+                    entry: None,
+                };
+            }
+        }
+    }
+    let fingerprint = sh.reg.fingerprint(&node.kind);
+    let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
+    let key = stage_key(&node.kind, &node.params, &digests, fingerprint);
+    let forced = sh.opts.force.contains(&node.kind);
+    let hit = |e: Entry| {
+        for l in &node.labels {
+            // The label index only serves `why`; failing to update it is harmless.
+            let _ = sh.store.set_label(l, &e.key);
+        }
+        StageResult {
+            outcome: Outcome::Cached,
+            entry: Some(e),
+        }
+    };
+    if !forced && let Some(e) = sh.store.lookup(&key) {
+        return hit(e);
+    }
+    let fail = |error: String, log: Vec<String>| StageResult {
+        outcome: Outcome::Failed { error, log },
+        entry: None,
+    };
+    // Another process may be computing the same stage: wait for it, then reuse.
+    let _lock = match sh.store.lock_key(&key) {
+        Ok(l) => l,
+        Err(e) => {
+            return fail(
+                format!("cannot lock the store for this stage: {e:#}"),
+                vec![],
+            );
+        }
+    };
+    if !forced && let Some(e) = sh.store.lookup(&key) {
+        return hit(e);
+    }
+    let kind = match sh.reg.get(&node.kind) {
+        Ok(k) => k.clone(),
+        Err(e) => return fail(format!("{e:#}"), vec![]),
+    };
+    let (sink, bar) = stage_bar(sh, node);
+    let ctx = StageCtx::new(node.seed, node.label().to_string(), sink);
+    let t0 = Instant::now();
+    let cpu0 = thread_cpu_seconds();
+    let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.params, &inputs)));
+    let wall_s = t0.elapsed().as_secs_f64();
+    let cpu_s = match (cpu0, thread_cpu_seconds()) {
+        (Some(a), Some(b)) => Some(b - a),
+        _ => None,
+    };
+    if let Some(b) = bar.get() {
+        b.finish_and_clear();
+    }
+    let log = ctx.take_log();
+    let out = match out {
+        Ok(Ok(o)) => o,
+        Ok(Err(e)) => return fail(format!("{e:#}"), log),
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            return fail(format!("panicked: {msg}"), log);
+        }
+    };
+    if out.files.is_empty() {
+        return fail("the stage produced no file".into(), log);
+    }
+    let mut files = BTreeMap::new();
+    for (ext, bytes) in &out.files {
+        match sh.store.put_object(bytes) {
+            Ok(h) => {
+                files.insert(ext.clone(), h);
+            }
+            Err(e) => return fail(format!("writing its output to the store: {e:#}"), log),
+        }
+    }
+    let entry = Entry {
+        key,
+        kind: node.kind.clone(),
+        label: node.label().to_string(),
+        params: node.params.clone(),
+        fingerprint: fingerprint.to_string(),
+        inputs: inputs
+            .iter()
+            .map(|a| (a.label.clone(), a.digest.clone()))
+            .collect(),
+        digest: files_digest(&files),
+        files,
+        seed: node.seed,
+        wall_s,
+        cpu_s,
+        log,
+    };
+    if let Err(e) = sh.store.put_entry(&entry) {
+        return fail(format!("writing the cache entry: {e:#}"), entry.log);
+    }
+    for l in &node.labels[1..] {
+        let _ = sh.store.set_label(l, &entry.key);
+    }
+    StageResult {
+        outcome: Outcome::Executed,
+        entry: Some(entry),
+    }
+}
+
+/// A progress sink drawing a bar for this stage on its first report.
+fn stage_bar(sh: &Shared, node: &Node) -> (Option<ProgressSink>, Arc<OnceLock<ProgressBar>>) {
+    let cell: Arc<OnceLock<ProgressBar>> = Arc::new(OnceLock::new());
+    let Some(mp) = sh.bars.clone() else {
+        return (None, cell);
+    };
+    let label = node.label().to_string();
+    let c = cell.clone();
+    let sink: ProgressSink = Arc::new(move |done: f64, total: f64, msg: &str| {
+        let b = c.get_or_init(|| {
+            let b = mp.add(ProgressBar::new(1000));
+            b.set_style(
+                ProgressStyle::with_template("{prefix} [{bar:20}] {msg} ETA {eta}")
+                    .unwrap()
+                    .progress_chars("=> "),
+            );
+            b.set_prefix(label.clone());
+            b
+        });
+        let frac = if total > 0.0 {
+            (done / total).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        b.set_position((frac * 1000.0) as u64);
+        b.set_message(msg.to_string());
+    });
+    (Some(sink), cell)
+}
+
+/// Cache state of one stage, without running anything.
+#[derive(Debug, Clone, PartialEq)]
+pub enum State {
+    /// Cached under this key.
+    Cached { key: String },
+    /// Will run; the reasons say what differs from the last cached result.
+    Stale { reasons: Vec<String> },
+}
+
+/// Cache state and reasons for `nodes` (closed under inputs), in order.
+pub fn status(
+    graph: &Graph,
+    nodes: &[usize],
+    reg: &Registry,
+    store: &Store,
+    force: &[String],
+) -> Vec<(usize, State)> {
+    let mut digest: BTreeMap<usize, String> = BTreeMap::new();
+    let mut out = Vec::new();
+    for &i in nodes {
+        let node = &graph.nodes[i];
+        let fp = reg.fingerprint(&node.kind);
+        let known: Option<Vec<&str>> = node
+            .inputs
+            .iter()
+            .map(|j| digest.get(j).map(|s| s.as_str()))
+            .collect();
+        let forced = force.contains(&node.kind);
+        if let Some(d) = &known {
+            let key = stage_key(&node.kind, &node.params, d, fp);
+            if let Some(e) = store.lookup(&key).filter(|_| !forced) {
+                digest.insert(i, e.digest.clone());
+                out.push((i, State::Cached { key }));
+                continue;
+            }
+        }
+        let mut reasons = Vec::new();
+        if forced {
+            reasons.push(format!("forced (--force {})", node.kind));
+        }
+        match node.labels.iter().find_map(|l| store.latest(l)) {
+            None => reasons.push("never built".into()),
+            Some(last) => {
+                reasons.extend(diff_params(&last.params, &node.params));
+                if last.fingerprint != fp {
+                    let modules = reg
+                        .get(&node.kind)
+                        .map(|k| k.modules().join(", "))
+                        .unwrap_or_default();
+                    reasons.push(format!(
+                        "code of stage kind '{}' changed (modules: {modules})",
+                        node.kind
+                    ));
+                }
+                if last.inputs.len() != node.inputs.len() {
+                    reasons.push(format!(
+                        "number of inputs: {} -> {}",
+                        last.inputs.len(),
+                        node.inputs.len()
+                    ));
+                } else {
+                    for (k, &j) in node.inputs.iter().enumerate() {
+                        let label = graph.nodes[j].label();
+                        match digest.get(&j) {
+                            None => reasons.push(format!("input {label} reruns first (may be cut off early if its output is unchanged)")),
+                            Some(d) if *d != last.inputs[k].1 => reasons.push(format!("input {label} changed")),
+                            _ => {}
+                        }
+                    }
+                }
+                if reasons.is_empty() {
+                    reasons.push(
+                        "cache entry missing or incomplete (removed by gc or an interrupted run)"
+                            .into(),
+                    );
+                }
+            }
+        }
+        out.push((i, State::Stale { reasons }));
+    }
+    out
+}
+
+/// Keys of the cache entries that running `nodes` could use. A stage whose key is
+/// known contributes that key. A stage whose key is not yet known (an input reruns
+/// first) may still be cut off early onto an older entry with the same kind,
+/// parameters and code, whose inputs are themselves reachable: those are kept too.
+pub fn reachable_keys(
+    graph: &Graph,
+    nodes: &[usize],
+    reg: &Registry,
+    store: &Store,
+    by_label: &std::collections::HashMap<String, Vec<Entry>>,
+) -> std::collections::HashSet<String> {
+    use std::collections::HashSet;
+    let mut keep = HashSet::new();
+    // Digests each node may produce: one if cached, else those of its candidates.
+    let mut possible: BTreeMap<usize, HashSet<String>> = BTreeMap::new();
+    for (i, s) in status(graph, nodes, reg, store, &[]) {
+        let node = &graph.nodes[i];
+        let mut digests = HashSet::new();
+        match s {
+            State::Cached { key } => {
+                if let Some(e) = store.lookup(&key) {
+                    digests.insert(e.digest);
+                }
+                keep.insert(key);
+            }
+            State::Stale { .. } => {
+                let fp = reg.fingerprint(&node.kind);
+                for e in node
+                    .labels
+                    .iter()
+                    .flat_map(|l| by_label.get(l).into_iter().flatten())
+                {
+                    let inputs_possible = e.inputs.len() == node.inputs.len()
+                        && e.inputs
+                            .iter()
+                            .zip(&node.inputs)
+                            .all(|((_, d), j)| possible.get(j).is_some_and(|p| p.contains(d)));
+                    if e.kind == node.kind
+                        && e.fingerprint == fp
+                        && e.params == node.params
+                        && inputs_possible
+                    {
+                        digests.insert(e.digest.clone());
+                        keep.insert(e.key.clone());
+                    }
+                }
+            }
+        }
+        possible.insert(i, digests);
+    }
+    keep
+}

@@ -1,0 +1,660 @@
+//! Expand specs into the stage graph: one node per stage instance, identical
+//! instances from different figures merged into one node.
+//!
+//! An experiment expands into one simulate node per (grid point, replica). A
+//! pipeline stage either *maps* over the instances of one source (one node each,
+//! times its sweep) or *gathers* the instances of its sources (one node, or one per
+//! group of equal `by` values, times its sweep). Nodes are stored in topological
+//! order: every node's inputs come before it.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use serde_json::Value;
+use serde_saphyr::Spanned;
+
+use super::canon::{Point, canonical, derive_seed, hash_fields, point_label};
+use super::registry::Registry;
+use super::spec::{Catalogue, ExperimentSpec, PROFILES, PipelineSpec, SpecError, StageSpec};
+
+/// One stage instance.
+#[derive(Debug, Clone)]
+pub struct Node {
+    pub kind: String,
+    /// Readable labels (the first is shown; a node shared by figures has several).
+    pub labels: Vec<String>,
+    /// Canonical parameters (a JSON object with sorted keys).
+    pub params: Value,
+    /// Grid and sweep values of this instance.
+    pub point: Point,
+    /// Input nodes, in a fixed order.
+    pub inputs: Vec<usize>,
+    /// Hash of (kind, params, input recipes): identity before anything runs.
+    pub recipe: String,
+    /// Seed handed to the stage.
+    pub seed: u64,
+    /// Where the stage was declared (for errors).
+    pub origin: (PathBuf, u64),
+}
+
+impl Node {
+    pub fn label(&self) -> &str {
+        &self.labels[0]
+    }
+}
+
+/// One figure: its nodes and the stages it publishes into `results/ID/`.
+#[derive(Debug, Clone)]
+pub struct FigurePlan {
+    pub id: String,
+    pub description: String,
+    /// Every node this figure needs, in topological order.
+    pub nodes: Vec<usize>,
+    /// (stage name, node) copied into `results/ID/`.
+    pub publish: Vec<(String, usize)>,
+}
+
+/// The stage graph of one or more figures at one profile.
+#[derive(Debug, Clone, Default)]
+pub struct Graph {
+    pub profile: String,
+    pub nodes: Vec<Node>,
+    pub figures: Vec<FigurePlan>,
+    by_recipe: HashMap<String, usize>,
+}
+
+struct Planner<'a> {
+    cat: &'a Catalogue,
+    reg: &'a Registry,
+    graph: Graph,
+    experiments: HashMap<String, Vec<usize>>,
+    validated: HashMap<(String, String), ()>,
+}
+
+/// Plan figures `ids` (all figures if empty) at `profile`.
+pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> Result<Graph> {
+    if !PROFILES.contains(&profile) {
+        anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
+    }
+    let ids: Vec<String> = if ids.is_empty() {
+        cat.pipelines.keys().cloned().collect()
+    } else {
+        ids.to_vec()
+    };
+    let mut p = Planner {
+        cat,
+        reg,
+        graph: Graph {
+            profile: profile.to_string(),
+            ..Graph::default()
+        },
+        experiments: HashMap::new(),
+        validated: HashMap::new(),
+    };
+    for id in &ids {
+        let (file, spec) = cat.pipeline(id).map_err(anyhow::Error::msg)?;
+        let fig = p.pipeline(id, file, spec)?;
+        p.graph.figures.push(fig);
+    }
+    Ok(p.graph)
+}
+
+fn err<T>(file: &Path, span: &Spanned<T>, msg: String) -> anyhow::Error {
+    SpecError::at(file, span, msg).into()
+}
+
+/// Every combination of the listed values, keys in sorted order, last key fastest.
+fn combinations(lists: &BTreeMap<String, Vec<Value>>) -> Vec<Point> {
+    let mut out = vec![Point::new()];
+    for (k, values) in lists {
+        out = out
+            .into_iter()
+            .flat_map(|p| {
+                values.iter().map(move |v| {
+                    let mut q = p.clone();
+                    q.insert(k.clone(), v.clone());
+                    q
+                })
+            })
+            .collect();
+    }
+    out
+}
+
+impl Planner<'_> {
+    /// Add a node unless an identical one exists; returns its index.
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &mut self,
+        kind: &str,
+        label: String,
+        params: serde_json::Map<String, Value>,
+        point: Point,
+        inputs: Vec<usize>,
+        seed: Option<u64>,
+        origin: (PathBuf, u64),
+    ) -> usize {
+        let params = Value::Object(params);
+        let canon = canonical(&params);
+        let mut fields: Vec<&[u8]> = vec![kind.as_bytes(), canon.as_bytes()];
+        let input_recipes: Vec<String> = inputs
+            .iter()
+            .map(|&i| self.graph.nodes[i].recipe.clone())
+            .collect();
+        fields.extend(input_recipes.iter().map(|r| r.as_bytes()));
+        let recipe = hash_fields("repro-recipe-v1", &fields);
+        let recipe_hex = recipe.to_hex().to_string();
+        if let Some(&i) = self.graph.by_recipe.get(&recipe_hex) {
+            let node = &mut self.graph.nodes[i];
+            if !node.labels.contains(&label) {
+                node.labels.push(label);
+            }
+            return i;
+        }
+        let seed =
+            seed.unwrap_or_else(|| u64::from_le_bytes(recipe.as_bytes()[..8].try_into().unwrap()));
+        self.graph.nodes.push(Node {
+            kind: kind.to_string(),
+            labels: vec![label],
+            params,
+            point,
+            inputs,
+            recipe: recipe_hex.clone(),
+            seed,
+            origin,
+        });
+        let i = self.graph.nodes.len() - 1;
+        self.graph.by_recipe.insert(recipe_hex, i);
+        i
+    }
+
+    fn validate(
+        &mut self,
+        kind: &str,
+        params: &serde_json::Map<String, Value>,
+    ) -> Result<(), String> {
+        let canon = canonical(&Value::Object(params.clone()));
+        if self
+            .validated
+            .contains_key(&(kind.to_string(), canon.clone()))
+        {
+            return Ok(());
+        }
+        let k = self.reg.get(kind).map_err(|e| format!("{e:#}"))?;
+        k.validate(&Value::Object(params.clone()))
+            .map_err(|e| format!("{e:#}"))?;
+        self.validated.insert((kind.to_string(), canon), ());
+        Ok(())
+    }
+
+    fn experiment(&mut self, name: &str) -> Result<Vec<usize>> {
+        if let Some(v) = self.experiments.get(name) {
+            return Ok(v.clone());
+        }
+        let (file, spec): &(PathBuf, ExperimentSpec) = &self.cat.experiments[name];
+        let profile = self.graph.profile.clone();
+        let Some(prof) = spec.profiles.get(&profile) else {
+            return Err(SpecError::file(
+                file,
+                format!(
+                    "experiment '{name}' has no profile '{profile}'; it defines: {}",
+                    spec.profiles.keys().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            )
+            .into());
+        };
+        let mut base: serde_json::Map<String, Value> = spec.params.clone().into_iter().collect();
+        base.extend(prof.value.params.clone());
+        let grid: BTreeMap<String, Vec<Value>> = prof
+            .value
+            .grid
+            .iter()
+            .map(|(k, v)| (k.clone(), v.value.clone()))
+            .collect();
+        let kind = spec.kind.value.clone();
+        let line = prof.referenced.line();
+        let mut nodes = Vec::new();
+        for point in combinations(&grid) {
+            for replica in 0..prof.value.replicas.value {
+                let seed = derive_seed(spec.seed, &point, replica);
+                let mut params = base.clone();
+                params.extend(point.clone());
+                params.insert("seed".into(), Value::from(seed));
+                self.validate(&kind, &params).map_err(|m| {
+                    err(
+                        file,
+                        &spec.kind,
+                        format!("experiment '{name}', profile '{profile}' (kind {kind}): {m}"),
+                    )
+                })?;
+                let mut pt = point.clone();
+                pt.insert("replica".into(), Value::from(replica));
+                let label = format!("{name}[{}]", point_label(&pt));
+                nodes.push(self.add(
+                    &kind,
+                    label,
+                    params,
+                    pt,
+                    vec![],
+                    Some(seed),
+                    (file.clone(), line),
+                ));
+            }
+        }
+        self.experiments.insert(name.to_string(), nodes.clone());
+        Ok(nodes)
+    }
+
+    fn pipeline(&mut self, id: &str, file: &Path, spec: &PipelineSpec) -> Result<FigurePlan> {
+        let mut by_name: BTreeMap<&str, &Spanned<StageSpec>> = BTreeMap::new();
+        for s in &spec.stages {
+            if self.cat.experiments.contains_key(&s.value.name) {
+                return Err(err(
+                    file,
+                    s,
+                    format!(
+                        "stage name '{}' is also an experiment name; rename the stage",
+                        s.value.name
+                    ),
+                ));
+            }
+            if by_name.insert(&s.value.name, s).is_some() {
+                return Err(err(
+                    file,
+                    s,
+                    format!(
+                        "two stages are called '{}'; stage names must be unique",
+                        s.value.name
+                    ),
+                ));
+            }
+        }
+        let order = topological(file, spec, &by_name, self.cat)?;
+        let mut instances: HashMap<String, Vec<usize>> = HashMap::new();
+        let mut publish = Vec::new();
+        for s in order {
+            let st = &s.value;
+            let sources: Vec<String> = match (&st.map, &st.gather) {
+                (Some(m), None) => vec![m.clone()],
+                (None, Some(g)) if !g.is_empty() => g.clone(),
+                (None, Some(_)) => {
+                    return Err(err(
+                        file,
+                        s,
+                        format!("stage '{}': `gather` lists no source", st.name),
+                    ));
+                }
+                (Some(_), Some(_)) => {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}' has both `map` and `gather`; give exactly one",
+                            st.name
+                        ),
+                    ));
+                }
+                (None, None) => {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}' reads nothing: give `map: SOURCE` (one instance per source instance) or `gather: [SOURCES]` (one instance reading them all)",
+                            st.name
+                        ),
+                    ));
+                }
+            };
+            if st.map.is_some() && !st.by.is_empty() {
+                return Err(err(
+                    file,
+                    s,
+                    format!("stage '{}': `by` only applies to `gather`", st.name),
+                ));
+            }
+            let mut src_nodes: Vec<Vec<usize>> = Vec::new();
+            for src in &sources {
+                let nodes = if self.cat.experiments.contains_key(src) {
+                    self.experiment(src)?
+                } else {
+                    instances[src].clone()
+                };
+                src_nodes.push(nodes);
+            }
+            // Parameters: common, then this profile's overrides.
+            for p in st.profiles.keys() {
+                if !PROFILES.contains(&p.as_str()) {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}': unknown profile '{p}' under `profiles`; valid: {PROFILES:?}",
+                            st.name
+                        ),
+                    ));
+                }
+            }
+            let mut params: serde_json::Map<String, Value> =
+                st.params.clone().into_iter().collect();
+            if let Some(o) = st.profiles.get(&self.graph.profile) {
+                params.extend(o.clone());
+            }
+            for (k, v) in &st.sweep {
+                if v.is_empty() {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}': sweep over '{k}' has an empty list of values; give at least one value",
+                            st.name
+                        ),
+                    ));
+                }
+                if params.contains_key(k) {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}': '{k}' is both a fixed parameter and swept; keep one",
+                            st.name
+                        ),
+                    ));
+                }
+            }
+            let sweeps = combinations(&st.sweep);
+            // Groups of input nodes, each with the point it carries downstream.
+            let groups: Vec<(Point, Vec<usize>)> = if st.map.is_some() {
+                src_nodes[0]
+                    .iter()
+                    .map(|&n| (self.graph.nodes[n].point.clone(), vec![n]))
+                    .collect()
+            } else {
+                let mut g: BTreeMap<String, (Point, Vec<usize>)> = BTreeMap::new();
+                let mut order = Vec::new();
+                for &n in src_nodes.iter().flatten() {
+                    let pt = &self.graph.nodes[n].point;
+                    let mut key = Point::new();
+                    for b in &st.by {
+                        let v = pt.get(b).ok_or_else(|| {
+                            err(file, s, format!("stage '{}': cannot group by '{b}': input {} has no such point key (it has: {})", st.name, self.graph.nodes[n].label(), pt.keys().cloned().collect::<Vec<_>>().join(", ")))
+                        })?;
+                        key.insert(b.clone(), v.clone());
+                    }
+                    let kc = canonical(&Value::Object(key.clone().into_iter().collect()));
+                    if !g.contains_key(&kc) {
+                        order.push(kc.clone());
+                    }
+                    g.entry(kc).or_insert_with(|| (key, Vec::new())).1.push(n);
+                }
+                order.into_iter().map(|k| g.remove(&k).unwrap()).collect()
+            };
+            let mut mine = Vec::new();
+            for (gpoint, inputs) in &groups {
+                for sw in &sweeps {
+                    let mut point = gpoint.clone();
+                    for (k, v) in sw {
+                        if point.contains_key(k) {
+                            return Err(err(
+                                file,
+                                s,
+                                format!(
+                                    "stage '{}': swept key '{k}' is already a point key of its input; rename it",
+                                    st.name
+                                ),
+                            ));
+                        }
+                        point.insert(k.clone(), v.clone());
+                    }
+                    let mut p = params.clone();
+                    p.extend(sw.clone());
+                    self.validate(&st.kind, &p).map_err(|m| {
+                        err(
+                            file,
+                            s,
+                            format!("stage '{}' (kind {}): {m}", st.name, st.kind),
+                        )
+                    })?;
+                    let label = if point.is_empty() {
+                        format!("{id}/{}", st.name)
+                    } else {
+                        format!("{id}/{}[{}]", st.name, point_label(&point))
+                    };
+                    let origin = (file.to_path_buf(), s.referenced.line());
+                    mine.push(self.add(&st.kind, label, p, point, inputs.clone(), None, origin));
+                }
+            }
+            let single = mine.len() == 1;
+            match st.publish {
+                Some(true) if !single => {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}' has {} instances; only a single-instance stage can be published (gather it first)",
+                            st.name,
+                            mine.len()
+                        ),
+                    ));
+                }
+                Some(true) | None if single => publish.push((st.name.clone(), mine[0])),
+                _ => {}
+            }
+            instances.insert(st.name.clone(), mine);
+        }
+        let mut needed = vec![false; self.graph.nodes.len()];
+        let mut stack: Vec<usize> = instances.values().flatten().copied().collect();
+        while let Some(n) = stack.pop() {
+            if !needed[n] {
+                needed[n] = true;
+                stack.extend(self.graph.nodes[n].inputs.iter().copied());
+            }
+        }
+        Ok(FigurePlan {
+            id: id.to_string(),
+            description: spec.description.clone(),
+            nodes: (0..needed.len()).filter(|&i| needed[i]).collect(),
+            publish,
+        })
+    }
+}
+
+/// Order the stages so each comes after what it reads; detect unknown names and cycles.
+fn topological<'s>(
+    file: &Path,
+    spec: &'s PipelineSpec,
+    by_name: &BTreeMap<&'s str, &'s Spanned<StageSpec>>,
+    cat: &Catalogue,
+) -> Result<Vec<&'s Spanned<StageSpec>>> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        New,
+        Open,
+        Done,
+    }
+    let mut mark: HashMap<&str, Mark> = by_name.keys().map(|k| (*k, Mark::New)).collect();
+    let mut out = Vec::new();
+    fn sources(s: &StageSpec) -> Vec<&String> {
+        s.map.iter().chain(s.gather.iter().flatten()).collect()
+    }
+    fn visit<'s>(
+        name: &'s str,
+        path: &mut Vec<&'s str>,
+        file: &Path,
+        by_name: &BTreeMap<&'s str, &'s Spanned<StageSpec>>,
+        cat: &Catalogue,
+        mark: &mut HashMap<&'s str, Mark>,
+        out: &mut Vec<&'s Spanned<StageSpec>>,
+    ) -> Result<()> {
+        let s = by_name[name];
+        match mark[name] {
+            Mark::Done => return Ok(()),
+            Mark::Open => {
+                let start = path.iter().position(|p| *p == name).unwrap_or(0);
+                let mut cycle: Vec<&str> = path[start..].to_vec();
+                cycle.push(name);
+                return Err(err(
+                    file,
+                    s,
+                    format!(
+                        "stages form a cycle: {}; a stage cannot (indirectly) read itself",
+                        cycle.join(" -> ")
+                    ),
+                ));
+            }
+            Mark::New => {}
+        }
+        mark.insert(name, Mark::Open);
+        path.push(name);
+        for src in sources(&s.value) {
+            if cat.experiments.contains_key(src) {
+                continue;
+            }
+            match by_name.get_key_value(src.as_str()) {
+                Some((k, _)) => visit(k, path, file, by_name, cat, mark, out)?,
+                None => {
+                    return Err(err(
+                        file,
+                        s,
+                        format!(
+                            "stage '{}' reads '{src}', which is neither an experiment (known: {}) nor a stage of this pipeline (known: {})",
+                            s.value.name,
+                            cat.experiments
+                                .keys()
+                                .cloned()
+                                .collect::<Vec<_>>()
+                                .join(", "),
+                            by_name.keys().copied().collect::<Vec<_>>().join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        path.pop();
+        mark.insert(name, Mark::Done);
+        out.push(s);
+        Ok(())
+    }
+    for s in &spec.stages {
+        visit(
+            &s.value.name,
+            &mut Vec::new(),
+            file,
+            by_name,
+            cat,
+            &mut mark,
+            &mut out,
+        )?;
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::spec::parse;
+    use serde_json::json;
+
+    const EXP: &str = "description: e\nkind: toy_simulate\nseed: 5\nprofiles:\n  ci:\n    grid:\n      phi: [0.7, 0.8]\n      eps: [0.8, 0.9, 1.0]\n    replicas: 2\n    params: {n: 4}\n";
+
+    fn catalogue(pipes: &[(&str, &str)]) -> Catalogue {
+        let mut c = Catalogue::default();
+        let f = PathBuf::from("experiments/e.yaml");
+        c.experiments
+            .insert("e".into(), (f.clone(), parse(&f, EXP).unwrap()));
+        for (id, text) in pipes {
+            let f = PathBuf::from(format!("pipelines/{id}.yaml"));
+            c.pipelines
+                .insert(id.to_string(), (f.clone(), parse(&f, text).unwrap()));
+        }
+        c
+    }
+
+    fn registry() -> Registry {
+        let mut r = Registry::builtin();
+        crate::pipeline::toy::register(&mut r);
+        r
+    }
+
+    #[test]
+    fn combinations_cover_the_product_last_key_fastest() {
+        let mut l = BTreeMap::new();
+        l.insert("a".to_string(), vec![json!(1), json!(2)]);
+        l.insert("b".to_string(), vec![json!("x"), json!("y"), json!("z")]);
+        let c = combinations(&l);
+        assert_eq!(c.len(), 6);
+        assert_eq!(
+            (c[0]["a"].clone(), c[0]["b"].clone()),
+            (json!(1), json!("x"))
+        );
+        assert_eq!(
+            (c[1]["a"].clone(), c[1]["b"].clone()),
+            (json!(1), json!("y"))
+        );
+        assert_eq!(c[5]["a"], json!(2));
+    }
+
+    #[test]
+    fn map_sweep_gather_by_and_sharing_give_the_expected_nodes() {
+        let p1 = "description: p\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    sweep: {a: [0.5, 1.0]}\n  - name: t\n    kind: table\n    gather: [s]\n    by: [phi, a]\n";
+        let p2 = "description: q\nstages:\n  - name: s2\n    kind: toy_analyse\n    map: e\n    params: {a: 1.0}\n";
+        let c = catalogue(&[("p1", p1), ("p2", p2)]);
+        let g = plan(&c, &[], "ci", &registry()).unwrap();
+        let count = |k: &str| g.nodes.iter().filter(|n| n.kind == k).count();
+        // 2 phi x 3 eps x 2 replicas simulations, shared by both figures.
+        assert_eq!(count("toy_simulate"), 12);
+        // p1: 12 x 2 cutoffs; p2's a = 1.0 analyses are the same nodes as p1's.
+        assert_eq!(count("toy_analyse"), 24);
+        assert!(
+            g.nodes
+                .iter()
+                .any(|n| n.labels.len() == 2 && n.labels[1].starts_with("p2/s2["))
+        );
+        // Grouped by (phi, a): 4 tables of 3 eps x 2 replicas each.
+        let tables: Vec<&Node> = g.nodes.iter().filter(|n| n.kind == "table").collect();
+        assert_eq!(tables.len(), 4);
+        assert!(
+            tables
+                .iter()
+                .all(|t| t.inputs.len() == 6 && t.point.len() == 2)
+        );
+        // Topological order and distinct seeds for every simulation.
+        for (i, n) in g.nodes.iter().enumerate() {
+            assert!(n.inputs.iter().all(|&j| j < i));
+        }
+        let mut seeds: Vec<u64> = g
+            .nodes
+            .iter()
+            .filter(|n| n.kind == "toy_simulate")
+            .map(|n| n.seed)
+            .collect();
+        seeds.sort();
+        seeds.dedup();
+        assert_eq!(seeds.len(), 12);
+        // Planning is deterministic: same recipes in the same order.
+        let again = plan(&c, &[], "ci", &registry()).unwrap();
+        let r = |g: &Graph| g.nodes.iter().map(|n| n.recipe.clone()).collect::<Vec<_>>();
+        assert_eq!(r(&g), r(&again));
+    }
+
+    #[test]
+    fn publishing_a_multi_instance_stage_is_an_error() {
+        let p = "description: p\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    params: {a: 1}\n    publish: true\n";
+        let e = plan(&catalogue(&[("p", p)]), &[], "ci", &registry()).unwrap_err();
+        let m = format!("{e:#}");
+        assert!(
+            m.starts_with("pipelines/p.yaml:3:") && m.contains("12 instances"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn a_missing_profile_names_the_ones_defined() {
+        let p = "description: p\nstages:\n  - name: t\n    kind: table\n    gather: [e]\n";
+        let e = plan(&catalogue(&[("p", p)]), &[], "paper", &registry()).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("experiment 'e' has no profile 'paper'; it defines: ci"),
+            "{e:#}"
+        );
+    }
+}

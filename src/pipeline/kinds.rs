@@ -1,0 +1,224 @@
+//! The framework's own stage kinds: `table` (concatenate per-point tables, adding
+//! the point as columns) and `compare` (our fitted numbers against the paper's).
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::registry::{Artifact, Output, StageCtx, StageKind, typed};
+use crate::table::{read_parquet_bytes, to_parquet_bytes};
+
+/// `table`: gather per-point Parquet tables into one, with one column per point
+/// key (e.g. `phi`, `replica`, `N_sub`) so a single file holds the whole sweep.
+pub struct Table;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TableParams {}
+
+impl StageKind for Table {
+    fn name(&self) -> &str {
+        "table"
+    }
+    fn describe(&self) -> &str {
+        "concatenate per-point tables, adding the grid and sweep values as columns"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline", "table"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        typed::<TableParams>("table", params).map(|_| ())
+    }
+    fn run(&self, _ctx: &StageCtx, _params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let keys: BTreeSet<&String> = inputs
+            .first()
+            .context("table: no input")?
+            .point
+            .keys()
+            .collect();
+        let mut out: Vec<RecordBatch> = Vec::new();
+        for a in inputs {
+            let k: BTreeSet<&String> = a.point.keys().collect();
+            if k != keys {
+                bail!(
+                    "table: input {} has point keys {k:?} but the first input has {keys:?}; gather sources with the same grid",
+                    a.label
+                );
+            }
+            let (batches, _) = read_parquet_bytes(a.read("parquet")?)
+                .with_context(|| format!("table: reading {}", a.label))?;
+            for b in batches {
+                let mut cols: Vec<(String, ArrayRef)> = Vec::new();
+                for (name, v) in &a.point {
+                    if b.schema().column_with_name(name).is_some() {
+                        bail!(
+                            "table: input {} already has a column '{name}', which is also a point key",
+                            a.label
+                        );
+                    }
+                    let col: ArrayRef = match v {
+                        Value::Number(x) => {
+                            Arc::new(Float64Array::from(vec![
+                                x.as_f64().unwrap_or(f64::NAN);
+                                b.num_rows()
+                            ]))
+                        }
+                        Value::String(s) => {
+                            Arc::new(StringArray::from(vec![s.as_str(); b.num_rows()]))
+                        }
+                        other => bail!(
+                            "table: point key '{name}' = {other} of {} is neither a number nor a string",
+                            a.label
+                        ),
+                    };
+                    cols.push((name.clone(), col));
+                }
+                for (f, c) in b.schema().fields().iter().zip(b.columns()) {
+                    cols.push((f.name().clone(), c.clone()));
+                }
+                let nb = RecordBatch::try_from_iter(cols)?;
+                if let Some(first) = out.first()
+                    && first.schema() != nb.schema()
+                {
+                    bail!(
+                        "table: input {} has columns {:?}, unlike the first input's {:?}",
+                        a.label,
+                        nb.schema().fields(),
+                        first.schema().fields()
+                    );
+                }
+                out.push(nb);
+            }
+        }
+        if out.is_empty() {
+            bail!("table: the inputs hold no record batch");
+        }
+        Ok(Output::single("parquet", to_parquet_bytes(&out, &[])?))
+    }
+}
+
+/// `compare`: one row per paper value: quantity, ours, ours_err, paper, tolerance,
+/// verdict (`agree`, `disagree`, `missing`) and the reason.
+pub struct Compare;
+
+/// One number from the paper to check.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PaperValue {
+    quantity: String,
+    value: f64,
+    /// Largest accepted |ours - paper|.
+    tolerance: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CompareParams {
+    paper: Vec<PaperValue>,
+}
+
+/// A column of `b` as f64 or strings, with a clear error.
+fn f64_col<'a>(b: &'a RecordBatch, name: &str, label: &str) -> Result<&'a Float64Array> {
+    b.column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+        .with_context(|| format!("input {label} has no float column '{name}' (fit tables need quantity, value, error)"))
+}
+
+fn str_col<'a>(b: &'a RecordBatch, name: &str, label: &str) -> Result<&'a StringArray> {
+    b.column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<StringArray>())
+        .with_context(|| format!("input {label} has no string column '{name}' (fit tables need quantity, value, error)"))
+}
+
+impl StageKind for Compare {
+    fn name(&self) -> &str {
+        "compare"
+    }
+    fn describe(&self) -> &str {
+        "compare fitted quantities (tables quantity/value/error) with the paper's values"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline", "table"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: CompareParams = typed("compare", params)?;
+        for v in &p.paper {
+            if !(v.tolerance >= 0.0 && v.tolerance.is_finite()) {
+                bail!(
+                    "compare: tolerance of '{}' must be a finite number >= 0, got {}",
+                    v.quantity,
+                    v.tolerance
+                );
+            }
+        }
+        Ok(())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: CompareParams = typed("compare", params)?;
+        let mut ours: Vec<(String, f64, f64)> = Vec::new();
+        for a in inputs {
+            for b in read_parquet_bytes(a.read("parquet")?)?.0 {
+                let (q, v, e) = (
+                    str_col(&b, "quantity", &a.label)?,
+                    f64_col(&b, "value", &a.label)?,
+                    f64_col(&b, "error", &a.label)?,
+                );
+                for r in 0..b.num_rows() {
+                    ours.push((q.value(r).to_string(), v.value(r), e.value(r)));
+                }
+            }
+        }
+        let (mut q, mut o, mut oe, mut pv, mut tol, mut verdict, mut reason) =
+            (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        for pval in &p.paper {
+            let found = ours.iter().find(|(name, _, _)| *name == pval.quantity);
+            let (v, e, ver, why) = match found {
+                None => (
+                    f64::NAN,
+                    f64::NAN,
+                    "missing",
+                    format!("no input reports '{}'", pval.quantity),
+                ),
+                Some(&(_, v, e)) => {
+                    let d = (v - pval.value).abs();
+                    if d <= pval.tolerance {
+                        (
+                            v,
+                            e,
+                            "agree",
+                            format!("|{v} - {}| = {d:.3e} <= {}", pval.value, pval.tolerance),
+                        )
+                    } else {
+                        (
+                            v,
+                            e,
+                            "disagree",
+                            format!("|{v} - {}| = {d:.3e} > {}", pval.value, pval.tolerance),
+                        )
+                    }
+                }
+            };
+            q.push(pval.quantity.clone());
+            o.push(v);
+            oe.push(e);
+            pv.push(pval.value);
+            tol.push(pval.tolerance);
+            verdict.push(ver.to_string());
+            reason.push(why);
+        }
+        let b = RecordBatch::try_from_iter([
+            ("quantity", Arc::new(StringArray::from(q)) as ArrayRef),
+            ("ours", Arc::new(Float64Array::from(o))),
+            ("ours_err", Arc::new(Float64Array::from(oe))),
+            ("paper", Arc::new(Float64Array::from(pv))),
+            ("tolerance", Arc::new(Float64Array::from(tol))),
+            ("verdict", Arc::new(StringArray::from(verdict))),
+            ("reason", Arc::new(StringArray::from(reason))),
+        ])?;
+        Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}

@@ -1,0 +1,280 @@
+//! Toy stage kinds, for testing the framework only (registered when
+//! `REPRO_TEST_KINDS=1`, or by tests directly). They are small but honest pure
+//! functions of their parameters, inputs and seed, so the cache, seeding and
+//! parallelism are exercised exactly as the real kinds will be.
+
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::registry::{Artifact, Output, Registry, StageCtx, StageKind, typed};
+use crate::table::{f64_batch, read_parquet_bytes, to_parquet_bytes};
+
+/// Register every toy kind.
+pub fn register(r: &mut Registry) {
+    r.register(ToySimulate);
+    r.register(ToyAnalyse);
+    r.register(ToyFit);
+    r.register(ToyPlot);
+    r.register(ToyFail);
+}
+
+fn column(b: &RecordBatch, name: &str, label: &str) -> Result<Vec<f64>> {
+    let c = b
+        .column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+        .with_context(|| format!("input {label} has no float column '{name}'"))?;
+    Ok(c.values().to_vec())
+}
+
+/// All rows of column `name` over all inputs' Parquet files.
+fn gather_column(inputs: &[Artifact], name: &str) -> Result<Vec<f64>> {
+    let mut v = Vec::new();
+    for a in inputs {
+        for b in read_parquet_bytes(a.read("parquet")?)?.0 {
+            v.extend(column(&b, name, &a.label)?);
+        }
+    }
+    Ok(v)
+}
+
+/// `toy_simulate`: `n` seeded Gaussian numbers of standard deviation `phi`, each the
+/// rescaled mean of `1 + work` draws (so `work` costs CPU without changing the law);
+/// `sleep_ms` makes it slow for kill tests.
+pub struct ToySimulate;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SimParams {
+    n: usize,
+    seed: u64,
+    #[serde(default = "one")]
+    phi: f64,
+    #[serde(default = "one")]
+    eps: f64,
+    #[serde(default)]
+    work: u64,
+    #[serde(default)]
+    sleep_ms: u64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl StageKind for ToySimulate {
+    fn name(&self) -> &str {
+        "toy_simulate"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: SimParams = typed("toy_simulate", params)?;
+        if p.n == 0 {
+            bail!("toy_simulate: n must be at least 1");
+        }
+        Ok(())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
+        let p: SimParams = typed("toy_simulate", params)?;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(p.seed);
+        let draws = 1 + p.work;
+        let mut x = Vec::with_capacity(p.n);
+        for i in 0..p.n {
+            let s: f64 = (0..draws)
+                .map(|_| -> f64 { StandardNormal.sample(&mut rng) })
+                .sum::<f64>();
+            x.push(p.phi * s / (draws as f64).sqrt());
+            if i % 64 == 0 {
+                ctx.progress(i as f64, p.n as f64, &format!("{i} of {} values", p.n));
+            }
+        }
+        if p.sleep_ms > 0 {
+            std::thread::sleep(std::time::Duration::from_millis(p.sleep_ms));
+        }
+        ctx.log(format!("drew {} values, eps = {}", p.n, p.eps));
+        let t: Vec<f64> = (0..p.n).map(|i| i as f64).collect();
+        Ok(Output::single(
+            "parquet",
+            to_parquet_bytes(&[f64_batch(&[("t", t), ("x", x)])?], &[])?,
+        ))
+    }
+}
+
+/// `toy_analyse`: fraction of |x| < a (an "overlap") and the mean of x, over the
+/// first `n_sub` values (all if absent); one row.
+pub struct ToyAnalyse;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AnalyseParams {
+    a: f64,
+    #[serde(default)]
+    n_sub: Option<usize>,
+}
+
+impl StageKind for ToyAnalyse {
+    fn name(&self) -> &str {
+        "toy_analyse"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: AnalyseParams = typed("toy_analyse", params)?;
+        if p.a.is_nan() || p.a <= 0.0 {
+            bail!("toy_analyse: cutoff a must be > 0, got {}", p.a);
+        }
+        Ok(())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: AnalyseParams = typed("toy_analyse", params)?;
+        let mut x = gather_column(inputs, "x")?;
+        if let Some(n) = p.n_sub {
+            x.truncate(n);
+        }
+        let n = x.len() as f64;
+        let overlap = x.iter().filter(|v| v.abs() < p.a).count() as f64 / n;
+        let mean = x.iter().sum::<f64>() / n;
+        Ok(Output::single(
+            "parquet",
+            to_parquet_bytes(
+                &[f64_batch(&[
+                    ("overlap", vec![overlap]),
+                    ("mean", vec![mean]),
+                ])?],
+                &[],
+            )?,
+        ))
+    }
+}
+
+/// `toy_fit`: the mean of a column with its standard error, as a fit table
+/// (quantity = `mean_<column>`, value, error).
+pub struct ToyFit;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FitParams {
+    column: String,
+}
+
+impl StageKind for ToyFit {
+    fn name(&self) -> &str {
+        "toy_fit"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        typed::<FitParams>("toy_fit", params).map(|_| ())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: FitParams = typed("toy_fit", params)?;
+        let v = gather_column(inputs, &p.column)?;
+        if v.len() < 2 {
+            bail!(
+                "toy_fit: need at least 2 rows of '{}', got {}",
+                p.column,
+                v.len()
+            );
+        }
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let b = RecordBatch::try_from_iter([
+            (
+                "quantity",
+                Arc::new(StringArray::from(vec![format!("mean_{}", p.column)])) as ArrayRef,
+            ),
+            ("value", Arc::new(Float64Array::from(vec![mean]))),
+            (
+                "error",
+                Arc::new(Float64Array::from(vec![(var / n).sqrt()])),
+            ),
+        ])?;
+        Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}
+
+/// `toy_plot`: a minimal SVG scatter of column `y` against column `x`.
+pub struct ToyPlot;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlotParams {
+    x: String,
+    y: String,
+}
+
+impl StageKind for ToyPlot {
+    fn name(&self) -> &str {
+        "toy_plot"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        typed::<PlotParams>("toy_plot", params).map(|_| ())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: PlotParams = typed("toy_plot", params)?;
+        let (x, y) = (gather_column(inputs, &p.x)?, gather_column(inputs, &p.y)?);
+        let span = |v: &[f64]| {
+            let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            (lo, if hi > lo { hi - lo } else { 1.0 })
+        };
+        let ((x0, dx), (y0, dy)) = (span(&x), span(&y));
+        let mut svg = String::from(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"200\" height=\"200\">\n",
+        );
+        for (a, b) in x.iter().zip(&y) {
+            svg += &format!(
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"2\"/>\n",
+                10.0 + 180.0 * (a - x0) / dx,
+                190.0 - 180.0 * (b - y0) / dy
+            );
+        }
+        svg += &format!(
+            "<text x=\"10\" y=\"10\">{} vs {}</text>\n</svg>\n",
+            p.y, p.x
+        );
+        Ok(Output::single("svg", svg.into_bytes()))
+    }
+}
+
+/// `toy_fail`: logs a line, then fails when `fail` is true (tests failure isolation).
+pub struct ToyFail;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FailParams {
+    fail: bool,
+}
+
+impl StageKind for ToyFail {
+    fn name(&self) -> &str {
+        "toy_fail"
+    }
+    fn modules(&self) -> &[&str] {
+        &["pipeline"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        typed::<FailParams>("toy_fail", params).map(|_| ())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: FailParams = typed("toy_fail", params)?;
+        ctx.log(format!("read {} inputs", inputs.len()));
+        if p.fail {
+            bail!("toy_fail was asked to fail");
+        }
+        Ok(Output::single("txt", b"ok\n".to_vec()))
+    }
+}

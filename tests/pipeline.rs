@@ -1,0 +1,664 @@
+//! The pipeline framework end to end, on the toy stage kinds and the fixture specs
+//! in tests/fixtures/pipeline/ (copied to a temporary root per test).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use repro::pipeline::{self, Registry, RunOptions, State, Workspace, toy};
+
+fn fixture() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/pipeline");
+    for sub in ["experiments", "pipelines"] {
+        std::fs::create_dir_all(dir.path().join(sub)).unwrap();
+        for e in std::fs::read_dir(src.join(sub)).unwrap().flatten() {
+            std::fs::copy(e.path(), dir.path().join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    dir
+}
+
+fn reg() -> Registry {
+    let mut r = Registry::builtin();
+    toy::register(&mut r);
+    r
+}
+
+fn opts(jobs: usize) -> RunOptions {
+    RunOptions {
+        jobs,
+        ..RunOptions::default()
+    }
+}
+
+fn ids(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| s.to_string()).collect()
+}
+
+/// Run figures at the ci profile; return the sorted labels executed.
+fn run_with(root: &Path, r: &Registry, figs: &[&str], o: &RunOptions) -> Vec<String> {
+    let run = pipeline::run_figures(&Workspace::new(root), r, &ids(figs), "ci", o).unwrap();
+    run.check().unwrap();
+    run.report.executed(&run.graph)
+}
+
+fn run(root: &Path, figs: &[&str]) -> Vec<String> {
+    run_with(root, &reg(), figs, &opts(2))
+}
+
+/// Replace `from` by `to` in a spec file (the text must occur).
+fn edit(root: &Path, rel: &str, from: &str, to: &str) {
+    let p = root.join(rel);
+    let s = std::fs::read_to_string(&p).unwrap();
+    assert!(s.contains(from), "{rel} does not contain {from:?}");
+    std::fs::write(&p, s.replacen(from, to, 1)).unwrap();
+}
+
+fn sorted(v: &[&str]) -> Vec<String> {
+    let mut v: Vec<String> = v.iter().map(|s| s.to_string()).collect();
+    v.sort();
+    v
+}
+
+/// Every file of `dir` with its bytes, sorted by name (provenance.json excluded:
+/// it records timings).
+fn published(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .filter(|(n, _)| n != "provenance.json")
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn second_identical_run_executes_nothing_and_shared_stages_run_once() {
+    let d = fixture();
+    let first = run(d.path(), &[]);
+    // 4 simulations (2 phi x 2 replicas) shared by both figures; figtoy's a = 1.0
+    // analyses are identical to figtoy2's and merged: 4 + 8 + 4 (table, fit,
+    // compare, figure) + 2 (per_phi tables) + 1 (fit) = 19 stages.
+    assert_eq!(first.len(), 19, "{first:#?}");
+    assert_eq!(
+        first.iter().filter(|l| l.starts_with("toy_sweep[")).count(),
+        4
+    );
+    assert!(run(d.path(), &[]).is_empty());
+    let (_, st) =
+        pipeline::figure_status(&Workspace::new(d.path()), &reg(), &[], "ci", &[]).unwrap();
+    assert!(st.iter().all(|(_, s)| matches!(s, State::Cached { .. })));
+    let prov: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(d.path().join("results/figtoy/provenance.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(prov["profile"], "ci");
+    assert_eq!(prov["repro_version"], env!("CARGO_PKG_VERSION"));
+    let stages = prov["stages"].as_array().unwrap();
+    assert_eq!(stages.len(), 16);
+    let sim = stages.iter().find(|s| s["kind"] == "toy_simulate").unwrap();
+    assert_eq!(sim["params"]["seed"], sim["seed"]);
+    assert_eq!(sim["key"].as_str().unwrap().len(), 64);
+    assert_eq!(
+        sim["code_fingerprint"].as_str().unwrap(),
+        reg().fingerprint("toy_simulate")
+    );
+    assert!(sim["wall_s"].as_f64().unwrap() > 0.0 && sim["executed_in_this_run"] == false);
+    for f in [
+        "compare.parquet",
+        "overlap_table.parquet",
+        "fit.parquet",
+        "figure.svg",
+        "provenance.json",
+    ] {
+        assert!(d.path().join("results/figtoy").join(f).is_file(), "{f}");
+    }
+}
+
+#[test]
+fn changing_one_grid_point_reruns_exactly_what_is_downstream_of_it() {
+    let d = fixture();
+    run(d.path(), &["figtoy"]);
+    edit(
+        d.path(),
+        "experiments/toy_sweep.yaml",
+        "phi: [0.70, 0.75]",
+        "phi: [0.70, 0.76]",
+    );
+    let (g, st) = pipeline::figure_status(
+        &Workspace::new(d.path()),
+        &reg(),
+        &ids(&["figtoy"]),
+        "ci",
+        &[],
+    )
+    .unwrap();
+    let stale: Vec<&str> = st
+        .iter()
+        .filter(|(_, s)| matches!(s, State::Stale { .. }))
+        .map(|(i, _)| g.nodes[*i].label())
+        .collect();
+    assert_eq!(stale.len(), 10, "{stale:?}");
+    let expected = sorted(&[
+        "toy_sweep[phi=0.76,replica=0]",
+        "toy_sweep[phi=0.76,replica=1]",
+        "figtoy/overlap[a=0.5,phi=0.76,replica=0]",
+        "figtoy/overlap[a=1.0,phi=0.76,replica=0]",
+        "figtoy/overlap[a=0.5,phi=0.76,replica=1]",
+        "figtoy/overlap[a=1.0,phi=0.76,replica=1]",
+        "figtoy/overlap_table",
+        "figtoy/fit",
+        "figtoy/compare",
+        "figtoy/figure",
+    ]);
+    assert_eq!(run(d.path(), &["figtoy"]), expected);
+}
+
+#[test]
+fn changing_an_analysis_parameter_reruns_no_simulation_and_why_names_it() {
+    let d = fixture();
+    run(d.path(), &["figtoy2"]);
+    edit(d.path(), "pipelines/figtoy2.yaml", "a: 1.0", "a: 1.5");
+    let (g, st) = pipeline::figure_status(
+        &Workspace::new(d.path()),
+        &reg(),
+        &ids(&["figtoy2"]),
+        "ci",
+        &[],
+    )
+    .unwrap();
+    let why: Vec<String> = st
+        .iter()
+        .filter(|(i, _)| g.nodes[*i].kind == "toy_analyse")
+        .flat_map(|(_, s)| match s {
+            State::Stale { reasons } => reasons.clone(),
+            State::Cached { .. } => vec!["cached".into()],
+        })
+        .collect();
+    assert_eq!(why, vec!["parameter a: 1.0 -> 1.5"; 4]);
+    let ex = run(d.path(), &["figtoy2"]);
+    assert!(!ex.iter().any(|l| l.starts_with("toy_sweep")), "{ex:?}");
+    assert_eq!(
+        ex.iter()
+            .filter(|l| l.starts_with("figtoy2/overlap["))
+            .count(),
+        4
+    );
+}
+
+#[test]
+fn early_cutoff_stops_reruns_when_outputs_are_byte_identical() {
+    let d = fixture();
+    run(d.path(), &["figtoy2"]);
+    // n_sub = 1000 keeps all 200 values: new parameters, identical output bytes.
+    edit(
+        d.path(),
+        "pipelines/figtoy2.yaml",
+        "a: 1.0",
+        "a: 1.0\n      n_sub: 1000",
+    );
+    let ex = run(d.path(), &["figtoy2"]);
+    assert_eq!(ex.len(), 4, "only the 4 analyses rerun: {ex:?}");
+    assert!(ex.iter().all(|l| l.starts_with("figtoy2/overlap[")));
+    // Forcing the simulations reproduces them bit for bit: nothing downstream reruns.
+    let forced = RunOptions {
+        force: vec!["toy_simulate".into()],
+        ..opts(2)
+    };
+    let ex = run_with(d.path(), &reg(), &["figtoy2"], &forced);
+    assert_eq!(ex.len(), 4);
+    assert!(ex.iter().all(|l| l.starts_with("toy_sweep[")), "{ex:?}");
+}
+
+#[test]
+fn a_code_fingerprint_change_invalidates_that_kind_and_waits_its_dependents() {
+    let d = fixture();
+    run(d.path(), &["figtoy"]);
+    let mut r = reg();
+    r.set_fingerprint("toy_fit", "edited source of toy_fit")
+        .unwrap();
+    let (g, st) =
+        pipeline::figure_status(&Workspace::new(d.path()), &r, &ids(&["figtoy"]), "ci", &[])
+            .unwrap();
+    for (i, s) in &st {
+        let n = &g.nodes[*i];
+        match (n.kind.as_str(), s) {
+            ("toy_fit", State::Stale { reasons }) => {
+                assert_eq!(
+                    reasons,
+                    &vec!["code of stage kind 'toy_fit' changed (modules: pipeline)".to_string()]
+                )
+            }
+            ("compare", State::Stale { reasons }) => assert!(
+                reasons[0].contains("input figtoy/fit reruns first"),
+                "{reasons:?}"
+            ),
+            (_, State::Cached { .. }) => {}
+            (k, s) => panic!("{k}: unexpected {s:?}"),
+        }
+    }
+    // The fit reruns; it gives the same bytes, so compare is cut off.
+    assert_eq!(
+        run_with(d.path(), &r, &["figtoy"], &opts(2)),
+        vec!["figtoy/fit"]
+    );
+    assert!(run_with(d.path(), &r, &["figtoy"], &opts(2)).is_empty());
+}
+
+#[test]
+fn jobs_1_and_jobs_2_give_byte_identical_outputs() {
+    let (a, b) = (fixture(), fixture());
+    run_with(a.path(), &reg(), &[], &opts(1));
+    run_with(b.path(), &reg(), &[], &opts(2));
+    for fig in ["figtoy", "figtoy2"] {
+        let (pa, pb) = (
+            published(&a.path().join("results").join(fig)),
+            published(&b.path().join("results").join(fig)),
+        );
+        assert!(!pa.is_empty());
+        assert_eq!(pa, pb, "{fig}");
+    }
+}
+
+#[test]
+fn a_failing_stage_stops_its_dependents_only_and_caches_nothing() {
+    let d = fixture();
+    std::fs::write(
+        d.path().join("pipelines/figfail.yaml"),
+        "description: fails on purpose\nstages:\n  - name: broken\n    kind: toy_fail\n    gather: [toy_sweep]\n    params: {fail: true}\n  - name: after\n    kind: toy_fail\n    gather: [broken]\n    params: {fail: false}\n",
+    )
+    .unwrap();
+    let w = Workspace::new(d.path());
+    let go = || {
+        pipeline::run_figures(&w, &reg(), &ids(&["figfail", "figtoy2"]), "ci", &opts(2)).unwrap()
+    };
+    let r = go();
+    let report = r.report.failure_report(&r.graph);
+    assert!(
+        report.contains("figfail/broken") && report.contains("toy_fail was asked to fail"),
+        "{report}"
+    );
+    assert!(
+        report.contains(r#"parameters: {"fail":true}"#) && report.contains("log: read 4 inputs"),
+        "{report}"
+    );
+    assert!(
+        report.contains("figfail/after not run: its input figfail/broken failed"),
+        "{report}"
+    );
+    assert!(r.check().is_err());
+    assert!(
+        d.path().join("results/figtoy2/fit.parquet").is_file(),
+        "unrelated figure finished"
+    );
+    assert!(!d.path().join("results/figfail").exists());
+    // Nothing of the failed stage was cached: a rerun tries it again, and only it.
+    let again = go();
+    assert!(again.report.executed(&again.graph).is_empty());
+    assert_eq!(
+        again.report.not_done(&again.graph),
+        vec!["figfail/after", "figfail/broken"]
+    );
+}
+
+#[test]
+fn gc_frees_only_what_no_spec_reaches() {
+    let d = fixture();
+    run(d.path(), &[]);
+    edit(d.path(), "pipelines/figtoy2.yaml", "a: 1.0", "a: 2.0");
+    run(d.path(), &[]);
+    let w = Workspace::new(d.path());
+    let dry = pipeline::gc(&w, &reg(), true).unwrap();
+    // The old per_phi tables and figtoy2 fit are unreachable (the a = 1.0 analyses
+    // are still reached through figtoy).
+    assert_eq!(dry.entries, 3, "{dry:?}");
+    assert_eq!(pipeline::gc(&w, &reg(), false).unwrap(), dry);
+    assert_eq!(pipeline::gc(&w, &reg(), true).unwrap().entries, 0);
+    assert!(
+        run(d.path(), &[]).is_empty(),
+        "gc freed something a spec reaches"
+    );
+}
+
+#[test]
+fn a_store_of_another_version_is_refused() {
+    let d = fixture();
+    let store = d.path().join(".repro/store");
+    std::fs::create_dir_all(&store).unwrap();
+    std::fs::write(store.join("VERSION"), "repro-store-v0\n").unwrap();
+    let e = pipeline::run_figures(&Workspace::new(d.path()), &reg(), &[], "ci", &opts(1))
+        .err()
+        .unwrap();
+    let m = format!("{e:#}");
+    assert!(
+        m.contains("repro-store-v0") && m.contains("repro-store-v1") && m.contains("remove"),
+        "{m}"
+    );
+}
+
+/// Plan the fixture after writing `text` to `rel`; return the error message.
+fn plan_error(rel: &str, text: &str, figure: &str) -> String {
+    let d = fixture();
+    std::fs::write(d.path().join(rel), text).unwrap();
+    let e = Workspace::new(d.path())
+        .plan(&reg(), &ids(&[figure]), "ci")
+        .expect_err("planning must fail");
+    format!("{e:#}")
+}
+
+fn assert_located(msg: &str, file: &str, line: u64, words: &[&str]) {
+    assert!(
+        msg.contains(&format!("{file}:{line}:")),
+        "expected {file}:{line}: in\n{msg}"
+    );
+    for w in words {
+        assert!(msg.contains(w), "expected {w:?} in\n{msg}");
+    }
+}
+
+const GOOD_EXP: &str = "description: d\nkind: toy_simulate\nseed: 1\nprofiles:\n  ci:\n    grid:\n      phi: [0.7]\n    replicas: 1\n    params: {n: 10}\n";
+
+#[test]
+fn each_class_of_bad_spec_has_its_own_located_error() {
+    let e = plan_error(
+        "experiments/toy_sweep.yaml",
+        "description: d\nkind: [toy_simulate\n",
+        "figtoy",
+    );
+    assert_located(&e, "toy_sweep.yaml", 2, &[]);
+    let e = plan_error(
+        "experiments/toy_sweep.yaml",
+        &GOOD_EXP.replace("seed: 1\n", "seed: 1\nseeds: 2\n"),
+        "figtoy",
+    );
+    assert_located(&e, "toy_sweep.yaml", 4, &["unknown field", "seeds", "seed"]);
+    let e = plan_error(
+        "experiments/toy_sweep.yaml",
+        &GOOD_EXP.replace("replicas: 1", "replicas: many"),
+        "figtoy",
+    );
+    assert_located(&e, "toy_sweep.yaml", 8, &["replicas"]);
+    let e = plan_error(
+        "experiments/toy_sweep.yaml",
+        &GOOD_EXP.replace("[0.7]", "[]"),
+        "figtoy",
+    );
+    assert_located(&e, "toy_sweep.yaml", 7, &["grid key 'phi'", "empty"]);
+    let e = plan_error(
+        "experiments/toy_sweep.yaml",
+        &GOOD_EXP.replace("n: 10", "n: 10, colour: red"),
+        "figtoy",
+    );
+    assert_located(
+        &e,
+        "toy_sweep.yaml",
+        2,
+        &["kind toy_simulate", "unknown field `colour`"],
+    );
+    let e = plan_error(
+        "experiments/toy_sweep.yaml",
+        &GOOD_EXP.replace("  ci:", "  tiny:"),
+        "figtoy",
+    );
+    assert_located(
+        &e,
+        "toy_sweep.yaml",
+        6,
+        &["unknown profile 'tiny'", "small"],
+    );
+    let e = plan_error("pipelines/x.yaml", "description: d\nstages: []\n", "fig99");
+    assert!(
+        e.contains("unknown figure id 'fig99'") && e.contains("figtoy, figtoy2"),
+        "{e}"
+    );
+    let pipe = |body: &str| format!("description: d\nstages:\n{body}");
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        &pipe("  - name: s\n    kind: toy_analyse\n    map: toy_sweeep\n    params: {a: 1}\n"),
+        "figtoy",
+    );
+    assert_located(
+        &e,
+        "figtoy.yaml",
+        3,
+        &["reads 'toy_sweeep'", "known: toy_sweep"],
+    );
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        &pipe(
+            "  - name: a\n    kind: table\n    gather: [b]\n  - name: b\n    kind: table\n    gather: [a]\n",
+        ),
+        "figtoy",
+    );
+    assert_located(&e, "figtoy.yaml", 3, &["cycle", "a -> b -> a"]);
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        &pipe("  - name: s\n    kind: toy_analyse\n    map: toy_sweep\n    params: {a: -1}\n"),
+        "figtoy",
+    );
+    assert_located(&e, "figtoy.yaml", 3, &["stage 's'", "a must be > 0"]);
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        &pipe("  - name: s\n    kind: chi5\n    map: toy_sweep\n"),
+        "figtoy",
+    );
+    assert_located(
+        &e,
+        "figtoy.yaml",
+        3,
+        &["unknown stage kind 'chi5'", "toy_analyse"],
+    );
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        &pipe("  - name: s\n    kind: toy_analyse\n    map: toy_sweep\n    sweep: {a: []}\n"),
+        "figtoy",
+    );
+    assert_located(&e, "figtoy.yaml", 3, &["sweep over 'a'", "empty"]);
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        &pipe("  - name: s\n    kind: table\n"),
+        "figtoy",
+    );
+    assert_located(&e, "figtoy.yaml", 3, &["reads nothing", "map", "gather"]);
+}
+
+// ---- child processes: kill -9 and concurrent runs -------------------------------
+
+fn repro(root: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_repro"));
+    c.env("REPRO_TEST_KINDS", "1")
+        .arg("figure")
+        .arg("--all")
+        .arg("--profile")
+        .arg("ci")
+        .arg("--root")
+        .arg(root);
+    c
+}
+
+fn all_objects_intact(root: &Path) -> usize {
+    let mut n = 0;
+    let mut stack = vec![root.join(".repro/store/objects")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(d).unwrap().flatten() {
+            let p: PathBuf = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if !e.file_name().to_string_lossy().starts_with(".tmp") {
+                let name = e.file_name().to_string_lossy().into_owned();
+                assert_eq!(
+                    blake3::hash(&std::fs::read(&p).unwrap()).to_hex().as_str(),
+                    name,
+                    "truncated object"
+                );
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+#[test]
+fn kill_9_mid_run_leaves_a_store_the_next_run_completes() {
+    let d = fixture();
+    // Slow simulations so the kill lands mid-stage.
+    edit(
+        d.path(),
+        "experiments/toy_sweep.yaml",
+        "n: 200",
+        "n: 200\n      sleep_ms: 250",
+    );
+    let mut child = repro(d.path()).arg("--jobs").arg("1").spawn().unwrap();
+    let entries = d.path().join(".repro/store/entries");
+    let t0 = std::time::Instant::now();
+    // Wait for the first finished stage, then kill while the next one runs.
+    while std::fs::read_dir(&entries).map(|r| r.count()).unwrap_or(0) == 0 {
+        assert!(t0.elapsed().as_secs() < 30, "no stage finished");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert!(
+        !d.path().join("results/figtoy").exists(),
+        "killed before the end"
+    );
+    all_objects_intact(d.path());
+    let out = repro(d.path()).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !stderr.contains("19 executed"),
+        "the killed run's finished stages were reused: {stderr}"
+    );
+    assert!(all_objects_intact(d.path()) > 0);
+    let clean = fixture();
+    edit(
+        clean.path(),
+        "experiments/toy_sweep.yaml",
+        "n: 200",
+        "n: 200\n      sleep_ms: 250",
+    );
+    assert!(repro(clean.path()).output().unwrap().status.success());
+    for fig in ["figtoy", "figtoy2"] {
+        assert_eq!(
+            published(&d.path().join("results").join(fig)),
+            published(&clean.path().join("results").join(fig))
+        );
+    }
+}
+
+#[test]
+fn two_concurrent_runs_on_one_store_both_finish_with_identical_results() {
+    let d = fixture();
+    edit(
+        d.path(),
+        "experiments/toy_sweep.yaml",
+        "n: 200",
+        "n: 200\n      sleep_ms: 60",
+    );
+    let a = repro(d.path())
+        .arg("--jobs")
+        .arg("2")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let b = repro(d.path())
+        .arg("--jobs")
+        .arg("2")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (oa, ob) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+    let executed = |o: &std::process::Output| -> usize {
+        let s = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{s}");
+        let line = s
+            .lines()
+            .find(|l| l.contains(" executed, "))
+            .unwrap_or_else(|| panic!("{s}"))
+            .to_string();
+        line.split(": ")
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    // The stage locks make each stage run in exactly one of the two processes.
+    assert_eq!(executed(&oa) + executed(&ob), 19);
+    let clean = fixture();
+    edit(
+        clean.path(),
+        "experiments/toy_sweep.yaml",
+        "n: 200",
+        "n: 200\n      sleep_ms: 60",
+    );
+    run(clean.path(), &[]);
+    for fig in ["figtoy", "figtoy2"] {
+        assert_eq!(
+            published(&d.path().join("results").join(fig)),
+            published(&clean.path().join("results").join(fig))
+        );
+    }
+    all_objects_intact(d.path());
+}
+
+#[test]
+fn cli_list_why_and_dry_run_explain_the_cache() {
+    let d = fixture();
+    let cli = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_repro"))
+            .env("REPRO_TEST_KINDS", "1")
+            .args(args)
+            .arg("--root")
+            .arg(d.path())
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let list = cli(&["list", "--profile", "ci"]);
+    assert!(
+        list.contains("figtoy2")
+            && list.contains("replica-averaged")
+            && list.contains("11/11 stages to run"),
+        "{list}"
+    );
+    run(d.path(), &[]);
+    assert!(
+        cli(&["list", "--profile", "ci"])
+            .matches("[ci: cached]")
+            .count()
+            == 2
+    );
+    edit(d.path(), "experiments/toy_sweep.yaml", "n: 200", "n: 300");
+    let why = cli(&["why", "figtoy2", "--profile", "ci"]);
+    assert!(
+        why.contains("stale   toy_sweep[phi=0.7,replica=0]")
+            && why.contains("parameter n: 200 -> 300"),
+        "{why}"
+    );
+    let dry = cli(&["figure", "figtoy2", "--profile", "ci", "--dry-run"]);
+    assert!(dry.contains("11 stage(s): 0 cached, 11 stale"), "{dry}");
+    assert!(
+        run(d.path(), &["figtoy2"]).len() == 11,
+        "dry run ran nothing"
+    );
+}
