@@ -19,6 +19,9 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 
+/// What a Parquet file holds for us: its record batches and its key-value metadata.
+pub type ParquetContents = (Vec<RecordBatch>, Vec<(String, String)>);
+
 /// Serialise `batches` (all with the same schema) to Parquet bytes with zstd.
 /// Deterministic: the same batches give the same bytes (no timestamps written).
 pub fn to_parquet_bytes(batches: &[RecordBatch], metadata: &[(&str, &str)]) -> Result<Vec<u8>> {
@@ -57,7 +60,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644))?;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
     }
     tmp.as_file().sync_all()?;
     tmp.persist(path)
@@ -76,7 +80,7 @@ pub fn write_parquet(
 }
 
 /// Read every record batch of a Parquet file, with its key-value metadata.
-pub fn read_parquet(path: &Path) -> Result<(Vec<RecordBatch>, Vec<(String, String)>)> {
+pub fn read_parquet(path: &Path) -> Result<ParquetContents> {
     let f = File::open(path).with_context(|| format!("opening {}", path.display()))?;
     read_parquet_from(f).with_context(|| {
         format!(
@@ -87,13 +91,13 @@ pub fn read_parquet(path: &Path) -> Result<(Vec<RecordBatch>, Vec<(String, Strin
 }
 
 /// Read every record batch of Parquet bytes, with its key-value metadata.
-pub fn read_parquet_bytes(bytes: Vec<u8>) -> Result<(Vec<RecordBatch>, Vec<(String, String)>)> {
+pub fn read_parquet_bytes(bytes: Vec<u8>) -> Result<ParquetContents> {
     read_parquet_from(bytes::Bytes::from(bytes))
 }
 
 fn read_parquet_from<R: parquet::file::reader::ChunkReader + 'static>(
     r: R,
-) -> Result<(Vec<RecordBatch>, Vec<(String, String)>)> {
+) -> Result<ParquetContents> {
     let builder = ParquetRecordBatchReaderBuilder::try_new(r)?;
     let kv = builder
         .metadata()
@@ -146,7 +150,10 @@ mod tests {
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
-            assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o644);
+            assert_eq!(
+                std::fs::metadata(&p).unwrap().permissions().mode() & 0o777,
+                0o644
+            );
         }
         assert_eq!(
             to_parquet_bytes(&[b.clone()], &[]).unwrap(),
