@@ -80,7 +80,14 @@ impl Forest {
             self.off[k] = acc;
             self.parent[k] = r;
         }
-        (r, if path.is_empty() { [0.0; 2] } else { self.off[i] })
+        (
+            r,
+            if path.is_empty() {
+                [0.0; 2]
+            } else {
+                self.off[i]
+            },
+        )
     }
 
     /// Link i and j with bond d = r_j - r_i (minimum image). A bond closing a loop
@@ -123,13 +130,20 @@ pub fn find_clusters(
     let rmax = cutoff.iter().flatten().copied().fold(0.0, f64::max);
     let mut forest = Forest::new(idx.len());
     let half_box = 0.5 * traj.box_size[0].min(traj.box_size[1]);
-    neighbours::for_each_pair(&xs, &ys, traj.box_size, traj.periodic, rmax, |a, b, dx, dy| {
-        let (si, sj) = (traj.species[idx[a]] as usize, traj.species[idx[b]] as usize);
-        let rc = cutoff[si][sj];
-        if dx * dx + dy * dy < rc * rc {
-            forest.union(a, b, [dx, dy], half_box);
-        }
-    })?;
+    neighbours::for_each_pair(
+        &xs,
+        &ys,
+        traj.box_size,
+        traj.periodic,
+        rmax,
+        |a, b, dx, dy| {
+            let (si, sj) = (traj.species[idx[a]] as usize, traj.species[idx[b]] as usize);
+            let rc = cutoff[si][sj];
+            if dx * dx + dy * dy < rc * rc {
+                forest.union(a, b, [dx, dy], half_box);
+            }
+        },
+    )?;
     // Per root: count, sum of offsets, sum of squared offsets (relative to the root).
     let n = idx.len();
     let mut acc = vec![[0.0f64; 3]; n];
@@ -162,7 +176,10 @@ fn validate_cutoffs(traj: &Trajectory, c: &[Vec<f64>]) -> Result<()> {
         for (b, &v) in row.iter().enumerate() {
             ensure_positive(&format!("cutoffs[{a}][{b}]"), v)?;
             if (v - c[b][a]).abs() > 1e-12 * v {
-                bail!("parameter `cutoffs` must be symmetric: [{a}][{b}] = {v} but [{b}][{a}] = {}", c[b][a]);
+                bail!(
+                    "parameter `cutoffs` must be symmetric: [{a}][{b}] = {v} but [{b}][{a}] = {}",
+                    c[b][a]
+                );
             }
         }
     }
@@ -176,7 +193,10 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     check_trajectory(traj)?;
     ensure_positive("a", p.a)?;
     if !(p.fast_factor.is_finite() && p.fast_factor >= 1.0) {
-        bail!("parameter `fast_factor` must be >= 1, got {}", p.fast_factor);
+        bail!(
+            "parameter `fast_factor` must be >= 1, got {}",
+            p.fast_factor
+        );
     }
     if p.lags.is_empty() {
         bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
@@ -212,7 +232,14 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         }
     }
     let [t, t0, k, nc, rg, sp] = cols;
-    f64_batch(&[("t", t), ("t0", t0), ("kind", k), ("Nc", nc), ("Rg", rg), ("spans", sp)])
+    f64_batch(&[
+        ("t", t),
+        ("t0", t0),
+        ("kind", k),
+        ("Nc", nc),
+        ("Rg", rg),
+        ("spans", sp),
+    ])
 }
 
 /// P(Nc): the fraction of clusters of size Nc, log-binned with `per_decade` bins per
@@ -236,7 +263,11 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
             let c = sizes.iter().filter(|&&s| s >= lo && s < hi).count();
             if c > 0 {
                 let centre = ((lo * (hi - 1)) as f64).sqrt();
-                out.push((centre, c as f64 / (sizes.len() as f64 * (hi - lo) as f64), c));
+                out.push((
+                    centre,
+                    c as f64 / (sizes.len() as f64 * (hi - lo) as f64),
+                    c,
+                ));
             }
         }
         k += 1;

@@ -66,7 +66,11 @@ pub(crate) fn check_trajectory(traj: &Trajectory) -> Result<()> {
             );
         }
     }
-    if let Some(&s) = traj.species.iter().find(|&&s| s as usize >= traj.radii.len()) {
+    if let Some(&s) = traj
+        .species
+        .iter()
+        .find(|&&s| s as usize >= traj.radii.len())
+    {
         bail!(
             "species {s} has no radius (the trajectory lists {} radii)",
             traj.radii.len()
@@ -77,8 +81,7 @@ pub(crate) fn check_trajectory(traj: &Trajectory) -> Result<()> {
 
 /// Squared displacement of every particle between two frames (positions are unwrapped).
 pub fn squared_displacements(f0: &Frame, f1: &Frame) -> Vec<f64> {
-    f0.x
-        .iter()
+    f0.x.iter()
         .zip(&f0.y)
         .zip(f1.x.iter().zip(&f1.y))
         .map(|((x0, y0), (x1, y1))| (x1 - x0).powi(2) + (y1 - y0).powi(2))
@@ -96,3 +99,6 @@ pub fn fold(x: f64, l: f64, periodic: bool) -> f64 {
         x
     }
 }
+
+#[cfg(test)]
+mod tests;

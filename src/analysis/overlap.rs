@@ -166,8 +166,7 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
 pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Vec<f64>, Vec<f64>)>> {
     let m = moments(&[traj], p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
     let start = traj.frames[0].time;
-    let mut by_origin: std::collections::BTreeMap<usize, (Vec<f64>, Vec<f64>)> =
-        Default::default();
+    let mut by_origin: std::collections::BTreeMap<usize, (Vec<f64>, Vec<f64>)> = Default::default();
     for (lag, b) in m.lags.iter().zip(&m.blocks[0]) {
         for k in b.keys() {
             let e = by_origin.entry(k.1).or_default();

@@ -131,7 +131,11 @@ impl ComplexFft {
             .expect("buffer sizes come from the plan");
         // Real input: F[n - k] = conj F[k] completes the half spectrum.
         let full = |half: &[Complex<f64>], k: usize| {
-            if k <= n / 2 { half[k] } else { half[n - k].conj() }
+            if k <= n / 2 {
+                half[k]
+            } else {
+                half[n - k].conj()
+            }
         };
         for (k, z) in data.iter_mut().enumerate() {
             *z = full(&fre, k) + Complex::new(0.0, 1.0) * full(&fim, k);
@@ -321,7 +325,11 @@ pub fn shells_from_w(lat: &Lattice, w: &[Vec<Complex<f64>>], n_particles: f64, d
         let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (no - 1.0).max(1.0);
         out.q.push(sum_q[k] / c);
         out.s4.push(sum_s[k] / c);
-        out.s4_err.push(if w.len() > 1 { (var / no).sqrt() } else { f64::NAN });
+        out.s4_err.push(if w.len() > 1 {
+            (var / no).sqrt()
+        } else {
+            f64::NAN
+        });
         out.n_vectors.push(count[k]);
     }
     out
@@ -333,12 +341,16 @@ pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
     ensure_positive("a", p.a)?;
     ensure_positive("q_max", p.q_max)?;
     if traj.periodic != [true, true] {
-        bail!("S4 needs a box periodic in x and y (the trajectory has periodic = {:?})", traj.periodic);
+        bail!(
+            "S4 needs a box periodic in x and y (the trajectory has periodic = {:?})",
+            traj.periodic
+        );
     }
     if p.lags.is_empty() {
         bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
     }
-    let dq = p.dq.unwrap_or(2.0 * PI / traj.box_size[0].min(traj.box_size[1]));
+    let dq =
+        p.dq.unwrap_or(2.0 * PI / traj.box_size[0].min(traj.box_size[1]));
     ensure_positive("dq", dq)?;
     let lat = Lattice::new(traj.box_size, p.q_max);
     if lat.q.is_empty() {
@@ -386,16 +398,31 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         cols[4].extend(s.n_vectors.iter().map(|&c| c as f64));
     }
     let [t, q, s, e, n] = cols;
-    f64_batch(&[("t", t), ("q", q), ("S4", s), ("S4_err", e), ("n_vectors", n)])
+    f64_batch(&[
+        ("t", t),
+        ("q", q),
+        ("S4", s),
+        ("S4_err", e),
+        ("n_vectors", n),
+    ])
 }
 
 /// Direct sum W(q) = sum_j c_j exp(-i q.r_j) over the lattice vectors (O(N x vectors);
 /// the reference the NUFFT is checked against).
-pub fn direct_w(lat: &Lattice, box_size: [f64; 2], x: &[f64], y: &[f64], c: &[f64]) -> Vec<Complex<f64>> {
+pub fn direct_w(
+    lat: &Lattice,
+    box_size: [f64; 2],
+    x: &[f64],
+    y: &[f64],
+    c: &[f64],
+) -> Vec<Complex<f64>> {
     lat.mn
         .iter()
         .map(|&(m, n)| {
-            let (kx, ky) = (2.0 * PI * m as f64 / box_size[0], 2.0 * PI * n as f64 / box_size[1]);
+            let (kx, ky) = (
+                2.0 * PI * m as f64 / box_size[0],
+                2.0 * PI * n as f64 / box_size[1],
+            );
             x.iter()
                 .zip(y)
                 .zip(c)
