@@ -34,6 +34,13 @@ pub struct Params {
     /// Relative tolerance matching a lag to frame time differences.
     #[serde(default = "default_rel_tol")]
     pub rel_tol: f64,
+    /// Bins per decade of Nc for the size distribution P(Nc).
+    #[serde(default = "default_per_decade")]
+    pub per_decade: usize,
+}
+
+fn default_per_decade() -> usize {
+    5
 }
 
 /// One cluster.
@@ -240,6 +247,37 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         ("Rg", rg),
         ("spans", sp),
     ])
+}
+
+/// Table `t, kind, Nc, P, n_clusters`: the log-binned cluster size distribution of
+/// slow (kind 0) and fast (kind 1) clusters at each lag, pooled over time origins.
+pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let rows = compute(traj, p)?;
+    let col = |name: &str| -> Vec<f64> {
+        rows.column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
+            .map(|a| a.values().to_vec())
+            .expect("column written by compute")
+    };
+    let (t, kind, nc) = (col("t"), col("kind"), col("Nc"));
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    for &lag in &p.lags {
+        for k in [0.0, 1.0] {
+            let sizes: Vec<usize> = (0..t.len())
+                .filter(|&i| kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
+                .map(|i| nc[i] as usize)
+                .collect();
+            for (centre, prob, count) in size_distribution(&sizes, p.per_decade)? {
+                cols[0].push(lag);
+                cols[1].push(k);
+                cols[2].push(centre);
+                cols[3].push(prob);
+                cols[4].push(count as f64);
+            }
+        }
+    }
+    let [t, k, n, pr, c] = cols;
+    f64_batch(&[("t", t), ("kind", k), ("Nc", n), ("P", pr), ("n_clusters", c)])
 }
 
 /// P(Nc): the fraction of clusters of size Nc, log-binned with `per_decade` bins per
