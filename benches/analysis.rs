@@ -47,7 +47,10 @@ fn s4_one_pair_1e6_qmax2(b: divan::Bencher, tolerance: f64) {
 fn clusters_slow_1e6(b: divan::Bencher) {
     let traj = system();
     let (f0, f1) = (&traj.frames[0], &traj.frames[1]);
-    let slow: Vec<bool> = squared_displacements(f0, f1).iter().map(|&d| d < 0.36).collect();
+    let slow: Vec<bool> = squared_displacements(f0, f1)
+        .iter()
+        .map(|&d| d < 0.36)
+        .collect();
     let cut = vec![vec![1.2, 1.35], vec![1.35, 1.5]];
     b.bench(|| clusters::find_clusters(&traj, &f1.x, &f1.y, &slow, &cut).unwrap());
 }

@@ -277,7 +277,13 @@ pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         }
     }
     let [t, k, n, pr, c] = cols;
-    f64_batch(&[("t", t), ("kind", k), ("Nc", n), ("P", pr), ("n_clusters", c)])
+    f64_batch(&[
+        ("t", t),
+        ("kind", k),
+        ("Nc", n),
+        ("P", pr),
+        ("n_clusters", c),
+    ])
 }
 
 /// P(Nc): the fraction of clusters of size Nc, log-binned with `per_decade` bins per

@@ -446,7 +446,7 @@ fn hand_built_clusters_have_exact_sizes_and_rg() {
     let traj = one_frame(x.clone(), y.clone(), vec![0; n], 20.0);
     let cut = vec![vec![1.5, 1.5], vec![1.5, 1.5]];
     let mut c = clusters::find_clusters(&traj, &x, &y, &vec![true; n], &cut).unwrap();
-    c.sort_by(|a, b| a.size.cmp(&b.size));
+    c.sort_by_key(|k| k.size);
     assert_eq!(
         c.iter().map(|k| k.size).collect::<Vec<_>>(),
         vec![1, 2, 3, 20]
