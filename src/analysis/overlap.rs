@@ -161,6 +161,12 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
     })
 }
 
+/// Table `tau_alpha, tau_alpha_err` (one row).
+pub fn compute_tau_alpha(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let e = tau_alpha(&[traj], p)?;
+    f64_batch(&[("tau_alpha", vec![e.value]), ("tau_alpha_err", vec![e.err])])
+}
+
 /// (t0, lags, Q) of one time origin.
 pub type OriginCurve = (f64, Vec<f64>, Vec<f64>);
 

@@ -273,6 +273,8 @@ impl Nufft {
 pub struct Shells {
     /// Mean |q| of the vectors in each shell.
     pub q: Vec<f64>,
+    /// Mean q^2 of the vectors in each shell (the abscissa of OZ fits in q^2).
+    pub q2: Vec<f64>,
     pub s4: Vec<f64>,
     /// Standard error over time origins of the shell average of |W|^2 / N.
     pub s4_err: Vec<f64>,
@@ -325,16 +327,19 @@ impl<'a> Accumulator<'a> {
     pub fn shells(&self, n_particles: f64) -> Shells {
         let no = self.per_origin.len() as f64;
         let mut sum_q = vec![0.0; self.n_shells];
+        let mut sum_q2 = vec![0.0; self.n_shells];
         let mut sum_s = vec![0.0; self.n_shells];
         let mut count = vec![0usize; self.n_shells];
         for v in 0..self.lat.q.len() {
             let k = self.shell[v];
             sum_q[k] += self.lat.q[v];
+            sum_q2[k] += self.lat.q[v] * self.lat.q[v];
             sum_s[k] += (self.sum2[v] / no - (self.sum1[v] / no).norm_sqr()) / n_particles;
             count[k] += 1;
         }
         let mut out = Shells {
             q: vec![],
+            q2: vec![],
             s4: vec![],
             s4_err: vec![],
             n_vectors: vec![],
@@ -353,6 +358,7 @@ impl<'a> Accumulator<'a> {
             let m = means.iter().sum::<f64>() / no;
             let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (no - 1.0).max(1.0);
             out.q.push(sum_q[k] / c);
+            out.q2.push(sum_q2[k] / c);
             out.s4.push(sum_s[k] / c);
             out.s4_err.push(if no > 1.0 {
                 (var / no).sqrt()
@@ -416,20 +422,22 @@ pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
     Ok(out)
 }
 
-/// Table `t, q, S4, S4_err, n_vectors`.
+/// Table `t, q, q2, S4, S4_err, n_vectors` (q2 = shell mean of q^2).
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let mut cols: [Vec<f64>; 5] = Default::default();
+    let mut cols: [Vec<f64>; 6] = Default::default();
     for (t, s) in s4(traj, p)? {
         cols[0].extend(std::iter::repeat_n(t, s.q.len()));
         cols[1].extend(&s.q);
+        cols[5].extend(&s.q2);
         cols[2].extend(&s.s4);
         cols[3].extend(&s.s4_err);
         cols[4].extend(s.n_vectors.iter().map(|&c| c as f64));
     }
-    let [t, q, s, e, n] = cols;
+    let [t, q, s, e, n, q2] = cols;
     f64_batch(&[
         ("t", t),
         ("q", q),
+        ("q2", q2),
         ("S4", s),
         ("S4_err", e),
         ("n_vectors", n),

@@ -174,7 +174,7 @@ fn oz_field_recovers_xi_and_s4_tends_to_chi4() {
             if sh.q[k] * xi > 2.0 {
                 continue;
             }
-            let (x, y) = (sh.q[k] * sh.q[k], 1.0 / (sh.s4[k] - background));
+            let (x, y) = (sh.q2[k], 1.0 / (sh.s4[k] - background));
             let n = sh.n_vectors[k] as f64;
             let w = match model {
                 None => n,
@@ -411,8 +411,22 @@ fn bad_parameters_are_clear_errors() {
         },
     ));
     assert!(e.contains("q_max"), "{e}");
-    let yaml_err = serde_json::from_str::<chi4::Params>(r#"{"n": [10], "bogus": 1}"#).unwrap_err();
-    assert!(yaml_err.to_string().contains("bogus"));
+    let e = err_text(run(
+        "chi4",
+        serde_json::json!({"n": [10], "bogus": 1}),
+        &traj,
+    ));
+    assert!(e.contains("`chi4`") && e.contains("bogus"), "{e}");
+    let e = err_text(run("chi5", serde_json::json!({}), &traj));
+    assert!(e.contains("chi5") && e.contains("chi4_peaks"), "{e}");
+    // Every kind is dispatched (a missing arm would report an unknown kind).
+    for kind in KINDS {
+        let e = format!(
+            "{:#}",
+            run(kind, serde_json::json!({"bogus": 1}), &traj).unwrap_err()
+        );
+        assert!(e.contains(&format!("`{kind}`")), "{kind}: {e}");
+    }
 }
 
 fn one_frame(x: Vec<f64>, y: Vec<f64>, species: Vec<u8>, l: f64) -> Trajectory {
@@ -636,4 +650,41 @@ fn momentum_profile_of_uniform_flow() {
     let mass: f64 = traj.species.iter().map(|&s| traj.masses[s as usize]).sum();
     let total: f64 = px.iter().sum::<f64>() * 5.0 * 10.0;
     assert!((total - mass).abs() < 1e-9 * mass);
+}
+
+#[test]
+fn every_kind_runs_from_json_parameters() {
+    use serde_json::json;
+    let times = schedule_times(4, 20.0, 0.1, 10.0);
+    let mut traj = ballistic(400, [30.0, 30.0], &times, 8);
+    traj.species[0] = 2;
+    traj.radii.push(2.0);
+    traj.masses.push(4.0);
+    let cut = json!([[1.2, 1.3, 2.0], [1.3, 1.5, 2.0], [2.0, 2.0, 2.5]]);
+    let cases = [
+        ("overlap", json!({"lags": [0.1, 1.0]}), "Q"),
+        ("tau_alpha", json!({"a": 0.6}), "tau_alpha"),
+        ("aging", json!({"lags": [0.1, 1.0]}), "t0"),
+        ("aging_tau_alpha", json!({}), "tau_alpha"),
+        ("chi4", json!({"n": [50, 100], "lags": [1.0]}), "chi4"),
+        ("chi4_peaks", json!({"n": [50]}), "tau4"),
+        ("s4", json!({"lags": [1.0], "q_max": 1.0}), "S4"),
+        ("msd", json!({"fractions": [0.1]}), "msd"),
+        ("van_hove", json!({"lags": [1.0]}), "P"),
+        ("gr", json!({"r_max": 5.0}), "g"),
+        ("clusters", json!({"lags": [1.0], "cutoffs": cut}), "Rg"),
+        ("cluster_sizes", json!({"lags": [1.0], "cutoffs": cut}), "P"),
+        ("intruder_velocity", json!({"blocks": 2}), "v"),
+        ("intruder_path", json!({}), "x"),
+        ("momentum_profile", json!({"times": [1.0], "bins": 6}), "Px"),
+    ];
+    assert_eq!(cases.len(), KINDS.len());
+    for (kind, params, column) in cases {
+        let b = run(kind, params, &traj).unwrap_or_else(|e| panic!("{kind}: {e:#}"));
+        assert!(b.num_rows() > 0, "{kind}: empty table");
+        assert!(
+            col(&b, column).iter().any(|v| v.is_finite()),
+            "{kind}: no finite {column}"
+        );
+    }
 }
