@@ -1,1 +1,154 @@
 //! Observables computed from stored trajectories (overlap, chi4, S4, MSD, clusters, ...).
+//!
+//! Every observable has a `Params` struct (serde, `deny_unknown_fields`, validated)
+//! and a `compute(traj, params) -> anyhow::Result<RecordBatch>`; column names and
+//! units are listed in docs/analysis.md. Typed results (tau_alpha, chi4 peak,
+//! g_ab first minima, clusters) are public for other Rust code.
+//!
+//! Time-origin averaging: at each lag the frame pairs come from
+//! [`Trajectory::pairs_at_lag`]; each time origin (and each replica) is one block
+//! for jackknife error bars.
+
+pub mod chi4;
+pub mod clusters;
+pub mod gr;
+pub mod intruder;
+pub mod lags;
+pub mod msd;
+pub mod neighbours;
+pub mod overlap;
+pub mod s4;
+pub mod stats;
+pub mod subbox;
+pub mod synthetic;
+pub mod van_hove;
+
+use anyhow::{Result, bail};
+use arrow_array::RecordBatch;
+
+use crate::traj::{Frame, Trajectory};
+
+/// Every stage kind [`run`] knows, with the function it calls.
+pub const KINDS: &[&str] = &[
+    "overlap",
+    "tau_alpha",
+    "aging",
+    "aging_tau_alpha",
+    "chi4",
+    "chi4_peaks",
+    "s4",
+    "msd",
+    "van_hove",
+    "gr",
+    "clusters",
+    "cluster_sizes",
+    "intruder_velocity",
+    "intruder_path",
+    "momentum_profile",
+];
+
+/// Run the observable `kind` (one of [`KINDS`]) with its parameters given as a
+/// JSON/YAML value (unknown keys and wrong types are errors naming the kind).
+pub fn run(kind: &str, params: serde_json::Value, traj: &Trajectory) -> Result<RecordBatch> {
+    fn p<T: serde::de::DeserializeOwned>(kind: &str, v: serde_json::Value) -> Result<T> {
+        serde_json::from_value(v)
+            .map_err(|e| anyhow::anyhow!("parameters of analysis `{kind}`: {e}"))
+    }
+    match kind {
+        "overlap" => overlap::compute(traj, &p(kind, params)?),
+        "tau_alpha" => overlap::compute_tau_alpha(traj, &p(kind, params)?),
+        "aging" => overlap::aging(traj, &p(kind, params)?),
+        "aging_tau_alpha" => overlap::aging_tau_alpha(traj, &p(kind, params)?),
+        "chi4" => chi4::compute(traj, &p(kind, params)?),
+        "chi4_peaks" => chi4::compute_peaks(traj, &p(kind, params)?),
+        "s4" => s4::compute(traj, &p(kind, params)?),
+        "msd" => msd::compute(traj, &p(kind, params)?),
+        "van_hove" => van_hove::compute(traj, &p(kind, params)?),
+        "gr" => gr::compute(traj, &p(kind, params)?),
+        "clusters" => clusters::compute(traj, &p(kind, params)?),
+        "cluster_sizes" => clusters::compute_sizes(traj, &p(kind, params)?),
+        "intruder_velocity" => intruder::compute_velocity(traj, &p(kind, params)?),
+        "intruder_path" => intruder::compute_path(traj, &p(kind, params)?),
+        "momentum_profile" => intruder::compute_profile(traj, &p(kind, params)?),
+        other => bail!(
+            "unknown analysis kind `{other}`; known kinds: {}",
+            KINDS.join(", ")
+        ),
+    }
+}
+
+/// Default relative tolerance when matching a requested lag to frame time differences.
+pub const DEFAULT_REL_TOL: f64 = 1e-6;
+
+pub(crate) fn default_rel_tol() -> f64 {
+    DEFAULT_REL_TOL
+}
+
+/// The paper's mobility cut-off a = 0.6 r1 (paper H, Eq. 5).
+pub(crate) fn default_a() -> f64 {
+    0.6
+}
+
+/// Fails unless `value` is finite and > 0, naming the parameter.
+pub(crate) fn ensure_positive(name: &str, value: f64) -> Result<()> {
+    if !(value.is_finite() && value > 0.0) {
+        bail!("parameter `{name}` must be a finite number > 0, got {value}");
+    }
+    Ok(())
+}
+
+/// Fails on an empty trajectory or frames whose arrays disagree with the particle count.
+pub(crate) fn check_trajectory(traj: &Trajectory) -> Result<()> {
+    let n = traj.n();
+    if n == 0 {
+        bail!("the trajectory has no particles");
+    }
+    if traj.frames.is_empty() {
+        bail!("the trajectory has no frames");
+    }
+    for (k, f) in traj.frames.iter().enumerate() {
+        if f.x.len() != n || f.y.len() != n {
+            bail!(
+                "frame {k} (t = {}) has {} x and {} y positions for {n} particles",
+                f.time,
+                f.x.len(),
+                f.y.len()
+            );
+        }
+    }
+    if let Some(&s) = traj
+        .species
+        .iter()
+        .find(|&&s| s as usize >= traj.radii.len())
+    {
+        bail!(
+            "species {s} has no radius (the trajectory lists {} radii)",
+            traj.radii.len()
+        );
+    }
+    Ok(())
+}
+
+/// Squared displacement of every particle between two frames (positions are unwrapped).
+pub fn squared_displacements(f0: &Frame, f1: &Frame) -> Vec<f64> {
+    f0.x.iter()
+        .zip(&f0.y)
+        .zip(f1.x.iter().zip(&f1.y))
+        .map(|((x0, y0), (x1, y1))| (x1 - x0).powi(2) + (y1 - y0).powi(2))
+        .collect()
+}
+
+/// Position folded into the box [0, L) along a periodic axis; unchanged otherwise.
+#[inline]
+pub fn fold(x: f64, l: f64, periodic: bool) -> f64 {
+    if periodic {
+        let r = x.rem_euclid(l);
+        // rem_euclid can round up to exactly l for tiny negative x.
+        if r >= l { 0.0 } else { r }
+    } else {
+        x
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,320 @@
+//! Clusters of slow (|dr| < a) and fast (|dr| > 3a) particles over a lag t (paper H,
+//! Sec. 3.3): two such particles are linked if closer than r_ab^min, the first
+//! minimum of g_ab(r). Union-find over a cell list; each node keeps its offset to its
+//! parent, so clusters that wrap the periodic box are unwrapped for Rg (Eq. 10) and
+//! clusters that span the box (a loop of bonds winding around it) are flagged.
+
+use anyhow::{Result, bail};
+use arrow_array::RecordBatch;
+use serde::Deserialize;
+
+use super::{check_trajectory, default_a, default_rel_tol, ensure_positive, gr, lags, neighbours};
+use crate::table::f64_batch;
+use crate::traj::Trajectory;
+
+fn default_fast_factor() -> f64 {
+    3.0
+}
+
+/// Parameters of the cluster analysis.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Slow: |dr| < a (units r1).
+    #[serde(default = "default_a")]
+    pub a: f64,
+    /// Fast: |dr| > fast_factor * a.
+    #[serde(default = "default_fast_factor")]
+    pub fast_factor: f64,
+    /// Lags t (e.g. [tau_alpha]).
+    pub lags: Vec<f64>,
+    /// Neighbour cut-offs r_ab (species x species); first minima of g_ab(r) if absent.
+    #[serde(default)]
+    pub cutoffs: Option<Vec<Vec<f64>>>,
+    /// Relative tolerance matching a lag to frame time differences.
+    #[serde(default = "default_rel_tol")]
+    pub rel_tol: f64,
+    /// Bins per decade of Nc for the size distribution P(Nc).
+    #[serde(default = "default_per_decade")]
+    pub per_decade: usize,
+}
+
+fn default_per_decade() -> usize {
+    5
+}
+
+/// One cluster.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cluster {
+    /// Number of particles Nc.
+    pub size: usize,
+    /// Radius of gyration of the unwrapped cluster.
+    pub rg: f64,
+    /// The cluster is connected to its own periodic image (spans the box).
+    pub spans: bool,
+}
+
+/// Union-find with offsets: `off[i]` = unwrapped r_i - unwrapped r_parent(i).
+struct Forest {
+    parent: Vec<usize>,
+    size: Vec<usize>,
+    off: Vec<[f64; 2]>,
+    spans: Vec<bool>,
+}
+
+impl Forest {
+    fn new(n: usize) -> Self {
+        Self {
+            parent: (0..n).collect(),
+            size: vec![1; n],
+            off: vec![[0.0; 2]; n],
+            spans: vec![false; n],
+        }
+    }
+
+    /// Root of i and the offset r_i - r_root, compressing the path.
+    fn find(&mut self, i: usize) -> (usize, [f64; 2]) {
+        let mut path = Vec::new();
+        let mut r = i;
+        while self.parent[r] != r {
+            path.push(r);
+            r = self.parent[r];
+        }
+        // Walk back from the node nearest the root, accumulating offsets.
+        let mut acc = [0.0; 2];
+        for &k in path.iter().rev() {
+            acc = [acc[0] + self.off[k][0], acc[1] + self.off[k][1]];
+            self.off[k] = acc;
+            self.parent[k] = r;
+        }
+        (
+            r,
+            if path.is_empty() {
+                [0.0; 2]
+            } else {
+                self.off[i]
+            },
+        )
+    }
+
+    /// Link i and j with bond d = r_j - r_i (minimum image). A bond closing a loop
+    /// with a mismatch of order the box side means the cluster wraps onto itself.
+    fn union(&mut self, i: usize, j: usize, d: [f64; 2], half_box: f64) {
+        let (ri, oi) = self.find(i);
+        let (rj, oj) = self.find(j);
+        // r_rj - r_ri implied by this bond.
+        let rel = [oi[0] + d[0] - oj[0], oi[1] + d[1] - oj[1]];
+        if ri == rj {
+            if rel[0].abs().max(rel[1].abs()) > half_box {
+                self.spans[ri] = true;
+            }
+            return;
+        }
+        let (big, small, off) = if self.size[ri] >= self.size[rj] {
+            (ri, rj, rel)
+        } else {
+            (rj, ri, [-rel[0], -rel[1]])
+        };
+        self.parent[small] = big;
+        self.off[small] = off;
+        self.size[big] += self.size[small];
+        self.spans[big] |= self.spans[small];
+    }
+}
+
+/// Clusters among the particles with `member[i]`, linked when closer than
+/// `cutoff[s_i][s_j]`, positions (x, y) unwrapped or folded.
+pub fn find_clusters(
+    traj: &Trajectory,
+    x: &[f64],
+    y: &[f64],
+    member: &[bool],
+    cutoff: &[Vec<f64>],
+) -> Result<Vec<Cluster>> {
+    let idx: Vec<usize> = (0..x.len()).filter(|&i| member[i]).collect();
+    let xs: Vec<f64> = idx.iter().map(|&i| x[i]).collect();
+    let ys: Vec<f64> = idx.iter().map(|&i| y[i]).collect();
+    let rmax = cutoff.iter().flatten().copied().fold(0.0, f64::max);
+    let mut forest = Forest::new(idx.len());
+    let half_box = 0.5 * traj.box_size[0].min(traj.box_size[1]);
+    neighbours::for_each_pair(
+        &xs,
+        &ys,
+        traj.box_size,
+        traj.periodic,
+        rmax,
+        |a, b, dx, dy| {
+            let (si, sj) = (traj.species[idx[a]] as usize, traj.species[idx[b]] as usize);
+            let rc = cutoff[si][sj];
+            if dx * dx + dy * dy < rc * rc {
+                forest.union(a, b, [dx, dy], half_box);
+            }
+        },
+    )?;
+    // Per root: count, sum of offsets, sum of squared offsets (relative to the root).
+    let n = idx.len();
+    let mut acc = vec![[0.0f64; 3]; n];
+    for k in 0..n {
+        let (r, o) = forest.find(k);
+        acc[r][0] += o[0];
+        acc[r][1] += o[1];
+        acc[r][2] += o[0] * o[0] + o[1] * o[1];
+    }
+    Ok((0..n)
+        .filter(|&k| forest.parent[k] == k)
+        .map(|r| {
+            let c = forest.size[r] as f64;
+            let (mx, my) = (acc[r][0] / c, acc[r][1] / c);
+            Cluster {
+                size: forest.size[r],
+                rg: (acc[r][2] / c - mx * mx - my * my).max(0.0).sqrt(),
+                spans: forest.spans[r],
+            }
+        })
+        .collect())
+}
+
+fn validate_cutoffs(traj: &Trajectory, c: &[Vec<f64>]) -> Result<()> {
+    let ns = traj.species.iter().copied().max().unwrap_or(0) as usize + 1;
+    if c.len() < ns || c.iter().any(|row| row.len() < ns) {
+        bail!("parameter `cutoffs` must be a {ns} x {ns} matrix (one row per species)");
+    }
+    for (a, row) in c.iter().enumerate() {
+        for (b, &v) in row.iter().enumerate() {
+            ensure_positive(&format!("cutoffs[{a}][{b}]"), v)?;
+            if (v - c[b][a]).abs() > 1e-12 * v {
+                bail!(
+                    "parameter `cutoffs` must be symmetric: [{a}][{b}] = {v} but [{b}][{a}] = {}",
+                    c[b][a]
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Table `t, t0, kind, Nc, Rg, spans`: one row per cluster; kind 0 = slow, 1 = fast;
+/// positions at the end of each interval (Eq. 10: r_i(tau_alpha)); spans = 1 for a
+/// cluster connected to its own periodic image (its Rg is not meaningful).
+pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    check_trajectory(traj)?;
+    ensure_positive("a", p.a)?;
+    if !(p.fast_factor.is_finite() && p.fast_factor >= 1.0) {
+        bail!(
+            "parameter `fast_factor` must be >= 1, got {}",
+            p.fast_factor
+        );
+    }
+    if p.lags.is_empty() {
+        bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
+    }
+    let cut = match &p.cutoffs {
+        Some(c) => c.clone(),
+        None => gr::cutoffs(traj, &gr::Params::default())?,
+    };
+    validate_cutoffs(traj, &cut)?;
+    let (slow2, fast2) = (p.a * p.a, (p.fast_factor * p.a).powi(2));
+    let mut cols: [Vec<f64>; 6] = Default::default();
+    let start = traj.frames[0].time;
+    for lag in lags::select(&[traj], Some(&p.lags), p.rel_tol)? {
+        for &(_, i, j) in &lag.pairs {
+            let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
+            let d2 = super::squared_displacements(f0, f1);
+            for (kind, member) in [
+                d2.iter().map(|&d| d < slow2).collect::<Vec<_>>(),
+                d2.iter().map(|&d| d > fast2).collect(),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                for c in find_clusters(traj, &f1.x, &f1.y, &member, &cut)? {
+                    cols[0].push(lag.t);
+                    cols[1].push(f0.time - start);
+                    cols[2].push(kind as f64);
+                    cols[3].push(c.size as f64);
+                    cols[4].push(c.rg);
+                    cols[5].push(if c.spans { 1.0 } else { 0.0 });
+                }
+            }
+        }
+    }
+    let [t, t0, k, nc, rg, sp] = cols;
+    f64_batch(&[
+        ("t", t),
+        ("t0", t0),
+        ("kind", k),
+        ("Nc", nc),
+        ("Rg", rg),
+        ("spans", sp),
+    ])
+}
+
+/// Table `t, kind, Nc, P, n_clusters`: the log-binned cluster size distribution of
+/// slow (kind 0) and fast (kind 1) clusters at each lag, pooled over time origins.
+pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let rows = compute(traj, p)?;
+    let col = |name: &str| -> Vec<f64> {
+        rows.column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
+            .map(|a| a.values().to_vec())
+            .expect("column written by compute")
+    };
+    let (t, kind, nc) = (col("t"), col("kind"), col("Nc"));
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    for &lag in &p.lags {
+        for k in [0.0, 1.0] {
+            let sizes: Vec<usize> = (0..t.len())
+                .filter(|&i| kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
+                .map(|i| nc[i] as usize)
+                .collect();
+            for (centre, prob, count) in size_distribution(&sizes, p.per_decade)? {
+                cols[0].push(lag);
+                cols[1].push(k);
+                cols[2].push(centre);
+                cols[3].push(prob);
+                cols[4].push(count as f64);
+            }
+        }
+    }
+    let [t, k, n, pr, c] = cols;
+    f64_batch(&[
+        ("t", t),
+        ("kind", k),
+        ("Nc", n),
+        ("P", pr),
+        ("n_clusters", c),
+    ])
+}
+
+/// P(Nc): the fraction of clusters of size Nc, log-binned with `per_decade` bins per
+/// decade: P = (clusters in bin) / (all clusters x integers in bin). Returns
+/// (Nc bin centre = geometric mean of its smallest and largest integer, P, clusters in bin).
+pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64, f64, usize)>> {
+    if per_decade == 0 {
+        bail!("parameter `per_decade` must be at least 1");
+    }
+    let Some(&max) = sizes.iter().max() else {
+        return Ok(vec![]);
+    };
+    let edge = |k: usize| 10f64.powf(k as f64 / per_decade as f64);
+    let mut out = Vec::new();
+    let mut k = 0;
+    while edge(k) <= max as f64 {
+        // Integers n with edge(k) <= n < edge(k + 1).
+        let lo = edge(k).ceil() as usize;
+        let hi = edge(k + 1).ceil() as usize;
+        if hi > lo {
+            let c = sizes.iter().filter(|&&s| s >= lo && s < hi).count();
+            if c > 0 {
+                let centre = ((lo * (hi - 1)) as f64).sqrt();
+                out.push((
+                    centre,
+                    c as f64 / (sizes.len() as f64 * (hi - lo) as f64),
+                    c,
+                ));
+            }
+        }
+        k += 1;
+    }
+    Ok(out)
+}

@@ -1,0 +1,219 @@
+//! The overlap Q(t) (paper H, Eq. 5-7), tau_alpha where Q = 1/e, and the aging check
+//! Q(t; t0) of Fig. 2.
+//!
+//! A particle is slow over [t0, t0 + t] if it moved less than `a`. Q_r is the number
+//! of slow particles in sub-box B_r (by position at t0) over the mean number N per
+//! sub-box; Q(t) averages Q_r over sub-boxes and time origins.
+
+use anyhow::{Result, bail};
+use arrow_array::RecordBatch;
+use serde::Deserialize;
+
+use super::lags::{self, Lag};
+use super::stats::{Blocks, Estimate, crossing_time};
+use super::subbox::SubBoxes;
+use super::{check_trajectory, default_a, default_rel_tol, ensure_positive, squared_displacements};
+use crate::table::f64_batch;
+use crate::traj::Trajectory;
+
+/// Parameters of the overlap Q(t).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Mobility cut-off a (units r1): slow means |dr| < a.
+    #[serde(default = "default_a")]
+    pub a: f64,
+    /// Mean particle number per sub-box; the whole system if absent.
+    #[serde(default)]
+    pub n: Option<f64>,
+    /// Lags t to evaluate; every lag the trajectory realises if absent.
+    #[serde(default)]
+    pub lags: Option<Vec<f64>>,
+    /// Relative tolerance matching a lag to frame time differences.
+    #[serde(default = "default_rel_tol")]
+    pub rel_tol: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            a: default_a(),
+            n: None,
+            lags: None,
+            rel_tol: default_rel_tol(),
+        }
+    }
+}
+
+/// Per lag and per sub-box size: blocked sums [sum Q_r, sum Q_r^2, number of boxes].
+pub struct Moments {
+    pub lags: Vec<Lag>,
+    pub boxes: Vec<SubBoxes>,
+    /// `blocks[size][lag]`.
+    pub blocks: Vec<Vec<Blocks>>,
+}
+
+/// One displacement pass per frame pair, shared by every sub-box size.
+pub fn moments(
+    trajs: &[&Trajectory],
+    a: f64,
+    sizes: &[Option<f64>],
+    lags: Option<&[f64]>,
+    rel_tol: f64,
+) -> Result<Moments> {
+    ensure_positive("a", a)?;
+    let Some(first) = trajs.first() else {
+        bail!("no trajectory given");
+    };
+    for t in trajs {
+        check_trajectory(t)?;
+        if t.n() != first.n() || t.box_size != first.box_size {
+            bail!("replicas differ in particle number or box size; pool only identical systems");
+        }
+    }
+    let lags = lags::select(trajs, lags, rel_tol)?;
+    let boxes: Vec<SubBoxes> = sizes
+        .iter()
+        .map(|n| SubBoxes::new(first, n.unwrap_or(first.n() as f64)))
+        .collect::<Result<_>>()?;
+    let mut blocks = vec![vec![Blocks::default(); lags.len()]; boxes.len()];
+    let a2 = a * a;
+    for (li, lag) in lags.iter().enumerate() {
+        for pair in &lag.pairs {
+            let tr = trajs[pair.0];
+            let (f0, f1) = (&tr.frames[pair.1], &tr.frames[pair.2]);
+            let slow: Vec<bool> = squared_displacements(f0, f1)
+                .into_iter()
+                .map(|d2| d2 < a2)
+                .collect();
+            for (bi, b) in boxes.iter().enumerate() {
+                let m = b.overlap_moments(&f0.x, &f0.y, &slow);
+                blocks[bi][li].add(Lag::block(pair), &m);
+            }
+        }
+    }
+    Ok(Moments {
+        lags,
+        boxes,
+        blocks,
+    })
+}
+
+/// Q = mean of Q_r from the sums [sum Q, sum Q^2, boxes].
+pub(crate) fn q_of(s: &[f64]) -> f64 {
+    s[0] / s[2]
+}
+
+/// Q(t) with jackknife errors over time origins, pooling replicas.
+pub fn q_curve(trajs: &[&Trajectory], p: &Params) -> Result<(Vec<f64>, Vec<Estimate>, Vec<usize>)> {
+    let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
+    let t = m.lags.iter().map(|l| l.t).collect();
+    let q = m.blocks[0].iter().map(|b| b.jackknife(q_of)).collect();
+    let n = m.blocks[0].iter().map(Blocks::len).collect();
+    Ok((t, q, n))
+}
+
+/// Table `t, Q, Q_err, n_origins`.
+pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let (t, q, n) = q_curve(&[traj], p)?;
+    f64_batch(&[
+        ("t", t),
+        ("Q", q.iter().map(|e| e.value).collect()),
+        ("Q_err", q.iter().map(|e| e.err).collect()),
+        ("n_origins", n.iter().map(|&k| k as f64).collect()),
+    ])
+}
+
+/// tau_alpha where Q(tau_alpha) = 1/e (linear interpolation in ln t), with a
+/// jackknife error over time origins and replicas. Errors if Q never reaches 1/e.
+pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
+    let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
+    let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
+    let level = (-1f64).exp();
+    let blocks = &m.blocks[0];
+    let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
+    let q: Vec<f64> = totals.iter().map(|s| q_of(s)).collect();
+    let Some(value) = crossing_time(&t, &q, level) else {
+        bail!(
+            "Q(t) never falls to 1/e over the lags analysed (last lag {}, Q = {}): record \
+             longer lags to measure tau_alpha",
+            t.last().copied().unwrap_or(f64::NAN),
+            q.last().copied().unwrap_or(f64::NAN)
+        );
+    };
+    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let loo: Vec<f64> = keys
+        .iter()
+        .map(|k| {
+            let qk: Vec<f64> = blocks
+                .iter()
+                .zip(&totals)
+                .map(|(b, tot)| q_of(&b.total_without(tot, k)))
+                .collect();
+            crossing_time(&t, &qk, level).unwrap_or(f64::NAN)
+        })
+        .collect();
+    Ok(Estimate {
+        value,
+        err: super::stats::jackknife_err(loo),
+    })
+}
+
+/// Table `tau_alpha, tau_alpha_err` (one row).
+pub fn compute_tau_alpha(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let e = tau_alpha(&[traj], p)?;
+    f64_batch(&[("tau_alpha", vec![e.value]), ("tau_alpha_err", vec![e.err])])
+}
+
+/// (t0, lags, Q) of one time origin.
+pub type OriginCurve = (f64, Vec<f64>, Vec<f64>);
+
+/// Q(t; t0) for each time origin t0 separately (no origin average), t0 measured
+/// from the first frame: `(t0, lags, Q)` per origin, lags ascending.
+pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<OriginCurve>> {
+    let m = moments(&[traj], p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
+    let start = traj.frames[0].time;
+    let mut by_origin: std::collections::BTreeMap<usize, (Vec<f64>, Vec<f64>)> = Default::default();
+    for (lag, b) in m.lags.iter().zip(&m.blocks[0]) {
+        for k in b.keys() {
+            let e = by_origin.entry(k.1).or_default();
+            e.0.push(lag.t);
+            e.1.push(q_of(b.get(k).expect("key from this block set")));
+        }
+    }
+    Ok(by_origin
+        .into_iter()
+        .map(|(i, (t, q))| (traj.frames[i].time - start, t, q))
+        .collect())
+}
+
+/// Aging check (Fig. 2): table `t0, t, Q` of Q(t; t0) per time origin.
+pub fn aging(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let curves = per_origin(traj, p)?;
+    let mut cols: [Vec<f64>; 3] = Default::default();
+    for (t0, t, q) in curves {
+        cols[0].extend(std::iter::repeat_n(t0, t.len()));
+        cols[1].extend(t);
+        cols[2].extend(q);
+    }
+    let [t0, t, q] = cols;
+    f64_batch(&[("t0", t0), ("t", t), ("Q", q)])
+}
+
+/// Inset of Fig. 2: table `t0, tau_alpha` (NaN where Q(t; t0) never reaches 1/e).
+pub fn aging_tau_alpha(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let curves = per_origin(traj, p)?;
+    let level = (-1f64).exp();
+    f64_batch(&[
+        ("t0", curves.iter().map(|c| c.0).collect()),
+        (
+            "tau_alpha",
+            curves
+                .iter()
+                .map(|(_, t, q)| crossing_time(t, q, level).unwrap_or(f64::NAN))
+                .collect(),
+        ),
+    ])
+}

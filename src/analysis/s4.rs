@@ -1,0 +1,470 @@
+//! Four-point structure factor S4(q, t) (paper H, Eq. 15-16), averaged over shells
+//! |q| = q of the reciprocal lattice q = 2 pi (m / Lx, n / Ly) of the periodic box.
+//!
+//! S4(q, t) = (1/N) [<|W(q)|^2> - |<W(q)>|^2], W(q) = sum_i theta_i exp(-i q.r_i(t0)),
+//! theta_i = 1 for slow particles, N the number of particles, <.> over time origins.
+//!
+//! W(q) for all |q| <= q_max comes from a type-1 non-uniform FFT with Gaussian
+//! gridding (Greengard and Lee, SIAM Rev. 46, 443 (2004)): each slow particle is spread
+//! with a truncated Gaussian onto a 2x oversampled grid, the grid is Fourier
+//! transformed, and the Gaussian is divided out. The truncation half-width sets the
+//! accuracy (relative to sum |theta_i|) and is chosen from `tolerance`; the cost is
+//! O(N_slow w^2 + G log G) with w = 2 x half-width and G grid points, so 4,000,000
+//! particles are cheap. The direct sum over wavevectors is the test reference.
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use anyhow::{Result, bail};
+use arrow_array::RecordBatch;
+use realfft::num_complex::Complex;
+use realfft::{RealFftPlanner, RealToComplex};
+use serde::Deserialize;
+
+use super::{check_trajectory, default_a, default_rel_tol, ensure_positive, squared_displacements};
+use crate::table::f64_batch;
+use crate::traj::Trajectory;
+
+fn default_q_max() -> f64 {
+    2.0
+}
+
+fn default_tolerance() -> f64 {
+    1e-6
+}
+
+/// Parameters of S4(q, t).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Mobility cut-off a (units r1).
+    #[serde(default = "default_a")]
+    pub a: f64,
+    /// Lags t at which to evaluate S4 (e.g. [tau_alpha]).
+    pub lags: Vec<f64>,
+    /// Largest |q| (units 1/r1).
+    #[serde(default = "default_q_max")]
+    pub q_max: f64,
+    /// Shell width in q; 2 pi / min(Lx, Ly) if absent.
+    #[serde(default)]
+    pub dq: Option<f64>,
+    /// Accuracy of W(q) relative to the number of slow particles (1e-15 .. 1e-2).
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Relative tolerance matching a lag to frame time differences.
+    #[serde(default = "default_rel_tol")]
+    pub rel_tol: f64,
+}
+
+/// Reciprocal-lattice vectors q = 2 pi (m / Lx, n / Ly) with 0 < |q| <= q_max, one of
+/// each +-q pair (|W(q)| = |W(-q)| for real weights): m > 0, or m = 0 and n > 0.
+#[derive(Clone, Debug)]
+pub struct Lattice {
+    pub modes: [usize; 2],
+    /// (m, n) of each vector.
+    pub mn: Vec<(i64, i64)>,
+    /// |q| of each vector.
+    pub q: Vec<f64>,
+}
+
+impl Lattice {
+    pub fn new(box_size: [f64; 2], q_max: f64) -> Self {
+        let modes = [0, 1].map(|d| (q_max * box_size[d] / (2.0 * PI)).floor() as usize);
+        let (mut mn, mut q) = (Vec::new(), Vec::new());
+        for m in 0..=modes[0] as i64 {
+            for n in -(modes[1] as i64)..=modes[1] as i64 {
+                if m == 0 && n <= 0 {
+                    continue;
+                }
+                let qq = 2.0 * PI * (m as f64 / box_size[0]).hypot(n as f64 / box_size[1]);
+                if qq <= q_max {
+                    mn.push((m, n));
+                    q.push(qq);
+                }
+            }
+        }
+        Self { modes, mn, q }
+    }
+}
+
+/// Type-1 NUFFT W(m, n) = sum_j c_j exp(-2 pi i (m x_j / Lx + n y_j / Ly)) on a lattice.
+pub struct Nufft {
+    box_size: [f64; 2],
+    modes: [usize; 2],
+    /// Oversampled grid size per axis.
+    grid: [usize; 2],
+    /// Spreading half-width (grid points).
+    half_width: usize,
+    /// Gaussian width parameter tau per axis (in the 2 pi-periodic variable).
+    tau: [f64; 2],
+    row_fft: Arc<dyn RealToComplex<f64>>,
+    col_fft: ComplexFft,
+}
+
+/// Forward complex FFT (sum_l z_l e^{-2 pi i k l / n}) built from two real FFTs, so
+/// the crate needs no complex-FFT dependency beyond realfft.
+pub struct ComplexFft {
+    r2c: Arc<dyn RealToComplex<f64>>,
+    n: usize,
+}
+
+impl ComplexFft {
+    pub fn new(n: usize) -> Self {
+        Self {
+            r2c: RealFftPlanner::<f64>::new().plan_fft_forward(n),
+            n,
+        }
+    }
+
+    /// Transform `data` (length n) in place.
+    pub fn process(&self, data: &mut [Complex<f64>]) {
+        let n = self.n;
+        let mut re: Vec<f64> = data.iter().map(|z| z.re).collect();
+        let mut im: Vec<f64> = data.iter().map(|z| z.im).collect();
+        let mut fre = self.r2c.make_output_vec();
+        let mut fim = self.r2c.make_output_vec();
+        self.r2c
+            .process(&mut re, &mut fre)
+            .expect("buffer sizes come from the plan");
+        self.r2c
+            .process(&mut im, &mut fim)
+            .expect("buffer sizes come from the plan");
+        // Real input: F[n - k] = conj F[k] completes the half spectrum.
+        let full = |half: &[Complex<f64>], k: usize| {
+            if k <= n / 2 {
+                half[k]
+            } else {
+                half[n - k].conj()
+            }
+        };
+        for (k, z) in data.iter_mut().enumerate() {
+            *z = full(&fre, k) + Complex::new(0.0, 1.0) * full(&fim, k);
+        }
+    }
+}
+
+/// Smallest even integer >= n whose only prime factors are 2, 3 and 5 (fast FFT sizes).
+fn fft_size(n: usize) -> usize {
+    let mut k = n.max(2);
+    loop {
+        if k.is_multiple_of(2) {
+            let mut r = k;
+            for p in [2, 3, 5] {
+                while r.is_multiple_of(p) {
+                    r /= p;
+                }
+            }
+            if r == 1 {
+                return k;
+            }
+        }
+        k += 1;
+    }
+}
+
+impl Nufft {
+    /// Transform for modes |m| <= modes[0], |n| <= modes[1] at relative accuracy `tolerance`.
+    pub fn new(box_size: [f64; 2], modes: [usize; 2], tolerance: f64) -> Result<Self> {
+        if !(tolerance.is_finite() && (1e-15..=1e-2).contains(&tolerance)) {
+            bail!("parameter `tolerance` must be in [1e-15, 1e-2], got {tolerance}");
+        }
+        // Error ~ exp(-pi M_sp (R - 1) / (R - 1/2)) for oversampling R = 2.
+        let half_width = ((-tolerance.ln()) / (PI * 2.0 / 3.0)).ceil().max(2.0) as usize;
+        let grid = modes.map(|m| fft_size((2 * (2 * m + 1)).max(4 * half_width)));
+        // tau = pi M_sp / (M^2 R (R - 1/2)) with M = grid / R modes.
+        let tau = grid.map(|g| {
+            let m = g as f64 / 2.0;
+            PI * half_width as f64 / (m * m * 3.0)
+        });
+        let mut planner = RealFftPlanner::<f64>::new();
+        Ok(Self {
+            box_size,
+            modes,
+            grid,
+            half_width,
+            tau,
+            row_fft: planner.plan_fft_forward(grid[0]),
+            col_fft: ComplexFft::new(grid[1]),
+        })
+    }
+
+    /// Spreading half-width in grid points (cost per particle is (2 w)^2).
+    pub fn half_width(&self) -> usize {
+        self.half_width
+    }
+
+    /// Oversampled grid size.
+    pub fn grid(&self) -> [usize; 2] {
+        self.grid
+    }
+
+    /// Indices and Gaussian weights of the 2 w grid points around coordinate `x` on axis d.
+    fn kernel(&self, d: usize, x: f64, idx: &mut [usize], w: &mut [f64]) {
+        let g = self.grid[d];
+        let h = 2.0 * PI / g as f64;
+        let xi = (2.0 * PI * x / self.box_size[d]).rem_euclid(2.0 * PI);
+        let l0 = (xi / h).floor() as i64;
+        let four_tau = 4.0 * self.tau[d];
+        for (k, (i, wk)) in idx.iter_mut().zip(w.iter_mut()).enumerate() {
+            let l = l0 - self.half_width as i64 + 1 + k as i64;
+            let dx = l as f64 * h - xi;
+            *wk = (-dx * dx / four_tau).exp();
+            *i = l.rem_euclid(g as i64) as usize;
+        }
+    }
+
+    /// W on the full block m in 0..=modes[0], n in -modes[1]..=modes[1], stored
+    /// m-major: index m * (2 modes[1] + 1) + (n + modes[1]). Sign e^{-i q.r}.
+    pub fn transform(&self, x: &[f64], y: &[f64], c: &[f64]) -> Vec<Complex<f64>> {
+        let [gx, gy] = self.grid;
+        let w2 = 2 * self.half_width;
+        let mut field = vec![0.0f64; gx * gy];
+        let (mut ix, mut wx) = (vec![0usize; w2], vec![0.0f64; w2]);
+        let (mut iy, mut wy) = (vec![0usize; w2], vec![0.0f64; w2]);
+        for ((&xj, &yj), &cj) in x.iter().zip(y).zip(c) {
+            if cj == 0.0 {
+                continue;
+            }
+            self.kernel(0, xj, &mut ix, &mut wx);
+            self.kernel(1, yj, &mut iy, &mut wy);
+            for (&r, &wyk) in iy.iter().zip(&wy) {
+                let row = &mut field[r * gx..(r + 1) * gx];
+                let s = cj * wyk;
+                for (&i, &wxk) in ix.iter().zip(&wx) {
+                    row[i] += s * wxk;
+                }
+            }
+        }
+        // Rows: real FFT along x, keeping m = 0..=modes[0].
+        let [mx, my] = self.modes;
+        let mut spec = vec![Complex::new(0.0, 0.0); (mx + 1) * gy];
+        let mut out = self.row_fft.make_output_vec();
+        let mut scratch = self.row_fft.make_scratch_vec();
+        for r in 0..gy {
+            let row = &mut field[r * gx..(r + 1) * gx];
+            self.row_fft
+                .process_with_scratch(row, &mut out, &mut scratch)
+                .expect("buffer sizes come from the plan");
+            for m in 0..=mx {
+                spec[m * gy + r] = out[m];
+            }
+        }
+        // Columns: complex FFT along y.
+        let ny = 2 * my + 1;
+        let mut w = vec![Complex::new(0.0, 0.0); (mx + 1) * ny];
+        let deconv = |d: usize, k: f64| (PI / self.tau[d]).sqrt() * (k * k * self.tau[d]).exp();
+        let norm = 1.0 / (gx * gy) as f64;
+        for m in 0..=mx {
+            let col = &mut spec[m * gy..(m + 1) * gy];
+            self.col_fft.process(col);
+            let dm = deconv(0, m as f64) * norm;
+            for n in -(my as i64)..=my as i64 {
+                let k = n.rem_euclid(gy as i64) as usize;
+                let v = col[k];
+                w[m * ny + (n + my as i64) as usize] = v * (dm * deconv(1, n as f64));
+            }
+        }
+        w
+    }
+}
+
+/// S4 for one lag, shell by shell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shells {
+    /// Mean |q| of the vectors in each shell.
+    pub q: Vec<f64>,
+    /// Mean q^2 of the vectors in each shell (the abscissa of OZ fits in q^2).
+    pub q2: Vec<f64>,
+    pub s4: Vec<f64>,
+    /// Standard error over time origins of the shell average of |W|^2 / N.
+    pub s4_err: Vec<f64>,
+    /// Number of lattice vectors (one per +-q pair) in each shell.
+    pub n_vectors: Vec<usize>,
+}
+
+/// Shell average of per-vector values; shell k holds |q| in [(k - 1/2) dq, (k + 1/2) dq).
+fn shell_index(q: f64, dq: f64) -> usize {
+    (q / dq).round() as usize
+}
+
+/// Running sums over time origins, so memory stays O(vectors) whatever the number
+/// of origins: sum |W|^2 and sum W per vector, and per-origin shell sums of |W|^2.
+pub struct Accumulator<'a> {
+    lat: &'a Lattice,
+    shell: Vec<usize>,
+    n_shells: usize,
+    sum2: Vec<f64>,
+    sum1: Vec<Complex<f64>>,
+    per_origin: Vec<Vec<f64>>,
+}
+
+impl<'a> Accumulator<'a> {
+    pub fn new(lat: &'a Lattice, dq: f64) -> Self {
+        let shell: Vec<usize> = lat.q.iter().map(|&q| shell_index(q, dq)).collect();
+        let n_shells = shell.iter().copied().max().unwrap_or(0) + 1;
+        Self {
+            lat,
+            shell,
+            n_shells,
+            sum2: vec![0.0; lat.q.len()],
+            sum1: vec![Complex::new(0.0, 0.0); lat.q.len()],
+            per_origin: Vec::new(),
+        }
+    }
+
+    /// Add W of one time origin (one value per lattice vector).
+    pub fn add(&mut self, w: &[Complex<f64>]) {
+        let mut shells = vec![0.0; self.n_shells];
+        for (v, wv) in w.iter().enumerate() {
+            self.sum2[v] += wv.norm_sqr();
+            self.sum1[v] += wv;
+            shells[self.shell[v]] += wv.norm_sqr();
+        }
+        self.per_origin.push(shells);
+    }
+
+    /// S4 = (<|W|^2> - |<W>|^2) / N per vector, averaged in shells.
+    pub fn shells(&self, n_particles: f64) -> Shells {
+        let no = self.per_origin.len() as f64;
+        let mut sum_q = vec![0.0; self.n_shells];
+        let mut sum_q2 = vec![0.0; self.n_shells];
+        let mut sum_s = vec![0.0; self.n_shells];
+        let mut count = vec![0usize; self.n_shells];
+        for v in 0..self.lat.q.len() {
+            let k = self.shell[v];
+            sum_q[k] += self.lat.q[v];
+            sum_q2[k] += self.lat.q[v] * self.lat.q[v];
+            sum_s[k] += (self.sum2[v] / no - (self.sum1[v] / no).norm_sqr()) / n_particles;
+            count[k] += 1;
+        }
+        let mut out = Shells {
+            q: vec![],
+            q2: vec![],
+            s4: vec![],
+            s4_err: vec![],
+            n_vectors: vec![],
+        };
+        for k in 0..self.n_shells {
+            if count[k] == 0 {
+                continue;
+            }
+            let c = count[k] as f64;
+            // Standard error over origins of the shell mean of |W|^2 / N.
+            let means: Vec<f64> = self
+                .per_origin
+                .iter()
+                .map(|p| p[k] / (c * n_particles))
+                .collect();
+            let m = means.iter().sum::<f64>() / no;
+            let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (no - 1.0).max(1.0);
+            out.q.push(sum_q[k] / c);
+            out.q2.push(sum_q2[k] / c);
+            out.s4.push(sum_s[k] / c);
+            out.s4_err.push(if no > 1.0 {
+                (var / no).sqrt()
+            } else {
+                f64::NAN
+            });
+            out.n_vectors.push(count[k]);
+        }
+        out
+    }
+}
+
+/// S4(q) at each requested lag: `(lag, shells)`.
+pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
+    check_trajectory(traj)?;
+    ensure_positive("a", p.a)?;
+    ensure_positive("q_max", p.q_max)?;
+    if traj.periodic != [true, true] {
+        bail!(
+            "S4 needs a box periodic in x and y (the trajectory has periodic = {:?})",
+            traj.periodic
+        );
+    }
+    if p.lags.is_empty() {
+        bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
+    }
+    let dq =
+        p.dq.unwrap_or(2.0 * PI / traj.box_size[0].min(traj.box_size[1]));
+    ensure_positive("dq", dq)?;
+    let lat = Lattice::new(traj.box_size, p.q_max);
+    if lat.q.is_empty() {
+        bail!(
+            "q_max = {} is below the smallest wavevector 2 pi / L = {:.4} of this box",
+            p.q_max,
+            2.0 * PI / traj.box_size[0].max(traj.box_size[1])
+        );
+    }
+    let nufft = Nufft::new(traj.box_size, lat.modes, p.tolerance)?;
+    let lags = super::lags::select(&[traj], Some(&p.lags), p.rel_tol)?;
+    let ny = 2 * lat.modes[1] + 1;
+    let a2 = p.a * p.a;
+    let mut out = Vec::new();
+    for lag in lags {
+        let mut acc = Accumulator::new(&lat, dq);
+        for &(_, i, j) in &lag.pairs {
+            let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
+            let theta: Vec<f64> = squared_displacements(f0, f1)
+                .into_iter()
+                .map(|d2| if d2 < a2 { 1.0 } else { 0.0 })
+                .collect();
+            let full = nufft.transform(&f0.x, &f0.y, &theta);
+            let w: Vec<Complex<f64>> = lat
+                .mn
+                .iter()
+                .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
+                .collect();
+            acc.add(&w);
+        }
+        out.push((lag.t, acc.shells(traj.n() as f64)));
+    }
+    Ok(out)
+}
+
+/// Table `t, q, q2, S4, S4_err, n_vectors` (q2 = shell mean of q^2).
+pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let mut cols: [Vec<f64>; 6] = Default::default();
+    for (t, s) in s4(traj, p)? {
+        cols[0].extend(std::iter::repeat_n(t, s.q.len()));
+        cols[1].extend(&s.q);
+        cols[5].extend(&s.q2);
+        cols[2].extend(&s.s4);
+        cols[3].extend(&s.s4_err);
+        cols[4].extend(s.n_vectors.iter().map(|&c| c as f64));
+    }
+    let [t, q, s, e, n, q2] = cols;
+    f64_batch(&[
+        ("t", t),
+        ("q", q),
+        ("q2", q2),
+        ("S4", s),
+        ("S4_err", e),
+        ("n_vectors", n),
+    ])
+}
+
+/// Direct sum W(q) = sum_j c_j exp(-i q.r_j) over the lattice vectors (O(N x vectors);
+/// the reference the NUFFT is checked against).
+pub fn direct_w(
+    lat: &Lattice,
+    box_size: [f64; 2],
+    x: &[f64],
+    y: &[f64],
+    c: &[f64],
+) -> Vec<Complex<f64>> {
+    lat.mn
+        .iter()
+        .map(|&(m, n)| {
+            let (kx, ky) = (
+                2.0 * PI * m as f64 / box_size[0],
+                2.0 * PI * n as f64 / box_size[1],
+            );
+            x.iter()
+                .zip(y)
+                .zip(c)
+                .map(|((xj, yj), cj)| Complex::from_polar(*cj, -(kx * xj + ky * yj)))
+                .sum()
+        })
+        .collect()
+}

@@ -1,0 +1,190 @@
+//! Small statistics shared by the observables: blocked sums with jackknife errors,
+//! the crossing time of a decaying curve and the peak of a curve in log t.
+
+use std::collections::BTreeMap;
+
+/// A value with its standard error.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Estimate {
+    pub value: f64,
+    pub err: f64,
+}
+
+/// Additive sums (e.g. [count, sum Q, sum Q^2]) accumulated per block (time origin
+/// of a replica), so that any smooth function of the totals gets a jackknife error.
+#[derive(Clone, Debug, Default)]
+pub struct Blocks {
+    sums: BTreeMap<(usize, usize), Vec<f64>>,
+}
+
+impl Blocks {
+    /// Add `values` to the sums of `block`.
+    pub fn add(&mut self, block: (usize, usize), values: &[f64]) {
+        let s = self
+            .sums
+            .entry(block)
+            .or_insert_with(|| vec![0.0; values.len()]);
+        for (a, v) in s.iter_mut().zip(values) {
+            *a += v;
+        }
+    }
+
+    /// Number of blocks.
+    pub fn len(&self) -> usize {
+        self.sums.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.sums.is_empty()
+    }
+
+    /// Totals over all blocks.
+    pub fn total(&self) -> Vec<f64> {
+        let mut t: Vec<f64> = Vec::new();
+        for s in self.sums.values() {
+            if t.is_empty() {
+                t = vec![0.0; s.len()];
+            }
+            for (a, v) in t.iter_mut().zip(s) {
+                *a += v;
+            }
+        }
+        t
+    }
+
+    /// Totals with `block` left out (zeros if the block is absent).
+    pub fn total_without(&self, total: &[f64], block: &(usize, usize)) -> Vec<f64> {
+        match self.sums.get(block) {
+            Some(s) => total.iter().zip(s).map(|(t, v)| t - v).collect(),
+            None => total.to_vec(),
+        }
+    }
+
+    /// Sums of one block.
+    pub fn get(&self, block: &(usize, usize)) -> Option<&[f64]> {
+        self.sums.get(block).map(Vec::as_slice)
+    }
+
+    /// Block keys in a fixed order.
+    pub fn keys(&self) -> impl Iterator<Item = &(usize, usize)> {
+        self.sums.keys()
+    }
+
+    /// `f` of the totals, with its delete-one jackknife standard error
+    /// (NaN error with fewer than two blocks).
+    pub fn jackknife(&self, f: impl Fn(&[f64]) -> f64) -> Estimate {
+        let total = self.total();
+        let value = f(&total);
+        let keys: Vec<_> = self.keys().copied().collect();
+        Estimate {
+            value,
+            err: jackknife_err(
+                keys.iter()
+                    .map(|k| f(&self.total_without(&total, k)))
+                    .collect(),
+            ),
+        }
+    }
+}
+
+/// Jackknife standard error from delete-one estimates: sqrt((n-1)/n sum (x_k - mean)^2).
+/// NaN with fewer than two estimates; non-finite estimates are dropped.
+pub fn jackknife_err(estimates: Vec<f64>) -> f64 {
+    let x: Vec<f64> = estimates.into_iter().filter(|v| v.is_finite()).collect();
+    let n = x.len() as f64;
+    if x.len() < 2 {
+        return f64::NAN;
+    }
+    let m = x.iter().sum::<f64>() / n;
+    ((n - 1.0) / n * x.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt()
+}
+
+/// First time at which a decaying curve `y(t)` crosses `level`, by linear
+/// interpolation in ln t between the two bracketing samples (t ascending, t > 0).
+/// None if it never crosses.
+pub fn crossing_time(t: &[f64], y: &[f64], level: f64) -> Option<f64> {
+    if let (Some(&t0), Some(&y0)) = (t.first(), y.first())
+        && y0 <= level
+    {
+        return (y0 == level).then_some(t0);
+    }
+    for k in 1..t.len().min(y.len()) {
+        let (ya, yb) = (y[k - 1], y[k]);
+        if ya > level && yb <= level {
+            let (la, lb) = (t[k - 1].ln(), t[k].ln());
+            let s = (ya - level) / (ya - yb);
+            return Some((la + s * (lb - la)).exp());
+        }
+    }
+    None
+}
+
+/// Peak (t_peak, y_peak) of a curve sampled at ascending t > 0: the maximum sample,
+/// refined by the parabola through it and its two neighbours in ln t (the sample
+/// itself if it is at an end or the parabola is not concave).
+pub fn peak_log_t(t: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+    let n = t.len().min(y.len());
+    let k = (0..n)
+        .filter(|&i| y[i].is_finite())
+        .max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
+    if k == 0 || k + 1 >= n {
+        return Some((t[k], y[k]));
+    }
+    let (x0, x1, x2) = (t[k - 1].ln(), t[k].ln(), t[k + 1].ln());
+    let (y0, y1, y2) = (y[k - 1], y[k], y[k + 1]);
+    // Parabola y = c0 + c1 (x - x1) + c2 (x - x1)^2 through three points.
+    let (d0, d2) = (x0 - x1, x2 - x1);
+    let c2 = ((y0 - y1) / d0 - (y2 - y1) / d2) / (d0 - d2);
+    let c1 = (y0 - y1) / d0 - c2 * d0;
+    if c2 >= 0.0 || !(y0.is_finite() && y2.is_finite()) {
+        return Some((t[k], y1));
+    }
+    let dx = (-c1 / (2.0 * c2)).clamp(d0, d2);
+    Some(((x1 + dx).exp(), y1 + c1 * dx + c2 * dx * dx))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossing_is_exact_for_a_log_linear_curve() {
+        let t: Vec<f64> = (0..20).map(|k| 0.1 * 1.5f64.powi(k)).collect();
+        // y linear in ln t crosses 1/e at ln t = ln 3.
+        let y: Vec<f64> = t
+            .iter()
+            .map(|x| (-1f64).exp() - 0.1 * (x.ln() - 3f64.ln()))
+            .collect();
+        let c = crossing_time(&t, &y, (-1f64).exp()).unwrap();
+        assert!((c - 3.0).abs() < 1e-12, "{c}");
+        assert!(crossing_time(&t, &y, -10.0).is_none());
+    }
+
+    #[test]
+    fn parabola_peak_is_exact_for_a_parabola_in_log_t() {
+        let t: Vec<f64> = (0..15).map(|k| 0.5 * 1.7f64.powi(k)).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|x| 7.0 - 2.0 * (x.ln() - 10f64.ln()).powi(2))
+            .collect();
+        let (tp, yp) = peak_log_t(&t, &y).unwrap();
+        assert!(
+            (tp - 10.0).abs() < 1e-9 && (yp - 7.0).abs() < 1e-12,
+            "{tp} {yp}"
+        );
+    }
+
+    #[test]
+    fn jackknife_of_a_mean_is_the_standard_error() {
+        let mut b = Blocks::default();
+        let xs = [1.0, 4.0, 2.0, 8.0, 5.0];
+        for (k, x) in xs.iter().enumerate() {
+            b.add((0, k), &[1.0, *x]);
+        }
+        let e = b.jackknife(|s| s[1] / s[0]);
+        let m = 4.0;
+        let var = xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / 4.0;
+        assert!((e.value - m).abs() < 1e-12);
+        assert!((e.err - (var / 5.0).sqrt()).abs() < 1e-12, "{}", e.err);
+    }
+}
