@@ -17,18 +17,25 @@ use arrow_array::RecordBatch;
 use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::properties::WriterProperties;
+use parquet::file::properties::{WriterProperties, WriterPropertiesBuilder};
 
 /// What a Parquet file holds for us: its record batches and its key-value metadata.
 pub type ParquetContents = (Vec<RecordBatch>, Vec<(String, String)>);
+
+/// The writer settings every Parquet file of the project starts from: zstd level 3
+/// and a `created_by` naming this crate (no timestamps, so bytes are deterministic).
+/// Callers add column-specific settings (encodings, row-group sizes) on top.
+pub fn writer_properties() -> Result<WriterPropertiesBuilder> {
+    Ok(WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
+        .set_created_by(format!("repro {}", env!("CARGO_PKG_VERSION"))))
+}
 
 /// Serialise `batches` (all with the same schema) to Parquet bytes with zstd.
 /// Deterministic: the same batches give the same bytes (no timestamps written).
 pub fn to_parquet_bytes(batches: &[RecordBatch], metadata: &[(&str, &str)]) -> Result<Vec<u8>> {
     let first = batches.first().context("no record batch to write")?;
-    let mut props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
-        .set_created_by(format!("repro {}", env!("CARGO_PKG_VERSION")));
+    let mut props = writer_properties()?;
     let kv: Vec<parquet::file::metadata::KeyValue> = metadata
         .iter()
         .map(|(k, v)| parquet::file::metadata::KeyValue::new(k.to_string(), v.to_string()))
