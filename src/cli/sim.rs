@@ -1,6 +1,6 @@
 //! `repro sim` and `repro bench`: run the event-driven simulator directly.
 
-use crate::sim::{self, Drive, Progress, RunSummary, SimConfig, Stage};
+use crate::sim::{self, Drive, KickRate, Progress, RunSummary, SimConfig, Stage};
 use crate::traj::Schedule;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -47,6 +47,11 @@ pub struct SimArgs {
     /// Relative radius growth rate of the Lubachevsky-Stillinger compression.
     #[arg(long, default_value_t = 0.02)]
     pub compression_rate: f64,
+    /// Kick rate rule: `balanced` (tuned during relaxation to hold T = 1),
+    /// `enskog` (the Enskog collision frequency), `enskog*F` (F times it), or a
+    /// number (pair kicks each particle receives per unit time).
+    #[arg(long, default_value = "balanced", value_parser = parse_kick_rate)]
+    pub kick_rate: KickRate,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -70,6 +75,18 @@ pub struct BenchArgs {
     pub seed: u64,
 }
 
+fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
+    let bad = || format!("invalid kick rate `{s}`: use balanced, enskog, enskog*F or a number");
+    match s {
+        "balanced" => Ok(KickRate::Balanced),
+        "enskog" => Ok(KickRate::Enskog { prefactor: 1.0 }),
+        _ => match s.strip_prefix("enskog*") {
+            Some(f) => f.parse().map(|prefactor| KickRate::Enskog { prefactor }).map_err(|_| bad()),
+            None => s.parse().map(KickRate::PerParticle).map_err(|_| bad()),
+        },
+    }
+}
+
 impl SimArgs {
     pub fn config(&self) -> SimConfig {
         SimConfig {
@@ -85,6 +102,7 @@ impl SimArgs {
             } else {
                 Drive::NeighbourPairs
             },
+            kick_rate: self.kick_rate.clone(),
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
@@ -170,6 +188,7 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     time: b.time,
                     relax: b.relax,
                     compression_rate: 0.02,
+                    kick_rate: KickRate::Balanced,
                     seed: b.seed,
                     json: true,
                 };
