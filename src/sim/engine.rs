@@ -202,7 +202,9 @@ impl Engine {
         let n = self.n();
         // Disk (64) + prev, cell, ev_p, ev_c (u32) + imx, imy (i32) + last_collision
         // (f64) + species (u8).
-        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1) + self.head.len() * 4 + self.tree.bytes()
+        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1)
+            + self.head.len() * 4
+            + self.tree.bytes()
     }
 
     fn rebuild_cells(&mut self) {
@@ -224,7 +226,10 @@ impl Engine {
         self.imy = o(&self.imy);
         self.d = order.iter().map(|&i| self.d[i as usize]).collect();
         self.species = order.iter().map(|&i| self.species[i as usize]).collect();
-        self.last_collision = order.iter().map(|&i| self.last_collision[i as usize]).collect();
+        self.last_collision = order
+            .iter()
+            .map(|&i| self.last_collision[i as usize])
+            .collect();
         self.rebuild_cells();
         self.reschedule_all();
     }
@@ -277,17 +282,25 @@ impl Engine {
 
     /// Velocities [vx, vy] of every particle.
     pub fn velocities(&self) -> (Vec<f64>, Vec<f64>) {
-        (self.d.iter().map(|d| d.vx).collect(), self.d.iter().map(|d| d.vy).collect())
+        (
+            self.d.iter().map(|d| d.vx).collect(),
+            self.d.iter().map(|d| d.vy).collect(),
+        )
     }
 
     /// Total kinetic energy.
     pub fn kinetic_energy(&self) -> f64 {
-        self.d.iter().map(|d| 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy)).sum()
+        self.d
+            .iter()
+            .map(|d| 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy))
+            .sum()
     }
 
     /// Total momentum.
     pub fn momentum(&self) -> [f64; 2] {
-        self.d.iter().fold([0.0; 2], |p, d| [p[0] + d.mass * d.vx, p[1] + d.mass * d.vy])
+        self.d.iter().fold([0.0; 2], |p, d| {
+            [p[0] + d.mass * d.vx, p[1] + d.mass * d.vy]
+        })
     }
 
     /// Sum of |m v|, the scale against which momentum conservation is judged.
@@ -492,7 +505,11 @@ impl Engine {
             }
         }
         self.ev_p[i] = partner;
-        self.ev_c[i] = if partner < CROSS { self.d[partner as usize].count } else { 0 };
+        self.ev_c[i] = if partner < CROSS {
+            self.d[partner as usize].count
+        } else {
+            0
+        };
         self.now + best
     }
 
@@ -567,7 +584,9 @@ impl Engine {
         let mu = a.mass * b.mass / (a.mass + b.mass);
         let e = if self.growth != 0.0 || self.eps == 1.0 {
             1.0
-        } else if self.now - self.last_collision[i] < self.tc || self.now - self.last_collision[j] < self.tc {
+        } else if self.now - self.last_collision[i] < self.tc
+            || self.now - self.last_collision[j] < self.tc
+        {
             self.stats.guard_activations += 1;
             1.0
         } else {
