@@ -231,49 +231,25 @@ fn same_seed_same_bits_different_seed_different_frames() {
 
 #[test]
 fn invalid_configs_are_named() {
-    let err = |c: SimConfig| c.validate().unwrap_err().to_string();
-    assert!(
-        err(SimConfig {
-            phi: 0.95,
-            ..SimConfig::default()
-        })
-        .contains("phi = 0.95")
-    );
-    assert!(
-        err(SimConfig {
-            eps: 0.0,
-            ..SimConfig::default()
-        })
-        .contains("eps = 0")
-    );
-    assert!(
-        err(SimConfig {
-            eps: 1.5,
-            ..SimConfig::default()
-        })
-        .contains("(0, 1]")
-    );
-    assert!(
-        err(SimConfig {
-            n: 1,
-            ..SimConfig::default()
-        })
-        .contains("n = 1")
-    );
-    assert!(
-        err(SimConfig {
-            gamma: 0.1,
-            ..SimConfig::default()
-        })
-        .contains("not supported")
-    );
-    assert!(
-        err(SimConfig {
-            walls: [true, false],
-            ..SimConfig::default()
-        })
-        .contains("walls")
-    );
+    let d = SimConfig::default;
+    let cases = [
+        (SimConfig { phi: 0.95, ..d() }, "phi = 0.95"),
+        (SimConfig { eps: 0.0, ..d() }, "eps = 0"),
+        (SimConfig { eps: 1.5, ..d() }, "(0, 1]"),
+        (SimConfig { n: 1, ..d() }, "n = 1"),
+        (SimConfig { gamma: 0.1, ..d() }, "not supported"),
+        (
+            SimConfig {
+                walls: [true, false],
+                ..d()
+            },
+            "walls",
+        ),
+    ];
+    for (c, expect) in cases {
+        let msg = c.validate().unwrap_err().to_string();
+        assert!(msg.contains(expect), "`{msg}` should name `{expect}`");
+    }
     SimConfig::default().validate().unwrap();
     let unknown = serde_json::from_str::<SimConfig>(r#"{"n": 10, "phii": 0.5}"#).unwrap_err();
     assert!(unknown.to_string().contains("phii"));
