@@ -477,7 +477,10 @@ impl Engine {
         self.for_neighbour_cells(cx, cy, |e, j, sx, sy| {
             if j != i {
                 let tt = e.pair_time(&a, &e.d[j], sx, sy, scale);
-                if tt < best {
+                // Skip j if it has an earlier event: it will rescan then (every
+                // event ends in a prediction) and find i itself (Smallenburg's
+                // rule; spares the stale event this one would become).
+                if tt < best && e.now + tt <= e.tree.time(j) {
                     best = tt;
                     partner = j as u32;
                 }
