@@ -265,3 +265,21 @@ fn invalid_configs_are_named() {
             .contains("3 cells")
     );
 }
+
+#[test]
+fn config_round_trips_and_reads_yaml() {
+    let c = SimConfig::default();
+    let back: SimConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
+    assert_eq!(back, c);
+    let y: SimConfig = serde_saphyr::from_str(
+        "n: 500\nphi: 0.7\nmasses: {ratio: 3.0}\ndrive: random_pairs\nkick_rate: {per_particle: 2.5}\n",
+    )
+    .unwrap();
+    assert_eq!(y.n, 500);
+    assert_eq!(y.masses, super::Masses::Ratio(3.0));
+    assert_eq!(y.drive, Drive::RandomPairs);
+    assert_eq!(y.kick_rate, KickRate::PerParticle(2.5));
+    assert_eq!(y.species_masses(), vec![1.0, 3.0]);
+    let none: SimConfig = serde_saphyr::from_str("drive: none\nkick_rate: balanced\n").unwrap();
+    assert_eq!(none.drive, Drive::None);
+}
