@@ -232,10 +232,16 @@ impl SimConfig {
                 "lags must be positive",
             )?;
         }
-        if self.samples < 2 {
+        if !(2..=1_000_000).contains(&self.samples) {
             bail!(
-                "samples = {} is invalid: need at least 2 (for error bars)",
+                "samples = {} is invalid: need 2 to 1000000 (at least 2 for error bars)",
                 self.samples
+            );
+        }
+        if self.schedule.end() <= 0.0 {
+            bail!(
+                "schedule records nothing after relaxation (last frame at t = {}): give a positive start, origin_spacing or lag",
+                self.schedule.end()
             );
         }
         finite_in(

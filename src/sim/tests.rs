@@ -246,7 +246,12 @@ fn invalid_configs_are_named() {
             "walls",
         ),
     ];
-    for (c, expect) in cases {
+    let mut empty = d();
+    empty.schedule.lags.clear();
+    empty.schedule.origins = 1;
+    let few_samples = SimConfig { samples: 1, ..d() };
+    let extra = [(empty, "records nothing"), (few_samples, "samples = 1")];
+    for (c, expect) in cases.into_iter().chain(extra) {
         let msg = c.validate().unwrap_err().to_string();
         assert!(msg.contains(expect), "`{msg}` should name `{expect}`");
     }
