@@ -1,15 +1,235 @@
 //! `repro sim` and `repro bench`: run the event-driven simulator directly.
 
-use clap::Subcommand;
+use crate::sim::{self, Drive, KickRate, Progress, RunSummary, SimConfig, Stage};
+use crate::traj::Schedule;
+use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
 
 #[derive(Subcommand, Debug)]
 pub enum Commands {
-    /// Run one simulation directly (not yet built: issue 2).
-    Sim,
+    /// Run one simulation (compress, relax, measure) and print its summary.
+    Sim(SimArgs),
+    /// Speed benchmark: driven steady state at phi = 0.78, eps = 0.9 for several N;
+    /// one JSON summary per line.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct SimArgs {
+    /// Number of disks.
+    #[arg(long, default_value_t = 10_000)]
+    pub n: usize,
+    /// Packing fraction.
+    #[arg(long, default_value_t = 0.78)]
+    pub phi: f64,
+    /// Coefficient of normal restitution, in (0, 1].
+    #[arg(long, default_value_t = 0.9)]
+    pub eps: f64,
+    /// Radius ratio r2/r1 (1 = monodisperse).
+    #[arg(long, default_value_t = 1.43)]
+    pub radius_ratio: f64,
+    /// Fraction of large disks.
+    #[arg(long, default_value_t = 0.5)]
+    pub fraction_large: f64,
+    /// No driving (elastic gas with --eps 1, free cooling otherwise).
+    #[arg(long)]
+    pub no_drive: bool,
+    /// Kick random pairs instead of neighbour pairs.
+    #[arg(long, conflicts_with = "no_drive")]
+    pub random_pairs: bool,
+    /// Measured (production) time after relaxation.
+    #[arg(long, default_value_t = 10.0)]
+    pub time: f64,
+    /// Driven relaxation time before measuring.
+    #[arg(long, default_value_t = 10.0)]
+    pub relax: f64,
+    /// Relative radius growth rate of the Lubachevsky-Stillinger compression.
+    #[arg(long, default_value_t = 0.02)]
+    pub compression_rate: f64,
+    /// Kick rate rule: `balanced` (tuned during relaxation to hold T = 1),
+    /// `enskog` (the Enskog collision frequency), `enskog*F` (F times it), or a
+    /// number (pair kicks each particle receives per unit time).
+    #[arg(long, default_value = "balanced", value_parser = parse_kick_rate)]
+    pub kick_rate: KickRate,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// System sizes.
+    #[arg(long, value_delimiter = ',', default_values_t = [10_000usize, 100_000, 1_000_000])]
+    pub n: Vec<usize>,
+    /// Measured time per size (after relaxation).
+    #[arg(long, default_value_t = 2.0)]
+    pub time: f64,
+    /// Relaxation time per size.
+    #[arg(long, default_value_t = 2.0)]
+    pub relax: f64,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
+    let bad = || format!("invalid kick rate `{s}`: use balanced, enskog, enskog*F or a number");
+    match s {
+        "balanced" => Ok(KickRate::Balanced),
+        "enskog" => Ok(KickRate::Enskog { prefactor: 1.0 }),
+        _ => match s.strip_prefix("enskog*") {
+            Some(f) => f
+                .parse()
+                .map(|prefactor| KickRate::Enskog { prefactor })
+                .map_err(|_| bad()),
+            None => s.parse().map(KickRate::PerParticle).map_err(|_| bad()),
+        },
+    }
+}
+
+impl SimArgs {
+    pub fn config(&self) -> SimConfig {
+        SimConfig {
+            n: self.n,
+            phi: self.phi,
+            eps: self.eps,
+            radius_ratio: self.radius_ratio,
+            fraction_large: self.fraction_large,
+            drive: if self.no_drive {
+                Drive::None
+            } else if self.random_pairs {
+                Drive::RandomPairs
+            } else {
+                Drive::NeighbourPairs
+            },
+            kick_rate: self.kick_rate.clone(),
+            seed: self.seed,
+            relax_time: self.relax,
+            compression_rate: self.compression_rate,
+            schedule: Schedule {
+                start: 0.0,
+                origins: 1,
+                origin_spacing: 0.0,
+                lags: vec![self.time],
+            },
+            ..SimConfig::default()
+        }
+    }
+}
+
+/// Run with a progress bar on a terminal.
+fn run_with_progress(cfg: &SimConfig) -> anyhow::Result<RunSummary> {
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(1000);
+        b.set_style(
+            ProgressStyle::with_template("{prefix:>10} [{bar:30}] {msg} (ETA {eta})")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        Some(b)
+    } else {
+        None
+    };
+    let stage = std::cell::Cell::new(None::<(Stage, f64)>);
+    let report = |p: Progress| {
+        let Some(b) = &bar else { return };
+        // Each stage restarts the bar from the time it began.
+        let start = match stage.get() {
+            Some((s, t)) if s == p.stage => t,
+            _ => {
+                stage.set(Some((p.stage, p.time)));
+                b.reset();
+                b.set_prefix(format!("{:?}", p.stage).to_lowercase());
+                p.time
+            }
+        };
+        let frac = ((p.time - start) / (p.end - start).max(1e-300)).clamp(0.0, 1.0);
+        b.set_position((frac * 1000.0) as u64);
+        b.set_message(format!(
+            "t = {:.2} / {:.2}, {:.2e} events/s",
+            p.time, p.end, p.events_per_second
+        ));
+    };
+    let out = sim::run(cfg, &report);
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    Ok(out?.1)
+}
+
+/// The summary as one JSON line, without the time series.
+fn json_line(s: &RunSummary) -> anyhow::Result<String> {
+    let mut v = serde_json::to_value(s)?;
+    if let Some(o) = v.as_object_mut() {
+        o.remove("series");
+    }
+    Ok(serde_json::to_string(&v)?)
 }
 
 pub fn run(c: Commands) -> anyhow::Result<()> {
     match c {
-        Commands::Sim => anyhow::bail!("`repro sim` is not built yet (issue 2)"),
+        Commands::Sim(a) => {
+            let s = run_with_progress(&a.config())?;
+            if a.json {
+                println!("{}", json_line(&s)?);
+            } else {
+                println!(
+                    "n = {}, phi = {}, eps = {}, seed = {}",
+                    s.n, s.phi, s.eps, s.seed
+                );
+                println!(
+                    "measured over t = {} after relaxing {} (compression took {:.1})",
+                    s.sim_time, s.relax_time, s.compress_time
+                );
+                println!(
+                    "temperature = {:.4} +- {:.4} (fluctuation), halves {:.4} / {:.4}",
+                    s.temperature,
+                    s.temperature_std,
+                    s.temperature_halves[0],
+                    s.temperature_halves[1]
+                );
+                println!("Z = {:.4} +- {:.4}", s.z, s.z_err);
+                println!(
+                    "collision rate = {:.4} per particle (Enskog {:.4}); kick rate = {:.4}",
+                    s.collision_rate, s.enskog_collision_rate, s.kick_rate
+                );
+                println!(
+                    "collisions = {}, kicks = {}, guard activations = {}",
+                    s.collisions, s.kicks, s.guard_activations
+                );
+                println!(
+                    "{:.3e} collisions/s, {:.1} CPU s, {:.1} MB peak RSS",
+                    s.collisions_per_second,
+                    s.cpu_seconds,
+                    s.peak_rss_bytes as f64 / 1e6
+                );
+            }
+            Ok(())
+        }
+        Commands::Bench(b) => {
+            for &n in &b.n {
+                let args = SimArgs {
+                    n,
+                    phi: 0.78,
+                    eps: 0.9,
+                    radius_ratio: 1.43,
+                    fraction_large: 0.5,
+                    no_drive: false,
+                    random_pairs: false,
+                    time: b.time,
+                    relax: b.relax,
+                    compression_rate: 0.02,
+                    kick_rate: KickRate::Balanced,
+                    seed: b.seed,
+                    json: true,
+                };
+                let s = run_with_progress(&args.config())?;
+                println!("{}", json_line(&s)?);
+            }
+            Ok(())
+        }
     }
 }

@@ -1,1 +1,22 @@
 //! Event-driven molecular dynamics of 2D hard disks (paper H, Sec. 2; paper I).
+//!
+//! - [`config`]: [`SimConfig`], every model parameter, validated.
+//! - [`engine`]: the event loop (collisions, cell crossings, pair kicks).
+//! - [`tree`]: the event calendar.
+//! - [`init`]: random start and Lubachevsky-Stillinger compression.
+//! - [`enskog`]: contact values and the Enskog collision frequency.
+//! - [`run`](mod@run): one simulation from config to trajectory and [`RunSummary`].
+
+pub mod config;
+pub mod engine;
+pub mod enskog;
+pub mod init;
+pub mod resources;
+pub mod run;
+pub mod tree;
+
+#[cfg(test)]
+mod tests;
+
+pub use config::{Drive, KickRate, Masses, SimConfig};
+pub use run::{Progress, RunSummary, Sample, Stage, run};

@@ -1,0 +1,298 @@
+//! What one simulation is: every model parameter, validated before anything runs.
+
+use crate::traj::Schedule;
+use anyhow::{Result, bail};
+use serde::{Deserialize, Serialize};
+
+/// Close packing of equal disks, pi / sqrt(12): no disk system can be denser.
+pub const CLOSE_PACKING: f64 = 0.906_899_682_117_108_9;
+
+/// How the mass of the large disks follows from their radius.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Masses {
+    /// Equal mass density: m2/m1 = (r2/r1)^2 (paper H).
+    ConstantDensity,
+    /// An explicit mass ratio m2/m1.
+    Ratio(f64),
+}
+
+/// Which particles receive the pair kicks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Drive {
+    /// A random particle and a random particle of its 3x3 cell neighbourhood.
+    NeighbourPairs,
+    /// Two random particles (momentum conserved globally only).
+    RandomPairs,
+    /// No driving (elastic gas, free cooling).
+    None,
+}
+
+/// How often pairs are kicked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum KickRate {
+    /// Start at the Enskog rate, then during the first 80% of the relaxation
+    /// rescale the rate window by window so that the mean kinetic energy per
+    /// particle is 1; the rate is then frozen (docs/sim.md explains why).
+    Balanced,
+    /// The Enskog collision frequency from the Jenkins-Mancini contact values,
+    /// as pair kicks per particle per unit time, times `prefactor` (1 = as is).
+    Enskog { prefactor: f64 },
+    /// A fixed number of pair kicks per particle per unit time.
+    PerParticle(f64),
+}
+
+/// An intruder pulled through the fluid (paper I). Not simulated yet.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Intruder {
+    pub radius: f64,
+    pub mass: f64,
+    pub force: f64,
+}
+
+/// One simulation. Default: paper H at phi = 0.78, eps = 0.9.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimConfig {
+    /// Number of disks.
+    pub n: usize,
+    /// Packing fraction (disk area over box area).
+    pub phi: f64,
+    /// Normal coefficient of restitution, in (0, 1].
+    pub eps: f64,
+    /// r2/r1 (1 = monodisperse).
+    pub radius_ratio: f64,
+    pub masses: Masses,
+    /// Fraction of large disks.
+    pub fraction_large: f64,
+    pub drive: Drive,
+    pub kick_rate: KickRate,
+    /// Collapse guard (TC model): a collision within `collapse_tc` of either disk's
+    /// previous collision is elastic. 0 disables the guard.
+    pub collapse_tc: f64,
+    /// Ly / Lx.
+    pub aspect: f64,
+    pub seed: u64,
+    /// Driven relaxation before the first frame (simulated time).
+    pub relax_time: f64,
+    /// Frame times, measured from the end of relaxation.
+    pub schedule: Schedule,
+    /// Record velocities in the frames.
+    pub record_velocities: bool,
+    /// Samples of temperature and pressure over relaxation + production.
+    pub samples: usize,
+    /// Lubachevsky-Stillinger compression: relative radius growth per unit time.
+    pub compression_rate: f64,
+    /// Viscous friction (paper I). Only 0 is supported yet.
+    pub gamma: f64,
+    /// Hard walls instead of periodic boundaries, per axis. Not supported yet.
+    pub walls: [bool; 2],
+    /// An intruder (paper I). Not supported yet.
+    pub intruder: Option<Intruder>,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            n: 10_000,
+            phi: 0.78,
+            eps: 0.9,
+            radius_ratio: 1.43,
+            masses: Masses::ConstantDensity,
+            fraction_large: 0.5,
+            drive: Drive::NeighbourPairs,
+            kick_rate: KickRate::Balanced,
+            collapse_tc: 1e-6,
+            aspect: 1.0,
+            seed: 0,
+            relax_time: 100.0,
+            schedule: Schedule {
+                start: 0.0,
+                origins: 4,
+                origin_spacing: 100.0,
+                lags: Schedule::log_lags(0.1, 100.0, 5),
+            },
+            record_velocities: false,
+            samples: 100,
+            compression_rate: 0.02,
+            gamma: 0.0,
+            walls: [false, false],
+            intruder: None,
+        }
+    }
+}
+
+fn finite_in(name: &str, v: f64, lo: f64, hi: f64, what: &str) -> Result<()> {
+    if !(v.is_finite() && v >= lo && v <= hi) {
+        bail!("{name} = {v} is invalid: {what}");
+    }
+    Ok(())
+}
+
+impl SimConfig {
+    /// Reject impossible or unsupported values, naming the key and what is valid.
+    pub fn validate(&self) -> Result<()> {
+        if self.n < 2 {
+            bail!("n = {} is invalid: need at least 2 disks", self.n);
+        }
+        if self.n >= (u32::MAX - 16) as usize {
+            bail!("n = {} is invalid: at most {} disks", self.n, u32::MAX - 16);
+        }
+        if !(self.phi.is_finite() && self.phi > 0.0 && self.phi < CLOSE_PACKING) {
+            bail!(
+                "phi = {} is invalid: the packing fraction must be in (0, {CLOSE_PACKING:.4}) (close packing)",
+                self.phi
+            );
+        }
+        if self.phi > 0.85 {
+            bail!(
+                "phi = {} is out of reach: disordered disks jam near 0.84; use phi <= 0.85",
+                self.phi
+            );
+        }
+        if !(self.eps.is_finite() && self.eps > 0.0 && self.eps <= 1.0) {
+            bail!(
+                "eps = {} is invalid: the restitution coefficient must be in (0, 1]",
+                self.eps
+            );
+        }
+        finite_in(
+            "radius_ratio",
+            self.radius_ratio,
+            1.0,
+            10.0,
+            "r2/r1 must be in [1, 10]",
+        )?;
+        if let Masses::Ratio(m) = self.masses
+            && !(m.is_finite() && m > 0.0)
+        {
+            bail!("masses: ratio {m} is invalid: m2/m1 must be positive");
+        }
+        finite_in(
+            "fraction_large",
+            self.fraction_large,
+            0.0,
+            1.0,
+            "must be in [0, 1]",
+        )?;
+        match self.kick_rate {
+            KickRate::Enskog { prefactor } => finite_in(
+                "kick_rate: enskog prefactor",
+                prefactor,
+                0.0,
+                1e6,
+                "must be >= 0",
+            )?,
+            KickRate::PerParticle(r) => {
+                finite_in("kick_rate: per_particle", r, 0.0, 1e9, "must be >= 0")?
+            }
+            KickRate::Balanced => {}
+        }
+        finite_in(
+            "collapse_tc",
+            self.collapse_tc,
+            0.0,
+            1.0,
+            "must be in [0, 1]",
+        )?;
+        finite_in(
+            "aspect",
+            self.aspect,
+            0.01,
+            100.0,
+            "Ly/Lx must be in [0.01, 100]",
+        )?;
+        finite_in("relax_time", self.relax_time, 0.0, 1e12, "must be >= 0")?;
+        finite_in(
+            "schedule.start",
+            self.schedule.start,
+            0.0,
+            1e12,
+            "must be >= 0",
+        )?;
+        finite_in(
+            "schedule.origin_spacing",
+            self.schedule.origin_spacing,
+            0.0,
+            1e12,
+            "must be >= 0",
+        )?;
+        if self.schedule.origins == 0 {
+            bail!("schedule.origins = 0 is invalid: need at least one time origin");
+        }
+        for &l in &self.schedule.lags {
+            finite_in(
+                "schedule.lags entry",
+                l,
+                f64::MIN_POSITIVE,
+                1e12,
+                "lags must be positive",
+            )?;
+        }
+        if !(2..=1_000_000).contains(&self.samples) {
+            bail!(
+                "samples = {} is invalid: need 2 to 1000000 (at least 2 for error bars)",
+                self.samples
+            );
+        }
+        if self.schedule.end() <= 0.0 {
+            bail!(
+                "schedule records nothing after relaxation (last frame at t = {}): give a positive start, origin_spacing or lag",
+                self.schedule.end()
+            );
+        }
+        finite_in(
+            "compression_rate",
+            self.compression_rate,
+            1e-7,
+            1.0,
+            "must be in [1e-7, 1]",
+        )?;
+        if self.gamma != 0.0 {
+            bail!(
+                "gamma = {} is not supported yet: viscous friction (paper I) is not implemented; use 0",
+                self.gamma
+            );
+        }
+        if self.walls != [false, false] {
+            bail!(
+                "walls = {:?} is not supported yet: only periodic boxes; use [false, false]",
+                self.walls
+            );
+        }
+        if self.intruder.is_some() {
+            bail!("intruder is not supported yet (paper I); remove the key");
+        }
+        Ok(())
+    }
+
+    /// Radius of each species (small = 1).
+    pub fn radii(&self) -> Vec<f64> {
+        vec![1.0, self.radius_ratio]
+    }
+
+    /// Mass of each species (small = 1).
+    pub fn species_masses(&self) -> Vec<f64> {
+        let m2 = match self.masses {
+            Masses::ConstantDensity => self.radius_ratio * self.radius_ratio,
+            Masses::Ratio(m) => m,
+        };
+        vec![1.0, m2]
+    }
+
+    /// Number of large disks.
+    pub fn n_large(&self) -> usize {
+        (self.fraction_large * self.n as f64).round() as usize
+    }
+
+    /// Box [Lx, Ly] giving packing fraction phi for the disks.
+    pub fn box_size(&self) -> [f64; 2] {
+        let nl = self.n_large() as f64;
+        let area = std::f64::consts::PI * ((self.n as f64 - nl) + nl * self.radius_ratio.powi(2));
+        let lx = (area / self.phi / self.aspect).sqrt();
+        [lx, lx * self.aspect]
+    }
+}

@@ -1,0 +1,714 @@
+//! The event loop: hard disks moving ballistically between collisions, cell
+//! crossings and pair kicks.
+//!
+//! Design (after Smallenburg's EDMD): one pending event per particle in a
+//! tournament tree ([`EventTree`]), invalidated by per-particle collision counters
+//! (an event with partner `j` is stale once `j` has changed velocity); a cell list
+//! with doubly linked cells; lazy positions (each particle stores the time its
+//! position refers to); structure-of-arrays storage; nothing is allocated inside
+//! the loop. Radii may grow linearly in time (Lubachevsky-Stillinger compression).
+
+use super::tree::EventTree;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Exp, StandardNormal};
+
+const NONE: u32 = u32::MAX;
+/// Partner codes >= CROSS mean "leave the cell" in direction `code - CROSS`
+/// (0: +x, 1: -x, 2: +y, 3: -y).
+const CROSS: u32 = u32::MAX - 8;
+
+/// How pairs receive kicks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kicks {
+    /// No driving.
+    Off,
+    /// A random particle and a random particle from its 3x3 cell neighbourhood
+    /// (local momentum conservation).
+    NeighbourPairs,
+    /// Two random particles anywhere in the box.
+    RandomPairs,
+}
+
+/// Everything the engine needs to start: box, species table, particles.
+pub struct Setup {
+    pub lx: f64,
+    pub ly: f64,
+    /// Radius of each species (final radius if the radii grow).
+    pub radii: Vec<f64>,
+    pub masses: Vec<f64>,
+    pub species: Vec<u8>,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub vx: Vec<f64>,
+    pub vy: Vec<f64>,
+}
+
+/// Counters of everything the loop did, and the energy and virial ledgers.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stats {
+    pub collisions: u64,
+    pub kicks: u64,
+    /// Collisions made elastic by the collapse guard.
+    pub guard_activations: u64,
+    pub cell_crossings: u64,
+    /// Events popped whose partner had changed velocity meanwhile.
+    pub stale_events: u64,
+    /// Kinetic energy added by kicks (exact, summed per kick).
+    pub injected: f64,
+    /// Kinetic energy removed by inelastic collisions (exact, summed per collision).
+    pub dissipated: f64,
+    /// Collisional virial sum over collisions of r_ij . dp_i (for the pressure).
+    pub virial: f64,
+}
+
+/// The state of one disk that every collision prediction reads, packed in one
+/// cache line: scanning a neighbour costs one memory access instead of seven.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+struct Disk {
+    x: f64,
+    y: f64,
+    vx: f64,
+    vy: f64,
+    /// Time at which `x`, `y` are valid (lazy update).
+    t: f64,
+    radius: f64,
+    mass: f64,
+    /// Next disk in the same cell.
+    next: u32,
+    /// Velocity changes so far: events predicted with an older value are stale.
+    count: u32,
+}
+
+pub struct Engine {
+    pub lx: f64,
+    pub ly: f64,
+    ncx: usize,
+    ncy: usize,
+    wx: f64,
+    wy: f64,
+    head: Vec<u32>,
+    d: Vec<Disk>,
+    prev: Vec<u32>,
+    cell: Vec<u32>,
+    /// Periodic images crossed, to unwrap positions.
+    imx: Vec<i32>,
+    imy: Vec<i32>,
+    pub species: Vec<u8>,
+    pub radii: Vec<f64>,
+    pub masses: Vec<f64>,
+    last_collision: Vec<f64>,
+    ev_p: Vec<u32>,
+    ev_c: Vec<u32>,
+    tree: EventTree,
+    /// Current simulated time.
+    pub now: f64,
+    pub eps: f64,
+    /// Collapse guard: a collision within `tc` of a particle's previous one is elastic.
+    pub tc: f64,
+    /// Radii are `radii * (scale0 + growth * (t - scale_t0))`.
+    scale0: f64,
+    scale_t0: f64,
+    growth: f64,
+    kicks: Kicks,
+    /// Pair kicks per unit time, whole system.
+    kick_rate: f64,
+    next_kick: f64,
+    /// Kick amplitude p_dr.
+    p_dr: f64,
+    rng: ChaCha8Rng,
+    pub stats: Stats,
+}
+
+impl Engine {
+    /// Build the cell list and predict every particle's first event. Positions are
+    /// wrapped into the box. Fails if the box is too small for a 3x3 cell list.
+    pub fn new(s: Setup, eps: f64, tc: f64, rng: ChaCha8Rng) -> anyhow::Result<Engine> {
+        let n = s.species.len();
+        anyhow::ensure!(
+            [&s.x, &s.y, &s.vx, &s.vy].iter().all(|v| v.len() == n),
+            "particle arrays have different lengths"
+        );
+        anyhow::ensure!(n >= 2, "need at least 2 particles, got {n}");
+        anyhow::ensure!(n < CROSS as usize, "too many particles: {n}");
+        let rmax = s.radii.iter().copied().fold(0.0, f64::max);
+        let ncx = (s.lx / (2.0 * rmax)).floor() as usize;
+        let ncy = (s.ly / (2.0 * rmax)).floor() as usize;
+        anyhow::ensure!(
+            ncx >= 3 && ncy >= 3,
+            "box {:.3} x {:.3} is smaller than 3 cells of one large-disk diameter ({:.3}); use more particles",
+            s.lx,
+            s.ly,
+            2.0 * rmax
+        );
+        let d = (0..n)
+            .map(|i| Disk {
+                x: s.x[i].rem_euclid(s.lx),
+                y: s.y[i].rem_euclid(s.ly),
+                vx: s.vx[i],
+                vy: s.vy[i],
+                t: 0.0,
+                radius: s.radii[s.species[i] as usize],
+                mass: s.masses[s.species[i] as usize],
+                next: NONE,
+                count: 0,
+            })
+            .collect();
+        let mut e = Engine {
+            lx: s.lx,
+            ly: s.ly,
+            ncx,
+            ncy,
+            wx: s.lx / ncx as f64,
+            wy: s.ly / ncy as f64,
+            head: vec![NONE; ncx * ncy],
+            d,
+            prev: vec![NONE; n],
+            cell: vec![0; n],
+            imx: vec![0; n],
+            imy: vec![0; n],
+            species: s.species,
+            radii: s.radii,
+            masses: s.masses,
+            last_collision: vec![f64::NEG_INFINITY; n],
+            ev_p: vec![NONE; n],
+            ev_c: vec![0; n],
+            tree: EventTree::new(n),
+            now: 0.0,
+            eps,
+            tc,
+            scale0: 1.0,
+            scale_t0: 0.0,
+            growth: 0.0,
+            kicks: Kicks::Off,
+            kick_rate: 0.0,
+            next_kick: f64::INFINITY,
+            p_dr: 0.0,
+            rng,
+            stats: Stats::default(),
+        };
+        e.rebuild_cells();
+        e.reschedule_all();
+        Ok(e)
+    }
+
+    pub fn n(&self) -> usize {
+        self.species.len()
+    }
+
+    /// Bytes held by the engine's arrays (the per-particle memory cost).
+    pub fn bytes(&self) -> usize {
+        let n = self.n();
+        // Disk (64) + prev, cell, ev_p, ev_c (u32) + imx, imy (i32) + last_collision
+        // (f64) + species (u8).
+        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1)
+            + self.head.len() * 4
+            + self.tree.bytes()
+    }
+
+    fn rebuild_cells(&mut self) {
+        self.head.fill(NONE);
+        for i in 0..self.n() {
+            let c = self.cell_of(self.d[i].x, self.d[i].y);
+            self.insert(i, c);
+        }
+    }
+
+    /// Renumber the particles in cell order, so that neighbours sit close in
+    /// memory. Changes particle identities: call before anything is recorded.
+    pub fn sort_by_cell(&mut self) {
+        self.sync_all();
+        let mut order: Vec<u32> = (0..self.n() as u32).collect();
+        order.sort_by_key(|&i| self.cell[i as usize]);
+        let o = |v: &[i32]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
+        self.imx = o(&self.imx);
+        self.imy = o(&self.imy);
+        self.d = order.iter().map(|&i| self.d[i as usize]).collect();
+        self.species = order.iter().map(|&i| self.species[i as usize]).collect();
+        self.last_collision = order
+            .iter()
+            .map(|&i| self.last_collision[i as usize])
+            .collect();
+        self.rebuild_cells();
+        self.reschedule_all();
+    }
+
+    /// Let the radii grow: contact distance sigma_ij (scale0 + rate (t - now)).
+    pub fn set_growth(&mut self, scale0: f64, rate: f64) {
+        self.sync_all();
+        self.scale0 = scale0;
+        self.scale_t0 = self.now;
+        self.growth = rate;
+        self.reschedule_all();
+    }
+
+    /// Current radius scale factor (1 once compression is over).
+    pub fn scale(&self) -> f64 {
+        self.scale0 + self.growth * (self.now - self.scale_t0)
+    }
+
+    /// Start (or stop) driving: `rate` pair kicks per unit time in the whole
+    /// system, each of momentum `p_dr` times a unit 2D Gaussian vector.
+    pub fn set_kicks(&mut self, kicks: Kicks, rate: f64, p_dr: f64) {
+        self.kicks = kicks;
+        self.kick_rate = rate;
+        self.p_dr = p_dr;
+        self.next_kick = self.now + self.kick_wait();
+    }
+
+    pub fn kick_rate(&self) -> f64 {
+        self.kick_rate
+    }
+
+    fn kick_wait(&mut self) -> f64 {
+        if self.kicks == Kicks::Off || self.kick_rate <= 0.0 {
+            return f64::INFINITY;
+        }
+        Exp::new(self.kick_rate)
+            .expect("kick rate is positive and finite")
+            .sample(&mut self.rng)
+    }
+
+    /// Multiply every velocity by `f` (e.g. to restore T = 1 during compression).
+    pub fn scale_velocities(&mut self, f: f64) {
+        self.sync_all();
+        for d in &mut self.d {
+            d.vx *= f;
+            d.vy *= f;
+        }
+        self.reschedule_all();
+    }
+
+    /// Velocities [vx, vy] of every particle.
+    pub fn velocities(&self) -> (Vec<f64>, Vec<f64>) {
+        (
+            self.d.iter().map(|d| d.vx).collect(),
+            self.d.iter().map(|d| d.vy).collect(),
+        )
+    }
+
+    /// Total kinetic energy.
+    pub fn kinetic_energy(&self) -> f64 {
+        self.d
+            .iter()
+            .map(|d| 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy))
+            .sum()
+    }
+
+    /// Total momentum.
+    pub fn momentum(&self) -> [f64; 2] {
+        self.d.iter().fold([0.0; 2], |p, d| {
+            [p[0] + d.mass * d.vx, p[1] + d.mass * d.vy]
+        })
+    }
+
+    /// Sum of |m v|, the scale against which momentum conservation is judged.
+    pub fn momentum_scale(&self) -> f64 {
+        self.d.iter().map(|d| d.mass * d.vx.hypot(d.vy)).sum()
+    }
+
+    /// Unwrapped positions at the current time (does not move the particles).
+    pub fn unwrapped_positions(&self) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n();
+        let mut ux = Vec::with_capacity(n);
+        let mut uy = Vec::with_capacity(n);
+        for (i, d) in self.d.iter().enumerate() {
+            let dt = self.now - d.t;
+            ux.push(d.x + d.vx * dt + self.imx[i] as f64 * self.lx);
+            uy.push(d.y + d.vy * dt + self.imy[i] as f64 * self.ly);
+        }
+        (ux, uy)
+    }
+
+    /// Process events until the next one would be later than `t_stop` (then the
+    /// clock is set to `t_stop`) or `max_events` were processed. True if `t_stop`
+    /// was reached.
+    pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
+        for _ in 0..max_events {
+            let (i, te) = self.tree.min();
+            if self.next_kick <= te {
+                if self.next_kick > t_stop {
+                    self.now = t_stop;
+                    return true;
+                }
+                self.now = self.next_kick;
+                self.kick();
+                self.next_kick = self.now + self.kick_wait();
+                continue;
+            }
+            if te > t_stop {
+                self.now = t_stop;
+                return true;
+            }
+            self.now = te;
+            let p = self.ev_p[i];
+            if p >= CROSS {
+                self.cross(i, p - CROSS);
+            } else if self.d[p as usize].count != self.ev_c[i] {
+                self.stats.stale_events += 1;
+                self.advance(i);
+                self.predict(i);
+            } else {
+                self.collide(i, p as usize);
+            }
+        }
+        false
+    }
+
+    #[inline]
+    fn advance(&mut self, i: usize) {
+        let now = self.now;
+        let d = &mut self.d[i];
+        let dt = now - d.t;
+        d.x += d.vx * dt;
+        d.y += d.vy * dt;
+        d.t = now;
+    }
+
+    fn sync_all(&mut self) {
+        for i in 0..self.n() {
+            self.advance(i);
+        }
+    }
+
+    /// Predict every event anew (after all velocities or radii changed).
+    fn reschedule_all(&mut self) {
+        self.sync_all();
+        for d in &mut self.d {
+            d.count = d.count.wrapping_add(1);
+        }
+        for i in 0..self.n() {
+            let t = self.find_event(i);
+            self.tree.set_lazy(i, t);
+        }
+        self.tree.rebuild();
+    }
+
+    fn cell_of(&self, x: f64, y: f64) -> usize {
+        let cx = ((x / self.wx) as usize).min(self.ncx - 1);
+        let cy = ((y / self.wy) as usize).min(self.ncy - 1);
+        cy * self.ncx + cx
+    }
+
+    fn insert(&mut self, i: usize, c: usize) {
+        let h = self.head[c];
+        self.d[i].next = h;
+        self.prev[i] = NONE;
+        if h != NONE {
+            self.prev[h as usize] = i as u32;
+        }
+        self.head[c] = i as u32;
+        self.cell[i] = c as u32;
+    }
+
+    fn remove(&mut self, i: usize) {
+        let (p, nx) = (self.prev[i], self.d[i].next);
+        if p != NONE {
+            self.d[p as usize].next = nx;
+        } else {
+            self.head[self.cell[i] as usize] = nx;
+        }
+        if nx != NONE {
+            self.prev[nx as usize] = p;
+        }
+    }
+
+    /// Neighbouring cell `c + d` along one axis with its periodic shift.
+    #[inline]
+    fn wrap(c: usize, d: isize, nc: usize, l: f64) -> (usize, f64) {
+        let k = c as isize + d;
+        if k < 0 {
+            (nc - 1, -l)
+        } else if k as usize >= nc {
+            (0, l)
+        } else {
+            (k as usize, 0.0)
+        }
+    }
+
+    /// Time from now until disks `a` (at the current time) and `b` (shifted by a
+    /// periodic image) touch, or infinity. Solves |dr + dv s| = sigma (scale +
+    /// growth s): the same quadratic serves fixed and growing radii.
+    #[inline]
+    fn pair_time(&self, a: &Disk, b: &Disk, sx: f64, sy: f64, scale: f64) -> f64 {
+        let dtj = self.now - b.t;
+        let dvx = b.vx - a.vx;
+        let dvy = b.vy - a.vy;
+        let dx = b.x + b.vx * dtj + sx - a.x;
+        let dy = b.y + b.vy * dtj + sy - a.y;
+        let sig = a.radius + b.radius;
+        let g = sig * self.growth;
+        let s = sig * scale;
+        let bb = dx * dvx + dy * dvy - s * g;
+        let aa = dvx * dvx + dvy * dvy - g * g;
+        if bb >= 0.0 && aa >= 0.0 {
+            return f64::INFINITY;
+        }
+        let c = dx * dx + dy * dy - s * s;
+        if c <= 0.0 {
+            // Touching within round-off: collide now if approaching.
+            return if bb < 0.0 { 0.0 } else { f64::INFINITY };
+        }
+        let disc = bb * bb - aa * c;
+        if disc < 0.0 {
+            return f64::INFINITY;
+        }
+        let den = -bb + disc.sqrt();
+        if den <= 0.0 { f64::INFINITY } else { c / den }
+    }
+
+    /// Earliest event of `i` (which must be at the current time): sets its partner
+    /// and returns its time, without updating the tree.
+    fn find_event(&mut self, i: usize) -> f64 {
+        let a = self.d[i];
+        let c = self.cell[i] as usize;
+        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        // Cell crossing.
+        let tx = exit_time(a.x, a.vx, cx, self.wx);
+        let ty = exit_time(a.y, a.vy, cy, self.wy);
+        let (mut best, mut partner) = if tx < ty {
+            (tx, CROSS + if a.vx > 0.0 { 0 } else { 1 })
+        } else {
+            (ty, CROSS + if a.vy > 0.0 { 2 } else { 3 })
+        };
+        best = best.max(0.0);
+        let scale = self.scale();
+        self.for_neighbour_cells(cx, cy, |e, j, sx, sy| {
+            if j != i {
+                let tt = e.pair_time(&a, &e.d[j], sx, sy, scale);
+                // Skip j if it has an earlier event: it will rescan then (every
+                // event ends in a prediction) and find i itself (Smallenburg's
+                // rule; spares the stale event this one would become).
+                if tt < best && e.now + tt <= e.tree.time(j) {
+                    best = tt;
+                    partner = j as u32;
+                }
+            }
+        });
+        self.ev_p[i] = partner;
+        self.ev_c[i] = if partner < CROSS {
+            self.d[partner as usize].count
+        } else {
+            0
+        };
+        self.now + best
+    }
+
+    #[inline]
+    fn predict(&mut self, i: usize) {
+        let t = self.find_event(i);
+        self.tree.update(i, t);
+    }
+
+    fn cross(&mut self, i: usize, dir: u32) {
+        self.stats.cell_crossings += 1;
+        self.advance(i);
+        let c = self.cell[i] as usize;
+        let (mut cx, mut cy) = (c % self.ncx, c / self.ncx);
+        let d = &mut self.d[i];
+        match dir {
+            0 => step_cell(&mut cx, true, self.ncx, &mut d.x, self.lx, &mut self.imx[i]),
+            1 => step_cell(
+                &mut cx,
+                false,
+                self.ncx,
+                &mut d.x,
+                self.lx,
+                &mut self.imx[i],
+            ),
+            2 => step_cell(&mut cy, true, self.ncy, &mut d.y, self.ly, &mut self.imy[i]),
+            _ => step_cell(
+                &mut cy,
+                false,
+                self.ncy,
+                &mut d.y,
+                self.ly,
+                &mut self.imy[i],
+            ),
+        }
+        self.remove(i);
+        self.insert(i, cy * self.ncx + cx);
+        self.predict(i);
+    }
+
+    /// Eqs. (1)-(3) of paper H: normal restitution eps, or 1 when the collapse
+    /// guard acts (or while radii grow, when the collision must also outrun the
+    /// growth of the contact distance).
+    fn collide(&mut self, i: usize, j: usize) {
+        self.advance(i);
+        self.advance(j);
+        let (a, b) = (self.d[i], self.d[j]);
+        // Minimum image: touching disks are closer than half a box.
+        let mut dx = a.x - b.x;
+        let mut dy = a.y - b.y;
+        dx -= self.lx * (dx / self.lx).round();
+        dy -= self.ly * (dy / self.ly).round();
+        let r = (dx * dx + dy * dy).sqrt();
+        let (nx, ny) = (dx / r, dy / r);
+        let gn = (a.vx - b.vx) * nx + (a.vy - b.vy) * ny;
+        let mu = a.mass * b.mass / (a.mass + b.mass);
+        let e = if self.growth != 0.0 || self.eps == 1.0 {
+            1.0
+        } else if self.now - self.last_collision[i] < self.tc
+            || self.now - self.last_collision[j] < self.tc
+        {
+            self.stats.guard_activations += 1;
+            1.0
+        } else {
+            self.eps
+        };
+        // Approach speed of the surfaces (-gn when radii are fixed).
+        let g = gn - (a.radius + b.radius) * self.growth;
+        let imp = mu * (1.0 + e) * g;
+        let da = &mut self.d[i];
+        da.vx -= imp / a.mass * nx;
+        da.vy -= imp / a.mass * ny;
+        da.count = da.count.wrapping_add(1);
+        let db = &mut self.d[j];
+        db.vx += imp / b.mass * nx;
+        db.vy += imp / b.mass * ny;
+        db.count = db.count.wrapping_add(1);
+        self.stats.dissipated += 0.5 * (1.0 - e * e) * mu * g * g;
+        self.stats.virial += -imp * r;
+        self.stats.collisions += 1;
+        self.last_collision[i] = self.now;
+        self.last_collision[j] = self.now;
+        self.predict(i);
+        self.predict(j);
+    }
+
+    /// A pair kick (Eq. 4 of paper H): equal and opposite Gaussian momenta.
+    fn kick(&mut self) {
+        let n = self.n();
+        let i = self.rng.random_range(0..n);
+        let j = match self.kicks {
+            Kicks::NeighbourPairs => self.random_neighbour(i),
+            _ => None,
+        }
+        .unwrap_or_else(|| {
+            let k = self.rng.random_range(0..n - 1);
+            if k >= i { k + 1 } else { k }
+        });
+        self.advance(i);
+        self.advance(j);
+        let kx: f64 = StandardNormal.sample(&mut self.rng);
+        let ky: f64 = StandardNormal.sample(&mut self.rng);
+        let (px, py) = (self.p_dr * kx, self.p_dr * ky);
+        let ke = |d: &Disk| 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy);
+        let before = ke(&self.d[i]) + ke(&self.d[j]);
+        for (k, s) in [(i, 1.0), (j, -1.0)] {
+            let d = &mut self.d[k];
+            d.vx += s * px / d.mass;
+            d.vy += s * py / d.mass;
+            d.count = d.count.wrapping_add(1);
+        }
+        self.stats.injected += ke(&self.d[i]) + ke(&self.d[j]) - before;
+        self.stats.kicks += 1;
+        self.predict(i);
+        self.predict(j);
+    }
+
+    /// A uniformly chosen other particle from the 3x3 cells around `i`, if any.
+    fn random_neighbour(&mut self, i: usize) -> Option<usize> {
+        let c = self.cell[i] as usize;
+        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        let mut total = 0usize;
+        self.for_neighbour_cells(cx, cy, |_, j, _, _| total += usize::from(j != i));
+        if total == 0 {
+            return None;
+        }
+        let mut k = self.rng.random_range(0..total);
+        let mut found = None;
+        self.for_neighbour_cells(cx, cy, |_, j, _, _| {
+            if j != i && found.is_none() {
+                if k == 0 {
+                    found = Some(j);
+                } else {
+                    k -= 1;
+                }
+            }
+        });
+        found
+    }
+
+    /// Call `f(self, j, shift_x, shift_y)` for every disk `j` of the 3x3 cells
+    /// around cell (cx, cy), with the periodic shift that brings it next to them.
+    #[inline]
+    fn for_neighbour_cells(&self, cx: usize, cy: usize, mut f: impl FnMut(&Self, usize, f64, f64)) {
+        for dy in -1..=1 {
+            let (ny, sy) = Self::wrap(cy, dy, self.ncy, self.ly);
+            for dx in -1..=1 {
+                let (nx, sx) = Self::wrap(cx, dx, self.ncx, self.lx);
+                let mut j = self.head[ny * self.ncx + nx];
+                while j != NONE {
+                    f(self, j as usize, sx, sy);
+                    j = self.d[j as usize].next;
+                }
+            }
+        }
+    }
+
+    /// The largest overlap (sigma_ij - r_ij)/sigma_ij among all pairs at the
+    /// current time, with the pair, if any pair overlaps by more than `tol`.
+    pub fn worst_overlap(&self, tol: f64) -> Option<(usize, usize, f64)> {
+        let (ux, uy) = self.unwrapped_positions();
+        let scale = self.scale();
+        let mut worst: Option<(usize, usize, f64)> = None;
+        for i in 0..self.n() {
+            let c = self.cell[i] as usize;
+            self.for_neighbour_cells(c % self.ncx, c / self.ncx, |e, j, _, _| {
+                if j <= i {
+                    return;
+                }
+                let mut dx = ux[i] - ux[j];
+                let mut dy = uy[i] - uy[j];
+                dx -= e.lx * (dx / e.lx).round();
+                dy -= e.ly * (dy / e.ly).round();
+                let sig = (e.d[i].radius + e.d[j].radius) * scale;
+                let ov = (sig - (dx * dx + dy * dy).sqrt()) / sig;
+                if ov > tol && worst.is_none_or(|w| ov > w.2) {
+                    worst = Some((i, j, ov));
+                }
+            });
+        }
+        worst
+    }
+}
+
+/// Time until coordinate `x` moving at `v` leaves cell `c` of width `w`.
+#[inline]
+fn exit_time(x: f64, v: f64, c: usize, w: f64) -> f64 {
+    if v > 0.0 {
+        ((c + 1) as f64 * w - x) / v
+    } else if v < 0.0 {
+        (c as f64 * w - x) / v
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Move cell coordinate `c` one step up or down among `nc` cells; on wrapping
+/// round the periodic box of length `l`, shift the coordinate and count the image.
+#[inline]
+fn step_cell(c: &mut usize, up: bool, nc: usize, x: &mut f64, l: f64, image: &mut i32) {
+    if up {
+        *c += 1;
+        if *c == nc {
+            *c = 0;
+            *x -= l;
+            *image += 1;
+        }
+    } else if *c == 0 {
+        *c = nc - 1;
+        *x += l;
+        *image -= 1;
+    } else {
+        *c -= 1;
+    }
+}
+
+/// A seeded engine RNG (ChaCha8, one stream per simulation).
+pub fn rng_from_seed(seed: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(seed)
+}

@@ -1,0 +1,369 @@
+//! One simulation from config to trajectory: compress, relax under driving,
+//! then record frames and measure temperature, pressure and rates.
+
+use super::config::{Drive, KickRate, SimConfig};
+use super::engine::{Engine, Kicks};
+use super::enskog;
+use super::init;
+use super::resources;
+use crate::traj::{Frame, Trajectory};
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Which part of the run is going on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    Compress,
+    Relax,
+    Production,
+}
+
+/// Reported to the caller now and then (about every 10^6 events).
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    pub stage: Stage,
+    /// Simulated time now and at the end of this stage.
+    pub time: f64,
+    pub end: f64,
+    pub collisions: u64,
+    /// Events (collisions, crossings, kicks) per wall-clock second in this stage.
+    pub events_per_second: f64,
+}
+
+impl Progress {
+    pub(crate) fn new(stage: Stage, e: &Engine, end: f64, since: Instant) -> Progress {
+        let s = &e.stats;
+        let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events;
+        Progress {
+            stage,
+            time: e.now,
+            end,
+            collisions: s.collisions,
+            events_per_second: events as f64 / since.elapsed().as_secs_f64().max(1e-9),
+        }
+    }
+}
+
+/// Temperature and pressure at one time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Time from the end of relaxation (negative during relaxation).
+    pub time: f64,
+    /// Kinetic energy per particle at this time.
+    pub temperature: f64,
+    /// Pressure over the interval ending here: (N T + virial / (2 dt)) / A.
+    pub pressure: f64,
+    /// Compressibility factor P A / (N T) over that interval.
+    pub z: f64,
+}
+
+/// What a run measured. Counts and averages refer to the production stage
+/// (after relaxation) unless named otherwise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    pub n: usize,
+    pub phi: f64,
+    pub eps: f64,
+    pub seed: u64,
+    /// Length of the production stage (simulated time).
+    pub sim_time: f64,
+    pub relax_time: f64,
+    /// Simulated time spent compressing to phi.
+    pub compress_time: f64,
+    pub collisions: u64,
+    pub kicks: u64,
+    pub guard_activations: u64,
+    pub cell_crossings: u64,
+    pub stale_events: u64,
+    /// Time-averaged kinetic energy per particle.
+    pub temperature: f64,
+    /// Standard deviation of the sampled temperature (its fluctuation).
+    pub temperature_std: f64,
+    /// Mean temperature over the first and the second half of production (drift check).
+    pub temperature_halves: [f64; 2],
+    /// Compressibility factor P A / (N T) from the collisional virial.
+    pub z: f64,
+    /// Standard error of z from the spread of the per-sample values.
+    pub z_err: f64,
+    /// Collisions each particle undergoes per unit time: 2 collisions / (N time).
+    pub collision_rate: f64,
+    /// The Enskog estimate of collision_rate at the measured temperature.
+    pub enskog_collision_rate: f64,
+    /// Pair kicks each particle receives per unit time: 2 kick rate / N.
+    pub kick_rate: f64,
+    pub energy_injected: f64,
+    pub energy_dissipated: f64,
+    /// |dE - (injected - dissipated)| / E over production.
+    pub energy_balance_error: f64,
+    /// CPU seconds of the simulating thread, whole run.
+    pub cpu_seconds: f64,
+    /// Production collisions per CPU second of production.
+    pub collisions_per_second: f64,
+    /// All events (collisions, crossings, kicks, stale) per CPU second of production.
+    pub events_per_second: f64,
+    pub peak_rss_bytes: u64,
+    /// Bytes of simulator state per particle.
+    pub bytes_per_particle: f64,
+    /// Temperature and pressure over relaxation and production.
+    pub series: Vec<Sample>,
+}
+
+/// Takes samples of T and P at regular times while the engine advances.
+struct Sampler {
+    dt: f64,
+    next: f64,
+    t0: f64,
+    last_time: f64,
+    last_virial: f64,
+    last_t: f64,
+    area: f64,
+    samples: Vec<Sample>,
+}
+
+impl Sampler {
+    fn take(&mut self, e: &Engine) {
+        let n = e.n() as f64;
+        let t = e.kinetic_energy() / n;
+        let dt = e.now - self.last_time;
+        let tm = 0.5 * (t + self.last_t);
+        let pv = (e.stats.virial - self.last_virial) / (2.0 * dt);
+        let pressure = (n * tm + pv) / self.area;
+        self.samples.push(Sample {
+            time: e.now - self.t0,
+            temperature: t,
+            pressure,
+            z: pressure * self.area / (n * tm),
+        });
+        self.last_time = e.now;
+        self.last_virial = e.stats.virial;
+        self.last_t = t;
+    }
+}
+
+/// Advance to `t`, taking the samples that fall on the way.
+fn advance(
+    e: &mut Engine,
+    t: f64,
+    s: &mut Sampler,
+    stage: Stage,
+    end: f64,
+    clock: Instant,
+    progress: &dyn Fn(Progress),
+) {
+    loop {
+        let stop = t.min(s.next);
+        while !e.run_until(stop, 1 << 20) {
+            progress(Progress::new(stage, e, end, clock));
+        }
+        if stop == s.next {
+            s.take(e);
+            s.next += s.dt;
+        }
+        if stop == t {
+            return;
+        }
+    }
+}
+
+/// The driving of `cfg`: which pairs, how many pair kicks per unit time in the
+/// whole system (starting value for the balanced rule), and the amplitude
+/// p_dr = sqrt((1 - eps^2) m1 m2 / (m1 + m2)). `enskog` is the Enskog collision
+/// frequency per particle at T = 1. No kicks when eps = 1 (zero amplitude).
+pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
+    let masses = cfg.species_masses();
+    let nf = cfg.n as f64;
+    let p_dr = ((1.0 - cfg.eps * cfg.eps) * masses[0] * masses[1] / (masses[0] + masses[1])).sqrt();
+    let kicks = match cfg.drive {
+        _ if cfg.eps == 1.0 => Kicks::Off,
+        Drive::None => Kicks::Off,
+        Drive::NeighbourPairs => Kicks::NeighbourPairs,
+        Drive::RandomPairs => Kicks::RandomPairs,
+    };
+    // Each pair kick (like each collision) involves two particles.
+    let rate = match cfg.kick_rate {
+        KickRate::Balanced => enskog * nf / 2.0,
+        KickRate::Enskog { prefactor } => prefactor * enskog * nf / 2.0,
+        KickRate::PerParticle(r) => r * nf / 2.0,
+    };
+    (kicks, rate, p_dr)
+}
+
+/// Run one simulation: returns the frames of `cfg.schedule` and the summary.
+pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, RunSummary)> {
+    cfg.validate()?;
+    let cpu0 = resources::thread_cpu_seconds();
+    let mut e = init::prepare(cfg, progress)?;
+    let compress_time = e.now;
+    let n = e.n();
+    let nf = n as f64;
+    let fractions = [1.0 - cfg.n_large() as f64 / nf, cfg.n_large() as f64 / nf];
+    let radii = cfg.radii();
+    let masses = cfg.species_masses();
+    let enskog_rate = |t: f64| enskog::collision_frequency(cfg.phi, &radii, &masses, &fractions, t);
+
+    e.eps = cfg.eps;
+    e.tc = cfg.collapse_tc;
+    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(1.0));
+    e.set_kicks(kicks, rate, p_dr);
+
+    let prod = cfg.schedule.end();
+    let total = cfg.relax_time + prod;
+    let t_relax0 = e.now;
+    let t0 = t_relax0 + cfg.relax_time;
+    let dt = total / cfg.samples as f64;
+    let mut s = Sampler {
+        dt,
+        next: t_relax0 + dt,
+        t0,
+        last_time: e.now,
+        last_virial: e.stats.virial,
+        last_t: e.kinetic_energy() / nf,
+        area: e.lx * e.ly,
+        samples: Vec::with_capacity(cfg.samples + 1),
+    };
+
+    // Relaxation. With the balanced rule, the first 80% is cut in windows after
+    // each of which the rate is corrected by T^(-3/2) (T scales as rate^(2/3)
+    // because the collision rate grows as sqrt(T)); T is averaged over the second
+    // half of each window, after the response to the previous correction.
+    let clock = Instant::now();
+    let windows = 10;
+    let w = cfg.relax_time / windows as f64;
+    for k in 0..windows {
+        let start = t_relax0 + k as f64 * w;
+        if cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off && k < windows * 4 / 5 {
+            let sub = 8;
+            let mut tsum = 0.0;
+            for m in 1..=sub {
+                advance(
+                    &mut e,
+                    start + w * m as f64 / sub as f64,
+                    &mut s,
+                    Stage::Relax,
+                    t0,
+                    clock,
+                    progress,
+                );
+                if m > sub / 2 {
+                    tsum += e.kinetic_energy() / nf;
+                }
+            }
+            let tmean = tsum / (sub / 2) as f64;
+            if tmean > 0.0 {
+                rate *= tmean.powf(-1.5);
+                e.set_kicks(kicks, rate, p_dr);
+            }
+        } else {
+            advance(&mut e, start + w, &mut s, Stage::Relax, t0, clock, progress);
+        }
+    }
+    e.now = t0.max(e.now);
+    let before = e.stats;
+    let ke0 = e.kinetic_energy();
+    let cpu_prod0 = resources::thread_cpu_seconds();
+    let n_relax_samples = s.samples.len();
+
+    // Production: frames at the schedule's times.
+    let (lx, ly) = (e.lx, e.ly);
+    let mut frames = Vec::new();
+    let clock = Instant::now();
+    for ft in cfg.schedule.times() {
+        advance(
+            &mut e,
+            t0 + ft,
+            &mut s,
+            Stage::Production,
+            t0 + prod,
+            clock,
+            progress,
+        );
+        let (x, y) = e.unwrapped_positions();
+        let (vx, vy) = if cfg.record_velocities {
+            e.velocities()
+        } else {
+            (vec![], vec![])
+        };
+        frames.push(Frame {
+            time: ft,
+            x,
+            y,
+            vx,
+            vy,
+        });
+    }
+    let end = t0 + prod;
+    advance(&mut e, end, &mut s, Stage::Production, end, clock, progress);
+    let cpu_prod = resources::thread_cpu_seconds() - cpu_prod0;
+    let st = e.stats;
+    let collisions = st.collisions - before.collisions;
+
+    let prod_samples = &s.samples[n_relax_samples..];
+    let temps: Vec<f64> = prod_samples.iter().map(|x| x.temperature).collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let temperature = mean(&temps);
+    let temperature_std = (temps.iter().map(|t| (t - temperature).powi(2)).sum::<f64>()
+        / temps.len().max(1) as f64)
+        .sqrt();
+    let half = temps.len() / 2;
+    let zs: Vec<f64> = prod_samples.iter().map(|x| x.z).collect();
+    let z = 1.0 + (st.virial - before.virial) / (2.0 * prod * nf * temperature);
+    let zm = mean(&zs);
+    let z_err = (zs.iter().map(|v| (v - zm).powi(2)).sum::<f64>()
+        / (zs.len().max(2) - 1) as f64
+        / zs.len().max(1) as f64)
+        .sqrt();
+    let ke1 = e.kinetic_energy();
+    let injected = st.injected - before.injected;
+    let dissipated = st.dissipated - before.dissipated;
+    let bytes = e.bytes() as f64;
+    let summary = RunSummary {
+        n,
+        phi: cfg.phi,
+        eps: cfg.eps,
+        seed: cfg.seed,
+        sim_time: prod,
+        relax_time: cfg.relax_time,
+        compress_time,
+        collisions,
+        kicks: st.kicks - before.kicks,
+        guard_activations: st.guard_activations - before.guard_activations,
+        cell_crossings: st.cell_crossings - before.cell_crossings,
+        stale_events: st.stale_events - before.stale_events,
+        temperature,
+        temperature_std,
+        temperature_halves: [mean(&temps[..half]), mean(&temps[half..])],
+        z,
+        z_err,
+        collision_rate: 2.0 * collisions as f64 / (nf * prod),
+        enskog_collision_rate: enskog_rate(temperature),
+        kick_rate: 2.0 * e.kick_rate() / nf,
+        energy_injected: injected,
+        energy_dissipated: dissipated,
+        energy_balance_error: ((ke1 - ke0) - (injected - dissipated)).abs() / ke1,
+        cpu_seconds: resources::thread_cpu_seconds() - cpu0,
+        collisions_per_second: collisions as f64 / cpu_prod.max(1e-9),
+        events_per_second: [
+            collisions,
+            st.kicks - before.kicks,
+            st.cell_crossings - before.cell_crossings,
+            st.stale_events - before.stale_events,
+        ]
+        .iter()
+        .sum::<u64>() as f64
+            / cpu_prod.max(1e-9),
+        peak_rss_bytes: resources::peak_rss_bytes(),
+        bytes_per_particle: bytes / nf,
+        series: s.samples,
+    };
+    let traj = Trajectory {
+        box_size: [lx, ly],
+        periodic: [true, true],
+        species: e.species.clone(),
+        radii,
+        masses,
+        frames,
+    };
+    Ok((traj, summary))
+}
