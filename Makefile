@@ -1,26 +1,47 @@
 # repro: regenerate the figures of the driven-granular-fluid papers.
+#   make all-figures            every figure (profile: small)
+#   make figure FIG=fig19       one figure; PROFILE=ci|small|paper, JOBS=N
+#   make test / bench / ci
 CARGO ?= cargo
 PROFILE ?= small
+JOBS ?=
+REPRO ?= $(CARGO) run --release --locked --quiet --
+JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: build test bench ci all-figures
+.PHONY: build test bench ci ci-figures all-figures figure status gc
 
 build:
 	$(CARGO) build --release --locked
 
 # The README's test command: unit and integration tests (release: the physics tests
 # run millions of events).
+# Then the ci profile of the CI-checked figures and their regression check
+# against tests/golden/ci.json (docs/figures.md).
+CI_FIGURES = fig2 fig3 fig4 fig15 fig19
 test:
 	$(CARGO) test --release --locked
-	$(CARGO) run --release --locked --quiet -- figure $(FIGURES) --profile ci
-	$(CARGO) run --release --locked --quiet -- regress --profile ci
-
-# Every figure of issue 5 at $(PROFILE) (default small); the shared eps = 0.9
-# ensemble is simulated once for all of them.
-FIGURES = fig2 fig3 fig4 fig15 fig19
-all-figures:
-	$(CARGO) run --release --locked --quiet -- figure $(FIGURES) --profile $(PROFILE)
+	$(REPRO) figure $(CI_FIGURES) --profile ci $(JOBS_FLAG)
+	$(REPRO) regress --profile ci
 
 bench:
 	$(CARGO) bench --locked
 
-ci: test
+all-figures:
+	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)
+
+figure:
+	@test -n "$(FIG)" || { echo "usage: make figure FIG=fig19 [PROFILE=ci|small|paper] [JOBS=N]"; exit 2; }
+	$(REPRO) figure $(FIG) --profile $(PROFILE) $(JOBS_FLAG)
+
+status:
+	@test -n "$(FIG)" || { echo "usage: make status FIG=fig19 [PROFILE=...]"; exit 2; }
+	$(REPRO) why $(FIG) --profile $(PROFILE)
+
+gc:
+	$(REPRO) gc
+
+# Small-N versions of every figure, as CI checks them.
+ci-figures:
+	@if ls pipelines/*.yaml >/dev/null 2>&1; then $(REPRO) figure --all --profile ci $(JOBS_FLAG); else echo "no pipelines/*.yaml yet"; fi
+
+ci: test ci-figures

@@ -28,12 +28,16 @@ fn write(root: &Path, rel: &str, text: &str) {
 /// A root with 1,000 simulations (100 phi x 10 replicas), 9,000 analyses (a sweep of
 /// 9 cutoffs) and one table, computed once and kept under the target directory.
 fn big_root() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("target"));
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target"));
     let root = target.join("bench-pipeline-10k");
     if root.join("ready").exists() {
         return root;
     }
-    let phis: Vec<String> = (0..100).map(|i| format!("{}", 0.5 + 0.003 * i as f64)).collect();
+    let phis: Vec<String> = (0..100)
+        .map(|i| format!("{}", 0.5 + 0.003 * i as f64))
+        .collect();
     write(
         &root,
         "experiments/big.yaml",
@@ -47,7 +51,14 @@ fn big_root() -> PathBuf {
         "pipelines/big.yaml",
         "description: synthetic 10k stages\nstages:\n  - name: s\n    kind: toy_analyse\n    map: big\n    sweep: {a: [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]}\n  - name: t\n    kind: table\n    gather: [s]\n",
     );
-    let run = pipeline::run_figures(&Workspace::new(&root), &reg(), &[], "ci", &RunOptions::default()).unwrap();
+    let run = pipeline::run_figures(
+        &Workspace::new(&root),
+        &reg(),
+        &[],
+        "ci",
+        &RunOptions::default(),
+    )
+    .unwrap();
     run.check().unwrap();
     assert_eq!(run.graph.nodes.len(), 10_001);
     std::fs::write(root.join("ready"), "").unwrap();
@@ -61,7 +72,10 @@ fn plan_and_lookup_10k(bencher: divan::Bencher) {
     bencher.bench(|| {
         let (g, st) = pipeline::figure_status(&Workspace::new(&root), &r, &[], "ci", &[]).unwrap();
         assert_eq!(st.len(), 10_001);
-        assert!(st.iter().all(|(_, s)| matches!(s, pipeline::State::Cached { .. })));
+        assert!(
+            st.iter()
+                .all(|(_, s)| matches!(s, pipeline::State::Cached { .. }))
+        );
         g.nodes.len()
     });
 }
@@ -71,7 +85,11 @@ fn fixture_root() -> tempfile::TempDir {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/pipeline");
     for sub in ["experiments", "pipelines"] {
         for e in std::fs::read_dir(src.join(sub)).unwrap().flatten() {
-            write(d.path(), &format!("{sub}/{}", e.file_name().to_string_lossy()), &std::fs::read_to_string(e.path()).unwrap());
+            write(
+                d.path(),
+                &format!("{sub}/{}", e.file_name().to_string_lossy()),
+                &std::fs::read_to_string(e.path()).unwrap(),
+            );
         }
     }
     d
@@ -82,7 +100,10 @@ fn noop_figure_run(bencher: divan::Bencher) {
     let d = fixture_root();
     let r = reg();
     let w = Workspace::new(d.path());
-    pipeline::run_figures(&w, &r, &[], "small", &RunOptions::default()).unwrap().check().unwrap();
+    pipeline::run_figures(&w, &r, &[], "small", &RunOptions::default())
+        .unwrap()
+        .check()
+        .unwrap();
     bencher.bench(|| {
         let run = pipeline::run_figures(&w, &r, &[], "small", &RunOptions::default()).unwrap();
         assert!(run.report.executed(&run.graph).is_empty());
@@ -92,13 +113,22 @@ fn noop_figure_run(bencher: divan::Bencher) {
 /// A root whose ci profile has `points` independent simulations of equal cost.
 fn sims_root(points: usize) -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
-    let phis: Vec<String> = (0..points).map(|i| format!("{}", 0.7 + 0.01 * i as f64)).collect();
+    let phis: Vec<String> = (0..points)
+        .map(|i| format!("{}", 0.7 + 0.01 * i as f64))
+        .collect();
     write(
         d.path(),
         "experiments/e.yaml",
-        &format!("description: d\nkind: toy_simulate\nseed: 1\nprofiles:\n  ci:\n    grid:\n      phi: [{}]\n    replicas: 1\n    params: {{n: 2000, work: 40000}}\n", phis.join(", ")),
+        &format!(
+            "description: d\nkind: toy_simulate\nseed: 1\nprofiles:\n  ci:\n    grid:\n      phi: [{}]\n    replicas: 1\n    params: {{n: 2000, work: 40000}}\n",
+            phis.join(", ")
+        ),
     );
-    write(d.path(), "pipelines/p.yaml", "description: d\nstages:\n  - name: t\n    kind: table\n    gather: [e]\n");
+    write(
+        d.path(),
+        "pipelines/p.yaml",
+        "description: d\nstages:\n  - name: t\n    kind: table\n    gather: [e]\n",
+    );
     d
 }
 
@@ -111,7 +141,12 @@ fn sims(bencher: divan::Bencher, points: usize, jobs: usize) {
         force: vec!["toy_simulate".into()],
         progress: false,
     };
-    bencher.bench(|| pipeline::run_figures(&w, &r, &[], "ci", &o).unwrap().check().unwrap());
+    bencher.bench(|| {
+        pipeline::run_figures(&w, &r, &[], "ci", &o)
+            .unwrap()
+            .check()
+            .unwrap()
+    });
 }
 
 #[divan::bench(sample_count = 5, sample_size = 1)]

@@ -94,6 +94,22 @@ fn second_identical_run_executes_nothing_and_shared_stages_run_once() {
     let (_, st) =
         pipeline::figure_status(&Workspace::new(d.path()), &reg(), &[], "ci", &[]).unwrap();
     assert!(st.iter().all(|(_, s)| matches!(s, State::Cached { .. })));
+    let prov: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(d.path().join("results/figtoy/provenance.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(prov["profile"], "ci");
+    assert_eq!(prov["repro_version"], env!("CARGO_PKG_VERSION"));
+    let stages = prov["stages"].as_array().unwrap();
+    assert_eq!(stages.len(), 16);
+    let sim = stages.iter().find(|s| s["kind"] == "toy_simulate").unwrap();
+    assert_eq!(sim["params"]["seed"], sim["seed"]);
+    assert_eq!(sim["key"].as_str().unwrap().len(), 64);
+    assert_eq!(
+        sim["code_fingerprint"].as_str().unwrap(),
+        reg().fingerprint("toy_simulate")
+    );
+    assert!(sim["wall_s"].as_f64().unwrap() > 0.0 && sim["executed_in_this_run"] == false);
     for f in [
         "compare.parquet",
         "overlap_table.parquet",
@@ -332,8 +348,7 @@ fn plan_error(rel: &str, text: &str, figure: &str) -> String {
     std::fs::write(d.path().join(rel), text).unwrap();
     let e = Workspace::new(d.path())
         .plan(&reg(), &ids(&[figure]), "ci")
-        .err()
-        .expect("planning must fail");
+        .expect_err("planning must fail");
     format!("{e:#}")
 }
 
@@ -599,4 +614,51 @@ fn two_concurrent_runs_on_one_store_both_finish_with_identical_results() {
         );
     }
     all_objects_intact(d.path());
+}
+
+#[test]
+fn cli_list_why_and_dry_run_explain_the_cache() {
+    let d = fixture();
+    let cli = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_repro"))
+            .env("REPRO_TEST_KINDS", "1")
+            .args(args)
+            .arg("--root")
+            .arg(d.path())
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let list = cli(&["list", "--profile", "ci"]);
+    assert!(
+        list.contains("figtoy2")
+            && list.contains("replica-averaged")
+            && list.contains("11/11 stages to run"),
+        "{list}"
+    );
+    run(d.path(), &[]);
+    assert!(
+        cli(&["list", "--profile", "ci"])
+            .matches("[ci: cached]")
+            .count()
+            == 2
+    );
+    edit(d.path(), "experiments/toy_sweep.yaml", "n: 200", "n: 300");
+    let why = cli(&["why", "figtoy2", "--profile", "ci"]);
+    assert!(
+        why.contains("stale   toy_sweep[phi=0.7,replica=0]")
+            && why.contains("parameter n: 200 -> 300"),
+        "{why}"
+    );
+    let dry = cli(&["figure", "figtoy2", "--profile", "ci", "--dry-run"]);
+    assert!(dry.contains("11 stage(s): 0 cached, 11 stale"), "{dry}");
+    assert!(
+        run(d.path(), &["figtoy2"]).len() == 11,
+        "dry run ran nothing"
+    );
 }

@@ -50,15 +50,26 @@ fn panel(title: &str, x: Axis, y: Axis, series: Vec<Series>) -> Panel {
 
 /// Like paper H Fig. 3: Q(t) = 1/((t/tau0)^beta + 1) for 13 packing fractions.
 fn overlap_figure() -> Figure {
-    let t: Vec<f64> = (0..=70).map(|i| 10f64.powf(-2.0 + 0.1 * i as f64)).collect();
+    let t: Vec<f64> = (0..=70)
+        .map(|i| 10f64.powf(-2.0 + 0.1 * i as f64))
+        .collect();
     let curves = PHI
         .iter()
         .enumerate()
         .map(|(i, phi)| {
             let tau0 = 10f64.powf(4.0 * (i as f64 / 12.0).powf(1.5));
             let beta = 1.6 - 0.7 * i as f64 / 12.0;
-            let q = t.iter().map(|t| 1.0 / ((t / tau0).powf(beta) + 1.0)).collect();
-            series(&format!("{phi:.3}").trim_end_matches('0').to_string(), t.clone(), q)
+            let q = t
+                .iter()
+                .map(|t| 1.0 / ((t / tau0).powf(beta) + 1.0))
+                .collect();
+            // As the paper writes them: 0.60, 0.785.
+            let digits = if (phi * 100.0).fract().abs() < 1e-9 {
+                2
+            } else {
+                3
+            };
+            series(&format!("{phi:.digits$}"), t.clone(), q)
         })
         .collect();
     let mut p = panel("", axis("t", true), axis("Q(t)", false), curves);
@@ -86,24 +97,42 @@ fn finite_size_figure() -> Figure {
     for (k, phi) in phis.iter().enumerate() {
         let xi = 2.0 * 2f64.powi(k as i32);
         let chi_inf = 0.5 * xi.powf(1.6);
-        let chi: Vec<f64> = n.iter().map(|n| chi_inf * n / (n + xi * xi * 4.0)).collect();
+        let chi: Vec<f64> = n
+            .iter()
+            .map(|n| chi_inf * n / (n + xi * xi * 4.0))
+            .collect();
         let mut s = series(&format!("φ = {phi}"), n.clone(), chi.clone());
         s.style = Style::LinePoints;
         s.y_err = Some(chi.iter().map(|c| 0.1 * c).collect());
-        s.marker = [Marker::Circle, Marker::Square, Marker::Triangle, Marker::Diamond][k];
+        s.marker = [
+            Marker::Circle,
+            Marker::Square,
+            Marker::Triangle,
+            Marker::Diamond,
+        ][k];
         a.push(s);
         let x = n.iter().map(|n| n.sqrt() / xi).collect();
         let y = chi.iter().map(|c| c * xi.powf(-1.6)).collect();
         let mut s = series(&format!("φ = {phi}"), x, y);
         s.style = Style::Points;
-        s.marker = [Marker::OpenCircle, Marker::OpenSquare, Marker::Triangle, Marker::Cross][k];
+        s.marker = [
+            Marker::OpenCircle,
+            Marker::OpenSquare,
+            Marker::Triangle,
+            Marker::Cross,
+        ][k];
         b.push(s);
     }
     Figure {
         title: String::new(),
         panels: vec![
             panel("(a)", axis("N", true), axis("χ₄ᴾ", true), a),
-            panel("(b)", axis("√N / ξ", true), axis("χ₄ᴾ ξ^(−γ_χ/γ_ξ)", true), b),
+            panel(
+                "(b)",
+                axis("√N / ξ", true),
+                axis("χ₄ᴾ ξ^(−γ_χ/γ_ξ)", true),
+                b,
+            ),
         ],
         columns: None,
         width: 1000,
@@ -126,25 +155,47 @@ fn svg_texts(svg: &str) -> Vec<String> {
 fn svg_has_legend_and_axis_labels_and_decade_ticks() {
     let svg = draw_svg_string(&overlap_figure()).unwrap();
     let texts = svg_texts(&svg);
-    for want in ["t", "Q(t)", "φ", "0.6", "0.805", "1/e"] {
-        assert!(texts.iter().any(|t| t == want), "no text {want:?} in {texts:?}");
+    for want in ["t", "Q(t)", "φ", "0.60", "0.785", "1/e"] {
+        assert!(
+            texts.iter().any(|t| t == want),
+            "no text {want:?} in {texts:?}"
+        );
     }
     let decades: Vec<&String> = texts.iter().filter(|t| t.starts_with("10")).collect();
-    assert_eq!(decades, ["10⁻²", "10⁻¹", "10⁰", "10¹", "10²", "10³", "10⁴", "10⁵"]);
-    assert!(texts.iter().any(|t| t == "0.4"), "linear Q axis ticks: {texts:?}");
+    assert_eq!(
+        decades,
+        ["10⁻²", "10⁻¹", "10⁰", "10¹", "10²", "10³", "10⁴", "10⁵"]
+    );
+    assert!(
+        texts.iter().any(|t| t == "0.4"),
+        "linear Q axis ticks: {texts:?}"
+    );
     // Sample samples when asked.
     if let Some(dir) = std::env::var_os("REPRO_PLOT_SAMPLES") {
         let dir = std::path::Path::new(&dir);
-        draw(&overlap_figure(), &dir.join("overlap.svg"), &dir.join("overlap.png")).unwrap();
+        draw(
+            &overlap_figure(),
+            &dir.join("overlap.svg"),
+            &dir.join("overlap.png"),
+        )
+        .unwrap();
         let fs = finite_size_figure();
-        draw(&fs, &dir.join("finite-size.svg"), &dir.join("finite-size.png")).unwrap();
+        draw(
+            &fs,
+            &dir.join("finite-size.svg"),
+            &dir.join("finite-size.png"),
+        )
+        .unwrap();
     }
 }
 
 #[test]
 fn svg_is_byte_identical_for_the_same_figure() {
     let f = finite_size_figure();
-    assert_eq!(draw_svg_string(&f).unwrap(), draw_svg_string(&f.clone()).unwrap());
+    assert_eq!(
+        draw_svg_string(&f).unwrap(),
+        draw_svg_string(&f.clone()).unwrap()
+    );
 }
 
 #[test]
@@ -164,10 +215,21 @@ fn unshowable_points_are_skipped_and_empty_series_keep_their_legend_entry() {
     let texts = svg_texts(&svg);
     assert!(texts.iter().any(|t| t == "empty") && texts.iter().any(|t| t == "all negative"));
     // A panel of nothing drawable still gets axes (one default decade).
-    let blank = panel("", axis("x", true), axis("y", true), vec![series("none", vec![-1.0], vec![f64::NAN])]);
-    let f = Figure { panels: vec![blank], ..overlap_figure() };
+    let blank = panel(
+        "",
+        axis("x", true),
+        axis("y", true),
+        vec![series("none", vec![-1.0], vec![f64::NAN])],
+    );
+    let f = Figure {
+        panels: vec![blank],
+        ..overlap_figure()
+    };
     let texts = svg_texts(&draw_svg_string(&f).unwrap());
-    assert!(texts.iter().any(|t| t == "10⁰") && texts.iter().any(|t| t == "10¹"), "{texts:?}");
+    assert!(
+        texts.iter().any(|t| t == "10⁰") && texts.iter().any(|t| t == "10¹"),
+        "{texts:?}"
+    );
 }
 
 #[test]
@@ -184,19 +246,37 @@ fn data_outside_a_fixed_range_is_clipped_to_the_axes() {
         .map(|r| {
             ["x=\"", "y=\"", "width=\"", "height=\""]
                 .iter()
-                .map(|k| r.split(k).nth(1).unwrap().split('"').next().unwrap().parse().unwrap())
+                .map(|k| {
+                    r.split(k)
+                        .nth(1)
+                        .unwrap()
+                        .split('"')
+                        .next()
+                        .unwrap()
+                        .parse()
+                        .unwrap()
+                })
                 .collect()
         })
         .unwrap();
     let (x0, y0, x1, y1) = (frame[0], frame[1], frame[0] + frame[2], frame[1] + frame[3]);
     let mut n = 0;
     for pl in svg.split("<polyline").skip(1) {
-        let pts = pl.split("points=\"").nth(1).unwrap().split('"').next().unwrap();
+        let pts = pl
+            .split("points=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
         for xy in pts.split_whitespace() {
             let (x, y) = xy.split_once(',').unwrap();
             let (x, y): (i32, i32) = (x.parse().unwrap(), y.parse().unwrap());
             // Legend samples lie inside too: the legend is inside the axes.
-            assert!(x >= x0 - 1 && x <= x1 + 1 && y >= y0 - 1 && y <= y1 + 1, "({x},{y}) outside {frame:?}");
+            assert!(
+                x >= x0 - 1 && x <= x1 + 1 && y >= y0 - 1 && y <= y1 + 1,
+                "({x},{y}) outside {frame:?}"
+            );
             n += 1;
         }
     }
@@ -217,7 +297,11 @@ fn png_has_the_signature_and_the_requested_size() {
     let (svg_path, png_path) = (dir.path().join("f.svg"), dir.path().join("sub/f.png"));
     draw(&f, &svg_path, &png_path).unwrap();
     assert_eq!(std::fs::read(&png_path).unwrap(), png);
-    assert!(std::fs::read_to_string(&svg_path).unwrap().starts_with("<svg"));
+    assert!(
+        std::fs::read_to_string(&svg_path)
+            .unwrap()
+            .starts_with("<svg")
+    );
 }
 
 #[test]
@@ -237,24 +321,97 @@ panels:
     assert_eq!(f.width, 720);
     assert_eq!(f.panels[0].series[0].style, Style::Points);
     assert_eq!(f.panels[0].series[1].color.unwrap().to_string(), "#d62728");
-    assert!(svg_texts(&draw_svg_string(&f).unwrap()).iter().any(|t| t == "τ_α"));
+    assert!(
+        svg_texts(&draw_svg_string(&f).unwrap())
+            .iter()
+            .any(|t| t == "τ_α")
+    );
 
     let bad_color = yaml.replace("#d62728", "red");
-    let e = serde_saphyr::from_str::<Figure>(&bad_color).unwrap_err().to_string();
+    let e = serde_saphyr::from_str::<Figure>(&bad_color)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("\"red\" is not of the form \"#rrggbb\""), "{e}");
+
+    let typo = yaml.replace("legend: top_left", "legend: top_left\n    lgend_title: x");
+    let e = serde_saphyr::from_str::<Figure>(&typo)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("lgend_title"), "{e}");
 
     let mut f2 = f.clone();
     f2.panels[0].series[0].y.pop();
     let e = format!("{:#}", draw_svg_string(&f2).unwrap_err());
-    assert!(e.contains("series 1 \"data\": 3 x values but 2 y values"), "{e}");
+    assert!(
+        e.contains("series 1 \"data\": 3 x values but 2 y values"),
+        "{e}"
+    );
 
     let mut f3 = f.clone();
     f3.panels[0].y.range = Some((-1.0, 10.0));
     let e = format!("{:#}", draw_svg_string(&f3).unwrap_err());
-    assert!(e.contains("y axis is logarithmic") && e.contains("must be positive"), "{e}");
+    assert!(
+        e.contains("y axis is logarithmic") && e.contains("must be positive"),
+        "{e}"
+    );
 
     let mut f4 = f;
     f4.panels[0].hlines[0].at = 0.0;
     let e = format!("{:#}", draw_svg_string(&f4).unwrap_err());
-    assert!(e.contains("hline at 0 cannot be drawn on a logarithmic axis"), "{e}");
+    assert!(
+        e.contains("hline at 0 cannot be drawn on a logarithmic axis"),
+        "{e}"
+    );
+}
+
+mod robustness {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            4 => -1e3..1e3f64,
+            2 => (-300.0..300.0f64).prop_map(|e| 10f64.powf(e)),
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => Just(-f64::MAX),
+            1 => Just(0.0),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        /// Whatever the numbers, drawing a valid figure succeeds (never panics) and
+        /// every legend label is in the SVG.
+        #[test]
+        fn any_data_draws(
+            data in proptest::collection::vec(proptest::collection::vec((value(), value(), value()), 0..12), 1..5),
+            xlog: bool,
+            ylog: bool,
+            legend in prop_oneof![Just(Legend::Auto), Just(Legend::Right), Just(Legend::BottomLeft), Just(Legend::None)],
+        ) {
+            let series: Vec<Series> = data
+                .iter()
+                .enumerate()
+                .map(|(i, pts)| {
+                    let mut s = series(&format!("s{i}"), pts.iter().map(|p| p.0).collect(), pts.iter().map(|p| p.1).collect());
+                    s.y_err = Some(pts.iter().map(|p| p.2).collect());
+                    s.style = [Style::Line, Style::Points, Style::LinePoints][i % 3];
+                    s.dashed = i % 2 == 1;
+                    s
+                })
+                .collect();
+            let mut p = panel("(a)", axis("x", xlog), axis("y", ylog), series);
+            p.legend = legend;
+            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into() };
+            let texts = svg_texts(&draw_svg_string(&f).unwrap());
+            if legend != Legend::None {
+                for i in 0..data.len() {
+                    let label = format!("s{i}");
+                    prop_assert!(texts.contains(&label));
+                }
+            }
+        }
+    }
 }

@@ -34,6 +34,13 @@ pub struct Params {
     /// Relative tolerance matching a lag to frame time differences.
     #[serde(default = "default_rel_tol")]
     pub rel_tol: f64,
+    /// Bins per decade of Nc for the size distribution P(Nc).
+    #[serde(default = "default_per_decade")]
+    pub per_decade: usize,
+}
+
+fn default_per_decade() -> usize {
+    5
 }
 
 /// One cluster.
@@ -80,7 +87,14 @@ impl Forest {
             self.off[k] = acc;
             self.parent[k] = r;
         }
-        (r, if path.is_empty() { [0.0; 2] } else { self.off[i] })
+        (
+            r,
+            if path.is_empty() {
+                [0.0; 2]
+            } else {
+                self.off[i]
+            },
+        )
     }
 
     /// Link i and j with bond d = r_j - r_i (minimum image). A bond closing a loop
@@ -123,13 +137,20 @@ pub fn find_clusters(
     let rmax = cutoff.iter().flatten().copied().fold(0.0, f64::max);
     let mut forest = Forest::new(idx.len());
     let half_box = 0.5 * traj.box_size[0].min(traj.box_size[1]);
-    neighbours::for_each_pair(&xs, &ys, traj.box_size, traj.periodic, rmax, |a, b, dx, dy| {
-        let (si, sj) = (traj.species[idx[a]] as usize, traj.species[idx[b]] as usize);
-        let rc = cutoff[si][sj];
-        if dx * dx + dy * dy < rc * rc {
-            forest.union(a, b, [dx, dy], half_box);
-        }
-    })?;
+    neighbours::for_each_pair(
+        &xs,
+        &ys,
+        traj.box_size,
+        traj.periodic,
+        rmax,
+        |a, b, dx, dy| {
+            let (si, sj) = (traj.species[idx[a]] as usize, traj.species[idx[b]] as usize);
+            let rc = cutoff[si][sj];
+            if dx * dx + dy * dy < rc * rc {
+                forest.union(a, b, [dx, dy], half_box);
+            }
+        },
+    )?;
     // Per root: count, sum of offsets, sum of squared offsets (relative to the root).
     let n = idx.len();
     let mut acc = vec![[0.0f64; 3]; n];
@@ -162,7 +183,10 @@ fn validate_cutoffs(traj: &Trajectory, c: &[Vec<f64>]) -> Result<()> {
         for (b, &v) in row.iter().enumerate() {
             ensure_positive(&format!("cutoffs[{a}][{b}]"), v)?;
             if (v - c[b][a]).abs() > 1e-12 * v {
-                bail!("parameter `cutoffs` must be symmetric: [{a}][{b}] = {v} but [{b}][{a}] = {}", c[b][a]);
+                bail!(
+                    "parameter `cutoffs` must be symmetric: [{a}][{b}] = {v} but [{b}][{a}] = {}",
+                    c[b][a]
+                );
             }
         }
     }
@@ -176,7 +200,10 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     check_trajectory(traj)?;
     ensure_positive("a", p.a)?;
     if !(p.fast_factor.is_finite() && p.fast_factor >= 1.0) {
-        bail!("parameter `fast_factor` must be >= 1, got {}", p.fast_factor);
+        bail!(
+            "parameter `fast_factor` must be >= 1, got {}",
+            p.fast_factor
+        );
     }
     if p.lags.is_empty() {
         bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
@@ -212,7 +239,51 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         }
     }
     let [t, t0, k, nc, rg, sp] = cols;
-    f64_batch(&[("t", t), ("t0", t0), ("kind", k), ("Nc", nc), ("Rg", rg), ("spans", sp)])
+    f64_batch(&[
+        ("t", t),
+        ("t0", t0),
+        ("kind", k),
+        ("Nc", nc),
+        ("Rg", rg),
+        ("spans", sp),
+    ])
+}
+
+/// Table `t, kind, Nc, P, n_clusters`: the log-binned cluster size distribution of
+/// slow (kind 0) and fast (kind 1) clusters at each lag, pooled over time origins.
+pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let rows = compute(traj, p)?;
+    let col = |name: &str| -> Vec<f64> {
+        rows.column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
+            .map(|a| a.values().to_vec())
+            .expect("column written by compute")
+    };
+    let (t, kind, nc) = (col("t"), col("kind"), col("Nc"));
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    for &lag in &p.lags {
+        for k in [0.0, 1.0] {
+            let sizes: Vec<usize> = (0..t.len())
+                .filter(|&i| kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
+                .map(|i| nc[i] as usize)
+                .collect();
+            for (centre, prob, count) in size_distribution(&sizes, p.per_decade)? {
+                cols[0].push(lag);
+                cols[1].push(k);
+                cols[2].push(centre);
+                cols[3].push(prob);
+                cols[4].push(count as f64);
+            }
+        }
+    }
+    let [t, k, n, pr, c] = cols;
+    f64_batch(&[
+        ("t", t),
+        ("kind", k),
+        ("Nc", n),
+        ("P", pr),
+        ("n_clusters", c),
+    ])
 }
 
 /// P(Nc): the fraction of clusters of size Nc, log-binned with `per_decade` bins per
@@ -236,7 +307,11 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
             let c = sizes.iter().filter(|&&s| s >= lo && s < hi).count();
             if c > 0 {
                 let centre = ((lo * (hi - 1)) as f64).sqrt();
-                out.push((centre, c as f64 / (sizes.len() as f64 * (hi - lo) as f64), c));
+                out.push((
+                    centre,
+                    c as f64 / (sizes.len() as f64 * (hi - lo) as f64),
+                    c,
+                ));
             }
         }
         k += 1;

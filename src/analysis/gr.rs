@@ -70,7 +70,10 @@ pub fn partials(traj: &Trajectory, p: &Params) -> Result<Vec<Partial>> {
         bail!("parameter `max_frames` must be at least 1");
     }
     if traj.periodic != [true, true] {
-        bail!("g_ab(r) is normalised for a box periodic in x and y (got periodic = {:?})", traj.periodic);
+        bail!(
+            "g_ab(r) is normalised for a box periodic in x and y (got periodic = {:?})",
+            traj.periodic
+        );
     }
     let ns = traj.species.iter().copied().max().unwrap_or(0) as usize + 1;
     let nb = (p.r_max / p.bin).ceil() as usize;
@@ -81,13 +84,20 @@ pub fn partials(traj: &Trajectory, p: &Params) -> Result<Vec<Partial>> {
     let mut hist = vec![vec![0u64; nb]; ns * ns];
     for &fi in &frames {
         let f = &traj.frames[fi];
-        neighbours::for_each_pair(&f.x, &f.y, traj.box_size, traj.periodic, p.r_max, |i, j, dx, dy| {
-            let (a, b) = (traj.species[i] as usize, traj.species[j] as usize);
-            let k = ((dx * dx + dy * dy).sqrt() / bin) as usize;
-            if k < nb {
-                hist[a.min(b) * ns + a.max(b)][k] += 1;
-            }
-        })?;
+        neighbours::for_each_pair(
+            &f.x,
+            &f.y,
+            traj.box_size,
+            traj.periodic,
+            p.r_max,
+            |i, j, dx, dy| {
+                let (a, b) = (traj.species[i] as usize, traj.species[j] as usize);
+                let k = ((dx * dx + dy * dy).sqrt() / bin) as usize;
+                if k < nb {
+                    hist[a.min(b) * ns + a.max(b)][k] += 1;
+                }
+            },
+        )?;
     }
     let mut count = vec![0f64; ns];
     for &s in &traj.species {
@@ -101,7 +111,11 @@ pub fn partials(traj: &Trajectory, p: &Params) -> Result<Vec<Partial>> {
                 continue;
             }
             // Unordered pairs expected in an annulus for an ideal gas.
-            let pairs = if a == b { count[a] * (count[a] - 1.0) / 2.0 } else { count[a] * count[b] };
+            let pairs = if a == b {
+                count[a] * (count[a] - 1.0) / 2.0
+            } else {
+                count[a] * count[b]
+            };
             let r: Vec<f64> = (0..nb).map(|k| (k as f64 + 0.5) * bin).collect();
             let g: Vec<f64> = (0..nb)
                 .map(|k| {
@@ -110,7 +124,13 @@ pub fn partials(traj: &Trajectory, p: &Params) -> Result<Vec<Partial>> {
                 })
                 .collect();
             let r_min = first_minimum(&r, &g).unwrap_or(f64::NAN);
-            out.push(Partial { a: a as u8, b: b as u8, r, g, r_min });
+            out.push(Partial {
+                a: a as u8,
+                b: b as u8,
+                r,
+                g,
+                r_min,
+            });
         }
     }
     Ok(out)

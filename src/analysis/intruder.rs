@@ -35,7 +35,9 @@ pub struct VelocityParams {
 }
 
 fn intruders(traj: &Trajectory, species: u8) -> Result<Vec<usize>> {
-    let idx: Vec<usize> = (0..traj.n()).filter(|&i| traj.species[i] == species).collect();
+    let idx: Vec<usize> = (0..traj.n())
+        .filter(|&i| traj.species[i] == species)
+        .collect();
     if idx.is_empty() {
         bail!("no intruder: no particle of species {species} in the trajectory");
     }
@@ -99,14 +101,22 @@ pub fn stationary_velocity(trajs: &[&Trajectory], p: &VelocityParams) -> Result<
     let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
     Ok(Estimate {
         value: m,
-        err: if v.len() > 1 { (var / n).sqrt() } else { f64::NAN },
+        err: if v.len() > 1 {
+            (var / n).sqrt()
+        } else {
+            f64::NAN
+        },
     })
 }
 
 /// Table `v, v_err, n_blocks`.
 pub fn compute_velocity(traj: &Trajectory, p: &VelocityParams) -> Result<RecordBatch> {
     let e = stationary_velocity(&[traj], p)?;
-    f64_batch(&[("v", vec![e.value]), ("v_err", vec![e.err]), ("n_blocks", vec![p.blocks as f64])])
+    f64_batch(&[
+        ("v", vec![e.value]),
+        ("v_err", vec![e.err]),
+        ("n_blocks", vec![p.blocks as f64]),
+    ])
 }
 
 /// Table `t, x, v` of the intruder path (Fig. 4 inset of paper I): v is the recorded
@@ -133,12 +143,19 @@ pub fn compute_path(traj: &Trajectory, p: &VelocityParams) -> Result<RecordBatch
 /// Mobility mu = v / F in the linear regime: weighted least-squares slope through the
 /// origin of v(F) over the points with F <= f_max, from (F, v, v_err) triples.
 pub fn mobility(points: &[(f64, f64, f64)], f_max: f64) -> Result<Estimate> {
-    let lin: Vec<&(f64, f64, f64)> = points.iter().filter(|p| p.0 > 0.0 && p.0 <= f_max).collect();
+    let lin: Vec<&(f64, f64, f64)> = points
+        .iter()
+        .filter(|p| p.0 > 0.0 && p.0 <= f_max)
+        .collect();
     if lin.is_empty() {
         bail!("no (F, v) point with 0 < F <= f_max = {f_max}: raise f_max");
     }
     if let Some(p) = lin.iter().find(|p| !(p.2 > 0.0 && p.2.is_finite())) {
-        bail!("velocity error at F = {} must be finite and > 0, got {}", p.0, p.2);
+        bail!(
+            "velocity error at F = {} must be finite and > 0, got {}",
+            p.0,
+            p.2
+        );
     }
     let (mut sfv, mut sff) = (0.0, 0.0);
     for (f, v, e) in lin {
@@ -194,7 +211,10 @@ pub fn compute_profile(traj: &Trajectory, p: &ProfileParams) -> Result<RecordBat
             .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
             .expect("checked non-empty");
         if f.vx.len() != traj.n() {
-            bail!("the frame at t = {} has no velocities: record velocities to get Px(x)", f.time);
+            bail!(
+                "the frame at t = {} has no velocities: record velocities to get Px(x)",
+                f.time
+            );
         }
         let mut px = vec![0.0; p.bins];
         for i in 0..traj.n() {

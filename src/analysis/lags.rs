@@ -27,7 +27,7 @@ pub fn select(trajs: &[&Trajectory], requested: Option<&[f64]>, rel_tol: f64) ->
     let Some(first) = trajs.first() else {
         bail!("no trajectory given");
     };
-    if !(rel_tol.is_finite() && rel_tol >= 0.0 && rel_tol < 0.5) {
+    if !((0.0..0.5).contains(&rel_tol)) {
         bail!("parameter `rel_tol` must be in [0, 0.5), got {rel_tol}");
     }
     let candidates: Vec<f64> = match requested {

@@ -24,8 +24,58 @@ pub mod synthetic;
 pub mod van_hove;
 
 use anyhow::{Result, bail};
+use arrow_array::RecordBatch;
 
 use crate::traj::{Frame, Trajectory};
+
+/// Every stage kind [`run`] knows, with the function it calls.
+pub const KINDS: &[&str] = &[
+    "overlap",
+    "tau_alpha",
+    "aging",
+    "aging_tau_alpha",
+    "chi4",
+    "chi4_peaks",
+    "s4",
+    "msd",
+    "van_hove",
+    "gr",
+    "clusters",
+    "cluster_sizes",
+    "intruder_velocity",
+    "intruder_path",
+    "momentum_profile",
+];
+
+/// Run the observable `kind` (one of [`KINDS`]) with its parameters given as a
+/// JSON/YAML value (unknown keys and wrong types are errors naming the kind).
+pub fn run(kind: &str, params: serde_json::Value, traj: &Trajectory) -> Result<RecordBatch> {
+    fn p<T: serde::de::DeserializeOwned>(kind: &str, v: serde_json::Value) -> Result<T> {
+        serde_json::from_value(v)
+            .map_err(|e| anyhow::anyhow!("parameters of analysis `{kind}`: {e}"))
+    }
+    match kind {
+        "overlap" => overlap::compute(traj, &p(kind, params)?),
+        "tau_alpha" => overlap::compute_tau_alpha(traj, &p(kind, params)?),
+        "aging" => overlap::aging(traj, &p(kind, params)?),
+        "aging_tau_alpha" => overlap::aging_tau_alpha(traj, &p(kind, params)?),
+        "chi4" => chi4::compute(traj, &p(kind, params)?),
+        "chi4_peaks" => chi4::compute_peaks(traj, &p(kind, params)?),
+        "s4" => s4::compute(traj, &p(kind, params)?),
+        "msd" => msd::compute(traj, &p(kind, params)?),
+        "van_hove" => van_hove::compute(traj, &p(kind, params)?),
+        "gr" => gr::compute(traj, &p(kind, params)?),
+        "clusters" => clusters::compute(traj, &p(kind, params)?),
+        "cluster_sizes" => clusters::compute_sizes(traj, &p(kind, params)?),
+        "intruder_velocity" => intruder::compute_velocity(traj, &p(kind, params)?),
+        "intruder_path" => intruder::compute_path(traj, &p(kind, params)?),
+        "momentum_profile" => intruder::compute_profile(traj, &p(kind, params)?),
+        other => bail!(
+            "unknown analysis kind `{other}`; known kinds: {}",
+            KINDS.join(", ")
+        ),
+    }
+}
 
 /// Default relative tolerance when matching a requested lag to frame time differences.
 pub const DEFAULT_REL_TOL: f64 = 1e-6;
@@ -66,7 +116,11 @@ pub(crate) fn check_trajectory(traj: &Trajectory) -> Result<()> {
             );
         }
     }
-    if let Some(&s) = traj.species.iter().find(|&&s| s as usize >= traj.radii.len()) {
+    if let Some(&s) = traj
+        .species
+        .iter()
+        .find(|&&s| s as usize >= traj.radii.len())
+    {
         bail!(
             "species {s} has no radius (the trajectory lists {} radii)",
             traj.radii.len()
@@ -77,8 +131,7 @@ pub(crate) fn check_trajectory(traj: &Trajectory) -> Result<()> {
 
 /// Squared displacement of every particle between two frames (positions are unwrapped).
 pub fn squared_displacements(f0: &Frame, f1: &Frame) -> Vec<f64> {
-    f0.x
-        .iter()
+    f0.x.iter()
         .zip(&f0.y)
         .zip(f1.x.iter().zip(&f1.y))
         .map(|((x0, y0), (x1, y1))| (x1 - x0).powi(2) + (y1 - y0).powi(2))
@@ -96,3 +149,6 @@ pub fn fold(x: f64, l: f64, periodic: bool) -> f64 {
         x
     }
 }
+
+#[cfg(test)]
+mod tests;

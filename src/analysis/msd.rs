@@ -12,7 +12,7 @@ use crate::table::f64_batch;
 use crate::traj::Trajectory;
 
 /// Parameters of the MSD.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
     /// Lags t; every lag the trajectory realises if absent.
@@ -25,6 +25,16 @@ pub struct Params {
     /// Relative tolerance matching a lag to frame time differences.
     #[serde(default = "default_rel_tol")]
     pub rel_tol: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            lags: None,
+            fractions: vec![],
+            rel_tol: default_rel_tol(),
+        }
+    }
 }
 
 /// Which particles a row describes.
@@ -76,10 +86,18 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         .collect();
     let mut subsets = Vec::new();
     for &g in &groups {
-        subsets.push(Subset { species: g, select: 0, fraction: 1.0 });
+        subsets.push(Subset {
+            species: g,
+            select: 0,
+            fraction: 1.0,
+        });
         for &f in &p.fractions {
             for select in [1, -1] {
-                subsets.push(Subset { species: g, select, fraction: f });
+                subsets.push(Subset {
+                    species: g,
+                    select,
+                    fraction: f,
+                });
             }
         }
     }

@@ -37,10 +37,15 @@ pub fn for_each_pair(
     // Fewer than 3 cells on a periodic axis would visit a neighbour cell twice.
     let nc = [0, 1].map(|d| {
         let c = (box_size[d] / rcut).floor().max(1.0) as usize;
-        if periodic[d] && c < 3 { 1 } else { c.min(1 << 14) }
+        if periodic[d] && c < 3 {
+            1
+        } else {
+            c.min(1 << 14)
+        }
     });
     let cell_of = |p: &[f64; 2]| -> [usize; 2] {
-        [0, 1].map(|d| ((p[d] / box_size[d] * nc[d] as f64).floor().max(0.0) as usize).min(nc[d] - 1))
+        [0, 1]
+            .map(|d| ((p[d] / box_size[d] * nc[d] as f64).floor().max(0.0) as usize).min(nc[d] - 1))
     };
     // Counting sort of particles by cell.
     let mut start = vec![0usize; nc[0] * nc[1] + 1];

@@ -161,13 +161,21 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
     })
 }
 
+/// Table `tau_alpha, tau_alpha_err` (one row).
+pub fn compute_tau_alpha(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    let e = tau_alpha(&[traj], p)?;
+    f64_batch(&[("tau_alpha", vec![e.value]), ("tau_alpha_err", vec![e.err])])
+}
+
+/// (t0, lags, Q) of one time origin.
+pub type OriginCurve = (f64, Vec<f64>, Vec<f64>);
+
 /// Q(t; t0) for each time origin t0 separately (no origin average), t0 measured
 /// from the first frame: `(t0, lags, Q)` per origin, lags ascending.
-pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Vec<f64>, Vec<f64>)>> {
+pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<OriginCurve>> {
     let m = moments(&[traj], p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
     let start = traj.frames[0].time;
-    let mut by_origin: std::collections::BTreeMap<usize, (Vec<f64>, Vec<f64>)> =
-        Default::default();
+    let mut by_origin: std::collections::BTreeMap<usize, (Vec<f64>, Vec<f64>)> = Default::default();
     for (lag, b) in m.lags.iter().zip(&m.blocks[0]) {
         for k in b.keys() {
             let e = by_origin.entry(k.1).or_default();

@@ -131,7 +131,11 @@ impl ComplexFft {
             .expect("buffer sizes come from the plan");
         // Real input: F[n - k] = conj F[k] completes the half spectrum.
         let full = |half: &[Complex<f64>], k: usize| {
-            if k <= n / 2 { half[k] } else { half[n - k].conj() }
+            if k <= n / 2 {
+                half[k]
+            } else {
+                half[n - k].conj()
+            }
         };
         for (k, z) in data.iter_mut().enumerate() {
             *z = full(&fre, k) + Complex::new(0.0, 1.0) * full(&fim, k);
@@ -143,10 +147,10 @@ impl ComplexFft {
 fn fft_size(n: usize) -> usize {
     let mut k = n.max(2);
     loop {
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             let mut r = k;
             for p in [2, 3, 5] {
-                while r % p == 0 {
+                while r.is_multiple_of(p) {
                     r /= p;
                 }
             }
@@ -269,6 +273,8 @@ impl Nufft {
 pub struct Shells {
     /// Mean |q| of the vectors in each shell.
     pub q: Vec<f64>,
+    /// Mean q^2 of the vectors in each shell (the abscissa of OZ fits in q^2).
+    pub q2: Vec<f64>,
     pub s4: Vec<f64>,
     /// Standard error over time origins of the shell average of |W|^2 / N.
     pub s4_err: Vec<f64>,
@@ -281,50 +287,88 @@ fn shell_index(q: f64, dq: f64) -> usize {
     (q / dq).round() as usize
 }
 
-/// Per-vector S4 from W of every origin (rows: origins; columns: lattice vectors),
-/// then averaged in shells.
-pub fn shells_from_w(lat: &Lattice, w: &[Vec<Complex<f64>>], n_particles: f64, dq: f64) -> Shells {
-    let nv = lat.q.len();
-    let no = w.len() as f64;
-    let n_shells = lat.q.iter().map(|&q| shell_index(q, dq)).max().unwrap_or(0) + 1;
-    let mut sum_q = vec![0.0; n_shells];
-    let mut sum_s = vec![0.0; n_shells];
-    let mut count = vec![0usize; n_shells];
-    // Per-origin shell means of |W|^2 / N, for the error bar.
-    let mut per_origin = vec![vec![0.0; n_shells]; w.len()];
-    for v in 0..nv {
-        let (mut s2, mut s1) = (0.0, Complex::new(0.0, 0.0));
-        for (o, wo) in w.iter().enumerate() {
-            s2 += wo[v].norm_sqr();
-            s1 += wo[v];
-            per_origin[o][shell_index(lat.q[v], dq)] += wo[v].norm_sqr() / n_particles;
+/// Running sums over time origins, so memory stays O(vectors) whatever the number
+/// of origins: sum |W|^2 and sum W per vector, and per-origin shell sums of |W|^2.
+pub struct Accumulator<'a> {
+    lat: &'a Lattice,
+    shell: Vec<usize>,
+    n_shells: usize,
+    sum2: Vec<f64>,
+    sum1: Vec<Complex<f64>>,
+    per_origin: Vec<Vec<f64>>,
+}
+
+impl<'a> Accumulator<'a> {
+    pub fn new(lat: &'a Lattice, dq: f64) -> Self {
+        let shell: Vec<usize> = lat.q.iter().map(|&q| shell_index(q, dq)).collect();
+        let n_shells = shell.iter().copied().max().unwrap_or(0) + 1;
+        Self {
+            lat,
+            shell,
+            n_shells,
+            sum2: vec![0.0; lat.q.len()],
+            sum1: vec![Complex::new(0.0, 0.0); lat.q.len()],
+            per_origin: Vec::new(),
         }
-        let s4 = (s2 / no - (s1 / no).norm_sqr()) / n_particles;
-        let k = shell_index(lat.q[v], dq);
-        sum_q[k] += lat.q[v];
-        sum_s[k] += s4;
-        count[k] += 1;
     }
-    let mut out = Shells {
-        q: vec![],
-        s4: vec![],
-        s4_err: vec![],
-        n_vectors: vec![],
-    };
-    for k in 0..n_shells {
-        if count[k] == 0 {
-            continue;
+
+    /// Add W of one time origin (one value per lattice vector).
+    pub fn add(&mut self, w: &[Complex<f64>]) {
+        let mut shells = vec![0.0; self.n_shells];
+        for (v, wv) in w.iter().enumerate() {
+            self.sum2[v] += wv.norm_sqr();
+            self.sum1[v] += wv;
+            shells[self.shell[v]] += wv.norm_sqr();
         }
-        let c = count[k] as f64;
-        let means: Vec<f64> = per_origin.iter().map(|p| p[k] / c).collect();
-        let m = means.iter().sum::<f64>() / no;
-        let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (no - 1.0).max(1.0);
-        out.q.push(sum_q[k] / c);
-        out.s4.push(sum_s[k] / c);
-        out.s4_err.push(if w.len() > 1 { (var / no).sqrt() } else { f64::NAN });
-        out.n_vectors.push(count[k]);
+        self.per_origin.push(shells);
     }
-    out
+
+    /// S4 = (<|W|^2> - |<W>|^2) / N per vector, averaged in shells.
+    pub fn shells(&self, n_particles: f64) -> Shells {
+        let no = self.per_origin.len() as f64;
+        let mut sum_q = vec![0.0; self.n_shells];
+        let mut sum_q2 = vec![0.0; self.n_shells];
+        let mut sum_s = vec![0.0; self.n_shells];
+        let mut count = vec![0usize; self.n_shells];
+        for v in 0..self.lat.q.len() {
+            let k = self.shell[v];
+            sum_q[k] += self.lat.q[v];
+            sum_q2[k] += self.lat.q[v] * self.lat.q[v];
+            sum_s[k] += (self.sum2[v] / no - (self.sum1[v] / no).norm_sqr()) / n_particles;
+            count[k] += 1;
+        }
+        let mut out = Shells {
+            q: vec![],
+            q2: vec![],
+            s4: vec![],
+            s4_err: vec![],
+            n_vectors: vec![],
+        };
+        for k in 0..self.n_shells {
+            if count[k] == 0 {
+                continue;
+            }
+            let c = count[k] as f64;
+            // Standard error over origins of the shell mean of |W|^2 / N.
+            let means: Vec<f64> = self
+                .per_origin
+                .iter()
+                .map(|p| p[k] / (c * n_particles))
+                .collect();
+            let m = means.iter().sum::<f64>() / no;
+            let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (no - 1.0).max(1.0);
+            out.q.push(sum_q[k] / c);
+            out.q2.push(sum_q2[k] / c);
+            out.s4.push(sum_s[k] / c);
+            out.s4_err.push(if no > 1.0 {
+                (var / no).sqrt()
+            } else {
+                f64::NAN
+            });
+            out.n_vectors.push(count[k]);
+        }
+        out
+    }
 }
 
 /// S4(q) at each requested lag: `(lag, shells)`.
@@ -333,12 +377,16 @@ pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
     ensure_positive("a", p.a)?;
     ensure_positive("q_max", p.q_max)?;
     if traj.periodic != [true, true] {
-        bail!("S4 needs a box periodic in x and y (the trajectory has periodic = {:?})", traj.periodic);
+        bail!(
+            "S4 needs a box periodic in x and y (the trajectory has periodic = {:?})",
+            traj.periodic
+        );
     }
     if p.lags.is_empty() {
         bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
     }
-    let dq = p.dq.unwrap_or(2.0 * PI / traj.box_size[0].min(traj.box_size[1]));
+    let dq =
+        p.dq.unwrap_or(2.0 * PI / traj.box_size[0].min(traj.box_size[1]));
     ensure_positive("dq", dq)?;
     let lat = Lattice::new(traj.box_size, p.q_max);
     if lat.q.is_empty() {
@@ -354,48 +402,64 @@ pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
     let a2 = p.a * p.a;
     let mut out = Vec::new();
     for lag in lags {
-        let w: Vec<Vec<Complex<f64>>> = lag
-            .pairs
-            .iter()
-            .map(|&(_, i, j)| {
-                let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
-                let theta: Vec<f64> = squared_displacements(f0, f1)
-                    .into_iter()
-                    .map(|d2| if d2 < a2 { 1.0 } else { 0.0 })
-                    .collect();
-                let full = nufft.transform(&f0.x, &f0.y, &theta);
-                lat.mn
-                    .iter()
-                    .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
-                    .collect()
-            })
-            .collect();
-        out.push((lag.t, shells_from_w(&lat, &w, traj.n() as f64, dq)));
+        let mut acc = Accumulator::new(&lat, dq);
+        for &(_, i, j) in &lag.pairs {
+            let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
+            let theta: Vec<f64> = squared_displacements(f0, f1)
+                .into_iter()
+                .map(|d2| if d2 < a2 { 1.0 } else { 0.0 })
+                .collect();
+            let full = nufft.transform(&f0.x, &f0.y, &theta);
+            let w: Vec<Complex<f64>> = lat
+                .mn
+                .iter()
+                .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
+                .collect();
+            acc.add(&w);
+        }
+        out.push((lag.t, acc.shells(traj.n() as f64)));
     }
     Ok(out)
 }
 
-/// Table `t, q, S4, S4_err, n_vectors`.
+/// Table `t, q, q2, S4, S4_err, n_vectors` (q2 = shell mean of q^2).
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let mut cols: [Vec<f64>; 5] = Default::default();
+    let mut cols: [Vec<f64>; 6] = Default::default();
     for (t, s) in s4(traj, p)? {
         cols[0].extend(std::iter::repeat_n(t, s.q.len()));
         cols[1].extend(&s.q);
+        cols[5].extend(&s.q2);
         cols[2].extend(&s.s4);
         cols[3].extend(&s.s4_err);
         cols[4].extend(s.n_vectors.iter().map(|&c| c as f64));
     }
-    let [t, q, s, e, n] = cols;
-    f64_batch(&[("t", t), ("q", q), ("S4", s), ("S4_err", e), ("n_vectors", n)])
+    let [t, q, s, e, n, q2] = cols;
+    f64_batch(&[
+        ("t", t),
+        ("q", q),
+        ("q2", q2),
+        ("S4", s),
+        ("S4_err", e),
+        ("n_vectors", n),
+    ])
 }
 
 /// Direct sum W(q) = sum_j c_j exp(-i q.r_j) over the lattice vectors (O(N x vectors);
 /// the reference the NUFFT is checked against).
-pub fn direct_w(lat: &Lattice, box_size: [f64; 2], x: &[f64], y: &[f64], c: &[f64]) -> Vec<Complex<f64>> {
+pub fn direct_w(
+    lat: &Lattice,
+    box_size: [f64; 2],
+    x: &[f64],
+    y: &[f64],
+    c: &[f64],
+) -> Vec<Complex<f64>> {
     lat.mn
         .iter()
         .map(|&(m, n)| {
-            let (kx, ky) = (2.0 * PI * m as f64 / box_size[0], 2.0 * PI * n as f64 / box_size[1]);
+            let (kx, ky) = (
+                2.0 * PI * m as f64 / box_size[0],
+                2.0 * PI * n as f64 / box_size[1],
+            );
             x.iter()
                 .zip(y)
                 .zip(c)

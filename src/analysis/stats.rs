@@ -168,7 +168,10 @@ mod tests {
             .map(|x| 7.0 - 2.0 * (x.ln() - 10f64.ln()).powi(2))
             .collect();
         let (tp, yp) = peak_log_t(&t, &y).unwrap();
-        assert!((tp - 10.0).abs() < 1e-9 && (yp - 7.0).abs() < 1e-12, "{tp} {yp}");
+        assert!(
+            (tp - 10.0).abs() < 1e-9 && (yp - 7.0).abs() < 1e-12,
+            "{tp} {yp}"
+        );
     }
 
     #[test]

@@ -139,7 +139,15 @@ pub fn oz_field(k: usize, l: f64, xi: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
     let mut z: Vec<Complex<f64>> = Vec::with_capacity(k * k);
     for iy in 0..k {
         for ix in 0..k {
-            let f = |i: usize| (if i <= k / 2 { i as f64 } else { i as f64 - k as f64 }) * 2.0 * PI / l;
+            let f = |i: usize| {
+                (if i <= k / 2 {
+                    i as f64
+                } else {
+                    i as f64 - k as f64
+                }) * 2.0
+                    * PI
+                    / l
+            };
             let q2 = f(ix).powi(2) + f(iy).powi(2);
             let amp = (1.0 / (1.0 + q2 * xi * xi)).sqrt();
             z.push(Complex::new(amp * normal(rng), amp * normal(rng)));

@@ -28,6 +28,18 @@ impl RootArgs {
     }
 }
 
+/// One figure at one profile.
+#[derive(Args, Debug, Clone)]
+pub struct OneFigure {
+    /// Figure id (pipelines/ID.yaml).
+    #[arg(value_name = "ID")]
+    pub id: String,
+    #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
+    pub profile: String,
+    #[command(flatten)]
+    pub root: RootArgs,
+}
+
 #[derive(Subcommand, Debug)]
 pub enum Commands {
     /// Build figures: simulate, analyse, fit and plot what is not cached, then
@@ -67,24 +79,10 @@ pub enum Commands {
         root: RootArgs,
     },
     /// Show, per stage of a figure, whether it is cached or stale.
-    Status {
-        #[arg(value_name = "ID")]
-        id: String,
-        #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
-        profile: String,
-        #[command(flatten)]
-        root: RootArgs,
-    },
+    Status(OneFigure),
     /// Explain why stages of a figure would rerun: which parameter, input or code
     /// fingerprint differs from the cached result.
-    Why {
-        #[arg(value_name = "ID")]
-        id: String,
-        #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
-        profile: String,
-        #[command(flatten)]
-        root: RootArgs,
-    },
+    Why(OneFigure),
     /// Free cache entries and artifacts that no current spec (at any profile) reaches.
     Gc {
         /// Only report what would be freed.
@@ -120,6 +118,14 @@ fn print_status(graph: &pipeline::Graph, st: &[(usize, State)], only_stale: bool
         st.len(),
         st.len() - stale
     );
+}
+
+fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
+    let ws = f.root.workspace();
+    let (graph, st) =
+        pipeline::figure_status(&ws, reg, std::slice::from_ref(&f.id), &f.profile, &[])?;
+    print_status(&graph, &st, only_stale);
+    Ok(())
 }
 
 pub fn run(c: Commands) -> Result<()> {
@@ -163,10 +169,12 @@ pub fn run(c: Commands) -> Result<()> {
                 count(|o| *o == Outcome::Executed),
                 count(|o| *o == Outcome::Cached)
             );
-            run.check()?;
             for f in &run.graph.figures {
-                eprintln!("wrote {}", ws.results.join(&f.id).display());
+                if run.report.complete(f) {
+                    eprintln!("wrote {}", ws.results.join(&f.id).display());
+                }
             }
+            run.check()?;
             Ok(())
         }
         Commands::List { profile, root } => {
@@ -203,18 +211,8 @@ pub fn run(c: Commands) -> Result<()> {
             }
             Ok(())
         }
-        Commands::Status { id, profile, root } => {
-            let (graph, st) =
-                pipeline::figure_status(&root.workspace(), &reg, &[id], &profile, &[])?;
-            print_status(&graph, &st, false);
-            Ok(())
-        }
-        Commands::Why { id, profile, root } => {
-            let (graph, st) =
-                pipeline::figure_status(&root.workspace(), &reg, &[id], &profile, &[])?;
-            print_status(&graph, &st, true);
-            Ok(())
-        }
+        Commands::Status(f) => status(&reg, &f, false),
+        Commands::Why(f) => status(&reg, &f, true),
         Commands::Gc { dry_run, root } => {
             let r = pipeline::gc(&root.workspace(), &reg, dry_run)?;
             println!(

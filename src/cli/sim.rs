@@ -1,6 +1,6 @@
 //! `repro sim` and `repro bench`: run the event-driven simulator directly.
 
-use crate::sim::{self, Drive, Progress, RunSummary, SimConfig, Stage};
+use crate::sim::{self, Drive, KickRate, Progress, RunSummary, SimConfig, Stage};
 use crate::traj::Schedule;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -47,6 +47,11 @@ pub struct SimArgs {
     /// Relative radius growth rate of the Lubachevsky-Stillinger compression.
     #[arg(long, default_value_t = 0.02)]
     pub compression_rate: f64,
+    /// Kick rate rule: `balanced` (tuned during relaxation to hold T = 1),
+    /// `enskog` (the Enskog collision frequency), `enskog*F` (F times it), or a
+    /// number (pair kicks each particle receives per unit time).
+    #[arg(long, default_value = "balanced", value_parser = parse_kick_rate)]
+    pub kick_rate: KickRate,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -70,6 +75,21 @@ pub struct BenchArgs {
     pub seed: u64,
 }
 
+fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
+    let bad = || format!("invalid kick rate `{s}`: use balanced, enskog, enskog*F or a number");
+    match s {
+        "balanced" => Ok(KickRate::Balanced),
+        "enskog" => Ok(KickRate::Enskog { prefactor: 1.0 }),
+        _ => match s.strip_prefix("enskog*") {
+            Some(f) => f
+                .parse()
+                .map(|prefactor| KickRate::Enskog { prefactor })
+                .map_err(|_| bad()),
+            None => s.parse().map(KickRate::PerParticle).map_err(|_| bad()),
+        },
+    }
+}
+
 impl SimArgs {
     pub fn config(&self) -> SimConfig {
         SimConfig {
@@ -85,10 +105,16 @@ impl SimArgs {
             } else {
                 Drive::NeighbourPairs
             },
+            kick_rate: self.kick_rate.clone(),
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
-            schedule: Schedule { start: 0.0, origins: 1, origin_spacing: 0.0, lags: vec![self.time] },
+            schedule: Schedule {
+                start: 0.0,
+                origins: 1,
+                origin_spacing: 0.0,
+                lags: vec![self.time],
+            },
             ..SimConfig::default()
         }
     }
@@ -122,7 +148,10 @@ fn run_with_progress(cfg: &SimConfig) -> anyhow::Result<RunSummary> {
         };
         let frac = ((p.time - start) / (p.end - start).max(1e-300)).clamp(0.0, 1.0);
         b.set_position((frac * 1000.0) as u64);
-        b.set_message(format!("t = {:.2} / {:.2}, {:.2e} events/s", p.time, p.end, p.events_per_second));
+        b.set_message(format!(
+            "t = {:.2} / {:.2}, {:.2e} events/s",
+            p.time, p.end, p.events_per_second
+        ));
     };
     let out = sim::run(cfg, &report);
     if let Some(b) = &bar {
@@ -147,13 +176,36 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
             if a.json {
                 println!("{}", json_line(&s)?);
             } else {
-                println!("n = {}, phi = {}, eps = {}, seed = {}", s.n, s.phi, s.eps, s.seed);
-                println!("measured over t = {} after relaxing {} (compression took {:.1})", s.sim_time, s.relax_time, s.compress_time);
-                println!("temperature = {:.4} +- {:.4} (fluctuation), halves {:.4} / {:.4}", s.temperature, s.temperature_std, s.temperature_halves[0], s.temperature_halves[1]);
+                println!(
+                    "n = {}, phi = {}, eps = {}, seed = {}",
+                    s.n, s.phi, s.eps, s.seed
+                );
+                println!(
+                    "measured over t = {} after relaxing {} (compression took {:.1})",
+                    s.sim_time, s.relax_time, s.compress_time
+                );
+                println!(
+                    "temperature = {:.4} +- {:.4} (fluctuation), halves {:.4} / {:.4}",
+                    s.temperature,
+                    s.temperature_std,
+                    s.temperature_halves[0],
+                    s.temperature_halves[1]
+                );
                 println!("Z = {:.4} +- {:.4}", s.z, s.z_err);
-                println!("collision rate = {:.4} per particle (Enskog {:.4}); kick rate = {:.4}", s.collision_rate, s.enskog_collision_rate, s.kick_rate);
-                println!("collisions = {}, kicks = {}, guard activations = {}", s.collisions, s.kicks, s.guard_activations);
-                println!("{:.3e} collisions/s, {:.1} CPU s, {:.1} MB peak RSS", s.collisions_per_second, s.cpu_seconds, s.peak_rss_bytes as f64 / 1e6);
+                println!(
+                    "collision rate = {:.4} per particle (Enskog {:.4}); kick rate = {:.4}",
+                    s.collision_rate, s.enskog_collision_rate, s.kick_rate
+                );
+                println!(
+                    "collisions = {}, kicks = {}, guard activations = {}",
+                    s.collisions, s.kicks, s.guard_activations
+                );
+                println!(
+                    "{:.3e} collisions/s, {:.1} CPU s, {:.1} MB peak RSS",
+                    s.collisions_per_second,
+                    s.cpu_seconds,
+                    s.peak_rss_bytes as f64 / 1e6
+                );
             }
             Ok(())
         }
@@ -170,6 +222,7 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     time: b.time,
                     relax: b.relax,
                     compression_rate: 0.02,
+                    kick_rate: KickRate::Balanced,
                     seed: b.seed,
                     json: true,
                 };

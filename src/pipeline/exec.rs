@@ -76,6 +76,12 @@ impl RunReport {
     pub fn executed(&self, graph: &Graph) -> Vec<String> {
         self.labels_where(graph, |o| *o == Outcome::Executed)
     }
+    /// Whether every stage of `fig` succeeded (so the figure is published).
+    pub fn complete(&self, fig: &super::graph::FigurePlan) -> bool {
+        fig.nodes
+            .iter()
+            .all(|i| self.results.get(i).is_some_and(|r| r.entry.is_some()))
+    }
     /// Labels of failed or skipped stages, sorted.
     pub fn not_done(&self, graph: &Graph) -> Vec<String> {
         self.labels_where(graph, |o| !matches!(o, Outcome::Executed | Outcome::Cached))

@@ -548,3 +548,113 @@ fn topological<'s>(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::spec::parse;
+    use serde_json::json;
+
+    const EXP: &str = "description: e\nkind: toy_simulate\nseed: 5\nprofiles:\n  ci:\n    grid:\n      phi: [0.7, 0.8]\n      eps: [0.8, 0.9, 1.0]\n    replicas: 2\n    params: {n: 4}\n";
+
+    fn catalogue(pipes: &[(&str, &str)]) -> Catalogue {
+        let mut c = Catalogue::default();
+        let f = PathBuf::from("experiments/e.yaml");
+        c.experiments
+            .insert("e".into(), (f.clone(), parse(&f, EXP).unwrap()));
+        for (id, text) in pipes {
+            let f = PathBuf::from(format!("pipelines/{id}.yaml"));
+            c.pipelines
+                .insert(id.to_string(), (f.clone(), parse(&f, text).unwrap()));
+        }
+        c
+    }
+
+    fn registry() -> Registry {
+        let mut r = Registry::builtin();
+        crate::pipeline::toy::register(&mut r);
+        r
+    }
+
+    #[test]
+    fn combinations_cover_the_product_last_key_fastest() {
+        let mut l = BTreeMap::new();
+        l.insert("a".to_string(), vec![json!(1), json!(2)]);
+        l.insert("b".to_string(), vec![json!("x"), json!("y"), json!("z")]);
+        let c = combinations(&l);
+        assert_eq!(c.len(), 6);
+        assert_eq!(
+            (c[0]["a"].clone(), c[0]["b"].clone()),
+            (json!(1), json!("x"))
+        );
+        assert_eq!(
+            (c[1]["a"].clone(), c[1]["b"].clone()),
+            (json!(1), json!("y"))
+        );
+        assert_eq!(c[5]["a"], json!(2));
+    }
+
+    #[test]
+    fn map_sweep_gather_by_and_sharing_give_the_expected_nodes() {
+        let p1 = "description: p\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    sweep: {a: [0.5, 1.0]}\n  - name: t\n    kind: table\n    gather: [s]\n    by: [phi, a]\n";
+        let p2 = "description: q\nstages:\n  - name: s2\n    kind: toy_analyse\n    map: e\n    params: {a: 1.0}\n";
+        let c = catalogue(&[("p1", p1), ("p2", p2)]);
+        let g = plan(&c, &[], "ci", &registry()).unwrap();
+        let count = |k: &str| g.nodes.iter().filter(|n| n.kind == k).count();
+        // 2 phi x 3 eps x 2 replicas simulations, shared by both figures.
+        assert_eq!(count("toy_simulate"), 12);
+        // p1: 12 x 2 cutoffs; p2's a = 1.0 analyses are the same nodes as p1's.
+        assert_eq!(count("toy_analyse"), 24);
+        assert!(
+            g.nodes
+                .iter()
+                .any(|n| n.labels.len() == 2 && n.labels[1].starts_with("p2/s2["))
+        );
+        // Grouped by (phi, a): 4 tables of 3 eps x 2 replicas each.
+        let tables: Vec<&Node> = g.nodes.iter().filter(|n| n.kind == "table").collect();
+        assert_eq!(tables.len(), 4);
+        assert!(
+            tables
+                .iter()
+                .all(|t| t.inputs.len() == 6 && t.point.len() == 2)
+        );
+        // Topological order and distinct seeds for every simulation.
+        for (i, n) in g.nodes.iter().enumerate() {
+            assert!(n.inputs.iter().all(|&j| j < i));
+        }
+        let mut seeds: Vec<u64> = g
+            .nodes
+            .iter()
+            .filter(|n| n.kind == "toy_simulate")
+            .map(|n| n.seed)
+            .collect();
+        seeds.sort();
+        seeds.dedup();
+        assert_eq!(seeds.len(), 12);
+        // Planning is deterministic: same recipes in the same order.
+        let again = plan(&c, &[], "ci", &registry()).unwrap();
+        let r = |g: &Graph| g.nodes.iter().map(|n| n.recipe.clone()).collect::<Vec<_>>();
+        assert_eq!(r(&g), r(&again));
+    }
+
+    #[test]
+    fn publishing_a_multi_instance_stage_is_an_error() {
+        let p = "description: p\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    params: {a: 1}\n    publish: true\n";
+        let e = plan(&catalogue(&[("p", p)]), &[], "ci", &registry()).unwrap_err();
+        let m = format!("{e:#}");
+        assert!(
+            m.starts_with("pipelines/p.yaml:3:") && m.contains("12 instances"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn a_missing_profile_names_the_ones_defined() {
+        let p = "description: p\nstages:\n  - name: t\n    kind: table\n    gather: [e]\n";
+        let e = plan(&catalogue(&[("p", p)]), &[], "paper", &registry()).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("experiment 'e' has no profile 'paper'; it defines: ci"),
+            "{e:#}"
+        );
+    }
+}

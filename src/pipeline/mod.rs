@@ -55,6 +55,12 @@ impl Workspace {
     /// Load the catalogue and plan figures `ids` (all if empty) at `profile`.
     pub fn plan(&self, reg: &Registry, ids: &[String], profile: &str) -> Result<Graph> {
         let cat = Catalogue::load(&self.root)?;
+        if cat.pipelines.is_empty() {
+            bail!(
+                "no figures: {} has no pipelines/*.yaml (set --root or REPRO_ROOT to the project directory)",
+                self.root.display()
+            );
+        }
         graph::plan(&cat, ids, profile, reg)
     }
 }
@@ -108,8 +114,7 @@ pub fn run_figures(
     let nodes = needed_nodes(&graph);
     let report = exec::execute(&graph, &nodes, reg, &store, opts)?;
     for fig in &graph.figures {
-        let ok = fig.nodes.iter().all(|i| report.results[i].entry.is_some());
-        if ok {
+        if report.complete(fig) {
             publish::publish(&ws.root, &ws.results, &graph, fig, &report, reg, &store)?;
         }
     }

@@ -26,14 +26,18 @@ fn git_commit(root: &Path) -> Option<String> {
         .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
-/// Results are for everyone to read (temporary files are created owner-only).
-fn readable(path: &Path) -> Result<()> {
+/// Write `bytes` to `path` atomically unless it already holds them (a no-op rerun
+/// then writes nothing), readable by everyone (temporary files are owner-only).
+fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<()> {
+    if std::fs::read(path).ok().as_deref() == Some(bytes) {
+        return Ok(());
+    }
+    write_atomic(path, bytes)?;
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o644))?;
     }
-    let _ = path;
     Ok(())
 }
 
@@ -59,12 +63,7 @@ pub fn publish(
             .context("published stage has no result")?;
         for (ext, hash) in &e.files {
             let name = format!("{stage}.{ext}");
-            let bytes = std::fs::read(store.object_path(hash))?;
-            let target = dir.join(&name);
-            if std::fs::read(&target).ok().as_deref() != Some(bytes.as_slice()) {
-                write_atomic(&target, &bytes)?;
-                readable(&target)?;
-            }
+            write_if_changed(&dir.join(&name), &std::fs::read(store.object_path(hash))?)?;
             published.insert(name, hash.clone());
         }
     }
@@ -105,11 +104,10 @@ pub fn publish(
         "published": published,
         "stages": stages,
     });
-    write_atomic(
+    write_if_changed(
         &dir.join("provenance.json"),
         &serde_json::to_vec_pretty(&prov)?,
     )?;
-    readable(&dir.join("provenance.json"))?;
     // Remove files of an earlier publish that this run no longer produces.
     for e in std::fs::read_dir(&dir)?.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();

@@ -158,11 +158,18 @@ pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<T, SpecErro
             .location()
             .map(|l| (l.line(), l.column()))
             .unwrap_or((0, 0));
+        // The rendered message repeats the location and calls the file `<input>`.
+        let text = e.to_string();
+        let prefix = format!("error: line {line} column {column}: ");
+        let message = text
+            .strip_prefix(&prefix)
+            .unwrap_or(&text)
+            .replace("<input>", &file.display().to_string());
         SpecError {
             file: file.to_path_buf(),
             line,
             column,
-            message: e.to_string(),
+            message,
         }
     })
 }

@@ -80,7 +80,7 @@ impl Store {
             Ok(v) if v.trim() == STORE_VERSION => {}
             Ok(v) => bail!(
                 "the store {} has format '{}', but this repro uses '{STORE_VERSION}'; \
-                 remove that directory (or pick another with --store) to start a fresh cache",
+                 remove that directory to start a fresh cache (or use the matching repro version)",
                 dir.display(),
                 v.trim()
             ),
@@ -273,4 +273,54 @@ fn walk_files(dir: &Path) -> Vec<PathBuf> {
     }
     out.sort();
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entry(key: &str, files: BTreeMap<String, String>) -> Entry {
+        Entry {
+            key: key.into(),
+            kind: "k".into(),
+            label: "l".into(),
+            params: serde_json::json!({}),
+            fingerprint: "f".into(),
+            inputs: vec![],
+            files,
+            digest: "d".into(),
+            seed: 0,
+            wall_s: 0.0,
+            cpu_s: None,
+            log: vec![],
+        }
+    }
+
+    #[test]
+    fn objects_are_content_addressed_and_entries_need_their_objects() {
+        let d = tempfile::tempdir().unwrap();
+        let s = Store::open(d.path()).unwrap();
+        let h = s.put_object(b"abc").unwrap();
+        assert_eq!(h, blake3::hash(b"abc").to_hex().as_str());
+        assert_eq!(s.put_object(b"abc").unwrap(), h);
+        let key = "ab".repeat(32);
+        let e = entry(&key, [("parquet".to_string(), h.clone())].into());
+        s.put_entry(&e).unwrap();
+        assert_eq!(s.lookup(&key), Some(e.clone()));
+        assert_eq!(s.latest("l"), Some(e));
+        // An entry whose artifact vanished is not a cache hit.
+        std::fs::remove_file(s.object_path(&h)).unwrap();
+        assert_eq!(s.lookup(&key), None);
+    }
+
+    #[test]
+    fn gc_cannot_start_while_a_run_holds_the_store() {
+        let d = tempfile::tempdir().unwrap();
+        let _run = Store::open(d.path()).unwrap();
+        let e = Store::open_exclusive(d.path()).err().unwrap();
+        assert!(
+            format!("{e:#}").contains("another repro process is using the store"),
+            "{e:#}"
+        );
+    }
 }

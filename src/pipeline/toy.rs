@@ -128,7 +128,7 @@ impl StageKind for ToyAnalyse {
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: AnalyseParams = typed("toy_analyse", params)?;
-        if !(p.a > 0.0) {
+        if p.a.is_nan() || p.a <= 0.0 {
             bail!("toy_analyse: cutoff a must be > 0, got {}", p.a);
         }
         Ok(())

@@ -12,8 +12,12 @@ static DEJAVU_SANS: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 pub fn register() -> Result<()> {
     static DONE: OnceLock<bool> = OnceLock::new();
     let ok = *DONE.get_or_init(|| {
-        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, DEJAVU_SANS)
-            .is_ok()
+        plotters::style::register_font(
+            "sans-serif",
+            plotters::style::FontStyle::Normal,
+            DEJAVU_SANS,
+        )
+        .is_ok()
     });
     ok.then_some(())
         .ok_or_else(|| anyhow!("the embedded DejaVu Sans font could not be parsed"))

@@ -48,7 +48,10 @@ pub fn clip_segment(a: P, b: P, r: &Rect) -> Option<(P, P)> {
             }
         }
     }
-    (t0 <= t1).then(|| ((a.0 + t0 * dx, a.1 + t0 * dy), (a.0 + t1 * dx, a.1 + t1 * dy)))
+    (t0 <= t1).then_some((
+        (a.0 + t0 * dx, a.1 + t0 * dy),
+        (a.0 + t1 * dx, a.1 + t1 * dy),
+    ))
 }
 
 /// Clip a polyline (None entries break it) to `r`: the visible pieces.
@@ -86,6 +89,9 @@ pub fn dashes(line: &[P], on: f64, off: f64) -> Vec<Vec<P>> {
     for w in line.windows(2) {
         let (mut a, b) = (w[0], w[1]);
         let mut len = (b.0 - a.0).hypot(b.1 - a.1);
+        if !len.is_finite() {
+            continue; // cannot be cut into dashes; callers pass clipped, finite lines
+        }
         while len > left {
             let f = left / len;
             let m = (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1));
@@ -115,13 +121,24 @@ pub fn dashes(line: &[P], on: f64, off: f64) -> Vec<Vec<P>> {
 mod tests {
     use super::*;
 
-    const R: Rect = Rect { x0: 0.0, y0: 0.0, x1: 10.0, y1: 10.0 };
+    const R: Rect = Rect {
+        x0: 0.0,
+        y0: 0.0,
+        x1: 10.0,
+        y1: 10.0,
+    };
 
     #[test]
     fn segments_are_cut_at_the_box() {
-        assert_eq!(clip_segment((-5.0, 5.0), (5.0, 5.0), &R), Some(((0.0, 5.0), (5.0, 5.0))));
+        assert_eq!(
+            clip_segment((-5.0, 5.0), (5.0, 5.0), &R),
+            Some(((0.0, 5.0), (5.0, 5.0)))
+        );
         assert_eq!(clip_segment((-5.0, -5.0), (-1.0, 20.0), &R), None);
-        assert_eq!(clip_segment((5.0, -10.0), (5.0, 20.0), &R), Some(((5.0, 0.0), (5.0, 10.0))));
+        assert_eq!(
+            clip_segment((5.0, -10.0), (5.0, 20.0), &R),
+            Some(((5.0, 0.0), (5.0, 10.0)))
+        );
     }
 
     #[test]
@@ -148,7 +165,10 @@ mod tests {
         assert_eq!(d.len(), 4);
         let len: f64 = d
             .iter()
-            .flat_map(|p| p.windows(2).map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1)))
+            .flat_map(|p| {
+                p.windows(2)
+                    .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+            })
             .sum();
         assert!((len - 12.0).abs() < 1e-9, "{len}");
         assert_eq!(d[2], vec![(10.0, 0.0), (10.0, 3.0)]);

@@ -49,5 +49,6 @@ pub fn draw(fig: &Figure, svg_path: &Path, png_path: &Path) -> Result<()> {
     crate::table::write_atomic(svg_path, svg.as_bytes())
         .with_context(|| format!("writing {}", svg_path.display()))?;
     let png = draw_png_bytes(fig).with_context(|| format!("drawing {}", png_path.display()))?;
-    crate::table::write_atomic(png_path, &png).with_context(|| format!("writing {}", png_path.display()))
+    crate::table::write_atomic(png_path, &png)
+        .with_context(|| format!("writing {}", png_path.display()))
 }

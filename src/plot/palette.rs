@@ -37,7 +37,11 @@ pub fn color(palette: Palette, i: usize, n: usize) -> Color {
     match palette {
         Palette::Categorical => Color(CATEGORICAL[i % CATEGORICAL.len()]),
         Palette::Sequential => {
-            let t = if n <= 1 { 0.0 } else { i as f64 / (n - 1) as f64 } * VIRIDIS_END;
+            let t = if n <= 1 {
+                0.0
+            } else {
+                i as f64 / (n - 1) as f64
+            } * VIRIDIS_END;
             viridis(t)
         }
     }
@@ -48,9 +52,8 @@ pub fn viridis(t: f64) -> Color {
     let x = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
     let k = (x.floor() as usize).min(VIRIDIS.len() - 2);
     let f = x - k as f64;
-    let mix = |c: usize| {
-        (VIRIDIS[k][c] as f64 * (1.0 - f) + VIRIDIS[k + 1][c] as f64 * f).round() as u8
-    };
+    let mix =
+        |c: usize| (VIRIDIS[k][c] as f64 * (1.0 - f) + VIRIDIS[k + 1][c] as f64 * f).round() as u8;
     Color([mix(0), mix(1), mix(2)])
 }
 
@@ -62,8 +65,11 @@ mod tests {
     /// so curves ordered by phi stay ordered in print.
     #[test]
     fn sequential_palette_brightens_monotonically() {
-        let lum = |Color([r, g, b]): Color| 0.2126 * r as f64 + 0.7152 * g as f64 + 0.0722 * b as f64;
-        let l: Vec<f64> = (0..13).map(|i| lum(color(Palette::Sequential, i, 13))).collect();
+        let lum =
+            |Color([r, g, b]): Color| 0.2126 * r as f64 + 0.7152 * g as f64 + 0.0722 * b as f64;
+        let l: Vec<f64> = (0..13)
+            .map(|i| lum(color(Palette::Sequential, i, 13)))
+            .collect();
         assert!(l.windows(2).all(|w| w[1] > w[0]), "{l:?}");
         assert_eq!(viridis(0.0), Color([0x44, 0x01, 0x54]));
         assert_eq!(viridis(1.0), Color([0xfd, 0xe7, 0x25]));

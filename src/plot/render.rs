@@ -58,10 +58,7 @@ impl Sizes {
 }
 
 fn text_style(size: f64, color: RGBColor, h: HPos, v: VPos) -> TextStyle<'static> {
-    (FONT, size)
-        .into_font()
-        .color(&color)
-        .pos(Pos::new(h, v))
+    (FONT, size).into_font().color(&color).pos(Pos::new(h, v))
 }
 
 fn text_size<DB: DrawingBackend>(area: &Area<DB>, text: &str, size: f64) -> Result<(f64, f64)> {
@@ -74,17 +71,30 @@ fn text_size<DB: DrawingBackend>(area: &Area<DB>, text: &str, size: f64) -> Resu
     Ok((w as f64, h as f64))
 }
 
-fn draw_text<DB: DrawingBackend>(area: &Area<DB>, text: &str, style: &TextStyle, at: P) -> Result<()> {
+fn draw_text<DB: DrawingBackend>(
+    area: &Area<DB>,
+    text: &str,
+    style: &TextStyle,
+    at: P,
+) -> Result<()> {
     if text.is_empty() {
         return Ok(());
     }
     area.draw_text(text, style, px(at)).map_err(err)
 }
 
-fn polyline<DB: DrawingBackend>(area: &Area<DB>, pts: &[P], color: RGBColor, width: u32) -> Result<()> {
+fn polyline<DB: DrawingBackend>(
+    area: &Area<DB>,
+    pts: &[P],
+    color: RGBColor,
+    width: u32,
+) -> Result<()> {
     let style = ShapeStyle::from(&color).stroke_width(width);
-    area.draw(&PathElement::new(pts.iter().map(|&p| px(p)).collect::<Vec<_>>(), style))
-        .map_err(err)
+    area.draw(&PathElement::new(
+        pts.iter().map(|&p| px(p)).collect::<Vec<_>>(),
+        style,
+    ))
+    .map_err(err)
 }
 
 /// Draw the whole figure on `root` (already sized to the figure).
@@ -102,7 +112,10 @@ pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
         draw_text(root, &fig.title, &style, (w / 2.0, 0.4 * th))?;
         1.8 * th
     };
-    let cols = fig.columns.unwrap_or(fig.panels.len()).min(fig.panels.len());
+    let cols = fig
+        .columns
+        .unwrap_or(fig.panels.len())
+        .min(fig.panels.len());
     let rows = fig.panels.len().div_ceil(cols);
     let (cw, ch) = (w / cols as f64, (h - top) / rows as f64);
     for (i, panel) in fig.panels.iter().enumerate() {
@@ -120,7 +133,11 @@ pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
 /// Axis scales of a panel: the given ranges, or ranges fitted to all its data.
 fn scales(p: &Panel) -> (Scale, Scale) {
     let fit = |axis: &super::spec::Axis, values: Vec<f64>| match axis.range {
-        Some((lo, hi)) => Scale { lo, hi, log: axis.log },
+        Some((lo, hi)) => Scale {
+            lo,
+            hi,
+            log: axis.log,
+        },
         None => Scale::fit(values, axis.log),
     };
     let xs = p.series.iter().flat_map(|s| s.x.iter().copied()).collect();
@@ -129,11 +146,10 @@ fn scales(p: &Panel) -> (Scale, Scale) {
         .iter()
         .flat_map(|s| {
             let err = s.y_err.clone().unwrap_or_default();
-            let bars = s
-                .y
-                .iter()
-                .zip(err)
-                .flat_map(|(&y, e)| [y - e.abs(), y + e.abs()]);
+            let bars =
+                s.y.iter()
+                    .zip(err)
+                    .flat_map(|(&y, e)| [y - e.abs(), y + e.abs()]);
             s.y.iter().copied().chain(bars).collect::<Vec<_>>()
         })
         .collect();
@@ -149,12 +165,15 @@ struct Frame {
 
 impl Frame {
     fn at(&self, x: f64, y: f64) -> Option<P> {
-        (self.x.accepts(x) && self.y.accepts(y)).then(|| {
-            (
-                self.rect.x0 + self.x.fraction(x) * self.rect.width(),
-                self.rect.y1 - self.y.fraction(y) * self.rect.height(),
-            )
-        })
+        if !(self.x.accepts(x) && self.y.accepts(y)) {
+            return None;
+        }
+        let p = (
+            self.rect.x0 + self.x.fraction(x) * self.rect.width(),
+            self.rect.y1 - self.y.fraction(y) * self.rect.height(),
+        );
+        // An axis spanning more than f64 can hold (data near f64::MAX) maps to NaN.
+        (p.0.is_finite() && p.1.is_finite()).then_some(p)
     }
 
     fn points(&self, s: &Series) -> Vec<Option<P>> {
@@ -208,9 +227,11 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
     let label_h = text_size(root, "Xg", sz.label)?.1;
     let last_xtick = xticks.iter().rev().find_map(|t| t.label.as_ref());
     let xtick_half = text_size(root, last_xtick.map_or("", |s| s), sz.tick)?.0 / 2.0;
-    let left = pad + if p.y.label.is_empty() { 0.0 } else { label_h + 0.5 * sz.label } + ytick_w + 0.5 * sz.tick;
-    let bottom = pad + if p.x.label.is_empty() { 0.0 } else { label_h + 0.4 * sz.label } + tick_h + 0.5 * sz.tick;
-    let top = pad + if p.title.is_empty() { 0.5 * tick_h } else { label_h + 0.4 * sz.label };
+    // Room for an axis label: none when it is empty.
+    let room = |label: &str, gap: f64| if label.is_empty() { 0.0 } else { label_h + gap };
+    let left = pad + room(&p.y.label, 0.5 * sz.label) + ytick_w + 0.5 * sz.tick;
+    let bottom = pad + room(&p.x.label, 0.4 * sz.label) + tick_h + 0.5 * sz.tick;
+    let top = pad + room(&p.title, 0.4 * sz.label).max(0.5 * tick_h);
     let right = pad + xtick_half.max(0.3 * sz.label) + 0.2 * sz.label;
 
     let legend = measure_legend(root, p, sz)?;
@@ -246,7 +267,12 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
             let color = l.color.map_or(GREY, rgb);
             stroke(root, &[(r.x0, y), (r.x1, y)], color, 1, l.dashed, sz)?;
             let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
-            draw_text(root, &l.label, &style, (r.x1 - 0.4 * sz.legend, y - 0.2 * sz.legend))?;
+            draw_text(
+                root,
+                &l.label,
+                &style,
+                (r.x1 - 0.4 * sz.legend, y - 0.2 * sz.legend),
+            )?;
         }
     }
     for l in &p.vlines {
@@ -255,12 +281,19 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
             let color = l.color.map_or(GREY, rgb);
             stroke(root, &[(x, r.y0), (x, r.y1)], color, 1, l.dashed, sz)?;
             let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
-            draw_text(root, &l.label, &style, (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend))?;
+            draw_text(
+                root,
+                &l.label,
+                &style,
+                (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend),
+            )?;
         }
     }
 
     for (i, s) in p.series.iter().enumerate() {
-        let color = rgb(s.color.unwrap_or_else(|| palette::color(p.palette, i, p.series.len())));
+        let color = rgb(s
+            .color
+            .unwrap_or_else(|| palette::color(p.palette, i, p.series.len())));
         draw_series(root, &frame, s, color, sz)?;
     }
 
@@ -312,23 +345,37 @@ fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P>
         if s.style != Style::Points {
             for piece in clip_polyline(&pts, &r) {
                 for w in piece.windows(2) {
-                    let n = ((w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) / 2.0).ceil() as usize;
+                    let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
+                    let n = (len / 2.0).ceil().min(1e5) as usize;
                     samples.extend((1..n).map(|k| {
                         let t = k as f64 / n as f64;
-                        (w[0].0 + t * (w[1].0 - w[0].0), w[0].1 + t * (w[1].1 - w[0].1))
+                        (
+                            w[0].0 + t * (w[1].0 - w[0].0),
+                            w[0].1 + t * (w[1].1 - w[0].1),
+                        )
                     }));
                 }
             }
         }
     }
     let pad = sz.marker + 1.0;
-    [Legend::TopRight, Legend::TopLeft, Legend::BottomLeft, Legend::BottomRight]
-        .into_iter()
-        .map(|c| corner_position(&r, c, legend, sz))
-        .find(|&(x, y)| {
-            let b = Rect { x0: x - pad, y0: y - pad, x1: x + legend.width + pad, y1: y + legend.height + pad };
-            !samples.iter().any(|&q| b.contains(q))
-        })
+    [
+        Legend::TopRight,
+        Legend::TopLeft,
+        Legend::BottomLeft,
+        Legend::BottomRight,
+    ]
+    .into_iter()
+    .map(|c| corner_position(&r, c, legend, sz))
+    .find(|&(x, y)| {
+        let b = Rect {
+            x0: x - pad,
+            y0: y - pad,
+            x1: x + legend.width + pad,
+            y1: y + legend.height + pad,
+        };
+        !samples.iter().any(|&q| b.contains(q))
+    })
 }
 
 /// A solid or dashed polyline.
@@ -351,7 +398,13 @@ fn stroke<DB: DrawingBackend>(
     }
 }
 
-fn draw_series<DB: DrawingBackend>(area: &Area<DB>, f: &Frame, s: &Series, color: RGBColor, sz: Sizes) -> Result<()> {
+fn draw_series<DB: DrawingBackend>(
+    area: &Area<DB>,
+    f: &Frame,
+    s: &Series,
+    color: RGBColor,
+    sz: Sizes,
+) -> Result<()> {
     let r = f.rect;
     if let Some(errs) = &s.y_err {
         let cap = 0.6 * sz.marker + 1.0;
@@ -366,7 +419,12 @@ fn draw_series<DB: DrawingBackend>(area: &Area<DB>, f: &Frame, s: &Series, color
                 polyline(area, &[a, b], color, 1)?;
                 for end in [(mid.0, lo), (mid.0, hi)] {
                     if r.contains(end) {
-                        polyline(area, &[(end.0 - cap, end.1), (end.0 + cap, end.1)], color, 1)?;
+                        polyline(
+                            area,
+                            &[(end.0 - cap, end.1), (end.0 + cap, end.1)],
+                            color,
+                            1,
+                        )?;
                     }
                 }
             }
@@ -386,11 +444,21 @@ fn draw_series<DB: DrawingBackend>(area: &Area<DB>, f: &Frame, s: &Series, color
     Ok(())
 }
 
-fn marker<DB: DrawingBackend>(area: &Area<DB>, m: Marker, (x, y): P, size: f64, color: RGBColor) -> Result<()> {
+fn marker<DB: DrawingBackend>(
+    area: &Area<DB>,
+    m: Marker,
+    (x, y): P,
+    size: f64,
+    color: RGBColor,
+) -> Result<()> {
     let fill = ShapeStyle::from(&color).filled();
     let line = ShapeStyle::from(&color).stroke_width(1);
     let s = size.max(2.0);
-    let poly = |pts: &[P]| pts.iter().map(|&(dx, dy)| px((x + dx * s, y + dy * s))).collect::<Vec<_>>();
+    let poly = |pts: &[P]| {
+        pts.iter()
+            .map(|&(dx, dy)| px((x + dx * s, y + dy * s)))
+            .collect::<Vec<_>>()
+    };
     match m {
         Marker::Circle => area.draw(&Circle::new(px((x, y)), s.round() as i32, fill)),
         Marker::OpenCircle => area
@@ -398,15 +466,33 @@ fn marker<DB: DrawingBackend>(area: &Area<DB>, m: Marker, (x, y): P, size: f64, 
             .and_then(|_| area.draw(&Circle::new(px((x, y)), s.round() as i32, line))),
         Marker::Square | Marker::OpenSquare => {
             let c = poly(&[(-0.9, -0.9), (0.9, 0.9)]);
-            let inner = if m == Marker::Square { fill } else { WHITE.filled() };
+            let inner = if m == Marker::Square {
+                fill
+            } else {
+                WHITE.filled()
+            };
             area.draw(&Rectangle::new([c[0], c[1]], inner))
                 .and_then(|_| area.draw(&Rectangle::new([c[0], c[1]], line)))
         }
-        Marker::Triangle => area.draw(&Polygon::new(poly(&[(0.0, -1.2), (1.1, 0.8), (-1.1, 0.8)]), fill)),
-        Marker::Diamond => area.draw(&Polygon::new(poly(&[(0.0, -1.3), (1.0, 0.0), (0.0, 1.3), (-1.0, 0.0)]), fill)),
+        Marker::Triangle => area.draw(&Polygon::new(
+            poly(&[(0.0, -1.2), (1.1, 0.8), (-1.1, 0.8)]),
+            fill,
+        )),
+        Marker::Diamond => area.draw(&Polygon::new(
+            poly(&[(0.0, -1.3), (1.0, 0.0), (0.0, 1.3), (-1.0, 0.0)]),
+            fill,
+        )),
         Marker::Cross => area
-            .draw(&PathElement::new(poly(&[(-1.0, -1.0), (1.0, 1.0)]), line.stroke_width(2)))
-            .and_then(|_| area.draw(&PathElement::new(poly(&[(-1.0, 1.0), (1.0, -1.0)]), line.stroke_width(2)))),
+            .draw(&PathElement::new(
+                poly(&[(-1.0, -1.0), (1.0, 1.0)]),
+                line.stroke_width(2),
+            ))
+            .and_then(|_| {
+                area.draw(&PathElement::new(
+                    poly(&[(-1.0, 1.0), (1.0, -1.0)]),
+                    line.stroke_width(2),
+                ))
+            }),
     }
     .map_err(err)
 }
@@ -421,8 +507,11 @@ fn draw_axes<DB: DrawingBackend>(
     cell: Rect,
 ) -> Result<()> {
     let r = f.rect;
-    area.draw(&Rectangle::new([px((r.x0, r.y0)), px((r.x1, r.y1))], INK.stroke_width(1)))
-        .map_err(err)?;
+    area.draw(&Rectangle::new(
+        [px((r.x0, r.y0)), px((r.x1, r.y1))],
+        INK.stroke_width(1),
+    ))
+    .map_err(err)?;
     let major = 0.45 * sz.label;
     let minor = 0.25 * sz.label;
     let tick_style = text_style(sz.tick, INK, HPos::Center, VPos::Top);
@@ -448,18 +537,28 @@ fn draw_axes<DB: DrawingBackend>(
     let label_style = text_style(sz.label, INK, HPos::Center, VPos::Top);
     let below = r.y1 + 0.4 * sz.tick + tick_h + 0.4 * sz.label;
     draw_text(area, &p.x.label, &label_style, ((r.x0 + r.x1) / 2.0, below))?;
-    let ylabel_style = text_style(sz.label, INK, HPos::Center, VPos::Center).transform(FontTransform::Rotate270);
-    let x = (r.x0 - 0.4 * sz.tick - ytick_w - 0.5 * sz.label - label_h / 2.0).max(cell.x0 + label_h / 2.0);
+    let ylabel_style =
+        text_style(sz.label, INK, HPos::Center, VPos::Center).transform(FontTransform::Rotate270);
+    let x = (r.x0 - 0.4 * sz.tick - ytick_w - 0.5 * sz.label - label_h / 2.0)
+        .max(cell.x0 + label_h / 2.0);
     draw_text(area, &p.y.label, &ylabel_style, (x, (r.y0 + r.y1) / 2.0))?;
     let title_style = text_style(sz.label, INK, HPos::Left, VPos::Bottom);
     draw_text(area, &p.title, &title_style, (r.x0, r.y0 - 0.3 * sz.label))
 }
 
-fn draw_legend<DB: DrawingBackend>(area: &Area<DB>, p: &Panel, lb: &LegendBox, (x, y): P, sz: Sizes) -> Result<()> {
+fn draw_legend<DB: DrawingBackend>(
+    area: &Area<DB>,
+    p: &Panel,
+    lb: &LegendBox,
+    (x, y): P,
+    sz: Sizes,
+) -> Result<()> {
     let box_style = RGBColor(0xb0, 0xb0, 0xb0).stroke_width(1);
     let corners = [px((x, y)), px((x + lb.width, y + lb.height))];
-    area.draw(&Rectangle::new(corners, WHITE.filled())).map_err(err)?;
-    area.draw(&Rectangle::new(corners, box_style)).map_err(err)?;
+    area.draw(&Rectangle::new(corners, WHITE.filled()))
+        .map_err(err)?;
+    area.draw(&Rectangle::new(corners, box_style))
+        .map_err(err)?;
     let style = text_style(sz.legend, INK, HPos::Left, VPos::Center);
     let x_sample = x + 0.5 * sz.legend;
     let x_text = x_sample + lb.sample + 0.4 * sz.legend;
@@ -470,12 +569,27 @@ fn draw_legend<DB: DrawingBackend>(area: &Area<DB>, p: &Panel, lb: &LegendBox, (
     }
     for (i, label) in &lb.entries {
         let s = &p.series[*i];
-        let color = rgb(s.color.unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
+        let color = rgb(s
+            .color
+            .unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
         if s.style != Style::Points {
-            stroke(area, &[(x_sample, row_y), (x_sample + lb.sample, row_y)], color, sz.line, s.dashed, sz)?;
+            stroke(
+                area,
+                &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
+                color,
+                sz.line,
+                s.dashed,
+                sz,
+            )?;
         }
         if s.style != Style::Line {
-            marker(area, s.marker, (x_sample + lb.sample / 2.0, row_y), sz.marker, color)?;
+            marker(
+                area,
+                s.marker,
+                (x_sample + lb.sample / 2.0, row_y),
+                sz.marker,
+                color,
+            )?;
         }
         draw_text(area, label, &style, (x_text, row_y))?;
         row_y += lb.row;

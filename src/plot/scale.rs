@@ -31,7 +31,11 @@ impl Scale {
     /// non-positive on log axes), with 4% margins (of the decades spanned on log axes).
     /// No usable value gives [0, 1] or [1, 10].
     pub fn fit(values: impl IntoIterator<Item = f64>, log: bool) -> Scale {
-        let probe = Scale { lo: 1.0, hi: 10.0, log };
+        let probe = Scale {
+            lo: 1.0,
+            hi: 10.0,
+            log,
+        };
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for v in values.into_iter().filter(|&v| probe.accepts(v)) {
             lo = lo.min(v);
@@ -43,15 +47,25 @@ impl Scale {
             (true, true) => {
                 let (a, b) = (lo.log10(), hi.log10());
                 let pad = if a == b { 0.5 } else { 0.04 * (b - a) };
-                (10f64.powf(a - pad), 10f64.powf(b + pad))
+                // Stay within normal f64 (a pad past 1e308 would give infinity).
+                (
+                    10f64.powf((a - pad).max(-307.0)),
+                    10f64.powf((b + pad).min(308.0)),
+                )
             }
             (true, false) if lo == hi => {
                 let d = 0.5 * lo.abs().max(1.0);
                 (lo - d, hi + d)
             }
             (true, false) => {
+                // No margin where it would overflow (data near f64::MAX).
                 let pad = 0.04 * (hi - lo);
-                (lo - pad, hi + pad)
+                let (a, b) = (lo - pad, hi + pad);
+                if a.is_finite() && b.is_finite() {
+                    (a, b)
+                } else {
+                    (lo, hi)
+                }
             }
         };
         Scale { lo, hi, log }
@@ -73,8 +87,9 @@ impl Scale {
     }
 
     fn log_ticks(&self) -> Vec<Tick> {
-        let first = (self.lo.log10() - 1e-9).floor() as i32;
-        let last = (self.hi.log10() + 1e-9).ceil() as i32;
+        // Clamped to the f64 range, so a degenerate scale cannot loop for long.
+        let first = ((self.lo.log10() - 1e-9).floor() as i32).max(-330);
+        let last = ((self.hi.log10() + 1e-9).ceil() as i32).min(310);
         let decades: Vec<i32> = (first..=last)
             .filter(|&k| self.inside(10f64.powi(k)))
             .collect();
@@ -99,7 +114,11 @@ impl Scale {
                 .flat_map(|k| (1..10).map(move |m| (m as f64 * 10f64.powi(k), m)))
                 .filter(|&(at, _)| self.inside(at))
                 .collect();
-            let few = candidates.iter().filter(|(_, m)| [1, 2, 5].contains(m)).count() < 2;
+            let few = candidates
+                .iter()
+                .filter(|(_, m)| [1, 2, 5].contains(m))
+                .count()
+                < 2;
             for (at, m) in candidates {
                 let label = (few || [1, 2, 5].contains(&m)).then(|| plain(at, at));
                 out.push(Tick { at, label });
@@ -110,6 +129,9 @@ impl Scale {
 
     fn linear_ticks(&self) -> Vec<Tick> {
         let span = self.hi - self.lo;
+        if !(span.is_finite() && span > 0.0) {
+            return Vec::new();
+        }
         let mag = 10f64.powf((span / 6.0).log10().floor());
         let mult = [1.0, 2.0, 5.0, 10.0]
             .into_iter()
@@ -119,7 +141,10 @@ impl Scale {
         let minor = step / if mult == 2.0 { 4.0 } else { 5.0 };
         let first = (self.lo / minor - 1e-9).ceil() as i64;
         let last = (self.hi / minor + 1e-9).floor() as i64;
-        let per_major = (step / minor).round() as i64;
+        let per_major = ((step / minor).round() as i64).max(1);
+        if last.saturating_sub(first) > 1000 {
+            return Vec::new(); // rounding broke down (|values| >> their spread)
+        }
         (first..=last)
             .map(|i| {
                 let at = i as f64 * minor;
@@ -176,11 +201,19 @@ mod tests {
     fn log_axes_are_labelled_at_decades() {
         let s = Scale::fit([0.013, 5.0, 870.0], true);
         assert_eq!(labels(s), ["10⁻²", "10⁻¹", "10⁰", "10¹", "10²", "10³"]);
-        let s = Scale { lo: 0.01, hi: 1000.0, log: true };
+        let s = Scale {
+            lo: 0.01,
+            hi: 1000.0,
+            log: true,
+        };
         // Minor ticks at 2..9 x 10^k: 9 per decade plus the closing decade.
         assert_eq!(s.ticks().len(), 5 * 9 + 1);
         // Twenty decades: every third decade labelled, no minor ticks.
-        let wide = Scale { lo: 1e-10, hi: 1e10, log: true };
+        let wide = Scale {
+            lo: 1e-10,
+            hi: 1e10,
+            log: true,
+        };
         assert_eq!(labels(wide).len(), 7);
         assert_eq!(wide.ticks().len(), 21);
     }
@@ -190,9 +223,22 @@ mod tests {
         let s = Scale::fit([-3.0, 0.0, f64::NAN, f64::INFINITY, 0.2, 30.0], true);
         // 0.2 to 30 spans 2.18 decades; 4% of that pads each end.
         let pad = 0.04 * (30f64 / 0.2).log10();
-        assert!((s.lo.log10() - (0.2f64.log10() - pad)).abs() < 1e-12, "{s:?}");
-        assert!((s.hi.log10() - (30f64.log10() + pad)).abs() < 1e-12, "{s:?}");
-        assert_eq!(Scale::fit([-1.0, f64::NAN], true), Scale { lo: 1.0, hi: 10.0, log: true });
+        assert!(
+            (s.lo.log10() - (0.2f64.log10() - pad)).abs() < 1e-12,
+            "{s:?}"
+        );
+        assert!(
+            (s.hi.log10() - (30f64.log10() + pad)).abs() < 1e-12,
+            "{s:?}"
+        );
+        assert_eq!(
+            Scale::fit([-1.0, f64::NAN], true),
+            Scale {
+                lo: 1.0,
+                hi: 10.0,
+                log: true
+            }
+        );
         // A single value gets half a decade each side.
         let one = Scale::fit([10.0], true);
         assert!((one.lo - 10f64.sqrt()).abs() < 1e-12 && (one.hi - 1000f64.sqrt()).abs() < 1e-9);
@@ -201,27 +247,58 @@ mod tests {
 
     #[test]
     fn narrow_log_axes_label_1_2_5() {
-        let s = Scale { lo: 0.15, hi: 0.8, log: true };
+        let s = Scale {
+            lo: 0.15,
+            hi: 0.8,
+            log: true,
+        };
         assert_eq!(labels(s), ["0.2", "0.5"]);
-        let s = Scale { lo: 0.31, hi: 0.45, log: true };
+        let s = Scale {
+            lo: 0.31,
+            hi: 0.45,
+            log: true,
+        };
         assert_eq!(labels(s), ["0.4"]);
     }
 
     #[test]
     fn linear_ticks_are_round_numbers() {
-        let s = Scale { lo: -0.04, hi: 1.04, log: false };
+        let s = Scale {
+            lo: -0.04,
+            hi: 1.04,
+            log: false,
+        };
         assert_eq!(labels(s), ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"]);
-        let s = Scale { lo: -0.3, hi: 0.3, log: false };
-        assert_eq!(labels(s), ["−0.3", "−0.2", "−0.1", "0.0", "0.1", "0.2", "0.3"]);
-        let s = Scale { lo: -12.0, hi: 31.0, log: false };
+        let s = Scale {
+            lo: -0.3,
+            hi: 0.3,
+            log: false,
+        };
+        assert_eq!(
+            labels(s),
+            ["−0.3", "−0.2", "−0.1", "0.0", "0.1", "0.2", "0.3"]
+        );
+        let s = Scale {
+            lo: -12.0,
+            hi: 31.0,
+            log: false,
+        };
         assert_eq!(labels(s), ["−10", "0", "10", "20", "30"]);
-        let s = Scale { lo: 0.0, hi: 3e6, log: false };
+        let s = Scale {
+            lo: 0.0,
+            hi: 3e6,
+            log: false,
+        };
         assert_eq!(labels(s)[1..3], ["5×10⁵".to_string(), "10⁶".to_string()]);
     }
 
     #[test]
     fn fraction_maps_ends_and_decades() {
-        let s = Scale { lo: 0.01, hi: 100.0, log: true };
+        let s = Scale {
+            lo: 0.01,
+            hi: 100.0,
+            log: true,
+        };
         assert_eq!(s.fraction(0.01), 0.0);
         assert!((s.fraction(1.0) - 0.5).abs() < 1e-12);
         let l = Scale::fit([2.0, 2.0], false);

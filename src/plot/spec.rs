@@ -200,8 +200,8 @@ impl Figure {
     pub fn validate(&self) -> Result<()> {
         ensure!(!self.panels.is_empty(), "figure has no panels");
         ensure!(
-            (64..=20_000).contains(&self.width) && (64..=20_000).contains(&self.height),
-            "figure size {}x{} is outside 64..=20000 pixels per side",
+            (64..=10_000).contains(&self.width) && (64..=10_000).contains(&self.height),
+            "figure size {}x{} is outside 64..=10000 pixels per side",
             self.width,
             self.height
         );

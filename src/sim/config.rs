@@ -33,7 +33,7 @@ pub enum Drive {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum KickRate {
-    /// Start at the Enskog rate, then during the first half of the relaxation
+    /// Start at the Enskog rate, then during the first 80% of the relaxation
     /// rescale the rate window by window so that the mean kinetic energy per
     /// particle is 1; the rate is then frozen (docs/sim.md explains why).
     Balanced,
@@ -154,44 +154,114 @@ impl SimConfig {
             );
         }
         if !(self.eps.is_finite() && self.eps > 0.0 && self.eps <= 1.0) {
-            bail!("eps = {} is invalid: the restitution coefficient must be in (0, 1]", self.eps);
+            bail!(
+                "eps = {} is invalid: the restitution coefficient must be in (0, 1]",
+                self.eps
+            );
         }
-        finite_in("radius_ratio", self.radius_ratio, 1.0, 10.0, "r2/r1 must be in [1, 10]")?;
-        if let Masses::Ratio(m) = self.masses {
-            if !(m.is_finite() && m > 0.0) {
-                bail!("masses: ratio {m} is invalid: m2/m1 must be positive");
-            }
+        finite_in(
+            "radius_ratio",
+            self.radius_ratio,
+            1.0,
+            10.0,
+            "r2/r1 must be in [1, 10]",
+        )?;
+        if let Masses::Ratio(m) = self.masses
+            && !(m.is_finite() && m > 0.0)
+        {
+            bail!("masses: ratio {m} is invalid: m2/m1 must be positive");
         }
-        finite_in("fraction_large", self.fraction_large, 0.0, 1.0, "must be in [0, 1]")?;
+        finite_in(
+            "fraction_large",
+            self.fraction_large,
+            0.0,
+            1.0,
+            "must be in [0, 1]",
+        )?;
         match self.kick_rate {
-            KickRate::Enskog { prefactor } => {
-                finite_in("kick_rate: enskog prefactor", prefactor, 0.0, 1e6, "must be >= 0")?
-            }
+            KickRate::Enskog { prefactor } => finite_in(
+                "kick_rate: enskog prefactor",
+                prefactor,
+                0.0,
+                1e6,
+                "must be >= 0",
+            )?,
             KickRate::PerParticle(r) => {
                 finite_in("kick_rate: per_particle", r, 0.0, 1e9, "must be >= 0")?
             }
             KickRate::Balanced => {}
         }
-        finite_in("collapse_tc", self.collapse_tc, 0.0, 1.0, "must be in [0, 1]")?;
-        finite_in("aspect", self.aspect, 0.01, 100.0, "Ly/Lx must be in [0.01, 100]")?;
+        finite_in(
+            "collapse_tc",
+            self.collapse_tc,
+            0.0,
+            1.0,
+            "must be in [0, 1]",
+        )?;
+        finite_in(
+            "aspect",
+            self.aspect,
+            0.01,
+            100.0,
+            "Ly/Lx must be in [0.01, 100]",
+        )?;
         finite_in("relax_time", self.relax_time, 0.0, 1e12, "must be >= 0")?;
-        finite_in("schedule.start", self.schedule.start, 0.0, 1e12, "must be >= 0")?;
-        finite_in("schedule.origin_spacing", self.schedule.origin_spacing, 0.0, 1e12, "must be >= 0")?;
+        finite_in(
+            "schedule.start",
+            self.schedule.start,
+            0.0,
+            1e12,
+            "must be >= 0",
+        )?;
+        finite_in(
+            "schedule.origin_spacing",
+            self.schedule.origin_spacing,
+            0.0,
+            1e12,
+            "must be >= 0",
+        )?;
         if self.schedule.origins == 0 {
             bail!("schedule.origins = 0 is invalid: need at least one time origin");
         }
         for &l in &self.schedule.lags {
-            finite_in("schedule.lags entry", l, f64::MIN_POSITIVE, 1e12, "lags must be positive")?;
+            finite_in(
+                "schedule.lags entry",
+                l,
+                f64::MIN_POSITIVE,
+                1e12,
+                "lags must be positive",
+            )?;
         }
-        if self.samples < 2 {
-            bail!("samples = {} is invalid: need at least 2 (for error bars)", self.samples);
+        if !(2..=1_000_000).contains(&self.samples) {
+            bail!(
+                "samples = {} is invalid: need 2 to 1000000 (at least 2 for error bars)",
+                self.samples
+            );
         }
-        finite_in("compression_rate", self.compression_rate, 1e-7, 1.0, "must be in [1e-7, 1]")?;
+        if self.schedule.end() <= 0.0 {
+            bail!(
+                "schedule records nothing after relaxation (last frame at t = {}): give a positive start, origin_spacing or lag",
+                self.schedule.end()
+            );
+        }
+        finite_in(
+            "compression_rate",
+            self.compression_rate,
+            1e-7,
+            1.0,
+            "must be in [1e-7, 1]",
+        )?;
         if self.gamma != 0.0 {
-            bail!("gamma = {} is not supported yet: viscous friction (paper I) is not implemented; use 0", self.gamma);
+            bail!(
+                "gamma = {} is not supported yet: viscous friction (paper I) is not implemented; use 0",
+                self.gamma
+            );
         }
         if self.walls != [false, false] {
-            bail!("walls = {:?} is not supported yet: only periodic boxes; use [false, false]", self.walls);
+            bail!(
+                "walls = {:?} is not supported yet: only periodic boxes; use [false, false]",
+                self.walls
+            );
         }
         if self.intruder.is_some() {
             bail!("intruder is not supported yet (paper I); remove the key");

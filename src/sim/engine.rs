@@ -202,7 +202,9 @@ impl Engine {
         let n = self.n();
         // Disk (64) + prev, cell, ev_p, ev_c (u32) + imx, imy (i32) + last_collision
         // (f64) + species (u8).
-        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1) + self.head.len() * 4 + self.tree.bytes()
+        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1)
+            + self.head.len() * 4
+            + self.tree.bytes()
     }
 
     fn rebuild_cells(&mut self) {
@@ -224,7 +226,10 @@ impl Engine {
         self.imy = o(&self.imy);
         self.d = order.iter().map(|&i| self.d[i as usize]).collect();
         self.species = order.iter().map(|&i| self.species[i as usize]).collect();
-        self.last_collision = order.iter().map(|&i| self.last_collision[i as usize]).collect();
+        self.last_collision = order
+            .iter()
+            .map(|&i| self.last_collision[i as usize])
+            .collect();
         self.rebuild_cells();
         self.reschedule_all();
     }
@@ -277,17 +282,25 @@ impl Engine {
 
     /// Velocities [vx, vy] of every particle.
     pub fn velocities(&self) -> (Vec<f64>, Vec<f64>) {
-        (self.d.iter().map(|d| d.vx).collect(), self.d.iter().map(|d| d.vy).collect())
+        (
+            self.d.iter().map(|d| d.vx).collect(),
+            self.d.iter().map(|d| d.vy).collect(),
+        )
     }
 
     /// Total kinetic energy.
     pub fn kinetic_energy(&self) -> f64 {
-        self.d.iter().map(|d| 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy)).sum()
+        self.d
+            .iter()
+            .map(|d| 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy))
+            .sum()
     }
 
     /// Total momentum.
     pub fn momentum(&self) -> [f64; 2] {
-        self.d.iter().fold([0.0; 2], |p, d| [p[0] + d.mass * d.vx, p[1] + d.mass * d.vy])
+        self.d.iter().fold([0.0; 2], |p, d| {
+            [p[0] + d.mass * d.vx, p[1] + d.mass * d.vy]
+        })
     }
 
     /// Sum of |m v|, the scale against which momentum conservation is judged.
@@ -452,20 +465,8 @@ impl Engine {
         let c = self.cell[i] as usize;
         let (cx, cy) = (c % self.ncx, c / self.ncx);
         // Cell crossing.
-        let tx = if a.vx > 0.0 {
-            ((cx + 1) as f64 * self.wx - a.x) / a.vx
-        } else if a.vx < 0.0 {
-            (cx as f64 * self.wx - a.x) / a.vx
-        } else {
-            f64::INFINITY
-        };
-        let ty = if a.vy > 0.0 {
-            ((cy + 1) as f64 * self.wy - a.y) / a.vy
-        } else if a.vy < 0.0 {
-            (cy as f64 * self.wy - a.y) / a.vy
-        } else {
-            f64::INFINITY
-        };
+        let tx = exit_time(a.x, a.vx, cx, self.wx);
+        let ty = exit_time(a.y, a.vy, cy, self.wy);
         let (mut best, mut partner) = if tx < ty {
             (tx, CROSS + if a.vx > 0.0 { 0 } else { 1 })
         } else {
@@ -473,26 +474,24 @@ impl Engine {
         };
         best = best.max(0.0);
         let scale = self.scale();
-        for dy in -1..=1 {
-            let (ny, sy) = Self::wrap(cy, dy, self.ncy, self.ly);
-            for dx in -1..=1 {
-                let (nx, sx) = Self::wrap(cx, dx, self.ncx, self.lx);
-                let mut j = self.head[ny * self.ncx + nx];
-                while j != NONE {
-                    let b = &self.d[j as usize];
-                    if j as usize != i {
-                        let tt = self.pair_time(&a, b, sx, sy, scale);
-                        if tt < best {
-                            best = tt;
-                            partner = j;
-                        }
-                    }
-                    j = b.next;
+        self.for_neighbour_cells(cx, cy, |e, j, sx, sy| {
+            if j != i {
+                let tt = e.pair_time(&a, &e.d[j], sx, sy, scale);
+                // Skip j if it has an earlier event: it will rescan then (every
+                // event ends in a prediction) and find i itself (Smallenburg's
+                // rule; spares the stale event this one would become).
+                if tt < best && e.now + tt <= e.tree.time(j) {
+                    best = tt;
+                    partner = j as u32;
                 }
             }
-        }
+        });
         self.ev_p[i] = partner;
-        self.ev_c[i] = if partner < CROSS { self.d[partner as usize].count } else { 0 };
+        self.ev_c[i] = if partner < CROSS {
+            self.d[partner as usize].count
+        } else {
+            0
+        };
         self.now + best
     }
 
@@ -509,40 +508,24 @@ impl Engine {
         let (mut cx, mut cy) = (c % self.ncx, c / self.ncx);
         let d = &mut self.d[i];
         match dir {
-            0 => {
-                cx += 1;
-                if cx == self.ncx {
-                    cx = 0;
-                    d.x -= self.lx;
-                    self.imx[i] += 1;
-                }
-            }
-            1 => {
-                if cx == 0 {
-                    cx = self.ncx - 1;
-                    d.x += self.lx;
-                    self.imx[i] -= 1;
-                } else {
-                    cx -= 1;
-                }
-            }
-            2 => {
-                cy += 1;
-                if cy == self.ncy {
-                    cy = 0;
-                    d.y -= self.ly;
-                    self.imy[i] += 1;
-                }
-            }
-            _ => {
-                if cy == 0 {
-                    cy = self.ncy - 1;
-                    d.y += self.ly;
-                    self.imy[i] -= 1;
-                } else {
-                    cy -= 1;
-                }
-            }
+            0 => step_cell(&mut cx, true, self.ncx, &mut d.x, self.lx, &mut self.imx[i]),
+            1 => step_cell(
+                &mut cx,
+                false,
+                self.ncx,
+                &mut d.x,
+                self.lx,
+                &mut self.imx[i],
+            ),
+            2 => step_cell(&mut cy, true, self.ncy, &mut d.y, self.ly, &mut self.imy[i]),
+            _ => step_cell(
+                &mut cy,
+                false,
+                self.ncy,
+                &mut d.y,
+                self.ly,
+                &mut self.imy[i],
+            ),
         }
         self.remove(i);
         self.insert(i, cy * self.ncx + cx);
@@ -567,7 +550,9 @@ impl Engine {
         let mu = a.mass * b.mass / (a.mass + b.mass);
         let e = if self.growth != 0.0 || self.eps == 1.0 {
             1.0
-        } else if self.now - self.last_collision[i] < self.tc || self.now - self.last_collision[j] < self.tc {
+        } else if self.now - self.last_collision[i] < self.tc
+            || self.now - self.last_collision[j] < self.tc
+        {
             self.stats.guard_activations += 1;
             1.0
         } else {
@@ -629,13 +614,13 @@ impl Engine {
         let c = self.cell[i] as usize;
         let (cx, cy) = (c % self.ncx, c / self.ncx);
         let mut total = 0usize;
-        self.for_neighbour_cells(cx, cy, |_, j| total += usize::from(j != i));
+        self.for_neighbour_cells(cx, cy, |_, j, _, _| total += usize::from(j != i));
         if total == 0 {
             return None;
         }
         let mut k = self.rng.random_range(0..total);
         let mut found = None;
-        self.for_neighbour_cells(cx, cy, |_, j| {
+        self.for_neighbour_cells(cx, cy, |_, j, _, _| {
             if j != i && found.is_none() {
                 if k == 0 {
                     found = Some(j);
@@ -647,14 +632,17 @@ impl Engine {
         found
     }
 
-    fn for_neighbour_cells(&self, cx: usize, cy: usize, mut f: impl FnMut(&Self, usize)) {
+    /// Call `f(self, j, shift_x, shift_y)` for every disk `j` of the 3x3 cells
+    /// around cell (cx, cy), with the periodic shift that brings it next to them.
+    #[inline]
+    fn for_neighbour_cells(&self, cx: usize, cy: usize, mut f: impl FnMut(&Self, usize, f64, f64)) {
         for dy in -1..=1 {
-            let (ny, _) = Self::wrap(cy, dy, self.ncy, self.ly);
+            let (ny, sy) = Self::wrap(cy, dy, self.ncy, self.ly);
             for dx in -1..=1 {
-                let (nx, _) = Self::wrap(cx, dx, self.ncx, self.lx);
+                let (nx, sx) = Self::wrap(cx, dx, self.ncx, self.lx);
                 let mut j = self.head[ny * self.ncx + nx];
                 while j != NONE {
-                    f(self, j as usize);
+                    f(self, j as usize, sx, sy);
                     j = self.d[j as usize].next;
                 }
             }
@@ -669,7 +657,7 @@ impl Engine {
         let mut worst: Option<(usize, usize, f64)> = None;
         for i in 0..self.n() {
             let c = self.cell[i] as usize;
-            self.for_neighbour_cells(c % self.ncx, c / self.ncx, |e, j| {
+            self.for_neighbour_cells(c % self.ncx, c / self.ncx, |e, j, _, _| {
                 if j <= i {
                     return;
                 }
@@ -685,6 +673,38 @@ impl Engine {
             });
         }
         worst
+    }
+}
+
+/// Time until coordinate `x` moving at `v` leaves cell `c` of width `w`.
+#[inline]
+fn exit_time(x: f64, v: f64, c: usize, w: f64) -> f64 {
+    if v > 0.0 {
+        ((c + 1) as f64 * w - x) / v
+    } else if v < 0.0 {
+        (c as f64 * w - x) / v
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Move cell coordinate `c` one step up or down among `nc` cells; on wrapping
+/// round the periodic box of length `l`, shift the coordinate and count the image.
+#[inline]
+fn step_cell(c: &mut usize, up: bool, nc: usize, x: &mut f64, l: f64, image: &mut i32) {
+    if up {
+        *c += 1;
+        if *c == nc {
+            *c = 0;
+            *x -= l;
+            *image += 1;
+        }
+    } else if *c == 0 {
+        *c = nc - 1;
+        *x += l;
+        *image -= 1;
+    } else {
+        *c -= 1;
     }
 }
 

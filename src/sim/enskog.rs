@@ -13,7 +13,11 @@ use std::f64::consts::PI;
 /// Contact value g_ij of species i and j.
 pub fn contact_value(phi: f64, radii: &[f64], fractions: &[f64], i: usize, j: usize) -> f64 {
     let m1: f64 = fractions.iter().zip(radii).map(|(x, r)| x * 2.0 * r).sum();
-    let m2: f64 = fractions.iter().zip(radii).map(|(x, r)| x * 4.0 * r * r).sum();
+    let m2: f64 = fractions
+        .iter()
+        .zip(radii)
+        .map(|(x, r)| x * 4.0 * r * r)
+        .sum();
     let (si, sj) = (2.0 * radii[i], 2.0 * radii[j]);
     let sij = 0.5 * (si + sj);
     1.0 / (1.0 - phi) + 9.0 / 16.0 * phi / (1.0 - phi).powi(2) * (si * sj / sij) * (m1 / m2)
@@ -21,8 +25,18 @@ pub fn contact_value(phi: f64, radii: &[f64], fractions: &[f64], i: usize, j: us
 
 /// Enskog collision frequency per particle (collisions each particle undergoes
 /// per unit time) at packing fraction `phi` and temperature `t`.
-pub fn collision_frequency(phi: f64, radii: &[f64], masses: &[f64], fractions: &[f64], t: f64) -> f64 {
-    let area_per_particle: f64 = fractions.iter().zip(radii).map(|(x, r)| x * PI * r * r).sum();
+pub fn collision_frequency(
+    phi: f64,
+    radii: &[f64],
+    masses: &[f64],
+    fractions: &[f64],
+    t: f64,
+) -> f64 {
+    let area_per_particle: f64 = fractions
+        .iter()
+        .zip(radii)
+        .map(|(x, r)| x * PI * r * r)
+        .sum();
     let n = phi / area_per_particle;
     let mut omega = 0.0;
     for i in 0..radii.len() {

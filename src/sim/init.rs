@@ -33,7 +33,10 @@ fn random_disks(
         let ri = radii[species[i] as usize] * scale;
         let mut placed = false;
         for _ in 0..100_000 {
-            let (px, py) = (rng.random::<f64>() * box_size[0], rng.random::<f64>() * box_size[1]);
+            let (px, py) = (
+                rng.random::<f64>() * box_size[0],
+                rng.random::<f64>() * box_size[1],
+            );
             let cx = ((px / wx) as usize).min(ncx - 1);
             let cy = ((py / wy) as usize).min(ncy - 1);
             let mut free = true;
@@ -70,7 +73,11 @@ fn random_disks(
 }
 
 /// Gaussian velocities with zero total momentum and kinetic energy 1 per particle.
-fn maxwell_velocities(masses: &[f64], species: &[u8], rng: &mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>) {
+fn maxwell_velocities(
+    masses: &[f64],
+    species: &[u8],
+    rng: &mut ChaCha8Rng,
+) -> (Vec<f64>, Vec<f64>) {
     let n = species.len();
     let mut vx = Vec::with_capacity(n);
     let mut vy = Vec::with_capacity(n);
@@ -122,7 +129,17 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     let s0 = (phi0 / cfg.phi).sqrt();
     let (x, y) = random_disks(box_size, &radii, &species, s0, &mut rng)?;
     let (vx, vy) = maxwell_velocities(&masses, &species, &mut rng);
-    let setup = Setup { lx: box_size[0], ly: box_size[1], radii, masses, species, x, y, vx, vy };
+    let setup = Setup {
+        lx: box_size[0],
+        ly: box_size[1],
+        radii,
+        masses,
+        species,
+        x,
+        y,
+        vx,
+        vy,
+    };
     let mut e = Engine::new(setup, 1.0, 0.0, rng)?;
     if s0 < 1.0 {
         compress(&mut e, cfg, s0, progress)?;

@@ -4,10 +4,13 @@
 pub fn thread_cpu_seconds() -> f64 {
     // schedstat: first field is nanoseconds spent on the CPU.
     for path in ["/proc/thread-self/schedstat", "/proc/self/schedstat"] {
-        if let Ok(s) = std::fs::read_to_string(path) {
-            if let Some(ns) = s.split_whitespace().next().and_then(|v| v.parse::<f64>().ok()) {
-                return ns * 1e-9;
-            }
+        if let Ok(s) = std::fs::read_to_string(path)
+            && let Some(ns) = s
+                .split_whitespace()
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+        {
+            return ns * 1e-9;
         }
     }
     0.0

@@ -143,7 +143,15 @@ impl Sampler {
 }
 
 /// Advance to `t`, taking the samples that fall on the way.
-fn advance(e: &mut Engine, t: f64, s: &mut Sampler, stage: Stage, end: f64, clock: Instant, progress: &dyn Fn(Progress)) {
+fn advance(
+    e: &mut Engine,
+    t: f64,
+    s: &mut Sampler,
+    stage: Stage,
+    end: f64,
+    clock: Instant,
+    progress: &dyn Fn(Progress),
+) {
     loop {
         let stop = t.min(s.next);
         while !e.run_until(stop, 1 << 20) {
@@ -163,7 +171,7 @@ fn advance(e: &mut Engine, t: f64, s: &mut Sampler, stage: Stage, end: f64, cloc
 /// whole system (starting value for the balanced rule), and the amplitude
 /// p_dr = sqrt((1 - eps^2) m1 m2 / (m1 + m2)). `enskog` is the Enskog collision
 /// frequency per particle at T = 1. No kicks when eps = 1 (zero amplitude).
-pub(crate) fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
+pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
     let masses = cfg.species_masses();
     let nf = cfg.n as f64;
     let p_dr = ((1.0 - cfg.eps * cfg.eps) * masses[0] * masses[1] / (masses[0] + masses[1])).sqrt();
@@ -216,22 +224,33 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         samples: Vec::with_capacity(cfg.samples + 1),
     };
 
-    // Relaxation. With the balanced rule, the first half is cut in windows after
-    // each of which the rate is corrected by T^(-3/2): T scales as rate^(2/3)
-    // because the collision rate grows as sqrt(T).
+    // Relaxation. With the balanced rule, the first 80% is cut in windows after
+    // each of which the rate is corrected by T^(-3/2) (T scales as rate^(2/3)
+    // because the collision rate grows as sqrt(T)); T is averaged over the second
+    // half of each window, after the response to the previous correction.
     let clock = Instant::now();
     let windows = 10;
     let w = cfg.relax_time / windows as f64;
     for k in 0..windows {
         let start = t_relax0 + k as f64 * w;
-        if cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off && k < windows / 2 {
+        if cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off && k < windows * 4 / 5 {
             let sub = 8;
             let mut tsum = 0.0;
             for m in 1..=sub {
-                advance(&mut e, start + w * m as f64 / sub as f64, &mut s, Stage::Relax, t0, clock, progress);
-                tsum += e.kinetic_energy() / nf;
+                advance(
+                    &mut e,
+                    start + w * m as f64 / sub as f64,
+                    &mut s,
+                    Stage::Relax,
+                    t0,
+                    clock,
+                    progress,
+                );
+                if m > sub / 2 {
+                    tsum += e.kinetic_energy() / nf;
+                }
             }
-            let tmean = tsum / sub as f64;
+            let tmean = tsum / (sub / 2) as f64;
             if tmean > 0.0 {
                 rate *= tmean.powf(-1.5);
                 e.set_kicks(kicks, rate, p_dr);
@@ -251,10 +270,28 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let mut frames = Vec::new();
     let clock = Instant::now();
     for ft in cfg.schedule.times() {
-        advance(&mut e, t0 + ft, &mut s, Stage::Production, t0 + prod, clock, progress);
+        advance(
+            &mut e,
+            t0 + ft,
+            &mut s,
+            Stage::Production,
+            t0 + prod,
+            clock,
+            progress,
+        );
         let (x, y) = e.unwrapped_positions();
-        let (vx, vy) = if cfg.record_velocities { e.velocities() } else { (vec![], vec![]) };
-        frames.push(Frame { time: ft, x, y, vx, vy });
+        let (vx, vy) = if cfg.record_velocities {
+            e.velocities()
+        } else {
+            (vec![], vec![])
+        };
+        frames.push(Frame {
+            time: ft,
+            x,
+            y,
+            vx,
+            vy,
+        });
     }
     let end = t0 + prod;
     advance(&mut e, end, &mut s, Stage::Production, end, clock, progress);
@@ -266,12 +303,17 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let temps: Vec<f64> = prod_samples.iter().map(|x| x.temperature).collect();
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let temperature = mean(&temps);
-    let temperature_std = (temps.iter().map(|t| (t - temperature).powi(2)).sum::<f64>() / temps.len().max(1) as f64).sqrt();
+    let temperature_std = (temps.iter().map(|t| (t - temperature).powi(2)).sum::<f64>()
+        / temps.len().max(1) as f64)
+        .sqrt();
     let half = temps.len() / 2;
     let zs: Vec<f64> = prod_samples.iter().map(|x| x.z).collect();
     let z = 1.0 + (st.virial - before.virial) / (2.0 * prod * nf * temperature);
     let zm = mean(&zs);
-    let z_err = (zs.iter().map(|v| (v - zm).powi(2)).sum::<f64>() / (zs.len().max(2) - 1) as f64 / zs.len().max(1) as f64).sqrt();
+    let z_err = (zs.iter().map(|v| (v - zm).powi(2)).sum::<f64>()
+        / (zs.len().max(2) - 1) as f64
+        / zs.len().max(1) as f64)
+        .sqrt();
     let ke1 = e.kinetic_energy();
     let injected = st.injected - before.injected;
     let dissipated = st.dissipated - before.dissipated;

@@ -52,7 +52,11 @@ impl EventTree {
     /// the left (lower index), so the order of events is reproducible.
     #[inline]
     fn better(&self, l: usize) -> usize {
-        if self.time[l + 1] < self.time[l] { l + 1 } else { l }
+        if self.time[l + 1] < self.time[l] {
+            l + 1
+        } else {
+            l
+        }
     }
 
     /// Particle with the earliest event, and its time.

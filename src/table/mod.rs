@@ -17,15 +17,25 @@ use arrow_array::RecordBatch;
 use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::properties::WriterProperties;
+use parquet::file::properties::{WriterProperties, WriterPropertiesBuilder};
+
+/// What a Parquet file holds for us: its record batches and its key-value metadata.
+pub type ParquetContents = (Vec<RecordBatch>, Vec<(String, String)>);
+
+/// The writer settings every Parquet file of the project starts from: zstd level 3
+/// and a `created_by` naming this crate (no timestamps, so bytes are deterministic).
+/// Callers add column-specific settings (encodings, row-group sizes) on top.
+pub fn writer_properties() -> Result<WriterPropertiesBuilder> {
+    Ok(WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
+        .set_created_by(format!("repro {}", env!("CARGO_PKG_VERSION"))))
+}
 
 /// Serialise `batches` (all with the same schema) to Parquet bytes with zstd.
 /// Deterministic: the same batches give the same bytes (no timestamps written).
 pub fn to_parquet_bytes(batches: &[RecordBatch], metadata: &[(&str, &str)]) -> Result<Vec<u8>> {
     let first = batches.first().context("no record batch to write")?;
-    let mut props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
-        .set_created_by(format!("repro {}", env!("CARGO_PKG_VERSION")));
+    let mut props = writer_properties()?;
     let kv: Vec<parquet::file::metadata::KeyValue> = metadata
         .iter()
         .map(|(k, v)| parquet::file::metadata::KeyValue::new(k.to_string(), v.to_string()))
@@ -53,6 +63,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let mut tmp = tempfile::NamedTempFile::new_in(dir)
         .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
     tmp.write_all(bytes)?;
+    // NamedTempFile is created 0600; results are meant to be shared (0644).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
     tmp.as_file().sync_all()?;
     tmp.persist(path)
         .with_context(|| format!("renaming into {}", path.display()))?;
@@ -70,7 +87,7 @@ pub fn write_parquet(
 }
 
 /// Read every record batch of a Parquet file, with its key-value metadata.
-pub fn read_parquet(path: &Path) -> Result<(Vec<RecordBatch>, Vec<(String, String)>)> {
+pub fn read_parquet(path: &Path) -> Result<ParquetContents> {
     let f = File::open(path).with_context(|| format!("opening {}", path.display()))?;
     read_parquet_from(f).with_context(|| {
         format!(
@@ -81,13 +98,13 @@ pub fn read_parquet(path: &Path) -> Result<(Vec<RecordBatch>, Vec<(String, Strin
 }
 
 /// Read every record batch of Parquet bytes, with its key-value metadata.
-pub fn read_parquet_bytes(bytes: Vec<u8>) -> Result<(Vec<RecordBatch>, Vec<(String, String)>)> {
+pub fn read_parquet_bytes(bytes: Vec<u8>) -> Result<ParquetContents> {
     read_parquet_from(bytes::Bytes::from(bytes))
 }
 
 fn read_parquet_from<R: parquet::file::reader::ChunkReader + 'static>(
     r: R,
-) -> Result<(Vec<RecordBatch>, Vec<(String, String)>)> {
+) -> Result<ParquetContents> {
     let builder = ParquetRecordBatchReaderBuilder::try_new(r)?;
     let kv = builder
         .metadata()
@@ -137,6 +154,14 @@ mod tests {
             .downcast_ref::<Float64Array>()
             .unwrap();
         assert_eq!(q.value(2), 1e-300);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            assert_eq!(
+                std::fs::metadata(&p).unwrap().permissions().mode() & 0o777,
+                0o644
+            );
+        }
         assert_eq!(
             to_parquet_bytes(&[b.clone()], &[]).unwrap(),
             to_parquet_bytes(&[b], &[]).unwrap()

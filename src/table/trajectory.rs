@@ -36,7 +36,7 @@ use arrow_array::{
 };
 use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::ArrowWriter;
-use parquet::basic::{Compression, Encoding, ZstdLevel};
+use parquet::basic::Encoding;
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use parquet::schema::types::ColumnPath;
@@ -274,9 +274,7 @@ fn schema(velocities: bool) -> Schema {
 /// the slowly varying exponent bytes together) and delta-coded ids.
 fn properties(n: usize, header: &Header) -> Result<WriterProperties> {
     let frames_per_group = (ROWS_PER_GROUP / n).max(1);
-    let mut p = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
-        .set_created_by(format!("repro {}", env!("CARGO_PKG_VERSION")))
+    let mut p = super::writer_properties()?
         .set_max_row_group_row_count(Some(frames_per_group * n))
         .set_key_value_metadata(Some(vec![KeyValue::new(
             METADATA_KEY.to_string(),
