@@ -48,6 +48,10 @@ pub struct RegressArgs {
     pub record: bool,
     #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3, 4, 5])]
     pub seeds: Vec<u64>,
+    /// With --record: key numbers left out of the bands (FIGURE:QUANTITY), e.g. fits
+    /// that the profile cannot resolve and whose seed-to-seed scatter is heavy-tailed.
+    #[arg(long, value_delimiter = ',')]
+    pub ungated: Vec<String>,
     /// The experiment whose seed --record varies.
     #[arg(long, default_value = "eps09")]
     pub experiment: String,
@@ -420,20 +424,26 @@ fn record(a: &RegressArgs, path: &Path) -> Result<()> {
     let quantities = values
         .iter()
         .filter(|(_, v)| v.iter().filter(|x| x.is_finite()).count() >= 2)
+        .filter(|((f, q), _)| !a.ungated.contains(&format!("{f}:{q}")))
         .map(|((f, q), v)| golden(f, q, &a.seeds, v, SIGMAS, FLOOR))
         .collect();
     let g = GoldenFile {
         profile: a.profile.clone(),
         how: format!(
             "`repro regress --record --profile {} --seeds {}`: the figures built with experiment '{}' at each master seed; \
-             band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|)",
+             band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|); not gated: {}",
             a.profile,
             a.seeds
                 .iter()
                 .map(|s| s.to_string())
                 .collect::<Vec<_>>()
                 .join(","),
-            a.experiment
+            a.experiment,
+            if a.ungated.is_empty() {
+                "none".to_string()
+            } else {
+                a.ungated.join(", ")
+            }
         ),
         sigmas: SIGMAS,
         relative_floor: FLOOR,
