@@ -114,12 +114,13 @@ pub fn aging_curves(trajs: &[Trajectory], p: &Params) -> Result<Vec<(f64, Vec<f6
             }
         }
     }
-    // A true time origin realises every lag; frames that only pair with another
-    // origin's frames at a few lags are not waiting times of their own.
-    let full = acc.values().map(|e| e.1.len()).max().unwrap_or(0);
+    // True time origins are the frames the shortest lag is realised from (the
+    // schedule's lags are log-spaced, so no frame inside a block is 0.05 after
+    // another); frames pairing only with other origins' frames are not waiting times.
+    let shortest = acc.values().filter_map(|e| e.1.first().copied()).fold(f64::INFINITY, f64::min);
     Ok(acc
         .into_values()
-        .filter(|e| e.1.len() == full)
+        .filter(|e| e.1.first().is_some_and(|&t| (t - shortest).abs() <= 1e-9 * shortest))
         .map(|(t0, t, s, k)| (t0, t, s.into_iter().map(|v| v / k as f64).collect()))
         .collect())
 }
