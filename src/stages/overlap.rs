@@ -98,8 +98,11 @@ impl StageKind for TauAlpha {
 /// share one schedule): table t0, t, Q; and `tau.parquet`: t0, tau_alpha(t0).
 pub struct Aging;
 
-/// Per waiting time: (lags, Q averaged over replicas).
-pub fn aging_curves(trajs: &[Trajectory], p: &Params) -> Result<Vec<(f64, Vec<f64>, Vec<f64>)>> {
+/// One waiting time t0 with its lags and Q(t; t0).
+pub type AgingCurve = (f64, Vec<f64>, Vec<f64>);
+
+/// Per waiting time: (t0, lags, Q averaged over replicas).
+pub fn aging_curves(trajs: &[Trajectory], p: &Params) -> Result<Vec<AgingCurve>> {
     let mut acc: BTreeMap<u64, (f64, Vec<f64>, Vec<f64>, usize)> = BTreeMap::new();
     for tr in trajs {
         for (t0, t, q) in overlap::per_origin(tr, p)? {
@@ -117,10 +120,16 @@ pub fn aging_curves(trajs: &[Trajectory], p: &Params) -> Result<Vec<(f64, Vec<f6
     // True time origins are the frames the shortest lag is realised from (the
     // schedule's lags are log-spaced, so no frame inside a block is 0.05 after
     // another); frames pairing only with other origins' frames are not waiting times.
-    let shortest = acc.values().filter_map(|e| e.1.first().copied()).fold(f64::INFINITY, f64::min);
+    let shortest = acc
+        .values()
+        .filter_map(|e| e.1.first().copied())
+        .fold(f64::INFINITY, f64::min);
     Ok(acc
         .into_values()
-        .filter(|e| e.1.first().is_some_and(|&t| (t - shortest).abs() <= 1e-9 * shortest))
+        .filter(|e| {
+            e.1.first()
+                .is_some_and(|&t| (t - shortest).abs() <= 1e-9 * shortest)
+        })
         .map(|(t0, t, s, k)| (t0, t, s.into_iter().map(|v| v / k as f64).collect()))
         .collect())
 }

@@ -128,7 +128,8 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
         )
     })?;
     let phi = cfg.phi;
-    if !(phi < rule.tau_guess.phi0) {
+    // NaN-safe: a NaN phi is rejected too.
+    if phi.partial_cmp(&rule.tau_guess.phi0) != Some(std::cmp::Ordering::Less) {
         bail!(
             "simulate: phi = {phi} is at or beyond tau_guess.phi0 = {}, where the run-length rule diverges",
             rule.tau_guess.phi0

@@ -236,7 +236,7 @@ pub fn pick(v: &[f64], rows: &[usize]) -> Vec<f64> {
 
 /// Linear interpolation of y in ln t at `t0` (t ascending); None outside the samples.
 pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
-    if !(t0 > 0.0) || t.len() < 2 || t0 < t[0] || t0 > t[t.len() - 1] {
+    if t0.is_nan() || t0 <= 0.0 || t.len() < 2 || t0 < t[0] || t0 > t[t.len() - 1] {
         return None;
     }
     let k = t.partition_point(|&x| x <= t0).clamp(1, t.len() - 1);
