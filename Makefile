@@ -15,8 +15,13 @@ build:
 
 # The README's test command: unit and integration tests (release: the physics tests
 # run millions of events).
+# Then the ci profile of the CI-checked figures and their regression check
+# against tests/golden/ci.json (docs/figures.md).
+CI_FIGURES = fig2 fig3 fig4 fig15 fig19
 test:
 	$(CARGO) test --release --locked
+	$(REPRO) figure $(CI_FIGURES) --profile ci $(JOBS_FLAG)
+	$(REPRO) regress --profile ci
 
 bench:
 	$(CARGO) bench --locked

@@ -12,6 +12,7 @@ pub mod fit;
 pub mod pipeline;
 pub mod plot;
 pub mod sim;
+pub mod stages;
 pub mod table;
 pub mod traj;
 

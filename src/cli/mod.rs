@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod figs;
 pub mod pipeline;
 pub mod sim;
 
@@ -20,11 +21,14 @@ pub enum Command {
     Sim(sim::Commands),
     #[command(flatten)]
     Pipeline(pipeline::Commands),
+    #[command(flatten)]
+    Figs(figs::Commands),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Sim(c) => sim::run(c),
         Command::Pipeline(c) => pipeline::run(c),
+        Command::Figs(c) => figs::run(c),
     }
 }

@@ -168,6 +168,7 @@ impl Registry {
         let mut r = Registry::new();
         r.register(super::kinds::Table);
         r.register(super::kinds::Compare);
+        crate::stages::register(&mut r);
         if std::env::var("REPRO_TEST_KINDS").is_ok_and(|v| v == "1") {
             super::toy::register(&mut r);
         }

@@ -1,0 +1,492 @@
+//! `fit` and `collapse`: fitted numbers as tables `quantity, value, error, note`
+//! (what `compare` reads), plus the drawn fit line or the rescaled data.
+//!
+//! A fit that fails (no divergence found, too few points, curves that do not
+//! overlap) does not fail the stage: its quantities are NaN and `note` says why,
+//! so the figure is still drawn and `compare` reports the number as missing.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use anyhow::{Result, bail};
+use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::tables::{Columns, Where, inputs_of, pick};
+use crate::fit::collapse::{self, Curve};
+use crate::fit::{Data, FitResult, forms, linear};
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::table::{f64_batch, to_parquet_bytes};
+
+const MODULES: &[&str] = &["fit", "table", "stages/fits", "stages/tables"];
+
+/// A number taken from another fit table of the same stage's inputs.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FromQuantity {
+    pub stage: String,
+    pub quantity: String,
+}
+
+impl FromQuantity {
+    fn get(&self, kind: &str, inputs: &[Artifact]) -> Result<f64> {
+        let c = Columns::read(&inputs_of(kind, inputs, &self.stage)?)?;
+        Ok(c.quantity(&self.quantity)?.0)
+    }
+}
+
+/// Where the fitted line is drawn.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSpec {
+    #[serde(default)]
+    pub x_min: Option<f64>,
+    #[serde(default)]
+    pub x_max: Option<f64>,
+    #[serde(default = "default_points")]
+    pub points: usize,
+}
+
+fn default_file() -> String {
+    "parquet".into()
+}
+
+fn default_points() -> usize {
+    200
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FitParams {
+    /// `power_law_offset`, `vft`, `power_law`, `line`, `drift` (a line whose
+    /// slope is reported as the relative change of y over the x range) or `value`
+    /// (no fit: the mean of y over the selected rows, e.g. tau_alpha at one phi).
+    pub form: String,
+    /// Stage whose table holds the data.
+    pub data: String,
+    /// Which of its files (default `parquet`).
+    #[serde(default = "default_file")]
+    pub file: String,
+    pub x: String,
+    pub y: String,
+    /// Column of 1-sigma errors of y; without it the errors are scaled to the scatter.
+    #[serde(default)]
+    pub y_err: Option<String>,
+    #[serde(default, rename = "where")]
+    pub filter: Where,
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub fixed_from: BTreeMap<String, FromQuantity>,
+    /// Quantity names for the parameters (default: the form's own names).
+    #[serde(default)]
+    pub rename: BTreeMap<String, String>,
+    #[serde(default)]
+    pub curve: Option<CurveSpec>,
+}
+
+const FORMS: &[&str] = &[
+    "power_law_offset",
+    "vft",
+    "power_law",
+    "line",
+    "drift",
+    "value",
+];
+
+/// The fitted model at x.
+fn model(form: &str, f: &FitResult, x: f64) -> f64 {
+    let v = |n: &str| f.value(n);
+    match form {
+        "power_law_offset" => v("A") * (v("phi_c") - x).powf(-v("gamma")),
+        "vft" => v("A") * (v("B") / (v("phi_0") - x)).exp(),
+        "power_law" => v("A") * x.powf(v("exponent")),
+        _ => v("intercept") + v("slope") * x,
+    }
+}
+
+/// The fit itself; the data are finite points with positive errors.
+fn fit_form(
+    p: &FitParams,
+    x: &[f64],
+    y: &[f64],
+    s: &[f64],
+    fixed: &[(&str, f64)],
+) -> Result<FitResult> {
+    let d = Data::new(x, y, s);
+    let f = match p.form.as_str() {
+        "power_law_offset" => forms::power_law_offset(d, fixed)?,
+        "vft" => forms::vft(d, fixed)?,
+        "power_law" => forms::power_law(d)?,
+        _ => linear::line(d)?,
+    };
+    Ok(if p.y_err.is_none() {
+        linear::scale_errors(f)
+    } else {
+        f
+    })
+}
+
+/// Table quantity, value, error, note.
+fn quantity_table(rows: &[(String, f64, f64)], note: &str) -> Result<RecordBatch> {
+    Ok(RecordBatch::try_from_iter([
+        (
+            "quantity",
+            Arc::new(StringArray::from(
+                rows.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+            )) as ArrayRef,
+        ),
+        (
+            "value",
+            Arc::new(Float64Array::from(
+                rows.iter().map(|r| r.1).collect::<Vec<_>>(),
+            )),
+        ),
+        (
+            "error",
+            Arc::new(Float64Array::from(
+                rows.iter().map(|r| r.2).collect::<Vec<_>>(),
+            )),
+        ),
+        ("note", Arc::new(StringArray::from(vec![note; rows.len()]))),
+    ])?)
+}
+
+/// Finite points only; missing or non-positive errors replaced by the largest
+/// valid one (conservative), logged.
+fn clean(ctx: &StageCtx, x: Vec<f64>, y: Vec<f64>, s: Vec<f64>) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let keep: Vec<usize> = (0..x.len())
+        .filter(|&i| x[i].is_finite() && y[i].is_finite())
+        .collect();
+    if keep.len() < x.len() {
+        ctx.log(format!(
+            "dropped {} point(s) with non-finite x or y",
+            x.len() - keep.len()
+        ));
+    }
+    let smax = keep
+        .iter()
+        .map(|&i| s[i])
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold(0.0, f64::max);
+    let fill = if smax > 0.0 { smax } else { 1.0 };
+    (
+        pick(&x, &keep),
+        pick(&y, &keep),
+        keep.iter()
+            .map(|&i| {
+                if s[i].is_finite() && s[i] > 0.0 {
+                    s[i]
+                } else {
+                    fill
+                }
+            })
+            .collect(),
+    )
+}
+
+pub struct Fit;
+
+impl StageKind for Fit {
+    fn name(&self) -> &str {
+        "fit"
+    }
+    fn describe(&self) -> &str {
+        "fit a form (power_law_offset, vft, power_law, line, drift) to two columns of a table"
+    }
+    fn modules(&self) -> &[&str] {
+        MODULES
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: FitParams = typed("fit", params)?;
+        if !FORMS.contains(&p.form.as_str()) {
+            bail!(
+                "fit: unknown form '{}'; valid forms: {}",
+                p.form,
+                FORMS.join(", ")
+            );
+        }
+        Ok(())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: FitParams = typed("fit", params)?;
+        let c = Columns::read_file(&inputs_of("fit", inputs, &p.data)?, &p.file)?;
+        let rows = c.select(&p.filter)?;
+        let x = pick(c.col(&p.x)?, &rows);
+        let y = pick(c.col(&p.y)?, &rows);
+        let s = match &p.y_err {
+            Some(e) => pick(c.col(e)?, &rows),
+            None => vec![1.0; rows.len()],
+        };
+        let (x, y, s) = clean(ctx, x, y, s);
+        let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        for (name, from) in &p.fixed_from {
+            fixed.push((name.clone(), from.get("fit", inputs)?));
+        }
+        let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
+        if p.form == "value" {
+            let k = y.len() as f64;
+            let (mean, err) = if y.is_empty() {
+                (f64::NAN, f64::NAN)
+            } else {
+                (
+                    y.iter().sum::<f64>() / k,
+                    s.iter().map(|e| e * e).sum::<f64>().sqrt() / k,
+                )
+            };
+            let note = if y.is_empty() {
+                "no row passes `where`"
+            } else {
+                ""
+            };
+            let t = quantity_table(&[(name("value"), mean, err)], note)?;
+            return Ok(Output::single("parquet", to_parquet_bytes(&[t], &[])?));
+        }
+        let (rows, note, curve) = match fit_form(&p, &x, &y, &s, &fixed_ref) {
+            Ok(f) => {
+                let mut rows: Vec<(String, f64, f64)> = if p.form == "drift" {
+                    // Relative change of y across the x range, from the slope.
+                    let span = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                        - x.iter().cloned().fold(f64::INFINITY, f64::min);
+                    let mean = y.iter().sum::<f64>() / y.len() as f64;
+                    let (b, db) = f.expect("slope");
+                    vec![(name("drift"), b * span / mean, db * span / mean.abs())]
+                } else {
+                    f.names
+                        .iter()
+                        .zip(f.params.iter().zip(&f.stderr))
+                        .map(|(n, (v, e))| (name(n), *v, *e))
+                        .collect()
+                };
+                rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
+                rows.push((name("points"), x.len() as f64, 0.0));
+                let curve = p.curve.as_ref().map(|cs| {
+                    let lo = cs
+                        .x_min
+                        .unwrap_or_else(|| x.iter().cloned().fold(f64::INFINITY, f64::min));
+                    let hi = cs
+                        .x_max
+                        .unwrap_or_else(|| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+                    let n = cs.points.max(2);
+                    let log = p.form == "power_law" && lo > 0.0;
+                    let xs: Vec<f64> = (0..n)
+                        .map(|i| {
+                            let u = i as f64 / (n - 1) as f64;
+                            if log {
+                                lo * (hi / lo).powf(u)
+                            } else {
+                                lo + u * (hi - lo)
+                            }
+                        })
+                        .collect();
+                    let ys: Vec<f64> = xs.iter().map(|&v| model(&p.form, &f, v)).collect();
+                    (xs, ys)
+                });
+                (rows, f.warnings.join("; "), curve)
+            }
+            Err(e) => {
+                let msg = format!("{e:#}");
+                ctx.log(format!("fit failed: {msg}"));
+                let names: &[&str] = match p.form.as_str() {
+                    "power_law_offset" => &["A", "phi_c", "gamma"],
+                    "vft" => &["A", "phi_0", "B"],
+                    "power_law" => &["A", "exponent"],
+                    "drift" => &["drift"],
+                    _ => &["intercept", "slope"],
+                };
+                let rows = names
+                    .iter()
+                    .map(|n| (name(n), f64::NAN, f64::NAN))
+                    .collect();
+                (
+                    rows,
+                    format!("fit failed: {msg}"),
+                    p.curve.as_ref().map(|_| (vec![], vec![])),
+                )
+            }
+        };
+        let mut out = Output::single(
+            "parquet",
+            to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?,
+        );
+        if let Some((cx, cy)) = curve {
+            out = out.with(
+                "curve.parquet",
+                to_parquet_bytes(&[f64_batch(&[("x", cx), ("y", cy)])?], &[])?,
+            );
+        }
+        Ok(out)
+    }
+}
+
+/// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
+/// (phi) rescale as X = sqrt(x)/xi, Y = y xi^-g with xi = (phi_c - phi)^-gamma_xi;
+/// g = gamma_chi/gamma_xi and gamma_xi are fitted, phi_c is given or taken from a fit.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CollapseParams {
+    pub data: String,
+    pub x: String,
+    pub y: String,
+    pub y_err: String,
+    pub curve_by: String,
+    #[serde(default, rename = "where")]
+    pub filter: Where,
+    #[serde(default)]
+    pub phi_c: Option<f64>,
+    #[serde(default)]
+    pub phi_c_from: Option<FromQuantity>,
+    /// Search ranges of `g` and `gamma_xi`.
+    pub bounds: BTreeMap<String, (f64, f64)>,
+}
+
+pub struct Collapse;
+
+fn xi(phi_c: f64, phi: f64, gamma_xi: f64) -> f64 {
+    (phi_c - phi).powf(-gamma_xi)
+}
+
+impl StageKind for Collapse {
+    fn name(&self) -> &str {
+        "collapse"
+    }
+    fn describe(&self) -> &str {
+        "finite-size-scaling collapse y xi^-g vs sqrt(x)/xi, xi = (phi_c - phi)^-gamma_xi"
+    }
+    fn modules(&self) -> &[&str] {
+        MODULES
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: CollapseParams = typed("collapse", params)?;
+        if p.phi_c.is_some() == p.phi_c_from.is_some() {
+            bail!(
+                "collapse: give exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
+            );
+        }
+        for k in ["g", "gamma_xi"] {
+            if !p.bounds.contains_key(k) {
+                bail!("collapse: `bounds` needs a search range for '{k}', e.g. {k}: [0.5, 3.0]");
+            }
+        }
+        if p.bounds.len() != 2 {
+            bail!("collapse: `bounds` takes exactly the keys g and gamma_xi");
+        }
+        Ok(())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: CollapseParams = typed("collapse", params)?;
+        let phi_c = match (&p.phi_c, &p.phi_c_from) {
+            (Some(v), _) => *v,
+            (None, Some(f)) => f.get("collapse", inputs)?,
+            _ => unreachable!("validated: one of phi_c and phi_c_from"),
+        };
+        let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+        let rows = c.select(&p.filter)?;
+        let (xc, yc, ec, bc) = (
+            c.col(&p.x)?,
+            c.col(&p.y)?,
+            c.col(&p.y_err)?,
+            c.col(&p.curve_by)?,
+        );
+        let mut by: BTreeMap<u64, Curve> = BTreeMap::new();
+        for &i in &rows {
+            let ok =
+                xc[i] > 0.0 && yc[i] > 0.0 && ec[i] > 0.0 && yc[i].is_finite() && ec[i].is_finite();
+            if !ok {
+                continue;
+            }
+            let cv = by.entry(bc[i].to_bits()).or_insert_with(|| Curve {
+                label: format!("{}={}", p.curve_by, bc[i]),
+                param: bc[i],
+                x: vec![],
+                y: vec![],
+                sigma: vec![],
+            });
+            cv.x.push(xc[i]);
+            cv.y.push(yc[i]);
+            cv.sigma.push(ec[i]);
+        }
+        let mut curves: Vec<Curve> = by.into_values().filter(|c| c.x.len() >= 2).collect();
+        curves.sort_by(|a, b| a.param.total_cmp(&b.param));
+        let bounds = [p.bounds["g"], p.bounds["gamma_xi"]];
+        let rescale = move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+            let l = xi(phi_c, cv.param, q[1]);
+            let f = l.powf(-q[0]);
+            (x.sqrt() / l, y * f, s * f)
+        };
+        let result = if curves.iter().any(|c| c.param >= phi_c) {
+            Err(anyhow::anyhow!(
+                "phi_c = {phi_c} is not above every {} of the data",
+                p.curve_by
+            ))
+        } else {
+            collapse::collapse(&curves, &["g", "gamma_xi"], &bounds, &rescale)
+                .map_err(anyhow::Error::from)
+        };
+        let (rows, note, best) = match result {
+            Ok(r) => {
+                let (g, dg) = r.get("g").expect("named");
+                let (gx, dgx) = r.get("gamma_xi").expect("named");
+                let cov = r.covariance[0][1];
+                let dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
+                    .max(0.0)
+                    .sqrt();
+                (
+                    vec![
+                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                        ("gamma_xi".to_string(), gx, dgx),
+                        ("gamma_chi".to_string(), g * gx, dgc),
+                        ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                        ("phi_c_used".to_string(), phi_c, 0.0),
+                        ("curves".to_string(), curves.len() as f64, 0.0),
+                    ],
+                    String::new(),
+                    Some([g, gx]),
+                )
+            }
+            Err(e) => {
+                let msg = format!("collapse failed: {e:#}");
+                ctx.log(msg.clone());
+                let names = [
+                    "gamma_chi_over_gamma_xi",
+                    "gamma_xi",
+                    "gamma_chi",
+                    "collapse_S",
+                ];
+                let mut rows: Vec<(String, f64, f64)> = names
+                    .iter()
+                    .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+                    .collect();
+                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+                (rows, msg, None)
+            }
+        };
+        let mut cols: [Vec<f64>; 5] = Default::default();
+        if let Some(q) = best {
+            for cv in &curves {
+                for k in 0..cv.x.len() {
+                    let (x, y, s) = rescale(&q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
+                    for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
+                        col.push(v);
+                    }
+                }
+            }
+        }
+        let [phi, n, x, y, s] = cols;
+        let resc = f64_batch(&[
+            (p.curve_by.as_str(), phi),
+            (p.x.as_str(), n),
+            ("X", x),
+            ("Y", y),
+            ("Y_err", s),
+        ])?;
+        Ok(Output::single(
+            "parquet",
+            to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?,
+        )
+        .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
+    }
+}

@@ -1,0 +1,185 @@
+//! `plot`: a [`crate::plot::Figure`] whose series come from the gathered tables.
+//!
+//! Each panel lists `layers`; a layer reads one stage's table (or another of its
+//! Parquet files, e.g. a fit's `curve.parquet`), keeps the rows passing `where`,
+//! and draws column `y` against `x`, one series per distinct value of `group`
+//! (e.g. one curve per phi) or a single series.
+
+use anyhow::{Context, Result};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::tables::{Columns, Where, inputs_of};
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::plot::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style};
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Layer {
+    /// Stage whose table is drawn.
+    pub from: String,
+    /// Which of its files (default `parquet`; e.g. `curve.parquet`).
+    #[serde(default = "default_file")]
+    pub file: String,
+    pub x: String,
+    pub y: String,
+    #[serde(default)]
+    pub y_err: Option<String>,
+    /// One series per distinct value of this column, labelled by the value.
+    #[serde(default)]
+    pub group: Option<String>,
+    #[serde(default, rename = "where")]
+    pub filter: Where,
+    /// Legend entry of an ungrouped series; prefix of grouped labels.
+    #[serde(default)]
+    pub label: String,
+    #[serde(default)]
+    pub style: Style,
+    #[serde(default)]
+    pub dashed: bool,
+    #[serde(default)]
+    pub color: Option<Color>,
+    #[serde(default)]
+    pub marker: Marker,
+}
+
+fn default_file() -> String {
+    "parquet".into()
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PanelSpec {
+    #[serde(default)]
+    pub title: String,
+    pub x: Axis,
+    pub y: Axis,
+    pub layers: Vec<Layer>,
+    #[serde(default)]
+    pub hlines: Vec<RefLine>,
+    #[serde(default)]
+    pub vlines: Vec<RefLine>,
+    #[serde(default)]
+    pub legend: Legend,
+    #[serde(default)]
+    pub legend_title: String,
+    #[serde(default)]
+    pub palette: Palette,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlotParams {
+    #[serde(default)]
+    pub title: String,
+    pub panels: Vec<PanelSpec>,
+    #[serde(default)]
+    pub columns: Option<usize>,
+    #[serde(default)]
+    pub width: Option<u32>,
+    #[serde(default)]
+    pub height: Option<u32>,
+}
+
+/// The series of one layer.
+fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
+    // An empty table (e.g. the curve of a fit that failed, see its note) draws nothing.
+    if c.rows == 0 {
+        return Ok(Vec::new());
+    }
+    let rows = c.select(&layer.filter)?;
+    let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
+    let e = layer.y_err.as_ref().map(|n| c.col(n)).transpose()?;
+    let g = layer.group.as_ref().map(|n| c.col(n)).transpose()?;
+    let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
+    for &i in &rows {
+        let key = g.map(|g| g[i]).unwrap_or(0.0);
+        match groups.iter_mut().find(|(k, _)| k.total_cmp(&key).is_eq()) {
+            Some((_, v)) => v.push(i),
+            None => groups.push((key, vec![i])),
+        }
+    }
+    groups.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut out = Vec::new();
+    for (key, mut idx) in groups {
+        idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+        let label = match &layer.group {
+            // Three decimals are enough to tell phi (0.785) or t0 apart in a legend.
+            Some(_) => format!("{}{}", layer.label, (key * 1e3).round() / 1e3),
+            None => layer.label.clone(),
+        };
+        out.push(Series {
+            label,
+            x: idx.iter().map(|&i| x[i]).collect(),
+            y: idx.iter().map(|&i| y[i]).collect(),
+            y_err: e.map(|e| idx.iter().map(|&i| e[i]).collect()),
+            style: layer.style,
+            dashed: layer.dashed,
+            color: layer.color,
+            marker: layer.marker,
+        });
+    }
+    Ok(out)
+}
+
+/// The figure from the parameters and the inputs.
+pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
+    let mut panels = Vec::new();
+    for (k, ps) in p.panels.iter().enumerate() {
+        let mut all = Vec::new();
+        for layer in &ps.layers {
+            let arts = inputs_of("plot", inputs, &layer.from)?;
+            let c = Columns::read_file(&arts, &layer.file)
+                .with_context(|| format!("plot: panel {} layer from '{}'", k + 1, layer.from))?;
+            all.extend(series(layer, &c)?.into_iter().filter(|s| !s.x.is_empty()));
+        }
+        panels.push(Panel {
+            title: ps.title.clone(),
+            x: ps.x.clone(),
+            y: ps.y.clone(),
+            series: all,
+            hlines: ps.hlines.clone(),
+            vlines: ps.vlines.clone(),
+            legend: ps.legend,
+            legend_title: ps.legend_title.clone(),
+            palette: ps.palette,
+        });
+    }
+    let n = panels.len().max(1) as u32;
+    let cols = p.columns.unwrap_or(n as usize).max(1) as u32;
+    let rows = n.div_ceil(cols);
+    let fig = Figure {
+        title: p.title.clone(),
+        panels,
+        columns: p.columns,
+        width: p.width.unwrap_or(560 * cols),
+        height: p.height.unwrap_or(440 * rows),
+    };
+    fig.validate()?;
+    Ok(fig)
+}
+
+pub struct Plot;
+
+impl StageKind for Plot {
+    fn name(&self) -> &str {
+        "plot"
+    }
+    fn describe(&self) -> &str {
+        "draw a figure (SVG and PNG) from the gathered tables, one series per group"
+    }
+    fn modules(&self) -> &[&str] {
+        &["plot", "table", "stages/plot", "stages/tables"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        typed::<PlotParams>("plot", params).map(|_| ())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: PlotParams = typed("plot", params)?;
+        let fig = figure(&p, inputs)?;
+        let svg = crate::plot::draw_svg_string(&fig)?;
+        let png = crate::plot::draw_png_bytes(&fig)?;
+        Ok(Output::single("svg", svg.into_bytes()).with("png", png))
+    }
+}

@@ -1,0 +1,225 @@
+//! `simulate`: one replica at one parameter point, as a trajectory (Parquet) and a
+//! run summary (JSON).
+//!
+//! Run lengths follow tau_alpha: relaxing >= 9 tau_alpha (paper H) and lags up to
+//! 10 tau_alpha need a length that grows by 10^3 over the phi sweep, so the spec
+//! gives an *estimate* tau_guess(phi) = A exp[B / (phi0 - phi)] (a VFT law fitted
+//! once to measured tau_alpha) and lengths in units of it:
+//!
+//! - relaxation `relax_tau` x tau_guess (at least `relax_min`);
+//! - `origins` time origins spaced by `spacing_tau` x tau_guess;
+//! - after each origin, `lags_per_decade` log-spaced lags from `lag_min` to
+//!   `lag_max_tau` x tau_guess.
+//!
+//! Every other parameter is a [`SimConfig`] field (n, phi, eps, seed, ...).
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::sim::{self, SimConfig};
+use crate::traj::Schedule;
+
+/// An estimate of tau_alpha(phi): A exp[B / (phi0 - phi)].
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TauGuess {
+    #[serde(rename = "A")]
+    pub a: f64,
+    #[serde(rename = "B")]
+    pub b: f64,
+    pub phi0: f64,
+}
+
+impl TauGuess {
+    pub fn at(&self, phi: f64) -> f64 {
+        self.a * (self.b / (self.phi0 - phi)).exp()
+    }
+}
+
+/// The run-length rule (keys of the stage parameters besides the SimConfig ones).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RunLength {
+    pub tau_guess: TauGuess,
+    pub relax_tau: f64,
+    #[serde(default)]
+    pub relax_min: f64,
+    pub origins: usize,
+    pub spacing_tau: f64,
+    pub lag_min: f64,
+    pub lag_max_tau: f64,
+    pub lags_per_decade: usize,
+}
+
+const RULE_KEYS: &[&str] = &[
+    "tau_guess",
+    "relax_tau",
+    "relax_min",
+    "origins",
+    "spacing_tau",
+    "lag_min",
+    "lag_max_tau",
+    "lags_per_decade",
+];
+
+impl RunLength {
+    /// Relaxation time and frame schedule at packing fraction `phi`.
+    pub fn schedule(&self, phi: f64) -> (f64, Schedule) {
+        let tau = self.tau_guess.at(phi);
+        let lag_max = (self.lag_max_tau * tau).max(self.lag_min * 10.0);
+        (
+            (self.relax_tau * tau).max(self.relax_min),
+            Schedule {
+                start: 0.0,
+                origins: self.origins,
+                origin_spacing: self.spacing_tau * tau,
+                lags: Schedule::log_lags(self.lag_min, lag_max, self.lags_per_decade),
+            },
+        )
+    }
+
+    fn check(&self) -> Result<()> {
+        let g = &self.tau_guess;
+        for (name, v) in [
+            ("tau_guess.A", g.a),
+            ("relax_tau", self.relax_tau),
+            ("spacing_tau", self.spacing_tau),
+            ("lag_min", self.lag_min),
+            ("lag_max_tau", self.lag_max_tau),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("simulate: `{name}` = {v} must be a finite number > 0");
+            }
+        }
+        if !(g.b.is_finite() && g.b >= 0.0 && g.phi0.is_finite()) {
+            bail!(
+                "simulate: tau_guess needs B >= 0 and a finite phi0, got B = {}, phi0 = {}",
+                g.b,
+                g.phi0
+            );
+        }
+        if self.origins == 0 || self.lags_per_decade == 0 {
+            bail!("simulate: `origins` and `lags_per_decade` must be at least 1");
+        }
+        Ok(())
+    }
+}
+
+/// Split the stage parameters into the run-length rule and the SimConfig.
+pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
+    let obj = params
+        .as_object()
+        .context("simulate: parameters must be a map")?;
+    let (rule, rest): (Map<String, Value>, Map<String, Value>) = obj
+        .clone()
+        .into_iter()
+        .partition(|(k, _)| RULE_KEYS.contains(&k.as_str()));
+    let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
+    rule.check()?;
+    let mut cfg: SimConfig = serde_json::from_value(Value::Object(rest.clone())).with_context(|| {
+        format!(
+            "invalid parameters for stage kind 'simulate': {}; valid keys are the SimConfig fields \
+             (n, phi, eps, radius_ratio, ...) and the run-length rule ({})",
+            Value::Object(rest),
+            RULE_KEYS.join(", ")
+        )
+    })?;
+    let phi = cfg.phi;
+    // NaN-safe: a NaN phi is rejected too.
+    if phi.partial_cmp(&rule.tau_guess.phi0) != Some(std::cmp::Ordering::Less) {
+        bail!(
+            "simulate: phi = {phi} is at or beyond tau_guess.phi0 = {}, where the run-length rule diverges",
+            rule.tau_guess.phi0
+        );
+    }
+    (cfg.relax_time, cfg.schedule) = rule.schedule(phi);
+    cfg.validate()?;
+    Ok((rule, cfg))
+}
+
+pub struct Simulate;
+
+impl StageKind for Simulate {
+    fn name(&self) -> &str {
+        "simulate"
+    }
+    fn describe(&self) -> &str {
+        "one seeded event-driven simulation: trajectory (Parquet) and run summary (JSON)"
+    }
+    fn modules(&self) -> &[&str] {
+        &["sim", "traj", "table/trajectory", "stages/simulate"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        config(params).map(|_| ())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
+        let (_, cfg) = config(params)?;
+        let report = |p: sim::Progress| {
+            ctx.progress(
+                p.time,
+                p.end,
+                &format!(
+                    "{:?} t = {:.1}/{:.1}, {:.2e} events/s",
+                    p.stage, p.time, p.end, p.events_per_second
+                ),
+            )
+        };
+        let (traj, summary) = sim::run(&cfg, &report)?;
+        ctx.log(format!(
+            "n = {}, phi = {}, T = {:.4}, {} collisions, {:.1} CPU s, {} guard activations",
+            summary.n,
+            summary.phi,
+            summary.temperature,
+            summary.collisions,
+            summary.cpu_seconds,
+            summary.guard_activations
+        ));
+        Ok(Output::single(
+            "parquet",
+            crate::table::trajectory::to_parquet_bytes(&traj)?,
+        )
+        .with("json", serde_json::to_vec_pretty(&summary)?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> Value {
+        serde_json::json!({
+            "n": 100, "phi": 0.7, "eps": 0.9, "seed": 3,
+            "tau_guess": {"A": 0.1, "B": 1.0, "phi0": 0.8},
+            "relax_tau": 9.0, "origins": 3, "spacing_tau": 2.0,
+            "lag_min": 0.1, "lag_max_tau": 10.0, "lags_per_decade": 4
+        })
+    }
+
+    #[test]
+    fn run_lengths_scale_with_the_tau_estimate() {
+        let (rule, cfg) = config(&params()).unwrap();
+        let tau = 0.1 * (1.0f64 / 0.1).exp();
+        assert!((cfg.relax_time - 9.0 * tau).abs() < 1e-9 * tau);
+        assert!((cfg.schedule.origin_spacing - 2.0 * tau).abs() < 1e-9 * tau);
+        let last = *cfg.schedule.lags.last().unwrap();
+        assert!((last - 10.0 * tau).abs() < 1e-9 * last);
+        assert_eq!(rule.origins, cfg.schedule.origins);
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let mut p = params();
+        p["phi"] = serde_json::json!(0.81);
+        assert!(format!("{:#}", config(&p).unwrap_err()).contains("phi0"));
+        let mut p = params();
+        p["colour"] = serde_json::json!(1);
+        let e = format!("{:#}", config(&p).unwrap_err());
+        assert!(e.contains("colour") && e.contains("SimConfig"), "{e}");
+        let mut p = params();
+        p["relax_tau"] = serde_json::json!(-1.0);
+        assert!(format!("{:#}", config(&p).unwrap_err()).contains("relax_tau"));
+    }
+}

@@ -1,0 +1,282 @@
+//! What the adapters share: reading trajectories and tables from upstream
+//! artifacts, picking an input by the stage that made it, and row filters.
+
+use std::collections::BTreeMap;
+
+use anyhow::{Context, Result, bail};
+use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
+use serde::Deserialize;
+
+use crate::pipeline::Artifact;
+use crate::traj::Trajectory;
+
+/// The lags every time origin of every replica realises: the schedule's own
+/// log-spaced lags. Differences between frames of different origins also match
+/// some lags, but with fewer samples; mixing them in makes curves jagged.
+pub fn every_origin_lags(
+    trajs: &[Trajectory],
+    requested: Option<Vec<f64>>,
+    rel_tol: f64,
+) -> Result<Option<Vec<f64>>> {
+    if requested.is_some() {
+        return Ok(requested);
+    }
+    let refs: Vec<&Trajectory> = trajs.iter().collect();
+    let lags = crate::analysis::lags::select(&refs, None, rel_tol)?;
+    // The shortest lag is realised once per origin and replica, and only then.
+    let every = lags.first().map(|l| l.pairs.len()).unwrap_or(0);
+    Ok(Some(
+        lags.iter()
+            .filter(|l| l.pairs.len() >= every)
+            .map(|l| l.t)
+            .collect(),
+    ))
+}
+
+/// The stage name in an artifact label: `fig4/tau[phi=0.6]` -> `tau`,
+/// `eps09[phi=0.6,replica=0]` -> `eps09` (an experiment).
+pub fn stage_of(label: &str) -> &str {
+    let head = label.split('[').next().unwrap_or(label);
+    head.rsplit('/').next().unwrap_or(head)
+}
+
+/// Every input that is a simulated trajectory, decoded.
+pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> {
+    let sims: Vec<&Artifact> = inputs.iter().filter(|a| a.kind == "simulate").collect();
+    if sims.is_empty() {
+        bail!(
+            "{kind}: no simulated trajectory among the inputs ({}); gather a `simulate` experiment",
+            inputs
+                .iter()
+                .map(|a| a.label.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    sims.iter()
+        .map(|a| {
+            crate::table::trajectory::from_parquet_bytes(a.read("parquet")?)
+                .with_context(|| format!("{kind}: decoding the trajectory of {}", a.label))
+        })
+        .collect()
+}
+
+/// The inputs produced by stage `name`.
+pub fn inputs_of<'a>(kind: &str, inputs: &'a [Artifact], name: &str) -> Result<Vec<&'a Artifact>> {
+    let v: Vec<&Artifact> = inputs
+        .iter()
+        .filter(|a| stage_of(&a.label) == name)
+        .collect();
+    if v.is_empty() {
+        let mut known: Vec<&str> = inputs.iter().map(|a| stage_of(&a.label)).collect();
+        known.dedup();
+        bail!(
+            "{kind}: no input comes from stage '{name}'; the inputs come from: {} (add it to `gather`)",
+            known.join(", ")
+        );
+    }
+    Ok(v)
+}
+
+/// A table of float columns (string columns are kept separately).
+#[derive(Clone, Debug, Default)]
+pub struct Columns {
+    pub rows: usize,
+    pub f64: BTreeMap<String, Vec<f64>>,
+    pub str: BTreeMap<String, Vec<String>>,
+    pub source: String,
+}
+
+impl Columns {
+    /// All record batches of the `parquet` files of `arts`, concatenated.
+    pub fn read(arts: &[&Artifact]) -> Result<Columns> {
+        Self::read_file(arts, "parquet")
+    }
+
+    /// All record batches of the files with extension `ext` of `arts`, concatenated,
+    /// with each artifact's numeric point values (phi, ...) added as columns.
+    pub fn read_file(arts: &[&Artifact], ext: &str) -> Result<Columns> {
+        let mut c = Columns {
+            source: arts
+                .iter()
+                .map(|a| a.label.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            ..Columns::default()
+        };
+        for a in arts {
+            let (batches, _) = crate::table::read_parquet_bytes(a.read(ext)?)
+                .with_context(|| format!("reading the table of {}", a.label))?;
+            for b in batches {
+                let rows = c.rows;
+                c.push(&b)?;
+                // The producing stage's point (phi, ...) as columns, unless present.
+                for (k, v) in &a.point {
+                    if let Some(x) = v.as_f64()
+                        && b.schema().column_with_name(k).is_none()
+                    {
+                        let col = c.f64.entry(k.clone()).or_default();
+                        col.resize(rows, f64::NAN);
+                        col.resize(c.rows, x);
+                    }
+                }
+            }
+        }
+        for v in c.f64.values_mut() {
+            v.resize(c.rows, f64::NAN);
+        }
+        for v in c.str.values_mut() {
+            v.resize(c.rows, String::new());
+        }
+        Ok(c)
+    }
+
+    /// One record batch as columns.
+    pub fn from_batch(b: &RecordBatch) -> Result<Columns> {
+        let mut c = Columns {
+            source: "a computed table".into(),
+            ..Columns::default()
+        };
+        c.push(b)?;
+        Ok(c)
+    }
+
+    fn push(&mut self, b: &RecordBatch) -> Result<()> {
+        for (f, col) in b.schema().fields().iter().zip(b.columns()) {
+            if let Some(x) = col.as_any().downcast_ref::<Float64Array>() {
+                let v = self.f64.entry(f.name().clone()).or_default();
+                v.resize(self.rows, f64::NAN);
+                v.extend((0..x.len()).map(|i| if x.is_null(i) { f64::NAN } else { x.value(i) }));
+            } else if let Some(x) = col.as_any().downcast_ref::<StringArray>() {
+                let v = self.str.entry(f.name().clone()).or_default();
+                v.resize(self.rows, String::new());
+                v.extend((0..x.len()).map(|i| x.value(i).to_string()));
+            }
+        }
+        self.rows += b.num_rows();
+        Ok(())
+    }
+
+    /// Column `name` as floats, or an error listing the columns there are.
+    pub fn col(&self, name: &str) -> Result<&[f64]> {
+        self.f64.get(name).map(|v| v.as_slice()).with_context(|| {
+            format!(
+                "table from {} has no numeric column '{name}'; its columns: {}",
+                self.source,
+                self.f64.keys().cloned().collect::<Vec<_>>().join(", ")
+            )
+        })
+    }
+
+    /// Row indices passing `filter`.
+    pub fn select(&self, filter: &Where) -> Result<Vec<usize>> {
+        let mut keep = vec![true; self.rows];
+        for (name, cond) in filter {
+            let c = self.col(name)?;
+            for (k, &v) in keep.iter_mut().zip(c) {
+                *k &= cond.accepts(v);
+            }
+        }
+        Ok((0..self.rows).filter(|&i| keep[i]).collect())
+    }
+
+    /// Value of a `quantity` row of a fit table (columns quantity, value, error).
+    pub fn quantity(&self, name: &str) -> Result<(f64, f64)> {
+        let q = self.str.get("quantity").with_context(|| {
+            format!(
+                "table from {} has no 'quantity' column (not a fit table)",
+                self.source
+            )
+        })?;
+        let i = q.iter().position(|s| s == name).with_context(|| {
+            format!(
+                "fit table from {} reports no quantity '{name}'; it has: {}",
+                self.source,
+                q.join(", ")
+            )
+        })?;
+        Ok((self.col("value")?[i], self.col("error")?[i]))
+    }
+}
+
+/// A condition on one column: equal to a value (within 1e-9 relative), or in a range.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Cond {
+    Equal(f64),
+    Range {
+        #[serde(default)]
+        min: Option<f64>,
+        #[serde(default)]
+        max: Option<f64>,
+    },
+    OneOf(Vec<f64>),
+}
+
+impl Cond {
+    pub fn accepts(&self, v: f64) -> bool {
+        let eq = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-300);
+        match self {
+            Cond::Equal(x) => eq(v, *x),
+            Cond::Range { min, max } => {
+                min.is_none_or(|m| v >= m - 1e-12) && max.is_none_or(|m| v <= m + 1e-12)
+            }
+            Cond::OneOf(xs) => xs.iter().any(|&x| eq(v, x)),
+        }
+    }
+}
+
+/// Row filter: every listed column must satisfy its condition.
+pub type Where = BTreeMap<String, Cond>;
+
+/// The values of `v` at `rows`.
+pub fn pick(v: &[f64], rows: &[usize]) -> Vec<f64> {
+    rows.iter().map(|&i| v[i]).collect()
+}
+
+/// Linear interpolation of y in ln t at `t0` (t ascending); None outside the samples.
+pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
+    if t0.is_nan() || t0 <= 0.0 || t.len() < 2 || t0 < t[0] || t0 > t[t.len() - 1] {
+        return None;
+    }
+    let k = t.partition_point(|&x| x <= t0).clamp(1, t.len() - 1);
+    let (la, lb) = (t[k - 1].ln(), t[k].ln());
+    let s = if lb > la {
+        (t0.ln() - la) / (lb - la)
+    } else {
+        0.0
+    };
+    Some(y[k - 1] + s * (y[k] - y[k - 1]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stage_names_from_labels() {
+        assert_eq!(stage_of("fig4/tau[phi=0.6]"), "tau");
+        assert_eq!(stage_of("fig4/taufit"), "taufit");
+        assert_eq!(stage_of("eps09[phi=0.6,replica=0]"), "eps09");
+    }
+
+    #[test]
+    fn conditions_select_rows() {
+        assert!(Cond::Equal(0.78).accepts(0.78));
+        assert!(!Cond::Equal(0.78).accepts(0.785));
+        let r = Cond::Range {
+            min: None,
+            max: Some(0.80),
+        };
+        assert!(r.accepts(0.80) && !r.accepts(0.805));
+        assert!(Cond::OneOf(vec![0.6, 0.7]).accepts(0.7));
+    }
+
+    #[test]
+    fn log_interpolation_is_exact_for_log_linear_data() {
+        let t = [1.0, 10.0, 100.0];
+        let y = [0.0, 1.0, 2.0];
+        assert!((interp_log_t(&t, &y, 10f64.sqrt()).unwrap() - 0.5).abs() < 1e-12);
+        assert_eq!(interp_log_t(&t, &y, 1000.0), None);
+    }
+}
