@@ -170,11 +170,7 @@ impl Engine {
             2.0 * rmax
         );
         let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
-        let shell = std::env::var("SHELLF")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(SHELL_FRACTION)
-            * rmin;
+        let shell = SHELL_FRACTION * rmin;
         // Disks of radius r - shell around the list centres never overlap, and those
         // in a list lie within r_i + 2 r_max + shell of the centre: an area bound.
         let cap = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
