@@ -103,6 +103,8 @@ pub struct Engine {
     wx: f64,
     wy: f64,
     head: Vec<u32>,
+    /// Number of disks in each cell (kick partners are drawn without a walk).
+    occupancy: Vec<u32>,
     d: Vec<Disk>,
     prev: Vec<u32>,
     cell: Vec<u32>,
@@ -200,6 +202,7 @@ impl Engine {
             wx: s.lx / ncx as f64,
             wy: s.ly / ncy as f64,
             head: vec![NONE; ncx * ncy],
+            occupancy: vec![0; ncx * ncy],
             d,
             prev: vec![NONE; n],
             cell: vec![0; n],
@@ -249,15 +252,17 @@ impl Engine {
     pub fn bytes(&self) -> usize {
         let n = self.n();
         // Disk (64) + prev, cell, ev_p, ev_c (u32) + imx, imy (i32) + last_collision
-        // (f64) + species (u8) + list length (u8) and centre (2 f64).
+        // (f64) + species (u8) + list length (u8) and centre (2 f64); per cell, head
+        // and occupancy (u32).
         n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1 + 1 + 16)
             + self.nb.len() * 4
-            + self.head.len() * 4
+            + self.head.len() * 8
             + self.tree.bytes()
     }
 
     fn rebuild_cells(&mut self) {
         self.head.fill(NONE);
+        self.occupancy.fill(0);
         for i in 0..self.n() {
             let c = self.cell_of(self.d[i].x, self.d[i].y);
             self.insert(i, c);
@@ -455,10 +460,12 @@ impl Engine {
         }
         self.head[c] = i as u32;
         self.cell[i] = c as u32;
+        self.occupancy[c] += 1;
     }
 
     fn remove(&mut self, i: usize) {
         let (p, nx) = (self.prev[i], self.d[i].next);
+        self.occupancy[self.cell[i] as usize] -= 1;
         if p != NONE {
             self.d[p as usize].next = nx;
         } else {
@@ -835,26 +842,52 @@ impl Engine {
     }
 
     /// A uniformly chosen other particle from the 3x3 cells around `i`, if any.
+    /// The cell occupancies give the total and the cell of the chosen disk, so
+    /// only that cell is walked.
     fn random_neighbour(&mut self, i: usize) -> Option<usize> {
         let c = self.cell[i] as usize;
-        let (cx, cy) = (c % self.ncx, c / self.ncx);
-        let mut total = 0usize;
-        self.for_neighbour_cells(cx, cy, |_, j, _, _| total += usize::from(j != i));
+        let cells = self.neighbour_cells(c);
+        // `i` itself is in its own cell and never chosen.
+        let total = cells
+            .iter()
+            .map(|&k| self.occupancy[k] as usize)
+            .sum::<usize>()
+            - 1;
         if total == 0 {
             return None;
         }
         let mut k = self.rng.random_range(0..total);
-        let mut found = None;
-        self.for_neighbour_cells(cx, cy, |_, j, _, _| {
-            if j != i && found.is_none() {
-                if k == 0 {
-                    found = Some(j);
-                } else {
+        for cell in cells {
+            let m = self.occupancy[cell] as usize - usize::from(cell == c);
+            if k >= m {
+                k -= m;
+                continue;
+            }
+            let mut j = self.head[cell];
+            loop {
+                if j as usize != i {
+                    if k == 0 {
+                        return Some(j as usize);
+                    }
                     k -= 1;
                 }
+                j = self.d[j as usize].next;
             }
-        });
-        found
+        }
+        unreachable!("the draw is below the number of neighbours")
+    }
+
+    /// The 3x3 cells around cell `c`, in the order [`Self::for_neighbour_cells`]
+    /// visits them.
+    fn neighbour_cells(&self, c: usize) -> [usize; 9] {
+        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        let mut out = [0; 9];
+        for (k, o) in out.iter_mut().enumerate() {
+            let (ny, _) = Self::wrap(cy, k as isize / 3 - 1, self.ncy, self.ly);
+            let (nx, _) = Self::wrap(cx, k as isize % 3 - 1, self.ncx, self.lx);
+            *o = ny * self.ncx + nx;
+        }
+        out
     }
 
     /// Call `f(self, j, shift_x, shift_y)` for every disk `j` of the 3x3 cells
