@@ -26,6 +26,9 @@ const NONE: u32 = u32::MAX;
 const CROSS: u32 = u32::MAX - 8;
 /// Partner code of "leave the neighbour-list shell".
 const SHELL: u32 = CROSS + 4;
+/// Starting list capacity per disk: lists hold 5-6 disks on average at
+/// phi = 0.78-0.84 and at most 8 were seen; a longer list doubles the capacity.
+const LIST_CAPACITY: usize = 12;
 /// Shell half-width as a fraction of the smallest radius: wider shells mean fewer
 /// list rebuilds but longer lists (measured in docs/sim.md).
 const SHELL_FRACTION: f64 = 0.3;
@@ -123,8 +126,12 @@ pub struct Engine {
     lists: bool,
     /// Shell half-width: how far a disk may move from its list centre.
     shell: f64,
-    /// List capacity per disk (a packing bound, so it never overflows).
+    /// List capacity per disk; it doubles when a list overflows, up to `cap_max`.
     cap: usize,
+    /// A packing bound on the list length: lists never exceed it.
+    cap_max: usize,
+    /// A list was full when a disk had to be added: grow and rebuild.
+    overflow: bool,
     /// Neighbour list of disk `i`: `nb[i cap .. i cap + nn[i]]`.
     nb: Vec<u32>,
     nn: Vec<u8>,
@@ -175,11 +182,12 @@ impl Engine {
         let shell = SHELL_FRACTION * rmin;
         // Disks of radius r - shell around the list centres never overlap, and those
         // in a list lie within r_i + 2 r_max + shell of the centre: an area bound.
-        let cap = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
+        let cap_max = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
             .powi(2)
             .floor() as usize
             + 4)
         .min(u8::MAX as usize);
+        let cap = LIST_CAPACITY.min(cap_max);
         let lists_fit = ncx >= 5 && ncy >= 5;
         let d = (0..n)
             .map(|i| Disk {
@@ -218,6 +226,8 @@ impl Engine {
             lists: false,
             shell,
             cap,
+            cap_max,
+            overflow: false,
             nb: if lists_fit {
                 vec![NONE; n * cap]
             } else {
@@ -653,7 +663,19 @@ impl Engine {
         self.ox[i] = self.d[i].x;
         self.oy[i] = self.d[i].y;
         self.scan_list(i, true);
-        self.predict(i);
+        if self.overflow {
+            self.grow_lists(2 * self.cap);
+        } else {
+            self.predict(i);
+        }
+    }
+
+    /// Give every list room for `cap` disks (at most the packing bound) and
+    /// rebuild them all, with every event predicted anew.
+    fn grow_lists(&mut self, cap: usize) {
+        self.cap = cap.min(self.cap_max);
+        self.nb = vec![NONE; self.n() * self.cap];
+        self.reschedule_all();
     }
 
     /// Remove `i` from the list of `j`.
@@ -671,10 +693,10 @@ impl Engine {
 
     fn push_list(&mut self, i: usize, j: usize) {
         let m = self.nn[i] as usize;
-        assert!(
-            m < self.cap,
-            "neighbour list of disk {i} overflows its packing bound"
-        );
+        if m == self.cap {
+            self.overflow = true;
+            return;
+        }
         self.nb[i * self.cap + m] = j as u32;
         self.nn[i] += 1;
     }
@@ -721,10 +743,34 @@ impl Engine {
             self.ox[i] = self.d[i].x;
             self.oy[i] = self.d[i].y;
         }
-        self.nn.fill(0);
-        for i in 0..self.n() {
-            self.scan_list(i, false);
+        loop {
+            self.overflow = false;
+            self.nn.fill(0);
+            for i in 0..self.n() {
+                self.scan_list(i, false);
+            }
+            if !self.overflow {
+                return;
+            }
+            assert!(
+                self.cap < self.cap_max,
+                "a neighbour list exceeds its packing bound {}: overlapping disks",
+                self.cap_max
+            );
+            self.cap = (2 * self.cap).min(self.cap_max);
+            self.nb = vec![NONE; self.n() * self.cap];
         }
+    }
+
+    /// Start the lists over with capacity `cap` (to exercise their growth).
+    #[cfg(test)]
+    pub(crate) fn set_list_capacity(&mut self, cap: usize) {
+        self.grow_lists(cap);
+    }
+
+    /// Current list capacity per disk.
+    pub fn list_capacity(&self) -> usize {
+        self.cap
     }
 
     #[inline]

@@ -69,6 +69,26 @@ fn no_overlap_after_any_event_at_phi_0_8() {
 }
 
 #[test]
+fn neighbour_lists_grow_when_full_and_stay_complete() {
+    let c = cfg(300, 0.8, 0.9);
+    let mut e = driven_engine(&c);
+    // Lists of 5-6 disks do not fit in 1 slot: the rebuild doubles it until they do.
+    e.set_list_capacity(1);
+    assert!(e.list_capacity() >= 4, "capacity {}", e.list_capacity());
+    for ev in 0..20_000 {
+        e.run_until(f64::INFINITY, 1);
+        if let Some((i, j, ov)) = e.worst_overlap(1e-9) {
+            panic!("event {ev}: disks {i} and {j} overlap by {ov:e} of their contact distance");
+        }
+        if ev % 500 == 0 {
+            if let Err(msg) = e.check_lists() {
+                panic!("event {ev}: {msg}");
+            }
+        }
+    }
+}
+
+#[test]
 fn elastic_gas_conserves_energy_and_momentum_over_a_million_collisions() {
     let mut c = cfg(2000, 0.7, 1.0);
     c.drive = Drive::None;
