@@ -53,10 +53,10 @@ fn no_overlap_after_any_event_at_phi_0_8() {
         if let Some((i, j, ov)) = e.worst_overlap(1e-9) {
             panic!("event {ev}: disks {i} and {j} overlap by {ov:e} of their contact distance");
         }
-        if ev % 1000 == 0 {
-            if let Err(msg) = e.check_lists() {
-                panic!("event {ev}: {msg}");
-            }
+        if ev % 1000 == 0
+            && let Err(msg) = e.check_lists()
+        {
+            panic!("event {ev}: {msg}");
         }
     }
     let shell_exits = e.stats.shell_exits - s0;
@@ -80,10 +80,10 @@ fn neighbour_lists_grow_when_full_and_stay_complete() {
         if let Some((i, j, ov)) = e.worst_overlap(1e-9) {
             panic!("event {ev}: disks {i} and {j} overlap by {ov:e} of their contact distance");
         }
-        if ev % 500 == 0 {
-            if let Err(msg) = e.check_lists() {
-                panic!("event {ev}: {msg}");
-            }
+        if ev % 500 == 0
+            && let Err(msg) = e.check_lists()
+        {
+            panic!("event {ev}: {msg}");
         }
     }
 }
