@@ -7,6 +7,13 @@
 //! with doubly linked cells; lazy positions (each particle stores the time its
 //! position refers to); structure-of-arrays storage; nothing is allocated inside
 //! the loop. Radii may grow linearly in time (Lubachevsky-Stillinger compression).
+//!
+//! Once radii are fixed, collisions are predicted from neighbour lists with a
+//! shell (Smallenburg): disk `i` stays within `shell` of its list centre `o_i`, and
+//! its list holds every `j` with `|o_i - o_j| < sigma_ij + 2 shell`, so a pair can
+//! only touch while it is in both lists. Leaving the shell is an event that
+//! rebuilds that one disk's list (from the cell list). The cell list stays for
+//! the rebuilds and for choosing kick partners.
 
 use super::tree::EventTree;
 use rand::{RngExt, SeedableRng};
@@ -17,6 +24,14 @@ const NONE: u32 = u32::MAX;
 /// Partner codes >= CROSS mean "leave the cell" in direction `code - CROSS`
 /// (0: +x, 1: -x, 2: +y, 3: -y).
 const CROSS: u32 = u32::MAX - 8;
+/// Partner code of "leave the neighbour-list shell".
+const SHELL: u32 = CROSS + 4;
+/// Starting list capacity per disk: lists hold 5-6 disks on average at
+/// phi = 0.78-0.84 and at most 8 were seen; a longer list doubles the capacity.
+const LIST_CAPACITY: usize = 12;
+/// Shell half-width as a fraction of the smallest radius: wider shells mean fewer
+/// list rebuilds but longer lists (measured in docs/sim.md).
+const SHELL_FRACTION: f64 = 0.3;
 
 /// How pairs receive kicks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,6 +75,8 @@ pub struct Stats {
     pub dissipated: f64,
     /// Collisional virial sum over collisions of r_ij . dp_i (for the pressure).
     pub virial: f64,
+    /// Neighbour lists rebuilt because a disk left its shell.
+    pub shell_exits: u64,
 }
 
 /// The state of one disk that every collision prediction reads, packed in one
@@ -89,6 +106,8 @@ pub struct Engine {
     wx: f64,
     wy: f64,
     head: Vec<u32>,
+    /// Number of disks in each cell (kick partners are drawn without a walk).
+    occupancy: Vec<u32>,
     d: Vec<Disk>,
     prev: Vec<u32>,
     cell: Vec<u32>,
@@ -102,6 +121,23 @@ pub struct Engine {
     ev_p: Vec<u32>,
     ev_c: Vec<u32>,
     tree: EventTree,
+    /// Neighbour lists are used (radii fixed and a box of at least 5x5 cells);
+    /// otherwise every prediction scans the 3x3 cells.
+    lists: bool,
+    /// Shell half-width: how far a disk may move from its list centre.
+    shell: f64,
+    /// List capacity per disk; it doubles when a list overflows, up to `cap_max`.
+    cap: usize,
+    /// A packing bound on the list length: lists never exceed it.
+    cap_max: usize,
+    /// A list was full when a disk had to be added: grow and rebuild.
+    overflow: bool,
+    /// Neighbour list of disk `i`: `nb[i cap .. i cap + nn[i]]`.
+    nb: Vec<u32>,
+    nn: Vec<u8>,
+    /// List centres (wrapped positions at the last rebuild).
+    ox: Vec<f64>,
+    oy: Vec<f64>,
     /// Current simulated time.
     pub now: f64,
     pub eps: f64,
@@ -142,6 +178,17 @@ impl Engine {
             s.ly,
             2.0 * rmax
         );
+        let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
+        let shell = SHELL_FRACTION * rmin;
+        // Disks of radius r - shell around the list centres never overlap, and those
+        // in a list lie within r_i + 2 r_max + shell of the centre: an area bound.
+        let cap_max = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
+            .powi(2)
+            .floor() as usize
+            + 4)
+        .min(u8::MAX as usize);
+        let cap = LIST_CAPACITY.min(cap_max);
+        let lists_fit = ncx >= 5 && ncy >= 5;
         let d = (0..n)
             .map(|i| Disk {
                 x: s.x[i].rem_euclid(s.lx),
@@ -163,6 +210,7 @@ impl Engine {
             wx: s.lx / ncx as f64,
             wy: s.ly / ncy as f64,
             head: vec![NONE; ncx * ncy],
+            occupancy: vec![0; ncx * ncy],
             d,
             prev: vec![NONE; n],
             cell: vec![0; n],
@@ -175,6 +223,19 @@ impl Engine {
             ev_p: vec![NONE; n],
             ev_c: vec![0; n],
             tree: EventTree::new(n),
+            lists: false,
+            shell,
+            cap,
+            cap_max,
+            overflow: false,
+            nb: if lists_fit {
+                vec![NONE; n * cap]
+            } else {
+                Vec::new()
+            },
+            nn: vec![0; n],
+            ox: vec![0.0; n],
+            oy: vec![0.0; n],
             now: 0.0,
             eps,
             tc,
@@ -201,14 +262,17 @@ impl Engine {
     pub fn bytes(&self) -> usize {
         let n = self.n();
         // Disk (64) + prev, cell, ev_p, ev_c (u32) + imx, imy (i32) + last_collision
-        // (f64) + species (u8).
-        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1)
-            + self.head.len() * 4
+        // (f64) + species (u8) + list length (u8) and centre (2 f64); per cell, head
+        // and occupancy (u32).
+        n * (std::mem::size_of::<Disk>() + 4 * 4 + 2 * 4 + 8 + 1 + 1 + 16)
+            + self.nb.len() * 4
+            + self.head.len() * 8
             + self.tree.bytes()
     }
 
     fn rebuild_cells(&mut self) {
         self.head.fill(NONE);
+        self.occupancy.fill(0);
         for i in 0..self.n() {
             let c = self.cell_of(self.d[i].x, self.d[i].y);
             self.insert(i, c);
@@ -343,7 +407,9 @@ impl Engine {
             }
             self.now = te;
             let p = self.ev_p[i];
-            if p >= CROSS {
+            if p == SHELL {
+                self.shell_exit(i);
+            } else if p >= CROSS {
                 self.cross(i, p - CROSS);
             } else if self.d[p as usize].count != self.ev_c[i] {
                 self.stats.stale_events += 1;
@@ -378,6 +444,10 @@ impl Engine {
         for d in &mut self.d {
             d.count = d.count.wrapping_add(1);
         }
+        self.lists = !self.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0;
+        if self.lists {
+            self.build_all_lists();
+        }
         for i in 0..self.n() {
             let t = self.find_event(i);
             self.tree.set_lazy(i, t);
@@ -400,10 +470,12 @@ impl Engine {
         }
         self.head[c] = i as u32;
         self.cell[i] = c as u32;
+        self.occupancy[c] += 1;
     }
 
     fn remove(&mut self, i: usize) {
         let (p, nx) = (self.prev[i], self.d[i].next);
+        self.occupancy[self.cell[i] as usize] -= 1;
         if p != NONE {
             self.d[p as usize].next = nx;
         } else {
@@ -473,6 +545,26 @@ impl Engine {
             (ty, CROSS + if a.vy > 0.0 { 2 } else { 3 })
         };
         best = best.max(0.0);
+        if self.lists {
+            let ts = self.shell_time(i, &a);
+            if ts < best {
+                (best, partner) = (ts, SHELL);
+            }
+            let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
+            for &j in &self.nb[i * self.cap..i * self.cap + self.nn[i] as usize] {
+                let b = &self.d[j as usize];
+                // List members are much closer than half a box: the nearest image.
+                let sx = image_shift(b.x - a.x, hx, self.lx);
+                let sy = image_shift(b.y - a.y, hy, self.ly);
+                let tt = self.pair_time_fixed(&a, b, sx, sy, best);
+                if tt < best && self.now + tt <= self.tree.time(j as usize) {
+                    best = tt;
+                    partner = j;
+                }
+            }
+            self.set_partner(i, partner);
+            return self.now + best;
+        }
         let scale = self.scale();
         self.for_neighbour_cells(cx, cy, |e, j, sx, sy| {
             if j != i {
@@ -486,13 +578,199 @@ impl Engine {
                 }
             }
         });
+        self.set_partner(i, partner);
+        self.now + best
+    }
+
+    #[inline]
+    fn set_partner(&mut self, i: usize, partner: u32) {
         self.ev_p[i] = partner;
         self.ev_c[i] = if partner < CROSS {
             self.d[partner as usize].count
         } else {
             0
         };
-        self.now + best
+    }
+
+    /// [`Self::pair_time`] for fixed radii, returning infinity early for pairs that
+    /// recede or cannot touch before `best` (no square root for those).
+    #[inline]
+    fn pair_time_fixed(&self, a: &Disk, b: &Disk, sx: f64, sy: f64, best: f64) -> f64 {
+        let dtj = self.now - b.t;
+        let dvx = b.vx - a.vx;
+        let dvy = b.vy - a.vy;
+        let dx = b.x + b.vx * dtj + sx - a.x;
+        let dy = b.y + b.vy * dtj + sy - a.y;
+        let bb = dx * dvx + dy * dvy;
+        if bb >= 0.0 {
+            return f64::INFINITY;
+        }
+        let sig = a.radius + b.radius;
+        let c = dx * dx + dy * dy - sig * sig;
+        if c <= 0.0 {
+            // Touching within round-off and approaching: collide now.
+            return 0.0;
+        }
+        // The root c / (-bb + sqrt(disc)) is at least c / (-2 bb).
+        if c >= -2.0 * bb * best {
+            return f64::INFINITY;
+        }
+        let aa = dvx * dvx + dvy * dvy;
+        let disc = bb * bb - aa * c;
+        if disc < 0.0 {
+            return f64::INFINITY;
+        }
+        c / (-bb + disc.sqrt())
+    }
+
+    /// Time from now until disk `a` (= disk `i` at the current time) is `shell`
+    /// away from its list centre.
+    #[inline]
+    fn shell_time(&self, i: usize, a: &Disk) -> f64 {
+        let dx = a.x - self.ox[i];
+        let dy = a.y - self.oy[i];
+        // The centre may be on the other side of a periodic boundary.
+        let dx = dx + image_shift(dx, 0.5 * self.lx, self.lx);
+        let dy = dy + image_shift(dy, 0.5 * self.ly, self.ly);
+        let aa = a.vx * a.vx + a.vy * a.vy;
+        if aa == 0.0 {
+            return f64::INFINITY;
+        }
+        let bb = dx * a.vx + dy * a.vy;
+        let c = dx * dx + dy * dy - self.shell * self.shell;
+        if c >= 0.0 {
+            return 0.0;
+        }
+        // c < 0: one positive root; this form avoids cancellation when bb > 0.
+        let root = (bb * bb - aa * c).sqrt();
+        if bb >= 0.0 {
+            -c / (bb + root)
+        } else {
+            (root - bb) / aa
+        }
+    }
+
+    /// Disk `i` left its shell: centre its list on where it is now.
+    fn shell_exit(&mut self, i: usize) {
+        self.stats.shell_exits += 1;
+        self.advance(i);
+        let base = i * self.cap;
+        for k in 0..self.nn[i] as usize {
+            let j = self.nb[base + k] as usize;
+            self.unlist(j, i as u32);
+        }
+        self.nn[i] = 0;
+        self.ox[i] = self.d[i].x;
+        self.oy[i] = self.d[i].y;
+        self.scan_list(i, true);
+        if self.overflow {
+            self.grow_lists(2 * self.cap);
+        } else {
+            self.predict(i);
+        }
+    }
+
+    /// Give every list room for `cap` disks (at most the packing bound) and
+    /// rebuild them all, with every event predicted anew.
+    fn grow_lists(&mut self, cap: usize) {
+        self.cap = cap.min(self.cap_max);
+        self.nb = vec![NONE; self.n() * self.cap];
+        self.reschedule_all();
+    }
+
+    /// Remove `i` from the list of `j`.
+    fn unlist(&mut self, j: usize, i: u32) {
+        let base = j * self.cap;
+        let m = self.nn[j] as usize;
+        let list = &mut self.nb[base..base + m];
+        let k = list
+            .iter()
+            .position(|&x| x == i)
+            .expect("neighbour lists are symmetric");
+        list[k] = list[m - 1];
+        self.nn[j] -= 1;
+    }
+
+    fn push_list(&mut self, i: usize, j: usize) {
+        let m = self.nn[i] as usize;
+        if m == self.cap {
+            self.overflow = true;
+            return;
+        }
+        self.nb[i * self.cap + m] = j as u32;
+        self.nn[i] += 1;
+    }
+
+    /// Fill the list of `i` with every disk whose centre is within the list
+    /// range of its own, from the 5x5 cells around `i` (a disk is within
+    /// `shell` of its centre, so it is within sigma_max + 3 shell <= two cells
+    /// of `i`). With `both`, also put `i` in their lists.
+    fn scan_list(&mut self, i: usize, both: bool) {
+        let c = self.cell[i] as usize;
+        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        let (oxi, oyi, ri) = (self.ox[i], self.oy[i], self.d[i].radius);
+        let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
+        for dy in -2..=2isize {
+            let ny = (cy as isize + dy).rem_euclid(self.ncy as isize) as usize;
+            for dx in -2..=2isize {
+                let nx = (cx as isize + dx).rem_euclid(self.ncx as isize) as usize;
+                let mut j = self.head[ny * self.ncx + nx];
+                while j != NONE {
+                    let ju = j as usize;
+                    j = self.d[ju].next;
+                    if ju == i {
+                        continue;
+                    }
+                    let mut ddx = self.ox[ju] - oxi;
+                    let mut ddy = self.oy[ju] - oyi;
+                    ddx += image_shift(ddx, hx, self.lx);
+                    ddy += image_shift(ddy, hy, self.ly);
+                    let range = ri + self.d[ju].radius + 2.0 * self.shell;
+                    if ddx * ddx + ddy * ddy < range * range {
+                        self.push_list(i, ju);
+                        if both {
+                            self.push_list(ju, i);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Centre every list on the current positions and fill them.
+    fn build_all_lists(&mut self) {
+        for i in 0..self.n() {
+            self.ox[i] = self.d[i].x;
+            self.oy[i] = self.d[i].y;
+        }
+        loop {
+            self.overflow = false;
+            self.nn.fill(0);
+            for i in 0..self.n() {
+                self.scan_list(i, false);
+            }
+            if !self.overflow {
+                return;
+            }
+            assert!(
+                self.cap < self.cap_max,
+                "a neighbour list exceeds its packing bound {}: overlapping disks",
+                self.cap_max
+            );
+            self.cap = (2 * self.cap).min(self.cap_max);
+            self.nb = vec![NONE; self.n() * self.cap];
+        }
+    }
+
+    /// Start the lists over with capacity `cap` (to exercise their growth).
+    #[cfg(test)]
+    pub(crate) fn set_list_capacity(&mut self, cap: usize) {
+        self.grow_lists(cap);
+    }
+
+    /// Current list capacity per disk.
+    pub fn list_capacity(&self) -> usize {
+        self.cap
     }
 
     #[inline]
@@ -610,26 +888,52 @@ impl Engine {
     }
 
     /// A uniformly chosen other particle from the 3x3 cells around `i`, if any.
+    /// The cell occupancies give the total and the cell of the chosen disk, so
+    /// only that cell is walked.
     fn random_neighbour(&mut self, i: usize) -> Option<usize> {
         let c = self.cell[i] as usize;
-        let (cx, cy) = (c % self.ncx, c / self.ncx);
-        let mut total = 0usize;
-        self.for_neighbour_cells(cx, cy, |_, j, _, _| total += usize::from(j != i));
+        let cells = self.neighbour_cells(c);
+        // `i` itself is in its own cell and never chosen.
+        let total = cells
+            .iter()
+            .map(|&k| self.occupancy[k] as usize)
+            .sum::<usize>()
+            - 1;
         if total == 0 {
             return None;
         }
         let mut k = self.rng.random_range(0..total);
-        let mut found = None;
-        self.for_neighbour_cells(cx, cy, |_, j, _, _| {
-            if j != i && found.is_none() {
-                if k == 0 {
-                    found = Some(j);
-                } else {
+        for cell in cells {
+            let m = self.occupancy[cell] as usize - usize::from(cell == c);
+            if k >= m {
+                k -= m;
+                continue;
+            }
+            let mut j = self.head[cell];
+            loop {
+                if j as usize != i {
+                    if k == 0 {
+                        return Some(j as usize);
+                    }
                     k -= 1;
                 }
+                j = self.d[j as usize].next;
             }
-        });
-        found
+        }
+        unreachable!("the draw is below the number of neighbours")
+    }
+
+    /// The 3x3 cells around cell `c`, in the order [`Self::for_neighbour_cells`]
+    /// visits them.
+    fn neighbour_cells(&self, c: usize) -> [usize; 9] {
+        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        let mut out = [0; 9];
+        for (k, o) in out.iter_mut().enumerate() {
+            let (ny, _) = Self::wrap(cy, k as isize / 3 - 1, self.ncy, self.ly);
+            let (nx, _) = Self::wrap(cx, k as isize % 3 - 1, self.ncx, self.lx);
+            *o = ny * self.ncx + nx;
+        }
+        out
     }
 
     /// Call `f(self, j, shift_x, shift_y)` for every disk `j` of the 3x3 cells
@@ -647,6 +951,50 @@ impl Engine {
                 }
             }
         }
+    }
+
+    /// Check the neighbour-list invariants against all pairs: every disk is within
+    /// `shell` of its centre, and `j` is in the list of `i` exactly when their
+    /// centres are within range. The error names the first violation.
+    pub fn check_lists(&self) -> Result<(), String> {
+        if !self.lists {
+            return Err("neighbour lists are not in use".into());
+        }
+        let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
+        let near = |i: usize, x: f64, y: f64| {
+            let dx = x - self.ox[i];
+            let dy = y - self.oy[i];
+            let dx = dx + image_shift(dx, hx, self.lx);
+            let dy = dy + image_shift(dy, hy, self.ly);
+            dx * dx + dy * dy
+        };
+        let list = |i: usize| &self.nb[i * self.cap..i * self.cap + self.nn[i] as usize];
+        for i in 0..self.n() {
+            let d = &self.d[i];
+            let dt = self.now - d.t;
+            let r2 = near(i, d.x + d.vx * dt, d.y + d.vy * dt);
+            if r2 > self.shell * self.shell * (1.0 + 1e-9) {
+                return Err(format!(
+                    "disk {i} is {} from its centre, shell {}",
+                    r2.sqrt(),
+                    self.shell
+                ));
+            }
+            for j in 0..self.n() {
+                if j == i {
+                    continue;
+                }
+                let range = d.radius + self.d[j].radius + 2.0 * self.shell;
+                let inside = near(i, self.ox[j], self.oy[j]) < range * range;
+                if inside != list(i).contains(&(j as u32)) {
+                    return Err(format!(
+                        "disk {j} is wrongly {} the list of {i}",
+                        if inside { "missing from" } else { "in" }
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The largest overlap (sigma_ij - r_ij)/sigma_ij among all pairs at the
@@ -673,6 +1021,19 @@ impl Engine {
             });
         }
         worst
+    }
+}
+
+/// The shift (0 or +-`l`) that brings a separation `d` along an axis of length
+/// `l` to its nearest image, for |d| < 1.5 l (`h` = l / 2).
+#[inline]
+fn image_shift(d: f64, h: f64, l: f64) -> f64 {
+    if d > h {
+        -l
+    } else if d < -h {
+        l
+    } else {
+        0.0
     }
 }
 

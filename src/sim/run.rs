@@ -28,14 +28,14 @@ pub struct Progress {
     pub time: f64,
     pub end: f64,
     pub collisions: u64,
-    /// Events (collisions, crossings, kicks) per wall-clock second in this stage.
+    /// Events (collisions, crossings, shell exits, kicks) per wall-clock second in this stage.
     pub events_per_second: f64,
 }
 
 impl Progress {
     pub(crate) fn new(stage: Stage, e: &Engine, end: f64, since: Instant) -> Progress {
         let s = &e.stats;
-        let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events;
+        let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events + s.shell_exits;
         Progress {
             stage,
             time: e.now,
@@ -77,6 +77,8 @@ pub struct RunSummary {
     pub guard_activations: u64,
     pub cell_crossings: u64,
     pub stale_events: u64,
+    /// Neighbour-list rebuilds (a disk left its shell).
+    pub shell_exits: u64,
     /// Time-averaged kinetic energy per particle.
     pub temperature: f64,
     /// Standard deviation of the sampled temperature (its fluctuation).
@@ -101,7 +103,7 @@ pub struct RunSummary {
     pub cpu_seconds: f64,
     /// Production collisions per CPU second of production.
     pub collisions_per_second: f64,
-    /// All events (collisions, crossings, kicks, stale) per CPU second of production.
+    /// All events (collisions, crossings, shell exits, kicks, stale) per CPU second of production.
     pub events_per_second: f64,
     pub peak_rss_bytes: u64,
     /// Bytes of simulator state per particle.
@@ -331,6 +333,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         guard_activations: st.guard_activations - before.guard_activations,
         cell_crossings: st.cell_crossings - before.cell_crossings,
         stale_events: st.stale_events - before.stale_events,
+        shell_exits: st.shell_exits - before.shell_exits,
         temperature,
         temperature_std,
         temperature_halves: [mean(&temps[..half]), mean(&temps[half..])],
@@ -349,6 +352,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
             st.kicks - before.kicks,
             st.cell_crossings - before.cell_crossings,
             st.stale_events - before.stale_events,
+            st.shell_exits - before.shell_exits,
         ]
         .iter()
         .sum::<u64>() as f64

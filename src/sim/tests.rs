@@ -47,18 +47,45 @@ fn no_overlap_after_any_event_at_phi_0_8() {
     let c = cfg(300, 0.8, 0.9);
     let mut e = driven_engine(&c);
     assert!(e.worst_overlap(1e-9).is_none(), "overlap after compression");
-    let c0 = e.stats.collisions;
+    let (c0, s0) = (e.stats.collisions, e.stats.shell_exits);
     for ev in 0..100_000 {
         e.run_until(f64::INFINITY, 1);
         if let Some((i, j, ov)) = e.worst_overlap(1e-9) {
             panic!("event {ev}: disks {i} and {j} overlap by {ov:e} of their contact distance");
         }
+        if ev % 1000 == 0
+            && let Err(msg) = e.check_lists()
+        {
+            panic!("event {ev}: {msg}");
+        }
     }
+    let shell_exits = e.stats.shell_exits - s0;
     assert!(
-        e.stats.collisions - c0 > 50_000,
+        e.stats.collisions - c0 > (100_000 - shell_exits) / 2,
         "mostly collisions expected"
     );
     assert!(e.stats.kicks > 1000);
+    assert!(shell_exits > 1000, "neighbour lists must be rebuilt");
+}
+
+#[test]
+fn neighbour_lists_grow_when_full_and_stay_complete() {
+    let c = cfg(300, 0.8, 0.9);
+    let mut e = driven_engine(&c);
+    // Lists of 5-6 disks do not fit in 1 slot: the rebuild doubles it until they do.
+    e.set_list_capacity(1);
+    assert!(e.list_capacity() >= 4, "capacity {}", e.list_capacity());
+    for ev in 0..20_000 {
+        e.run_until(f64::INFINITY, 1);
+        if let Some((i, j, ov)) = e.worst_overlap(1e-9) {
+            panic!("event {ev}: disks {i} and {j} overlap by {ov:e} of their contact distance");
+        }
+        if ev % 500 == 0
+            && let Err(msg) = e.check_lists()
+        {
+            panic!("event {ev}: {msg}");
+        }
+    }
 }
 
 #[test]

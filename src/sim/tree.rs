@@ -11,10 +11,18 @@
 pub struct EventTree {
     /// Number of leaves (a power of two >= number of particles).
     leaves: usize,
-    /// Winner (leaf index) of each node; leaves at `leaves..2 leaves`.
-    win: Vec<u32>,
-    /// Event time of each node's winner (infinity for padding leaves).
-    time: Vec<f64>,
+    /// Node `k` (root 1, children `2k`, `2k + 1`, leaves at `leaves..2 leaves`):
+    /// its winner and the winner's time, side by side so a climb touches one
+    /// array.
+    node: Vec<Node>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Node {
+    /// Event time of the winner (infinity for padding leaves).
+    time: f64,
+    /// Winner: the leaf index with the earliest event in this subtree.
+    win: u32,
 }
 
 impl EventTree {
@@ -23,11 +31,16 @@ impl EventTree {
         let leaves = n.next_power_of_two().max(2);
         let mut t = EventTree {
             leaves,
-            win: vec![0; 2 * leaves],
-            time: vec![f64::INFINITY; 2 * leaves],
+            node: vec![
+                Node {
+                    time: f64::INFINITY,
+                    win: 0
+                };
+                2 * leaves
+            ],
         };
         for i in 0..leaves {
-            t.win[leaves + i] = i as u32;
+            t.node[leaves + i].win = i as u32;
         }
         t.rebuild();
         t
@@ -36,63 +49,56 @@ impl EventTree {
     /// Set a leaf's time without fixing the tree (call [`Self::rebuild`] after).
     #[inline]
     pub fn set_lazy(&mut self, i: usize, t: f64) {
-        self.time[self.leaves + i] = t;
+        self.node[self.leaves + i].time = t;
     }
 
     /// Recompute every internal node.
     pub fn rebuild(&mut self) {
         for k in (1..self.leaves).rev() {
-            let w = self.better(2 * k);
-            self.win[k] = self.win[w];
-            self.time[k] = self.time[w];
-        }
-    }
-
-    /// The child of `k`'s parent-to-be pair (`l`, `l + 1`) that wins; ties go to
-    /// the left (lower index), so the order of events is reproducible.
-    #[inline]
-    fn better(&self, l: usize) -> usize {
-        if self.time[l + 1] < self.time[l] {
-            l + 1
-        } else {
-            l
+            self.node[k] = better(self.node[2 * k], self.node[2 * k + 1]);
         }
     }
 
     /// Particle with the earliest event, and its time.
     #[inline]
     pub fn min(&self) -> (usize, f64) {
-        (self.win[1] as usize, self.time[1])
+        (self.node[1].win as usize, self.node[1].time)
     }
 
     /// Event time of particle `i`.
     #[inline]
     pub fn time(&self, i: usize) -> f64 {
-        self.time[self.leaves + i]
+        self.node[self.leaves + i].time
     }
 
     /// Give particle `i` the event time `t`.
     #[inline]
     pub fn update(&mut self, i: usize, t: f64) {
         let mut k = self.leaves + i;
-        self.time[k] = t;
-        k /= 2;
-        while k >= 1 {
-            let w = self.better(2 * k);
-            let (nw, nt) = (self.win[w], self.time[w]);
-            if self.win[k] == nw && self.time[k] == nt && nw as usize != i {
+        self.node[k].time = t;
+        while k > 1 {
+            // Sibling pair (k & !1, k | 1) decides the parent.
+            let nw = better(self.node[k & !1], self.node[k | 1]);
+            k /= 2;
+            let old = &mut self.node[k];
+            if *old == nw && nw.win as usize != i {
                 break;
             }
-            self.win[k] = nw;
-            self.time[k] = nt;
-            k /= 2;
+            *old = nw;
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.win.len() * 4 + self.time.len() * 8
+        self.node.len() * std::mem::size_of::<Node>()
     }
+}
+
+/// The earlier of two sibling nodes; ties go to the left (lower index), so the
+/// order of events is reproducible.
+#[inline]
+fn better(l: Node, r: Node) -> Node {
+    if r.time < l.time { r } else { l }
 }
 
 #[cfg(test)]
