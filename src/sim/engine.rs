@@ -15,6 +15,7 @@
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
 
+use super::resources::{big_vec, big_vec_from};
 use super::tree::{EventTree, select_f64, select_u32};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -191,8 +192,9 @@ impl Engine {
         .min(u8::MAX as usize);
         let cap = LIST_CAPACITY.min(cap_max);
         let lists_fit = ncx >= 5 && ncy >= 5;
-        let d = (0..n)
-            .map(|i| Disk {
+        let d = big_vec_from(
+            n,
+            (0..n).map(|i| Disk {
                 x: s.x[i].rem_euclid(s.lx),
                 y: s.y[i].rem_euclid(s.ly),
                 vx: s.vx[i],
@@ -202,8 +204,8 @@ impl Engine {
                 te: f64::INFINITY,
                 next: NONE,
                 count: 0,
-            })
-            .collect();
+            }),
+        );
         let mut e = Engine {
             lx: s.lx,
             ly: s.ly,
@@ -211,19 +213,19 @@ impl Engine {
             ncy,
             wx: s.lx / ncx as f64,
             wy: s.ly / ncy as f64,
-            head: vec![NONE; ncx * ncy],
-            occupancy: vec![0; ncx * ncy],
+            head: big_vec(ncx * ncy, NONE),
+            occupancy: big_vec(ncx * ncy, 0),
             d,
-            prev: vec![NONE; n],
-            cell: vec![0; n],
-            imx: vec![0; n],
-            imy: vec![0; n],
+            prev: big_vec(n, NONE),
+            cell: big_vec(n, 0),
+            imx: big_vec(n, 0),
+            imy: big_vec(n, 0),
             species: s.species,
             radii: s.radii,
             masses: s.masses,
-            last_collision: vec![f64::NEG_INFINITY; n],
-            ev_p: vec![NONE; n],
-            ev_c: vec![0; n],
+            last_collision: big_vec(n, f64::NEG_INFINITY),
+            ev_p: big_vec(n, NONE),
+            ev_c: big_vec(n, 0),
             tree: EventTree::new(n),
             lists: false,
             shell,
@@ -231,13 +233,13 @@ impl Engine {
             cap_max,
             overflow: false,
             nb: if lists_fit {
-                vec![NONE; n * cap]
+                big_vec(n * cap, NONE)
             } else {
                 Vec::new()
             },
-            nn: vec![0; n],
-            ox: vec![0.0; n],
-            oy: vec![0.0; n],
+            nn: big_vec(n, 0),
+            ox: big_vec(n, 0.0),
+            oy: big_vec(n, 0.0),
             now: 0.0,
             eps,
             tc,
@@ -289,7 +291,7 @@ impl Engine {
         let o = |v: &[i32]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
         self.imx = o(&self.imx);
         self.imy = o(&self.imy);
-        self.d = order.iter().map(|&i| self.d[i as usize]).collect();
+        self.d = big_vec_from(self.n(), order.iter().map(|&i| self.d[i as usize]));
         self.species = order.iter().map(|&i| self.species[i as usize]).collect();
         self.last_collision = order
             .iter()
@@ -606,7 +608,7 @@ impl Engine {
         let a = self.d[i];
         let mut best = self.shell_time(i, &a);
         let mut partner = SHELL;
-        let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
+        let (ilx, ily) = (1.0 / self.lx, 1.0 / self.ly);
         let now = self.now;
         let base = i * self.cap;
         for &j in &self.nb[base..base + self.nn[i] as usize] {
@@ -617,8 +619,8 @@ impl Engine {
             let dx = b.x + b.vx * dtj - a.x;
             let dy = b.y + b.vy * dtj - a.y;
             // List members are much closer than half a box: the nearest image.
-            let dx = dx + image_shift(dx, hx, self.lx);
-            let dy = dy + image_shift(dy, hy, self.ly);
+            let dx = dx - self.lx * round_nearest(dx * ilx);
+            let dy = dy - self.ly * round_nearest(dy * ily);
             let bb = dx * dvx + dy * dvy;
             let sig = a.radius + b.radius;
             let c = dx * dx + dy * dy - sig * sig;
@@ -653,8 +655,8 @@ impl Engine {
         let dx = a.x - self.ox[i];
         let dy = a.y - self.oy[i];
         // The centre may be on the other side of a periodic boundary.
-        let dx = dx + image_shift(dx, 0.5 * self.lx, self.lx);
-        let dy = dy + image_shift(dy, 0.5 * self.ly, self.ly);
+        let dx = dx - self.lx * round_nearest(dx / self.lx);
+        let dy = dy - self.ly * round_nearest(dy / self.ly);
         let aa = a.vx * a.vx + a.vy * a.vy;
         if aa == 0.0 {
             return f64::INFINITY;
@@ -705,7 +707,7 @@ impl Engine {
     /// rebuild them all, with every event predicted anew.
     fn grow_lists(&mut self, cap: usize) {
         self.cap = cap.min(self.cap_max);
-        self.nb = vec![NONE; self.n() * self.cap];
+        self.nb = big_vec(self.n() * self.cap, NONE);
         self.reschedule_all();
     }
 
@@ -789,7 +791,7 @@ impl Engine {
                 self.cap_max
             );
             self.cap = (2 * self.cap).min(self.cap_max);
-            self.nb = vec![NONE; self.n() * self.cap];
+            self.nb = big_vec(self.n() * self.cap, NONE);
         }
     }
 
@@ -853,8 +855,8 @@ impl Engine {
         // Minimum image: touching disks are closer than half a box.
         let mut dx = a.x - b.x;
         let mut dy = a.y - b.y;
-        dx -= self.lx * (dx / self.lx).round();
-        dy -= self.ly * (dy / self.ly).round();
+        dx -= self.lx * round_nearest(dx / self.lx);
+        dy -= self.ly * round_nearest(dy / self.ly);
         let r = (dx * dx + dy * dy).sqrt();
         let (nx, ny) = (dx / r, dy / r);
         let gn = (a.vx - b.vx) * nx + (a.vy - b.vy) * ny;
@@ -1080,6 +1082,14 @@ fn image_shift(d: f64, h: f64, l: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// `x` rounded to the nearest integer (ties to even) for |x| < 2^51, without a
+/// branch or a libm call: adding 1.5 2^52 leaves no fraction bits.
+#[inline(always)]
+fn round_nearest(x: f64) -> f64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    (x + MAGIC) - MAGIC
 }
 
 /// Time until coordinate `x` moving at `v` leaves cell `c` of width `w`.

@@ -31,13 +31,13 @@ impl EventTree {
         let leaves = n.next_power_of_two().max(2);
         let mut t = EventTree {
             leaves,
-            node: vec![
+            node: super::resources::big_vec(
+                2 * leaves,
                 Node {
                     time: f64::INFINITY,
-                    win: 0
-                };
-                2 * leaves
-            ],
+                    win: 0,
+                },
+            ),
         };
         for i in 0..leaves {
             t.node[leaves + i].win = i as u32;
