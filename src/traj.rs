@@ -68,7 +68,8 @@ impl Trajectory {
 pub struct Schedule {
     /// Simulated time of the first origin (after relaxation).
     pub start: f64,
-    /// Number of time origins.
+    /// Number of time origins (0: no frames; production then lasts `start`,
+    /// for runs that only want the summary, as `repro sim`).
     pub origins: usize,
     /// Spacing between consecutive origins.
     pub origin_spacing: f64,

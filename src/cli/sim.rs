@@ -109,11 +109,13 @@ impl SimArgs {
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
+            // No frames: only the summary is printed (and a frame of 4 x 10^6
+            // disks would cost 64 MB).
             schedule: Schedule {
-                start: 0.0,
-                origins: 1,
+                start: self.time,
+                origins: 0,
                 origin_spacing: 0.0,
-                lags: vec![self.time],
+                lags: vec![],
             },
             ..SimConfig::default()
         }

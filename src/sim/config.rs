@@ -220,8 +220,10 @@ impl SimConfig {
             1e12,
             "must be >= 0",
         )?;
-        if self.schedule.origins == 0 {
-            bail!("schedule.origins = 0 is invalid: need at least one time origin");
+        if self.schedule.origins == 0 && self.schedule.start <= 0.0 {
+            bail!(
+                "schedule.origins = 0 (no frames) needs schedule.start > 0: the production time"
+            );
         }
         for &l in &self.schedule.lags {
             finite_in(

@@ -230,13 +230,23 @@ impl Engine {
                 count: 0,
             }),
         );
+        // The setup's coordinates are in `d` now: free them before the other
+        // arrays are made (they would add 32 bytes per disk to the peak).
+        let Setup {
+            lx,
+            ly,
+            radii,
+            masses,
+            species,
+            ..
+        } = s;
         let mut e = Engine {
-            lx: s.lx,
-            ly: s.ly,
+            lx,
+            ly,
             ncx,
             ncy,
-            wx: s.lx / ncx as f64,
-            wy: s.ly / ncy as f64,
+            wx: lx / ncx as f64,
+            wy: ly / ncy as f64,
             head: big_vec(ncx * ncy, NONE),
             occupancy: big_vec(ncx * ncy, 0),
             d,
@@ -244,9 +254,9 @@ impl Engine {
             cell: big_vec(n, 0),
             imx: big_vec(n, 0),
             imy: big_vec(n, 0),
-            species: s.species,
-            radii: s.radii,
-            masses: s.masses,
+            species,
+            radii,
+            masses,
             last_collision: big_vec(n, f64::NEG_INFINITY),
             bk: big_vec(n, Book::default()),
             tree: EventTree::new(n),
@@ -617,43 +627,21 @@ impl Engine {
     }
 
     /// [`Self::find_event`] from the neighbour list: the shell exit or the
-    /// earliest collision with a listed disk. Written without branches on the
-    /// pair geometry (which pair approaches is a coin flip that the branch
-    /// predictor loses about half the time): every pair's root is computed and
-    /// the earliest kept by selects.
+    /// earliest collision with a listed disk.
     #[inline]
     fn find_event_listed(&mut self, i: usize) -> f64 {
         let a = self.d[i];
-        let mut best = self.shell_time(i, &a);
-        let mut partner = SHELL;
-        let (ilx, ily) = (1.0 / self.lx, 1.0 / self.ly);
-        let now = self.now;
+        let shell = self.shell_time(i, &a);
         let base = i * self.cap;
-        for &j in &self.nb[base..base + self.bk[i].nn as usize] {
-            let b = &self.d[j as usize];
-            let dtj = now - b.t;
-            let dvx = b.vx - a.vx;
-            let dvy = b.vy - a.vy;
-            let dx = b.x + b.vx * dtj - a.x;
-            let dy = b.y + b.vy * dtj - a.y;
-            // List members are much closer than half a box: the nearest image.
-            let dx = dx - self.lx * round_nearest(dx * ilx);
-            let dy = dy - self.ly * round_nearest(dy * ily);
-            let bb = dx * dvx + dy * dvy;
-            let sig = a.radius + b.radius;
-            let c = dx * dx + dy * dy - sig * sig;
-            let aa = dvx * dvx + dvy * dvy;
-            let disc = bb * bb - aa * c;
-            // With bb < 0 the denominator is positive; c <= 0 (touching within
-            // round-off) while approaching gives a collision now.
-            let tt = (c / (disc.max(0.0).sqrt() - bb)).max(0.0);
-            // Skip j if it has an earlier event (see `find_event`).
-            let hit = (bb < 0.0) & (disc >= 0.0) & (tt < best) & (now + tt <= b.te);
-            best = select_f64(hit, tt, best);
-            partner = select_u32(hit, j, partner);
-        }
+        let list = &self.nb[base..base + self.bk[i].nn as usize];
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: SSE2 is part of the x86_64 baseline (always enabled).
+        let (best, partner) =
+            unsafe { earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell) };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (best, partner) = earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
         self.set_partner(i, partner);
-        now + best
+        self.now + best
     }
 
     #[inline]
@@ -1102,6 +1090,146 @@ fn image_shift(d: f64, h: f64, l: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// The earliest collision of disk `a` (at time `now`) with the disks `list` of
+/// `d`, if earlier than `best`: (time from now, partner), or (`best`, SHELL).
+/// A listed disk `j` whose own pending event (`te`) is earlier is skipped: it
+/// will predict anew then (every event ends in a prediction) and find `a`
+/// itself (Smallenburg's rule; spares the stale event this one would become).
+///
+/// Written without branches on the pair geometry (which pair approaches is a
+/// coin flip that the branch predictor loses half the time): every pair's root
+/// is computed and the earliest kept by selects. This scalar version is the
+/// reference; x86_64 runs the SSE2 one below, two pairs at a time.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn earliest_pair_scalar(
+    d: &[Disk],
+    list: &[u32],
+    a: &Disk,
+    now: f64,
+    lx: f64,
+    ly: f64,
+    mut best: f64,
+) -> (f64, u32) {
+    let (ilx, ily) = (1.0 / lx, 1.0 / ly);
+    let mut partner = SHELL;
+    for &j in list {
+        let b = &d[j as usize];
+        let dtj = now - b.t;
+        let dvx = b.vx - a.vx;
+        let dvy = b.vy - a.vy;
+        let dx = b.x + b.vx * dtj - a.x;
+        let dy = b.y + b.vy * dtj - a.y;
+        // List members are much closer than half a box: the nearest image.
+        let dx = dx - lx * round_nearest(dx * ilx);
+        let dy = dy - ly * round_nearest(dy * ily);
+        let bb = dx * dvx + dy * dvy;
+        let sig = a.radius + b.radius;
+        let c = dx * dx + dy * dy - sig * sig;
+        let aa = dvx * dvx + dvy * dvy;
+        let disc = bb * bb - aa * c;
+        // With bb < 0 the denominator is positive; c <= 0 (touching within
+        // round-off) while approaching gives a collision now.
+        let tt = (c / (disc.max(0.0).sqrt() - bb)).max(0.0);
+        let hit = (bb < 0.0) & (disc >= 0.0) & (tt < best) & (now + tt <= b.te);
+        best = select_f64(hit, tt, best);
+        partner = select_u32(hit, j, partner);
+    }
+    (best, partner)
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+use earliest_pair_scalar as earliest_pair;
+
+/// [`earliest_pair_scalar`] with SSE2 (part of every x86_64): the same
+/// operations in the same order on two listed disks per step, so each pair's
+/// time is bit-identical; only exact ties between pairs may pick another partner.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "sse2")]
+fn earliest_pair(
+    d: &[Disk],
+    list: &[u32],
+    a: &Disk,
+    now: f64,
+    lx: f64,
+    ly: f64,
+    best: f64,
+) -> (f64, u32) {
+    use std::arch::x86_64::*;
+    let n = list.len();
+    if n == 0 {
+        return (best, SHELL);
+    }
+    let v = |x: f64| _mm_set1_pd(x);
+    let (now2, ax, ay, avx, avy, ar) = (v(now), v(a.x), v(a.y), v(a.vx), v(a.vy), v(a.radius));
+    let (lx2, ly2, ilx2, ily2) = (v(lx), v(ly), v(1.0 / lx), v(1.0 / ly));
+    let magic = v(6_755_399_441_055_744.0);
+    let zero = _mm_setzero_pd();
+    let mut best2 = v(best);
+    let mut part2 = _mm_set1_epi64x(SHELL as i64);
+    let mut k = 0;
+    while k < n {
+        // An odd last disk is paired with itself: the same time twice.
+        let (j0, j1) = (list[k], list[(k + 1).min(n - 1)]);
+        let (b0, b1) = (&d[j0 as usize], &d[j1 as usize]);
+        // SAFETY: Disk is repr(C, align(64)) and starts with x, y, vx, vy, t,
+        // radius (16-byte aligned pairs); the pointers come from whole-Disk
+        // references, so each aligned 16-byte load stays inside one Disk.
+        let (p0, p1) = (
+            (b0 as *const Disk).cast::<f64>(),
+            (b1 as *const Disk).cast::<f64>(),
+        );
+        let (xy0, xy1, v0, v1, tr0, tr1) = unsafe {
+            (
+                _mm_load_pd(p0),
+                _mm_load_pd(p1),
+                _mm_load_pd(p0.add(2)),
+                _mm_load_pd(p1.add(2)),
+                _mm_load_pd(p0.add(4)),
+                _mm_load_pd(p1.add(4)),
+            )
+        };
+        let (bx, by) = (_mm_unpacklo_pd(xy0, xy1), _mm_unpackhi_pd(xy0, xy1));
+        let (bvx, bvy) = (_mm_unpacklo_pd(v0, v1), _mm_unpackhi_pd(v0, v1));
+        let (bt, br) = (_mm_unpacklo_pd(tr0, tr1), _mm_unpackhi_pd(tr0, tr1));
+        let bte = _mm_set_pd(b1.te, b0.te);
+        let dtj = _mm_sub_pd(now2, bt);
+        let dvx = _mm_sub_pd(bvx, avx);
+        let dvy = _mm_sub_pd(bvy, avy);
+        let dx = _mm_sub_pd(_mm_add_pd(bx, _mm_mul_pd(bvx, dtj)), ax);
+        let dy = _mm_sub_pd(_mm_add_pd(by, _mm_mul_pd(bvy, dtj)), ay);
+        let kx = _mm_sub_pd(_mm_add_pd(_mm_mul_pd(dx, ilx2), magic), magic);
+        let ky = _mm_sub_pd(_mm_add_pd(_mm_mul_pd(dy, ily2), magic), magic);
+        let dx = _mm_sub_pd(dx, _mm_mul_pd(lx2, kx));
+        let dy = _mm_sub_pd(dy, _mm_mul_pd(ly2, ky));
+        let bb = _mm_add_pd(_mm_mul_pd(dx, dvx), _mm_mul_pd(dy, dvy));
+        let sig = _mm_add_pd(ar, br);
+        let c = _mm_sub_pd(
+            _mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
+            _mm_mul_pd(sig, sig),
+        );
+        let aa = _mm_add_pd(_mm_mul_pd(dvx, dvx), _mm_mul_pd(dvy, dvy));
+        let disc = _mm_sub_pd(_mm_mul_pd(bb, bb), _mm_mul_pd(aa, c));
+        // max(x, 0) as in the scalar version (maxpd returns 0 for NaN x).
+        let root = _mm_sqrt_pd(_mm_max_pd(disc, zero));
+        let tt = _mm_max_pd(_mm_div_pd(c, _mm_sub_pd(root, bb)), zero);
+        let hit = _mm_and_pd(
+            _mm_and_pd(_mm_cmplt_pd(bb, zero), _mm_cmpge_pd(disc, zero)),
+            _mm_and_pd(_mm_cmplt_pd(tt, best2), _mm_cmple_pd(_mm_add_pd(now2, tt), bte)),
+        );
+        best2 = _mm_or_pd(_mm_and_pd(hit, tt), _mm_andnot_pd(hit, best2));
+        let hm = _mm_castpd_si128(hit);
+        let jj = _mm_set_epi64x(j1 as i64, j0 as i64);
+        part2 = _mm_or_si128(_mm_and_si128(hm, jj), _mm_andnot_si128(hm, part2));
+        k += 2;
+    }
+    let (t0, t1) = (_mm_cvtsd_f64(best2), _mm_cvtsd_f64(_mm_unpackhi_pd(best2, best2)));
+    let p0 = _mm_cvtsi128_si64(part2) as u32;
+    let p1 = _mm_cvtsi128_si64(_mm_unpackhi_epi64(part2, part2)) as u32;
+    // The earlier lane; on a tie the lane of the earlier list position's pair.
+    if t1 < t0 { (t1, p1) } else { (t0, p0) }
 }
 
 /// Reorder `v` so that `v[k]` becomes the old `v[order[k]]`, following the
