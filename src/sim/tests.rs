@@ -315,3 +315,22 @@ fn config_round_trips_and_reads_yaml() {
     let none: SimConfig = serde_saphyr::from_str("drive: none\nkick_rate: balanced\n").unwrap();
     assert_eq!(none.drive, Drive::None);
 }
+
+#[test]
+fn a_schedule_without_origins_runs_for_its_start_time_and_records_nothing() {
+    let mut c = cfg(300, 0.5, 0.9);
+    c.relax_time = 1.0;
+    c.schedule = Schedule {
+        start: 2.0,
+        origins: 0,
+        origin_spacing: 0.0,
+        lags: vec![],
+    };
+    let (traj, s) = run(&c, &quiet).unwrap();
+    assert!(traj.frames.is_empty());
+    assert_eq!(s.sim_time, 2.0);
+    assert!(s.collisions > 0);
+    c.schedule.start = 0.0;
+    let err = run(&c, &quiet).unwrap_err().to_string();
+    assert!(err.contains("schedule.origins = 0"), "{err}");
+}
