@@ -157,6 +157,8 @@ pub struct Engine {
     lists: bool,
     /// Shell half-width: how far a disk may move from its list centre.
     shell: f64,
+    /// Largest radius.
+    rmax: f64,
     /// List capacity per disk; it doubles when a list overflows, up to `cap_max`.
     cap: usize,
     /// A packing bound on the list length: lists never exceed it.
@@ -262,6 +264,7 @@ impl Engine {
             tree: EventTree::new(n),
             lists: false,
             shell,
+            rmax,
             cap,
             cap_max,
             overflow: false,
@@ -749,10 +752,22 @@ impl Engine {
         let (cx, cy) = (c % self.ncx, c / self.ncx);
         let (oxi, oyi, ri) = (self.bk[i].ox, self.bk[i].oy, self.d[i].radius);
         let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
-        for dy in -2..=2isize {
-            let ny = (cy as isize + dy).rem_euclid(self.ncy as isize) as usize;
-            for dx in -2..=2isize {
-                let nx = (cx as isize + dx).rem_euclid(self.ncx as isize) as usize;
+        // Cells two away are needed only on a side where the centre is within
+        // `reach - w` of its cell's edge (reach < 2 w): about 12 cells instead of 25.
+        let reach = (ri + self.rmax + 2.0 * self.shell) * (1.0 + 1e-9);
+        let (fx, fy) = (oxi - cx as f64 * self.wx, oyi - cy as f64 * self.wy);
+        let (x0, x1) = (
+            if fx + self.wx < reach { -2 } else { -1 },
+            if 2.0 * self.wx - fx < reach { 2 } else { 1 },
+        );
+        let (y0, y1) = (
+            if fy + self.wy < reach { -2 } else { -1 },
+            if 2.0 * self.wy - fy < reach { 2 } else { 1 },
+        );
+        for dy in y0..=y1 {
+            let (ny, _) = Self::wrap(cy, dy, self.ncy, self.ly);
+            for dx in x0..=x1 {
+                let (nx, _) = Self::wrap(cx, dx, self.ncx, self.lx);
                 let mut j = self.head[ny * self.ncx + nx];
                 while j != NONE {
                     let ju = j as usize;
