@@ -180,6 +180,9 @@ pub struct Engine {
     /// Pair kicks per unit time, whole system.
     kick_rate: f64,
     next_kick: f64,
+    /// The first disk of the next kick, drawn with its time so that its data can
+    /// be fetched from memory while the events before it are processed.
+    kick_next: usize,
     /// Kick amplitude p_dr.
     p_dr: f64,
     rng: ChaCha8Rng,
@@ -240,8 +243,12 @@ impl Engine {
             radii,
             masses,
             species,
-            ..
+            x,
+            y,
+            vx,
+            vy,
         } = s;
+        drop((x, y, vx, vy));
         let mut e = Engine {
             lx,
             ly,
@@ -282,6 +289,7 @@ impl Engine {
             kicks: Kicks::Off,
             kick_rate: 0.0,
             next_kick: f64::INFINITY,
+            kick_next: 0,
             p_dr: 0.0,
             rng,
             stats: Stats::default(),
@@ -351,7 +359,31 @@ impl Engine {
         self.kicks = kicks;
         self.kick_rate = rate;
         self.p_dr = p_dr;
+        self.schedule_kick();
+    }
+
+    /// Draw the time and the first disk of the next kick, and start fetching
+    /// that disk's data.
+    fn schedule_kick(&mut self) {
         self.next_kick = self.now + self.kick_wait();
+        if self.next_kick < f64::INFINITY {
+            self.kick_next = self.rng.random_range(0..self.n());
+            self.prefetch_around(self.kick_next);
+        }
+    }
+
+    /// Ask the cache for disk `i`'s bookkeeping and its listed neighbours, which
+    /// its next prediction reads (at large N each is a miss to the L3 cache).
+    #[inline]
+    fn prefetch_around(&self, i: usize) {
+        prefetch(&self.d[i]);
+        prefetch(&self.cell[i]);
+        if self.lists {
+            let base = i * self.cap;
+            for &k in &self.nb[base..base + self.bk[i].nn as usize] {
+                prefetch(&self.d[k as usize]);
+            }
+        }
     }
 
     pub fn kick_rate(&self) -> f64 {
@@ -442,7 +474,7 @@ impl Engine {
                 }
                 self.now = self.next_kick;
                 self.kick();
-                self.next_kick = self.now + self.kick_wait();
+                self.schedule_kick();
                 continue;
             }
             if te > t_stop {
@@ -910,6 +942,7 @@ impl Engine {
         self.stats.collisions += 1;
         self.last_collision[i] = self.now;
         self.last_collision[j] = self.now;
+        self.prefetch_around(j);
         self.predict(i);
         self.predict(j);
     }
@@ -917,7 +950,7 @@ impl Engine {
     /// A pair kick (Eq. 4 of paper H): equal and opposite Gaussian momenta.
     fn kick(&mut self) {
         let n = self.n();
-        let i = self.rng.random_range(0..n);
+        let i = self.kick_next;
         let j = match self.kicks {
             Kicks::NeighbourPairs => self.random_neighbour(i),
             _ => None,
@@ -941,6 +974,7 @@ impl Engine {
         }
         self.stats.injected += self.kinetic_energy_of(i) + self.kinetic_energy_of(j) - before;
         self.stats.kicks += 1;
+        self.prefetch_around(j);
         self.predict(i);
         self.predict(j);
     }
@@ -1245,6 +1279,19 @@ fn earliest_pair(
     let p1 = _mm_cvtsi128_si64(_mm_unpackhi_epi64(part2, part2)) as u32;
     // The earlier lane; on a tie the lane of the earlier list position's pair.
     if t1 < t0 { (t1, p1) } else { (t0, p0) }
+}
+
+/// A hint to bring `r`'s cache line in; it never faults and changes nothing.
+#[inline(always)]
+fn prefetch<T>(r: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: prefetching is only a hint to the cache; any address is allowed.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((r as *const T).cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = r;
 }
 
 /// Reorder `v` so that `v[k]` becomes the old `v[order[k]]`, following the
