@@ -32,6 +32,10 @@ const NONE: u32 = u32::MAX;
 const IN_HEAP: u32 = 1 << 31;
 /// `loc` of a particle with an infinite time (in no structure).
 const INFINITE: u32 = IN_HEAP - 1;
+/// The bucket of every time beyond 2^62 buckets (and of infinity).
+const LAST_BUCKET: u64 = 1 << 62;
+/// Heap capacity kept after a rebuild (a bucket holds a few events).
+const HEAP_START: usize = 64;
 /// Target events per bucket (measured in docs/calendar.md).
 pub const PER_BUCKET: f64 = 2.0;
 /// Re-tune the bucket width when a year's events per bucket leave
@@ -103,7 +107,7 @@ impl EventCalendar {
             ],
             head: vec![NONE; nb + 1],
             mask: nb as u64 - 1,
-            heap: Vec::with_capacity(64),
+            heap: Vec::with_capacity(HEAP_START),
             t0: 0.0,
             dt: 1.0,
             inv_dt: 1.0,
@@ -126,28 +130,32 @@ impl EventCalendar {
 
     /// Re-choose the bucket width from the current times and place every particle.
     pub fn rebuild(&mut self) {
-        let mut spread: Vec<f64> = self
+        let lo = self
             .slot
             .iter()
             .map(|s| s.time)
             .filter(|t| t.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        // Times tied at the earliest share a bucket whatever the width: the
+        // width comes from the spread of the others.
+        let mut spread: Vec<f64> = self
+            .slot
+            .iter()
+            .map(|s| s.time - lo)
+            .filter(|&d| d > 0.0 && d.is_finite())
             .collect();
-        let lo = spread.iter().copied().fold(f64::INFINITY, f64::min);
         let m = spread.len();
-        let mut dt = 0.0;
+        let mut dt = 1.0;
         if m > 0 {
             let (_, median, _) = spread.select_nth_unstable_by(m / 2, f64::total_cmp);
-            dt = PER_BUCKET * (*median - lo) / (std::f64::consts::LN_2 * m as f64);
-            if dt <= 0.0 || !dt.is_finite() {
-                // Half the times or more are tied at the minimum: spread the rest.
-                let hi = spread.iter().copied().fold(lo, f64::max);
-                dt = PER_BUCKET * (hi - lo) / m as f64;
-            }
+            dt = PER_BUCKET * *median / (std::f64::consts::LN_2 * m as f64);
         }
         if dt <= 0.0 || !dt.is_finite() {
             dt = 1.0;
         }
         self.rebin_all(dt);
+        // A start with many tied times may have grown the heap: give it back.
+        self.heap.shrink_to(HEAP_START.max(2 * self.heap.len()));
     }
 
     /// Particle with the earliest time (ties: the lower index), and its time;
@@ -172,7 +180,8 @@ impl EventCalendar {
         assert!(i < self.slot.len(), "particle {i} is not in the calendar");
         debug_assert!(!t.is_nan(), "event time of particle {i} is NaN");
         let loc = self.slot[i].loc;
-        if loc & IN_HEAP != 0 && t != f64::INFINITY && self.bucket(t) <= self.cur {
+        let b = self.bucket(t);
+        if loc & IN_HEAP != 0 && b <= self.cur && t != f64::INFINITY {
             // Stays in the heap: change the key in place.
             let p = (loc & !IN_HEAP) as usize;
             let old = self.heap[p];
@@ -190,7 +199,7 @@ impl EventCalendar {
             return;
         }
         self.detach(i);
-        self.place(i, t);
+        self.place(i, t, b);
         if self.heap.is_empty() {
             self.advance();
         }
@@ -208,10 +217,17 @@ impl EventCalendar {
         self.dt
     }
 
+    /// Bucket of time `t`: non-decreasing in `t`; times before `t0` (and NaN)
+    /// fall in bucket 0, huge ones and infinity in [`LAST_BUCKET`].
     #[inline]
     fn bucket(&self, t: f64) -> u64 {
-        // Saturating cast: monotone in t, times before t0 fall in bucket 0.
-        ((t - self.t0) * self.inv_dt) as u64
+        let x = (t - self.t0) * self.inv_dt;
+        // Clamps by comparisons (maxsd/minsd), then a plain conversion: the
+        // saturating `as u64` costs about 14 instructions, once per update.
+        let x = if x > 0.0 { x } else { 0.0 };
+        let x = if x < LAST_BUCKET as f64 { x } else { LAST_BUCKET as f64 };
+        // SAFETY: 0 <= x <= 2^62, finite, so it fits an i64.
+        unsafe { x.to_int_unchecked::<i64>() as u64 }
     }
 
     #[inline]
@@ -243,22 +259,21 @@ impl EventCalendar {
         self.advances = 0;
         for i in 0..self.slot.len() {
             let t = self.slot[i].time;
-            self.place(i, t);
+            self.place(i, t, self.bucket(t));
         }
         // The earliest finite time is in bucket 0 = cur, so the heap is not
         // empty unless no time is finite.
     }
 
-    /// Put particle `i` (in no structure) at time `t`.
+    /// Put particle `i` (in no structure) at time `t`, in bucket `b = bucket(t)`.
     #[inline]
-    fn place(&mut self, i: usize, t: f64) {
+    fn place(&mut self, i: usize, t: f64, b: u64) {
         self.slot[i].time = t;
         if t == f64::INFINITY {
             self.slot[i].loc = INFINITE;
             return;
         }
         self.finite += 1;
-        let b = self.bucket(t);
         if b <= self.cur {
             self.heap_push(i, t);
         } else if b < self.limit {
