@@ -225,7 +225,11 @@ impl EventCalendar {
         // Clamps by comparisons (maxsd/minsd), then a plain conversion: the
         // saturating `as u64` costs about 14 instructions, once per update.
         let x = if x > 0.0 { x } else { 0.0 };
-        let x = if x < LAST_BUCKET as f64 { x } else { LAST_BUCKET as f64 };
+        let x = if x < LAST_BUCKET as f64 {
+            x
+        } else {
+            LAST_BUCKET as f64
+        };
         // SAFETY: 0 <= x <= 2^62, finite, so it fits an i64.
         unsafe { x.to_int_unchecked::<i64>() as u64 }
     }
