@@ -28,10 +28,6 @@
 
 /// No particle (end of a list).
 const NONE: u32 = u32::MAX;
-/// `loc` flag: the particle sits in the heap, at position `loc & !IN_HEAP`.
-const IN_HEAP: u32 = 1 << 31;
-/// `loc` of a particle with an infinite time (in no structure).
-const INFINITE: u32 = IN_HEAP - 1;
 /// The bucket of every time beyond 2^62 buckets (and of infinity).
 const LAST_BUCKET: u64 = 1 << 62;
 /// Heap capacity kept after a rebuild (a bucket holds a few events).
@@ -42,15 +38,25 @@ pub const PER_BUCKET: f64 = 2.0;
 /// [PER_BUCKET / RETUNE, PER_BUCKET RETUNE].
 pub const RETUNE: f64 = 3.0;
 
-/// One particle: its time, its links in a ring or overflow list, where it is.
+/// One particle in 16 bytes: its time and its links in a ring or overflow list.
+/// Where it is follows from its time (module docs); in the heap, `prev` holds
+/// its heap position.
 #[derive(Clone, Copy, Debug)]
 struct Slot {
     time: f64,
     prev: u32,
     next: u32,
-    /// `IN_HEAP | heap position`, a ring slot (`0..nb`), `nb` (overflow) or
-    /// [`INFINITE`].
-    loc: u32,
+}
+
+/// Where a particle is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Place {
+    /// In the heap, at this position.
+    Heap(usize),
+    /// In this list: a ring slot (`0..nb`) or the overflow list (`nb`).
+    List(u32),
+    /// Nowhere: its time is infinite.
+    Nowhere,
 }
 
 /// A heap entry: the time is kept inline so sifting reads one array.
@@ -91,7 +97,7 @@ impl EventCalendar {
     /// A calendar of `n` particles, all without events (time infinity).
     pub fn new(n: usize) -> Self {
         assert!(
-            n < INFINITE as usize / 2,
+            n < 1 << 30,
             "{n} particles exceed the calendar's 2^30 limit"
         );
         let nb = n.next_power_of_two().max(2);
@@ -101,7 +107,6 @@ impl EventCalendar {
                     time: f64::INFINITY,
                     prev: NONE,
                     next: NONE,
-                    loc: INFINITE,
                 };
                 n
             ],
@@ -179,11 +184,10 @@ impl EventCalendar {
     pub fn update(&mut self, i: usize, t: f64) {
         assert!(i < self.slot.len(), "particle {i} is not in the calendar");
         debug_assert!(!t.is_nan(), "event time of particle {i} is NaN");
-        let loc = self.slot[i].loc;
         let b = self.bucket(t);
-        if loc & IN_HEAP != 0 && b <= self.cur && t != f64::INFINITY {
+        let was = self.place_of(i);
+        if let (Place::Heap(p), true) = (was, b <= self.cur && t != f64::INFINITY) {
             // Stays in the heap: change the key in place.
-            let p = (loc & !IN_HEAP) as usize;
             let old = self.heap[p];
             let new = Entry {
                 time: t,
@@ -198,7 +202,7 @@ impl EventCalendar {
             }
             return;
         }
-        self.detach(i);
+        self.detach(i, was);
         self.place(i, t, b);
         if self.heap.is_empty() {
             self.advance();
@@ -274,7 +278,6 @@ impl EventCalendar {
     fn place(&mut self, i: usize, t: f64, b: u64) {
         self.slot[i].time = t;
         if t == f64::INFINITY {
-            self.slot[i].loc = INFINITE;
             return;
         }
         self.finite += 1;
@@ -288,22 +291,37 @@ impl EventCalendar {
         }
     }
 
-    /// Take particle `i` out of whatever holds it.
+    /// Where particle `i` is, from its time.
     #[inline]
-    fn detach(&mut self, i: usize) {
-        let loc = self.slot[i].loc;
-        if loc == INFINITE {
-            return;
+    fn place_of(&self, i: usize) -> Place {
+        let Slot { time, prev, .. } = self.slot[i];
+        if time == f64::INFINITY {
+            return Place::Nowhere;
         }
-        self.finite -= 1;
-        if loc & IN_HEAP != 0 {
-            self.heap_remove((loc & !IN_HEAP) as usize);
+        let b = self.bucket(time);
+        if b <= self.cur {
+            Place::Heap(prev as usize)
+        } else if b < self.limit {
+            Place::List((b & self.mask) as u32)
         } else {
-            self.unlink(loc, i);
-            if loc != self.overflow() {
-                self.in_ring -= 1;
+            Place::List(self.overflow())
+        }
+    }
+
+    /// Take particle `i` out of `place` (where it is).
+    #[inline]
+    fn detach(&mut self, i: usize, place: Place) {
+        match place {
+            Place::Nowhere => return,
+            Place::Heap(p) => self.heap_remove(p),
+            Place::List(l) => {
+                self.unlink(l, i);
+                if l != self.overflow() {
+                    self.in_ring -= 1;
+                }
             }
         }
+        self.finite -= 1;
     }
 
     /// The heap is empty: move the next non-empty bucket into it.
@@ -386,7 +404,6 @@ impl EventCalendar {
         let h = self.head[list as usize];
         self.slot[i].prev = NONE;
         self.slot[i].next = h;
-        self.slot[i].loc = list;
         if h != NONE {
             self.slot[h as usize].prev = i as u32;
         }
@@ -439,11 +456,11 @@ impl EventCalendar {
                 break;
             }
             self.heap[p] = parent;
-            self.slot[parent.idx as usize].loc = IN_HEAP | p as u32;
+            self.slot[parent.idx as usize].prev = p as u32;
             p = q;
         }
         self.heap[p] = e;
-        self.slot[e.idx as usize].loc = IN_HEAP | p as u32;
+        self.slot[e.idx as usize].prev = p as u32;
     }
 
     #[inline]
@@ -466,11 +483,11 @@ impl EventCalendar {
                 break;
             }
             self.heap[p] = child;
-            self.slot[child.idx as usize].loc = IN_HEAP | p as u32;
+            self.slot[child.idx as usize].prev = p as u32;
             p = c;
         }
         self.heap[p] = e;
-        self.slot[e.idx as usize].loc = IN_HEAP | p as u32;
+        self.slot[e.idx as usize].prev = p as u32;
     }
 
     /// Check every invariant of the module docs; the error names the first
@@ -478,30 +495,53 @@ impl EventCalendar {
     #[cfg(test)]
     fn check(&self) -> Result<(), String> {
         let (mut heap, mut ring, mut over, mut finite) = (0, 0, 0, 0);
-        for (i, s) in self.slot.iter().enumerate() {
-            if s.time != f64::INFINITY {
-                finite += 1;
+        let mut member = vec![None; self.slot.len()];
+        for l in 0..self.head.len() {
+            let (mut j, mut prev) = (self.head[l], NONE);
+            while j != NONE {
+                if self.slot[j as usize].prev != prev || member[j as usize].is_some() {
+                    return Err(format!("list {l} links broken at {j}"));
+                }
+                member[j as usize] = Some(Place::List(l as u32));
+                (prev, j) = (j, self.slot[j as usize].next);
             }
-            let b = self.bucket(s.time);
-            if s.loc == INFINITE {
-                if s.time != f64::INFINITY {
-                    return Err(format!("particle {i} at {} is marked infinite", s.time));
+        }
+        for (p, e) in self.heap.iter().enumerate() {
+            if member[e.idx as usize].is_some() {
+                return Err(format!(
+                    "particle {} in the heap twice or also listed",
+                    e.idx
+                ));
+            }
+            member[e.idx as usize] = Some(Place::Heap(p));
+        }
+        for (i, s) in self.slot.iter().enumerate() {
+            let place = self.place_of(i);
+            if place != member[i].unwrap_or(Place::Nowhere) {
+                return Err(format!(
+                    "particle {i} at {} is at {:?}, not {place:?}",
+                    s.time, member[i]
+                ));
+            }
+            match place {
+                Place::Nowhere => {}
+                Place::Heap(p) => {
+                    heap += 1;
+                    finite += 1;
+                    if self.heap[p].time != s.time {
+                        return Err(format!(
+                            "particle {i} has time {} in the heap",
+                            self.heap[p].time
+                        ));
+                    }
                 }
-            } else if s.loc & IN_HEAP != 0 {
-                heap += 1;
-                let e = self.heap[(s.loc & !IN_HEAP) as usize];
-                if e.idx as usize != i || e.time != s.time || b > self.cur {
-                    return Err(format!("particle {i} wrong in the heap: {e:?}, b {b}"));
+                Place::List(l) if l == self.overflow() => {
+                    over += 1;
+                    finite += 1;
                 }
-            } else if s.loc == self.overflow() {
-                over += 1;
-                if b < self.limit {
-                    return Err(format!("particle {i} in overflow at bucket {b}"));
-                }
-            } else {
-                ring += 1;
-                if b <= self.cur || b >= self.limit || (b & self.mask) as u32 != s.loc {
-                    return Err(format!("particle {i} in ring slot {} at bucket {b}", s.loc));
+                Place::List(_) => {
+                    ring += 1;
+                    finite += 1;
                 }
             }
         }
@@ -510,26 +550,14 @@ impl EventCalendar {
                 return Err(format!("heap order broken at {p}"));
             }
         }
-        let listed: usize = (0..self.head.len())
-            .map(|l| {
-                let (mut k, mut j, mut prev) = (0, self.head[l], NONE);
-                while j != NONE {
-                    assert_eq!(self.slot[j as usize].prev, prev, "list {l} links");
-                    assert_eq!(self.slot[j as usize].loc, l as u32, "list {l} member");
-                    (prev, j, k) = (j, self.slot[j as usize].next, k + 1);
-                }
-                k
-            })
-            .sum();
         if heap != self.heap.len()
             || ring != self.in_ring
             || finite != self.finite
-            || listed != ring + over
             || self.limit - self.cur > self.mask + 1
             || (self.heap.is_empty() && finite > 0)
         {
             return Err(format!(
-                "counts: heap {heap}/{}, ring {ring}/{}, finite {finite}/{}, listed {listed}",
+                "counts: heap {heap}/{}, ring {ring}/{}, finite {finite}/{}, overflow {over}",
                 self.heap.len(),
                 self.in_ring,
                 self.finite
