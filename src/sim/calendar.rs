@@ -749,6 +749,6 @@ mod tests {
         cal.update(0, 7.0);
         assert_eq!(cal.min(), (0, 7.0));
         cal.check().unwrap();
-        assert!(cal.bytes() >= 4 * 24);
+        assert!(cal.bytes() >= 4 * 16);
     }
 }
