@@ -15,7 +15,8 @@
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
 
-use super::tree::{EventTree, select_f64, select_u32};
+use super::calendar::EventCalendar;
+use super::tree::{select_f64, select_u32};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp, StandardNormal};
@@ -122,7 +123,7 @@ pub struct Engine {
     last_collision: Vec<f64>,
     ev_p: Vec<u32>,
     ev_c: Vec<u32>,
-    tree: EventTree,
+    tree: EventCalendar,
     /// Neighbour lists are used (radii fixed and a box of at least 5x5 cells);
     /// otherwise every prediction scans the 3x3 cells.
     lists: bool,
@@ -224,7 +225,7 @@ impl Engine {
             last_collision: vec![f64::NEG_INFINITY; n],
             ev_p: vec![NONE; n],
             ev_c: vec![0; n],
-            tree: EventTree::new(n),
+            tree: EventCalendar::new(n),
             lists: false,
             shell,
             cap,
