@@ -1,8 +1,8 @@
 //! The event loop: hard disks moving ballistically between collisions, cell
 //! crossings and pair kicks.
 //!
-//! Design (after Smallenburg's EDMD): one pending event per particle in a
-//! tournament tree ([`EventTree`]), invalidated by per-particle collision counters
+//! Design (after Smallenburg's EDMD): one pending event per particle in an O(1)
+//! calendar queue ([`EventCalendar`]), invalidated by per-particle collision counters
 //! (an event with partner `j` is stale once `j` has changed velocity); a cell list
 //! with doubly linked cells; lazy positions (each particle stores the time its
 //! position refers to); structure-of-arrays storage; nothing is allocated inside
@@ -16,7 +16,8 @@
 //! the rebuilds and for choosing kick partners.
 
 use super::resources::{big_vec, big_vec_from};
-use super::tree::{EventTree, select_f64, select_u32};
+use super::calendar::EventCalendar;
+use super::tree::{select_f64, select_u32};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp, StandardNormal};
@@ -92,7 +93,7 @@ struct Disk {
     /// Time at which `x`, `y` are valid (lazy update).
     t: f64,
     radius: f64,
-    /// Time of this disk's pending event (a copy of its tree leaf, read while
+    /// Time of this disk's pending event (a copy of its calendar time, read while
     /// scanning neighbours from the line that is loaded anyway).
     te: f64,
     /// Next disk in the same cell.
@@ -151,7 +152,7 @@ pub struct Engine {
     /// Per-disk event partner, list centre and list length, packed so that a
     /// prediction touches one line for them instead of five arrays.
     bk: Vec<Book>,
-    tree: EventTree,
+    calendar: EventCalendar,
     /// Neighbour lists are used (radii fixed and a box of at least 5x5 cells);
     /// otherwise every prediction scans the 3x3 cells.
     lists: bool,
@@ -268,7 +269,7 @@ impl Engine {
             masses,
             last_collision: big_vec(n, f64::NEG_INFINITY),
             bk: big_vec(n, Book::default()),
-            tree: EventTree::new(n),
+            calendar: EventCalendar::new(n),
             lists: false,
             shell,
             rmax,
@@ -310,7 +311,7 @@ impl Engine {
         n * (std::mem::size_of::<Disk>() + std::mem::size_of::<Book>() + 2 * 4 + 2 * 4 + 8 + 1)
             + self.nb.len() * 4
             + self.head.len() * 8
-            + self.tree.bytes()
+            + self.calendar.bytes()
     }
 
     fn rebuild_cells(&mut self) {
@@ -466,7 +467,7 @@ impl Engine {
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
         for _ in 0..max_events {
-            let (i, te) = self.tree.min();
+            let (i, te) = self.calendar.min();
             if self.next_kick <= te {
                 if self.next_kick > t_stop {
                     self.now = t_stop;
@@ -545,9 +546,9 @@ impl Engine {
         for i in 0..self.n() {
             let t = self.find_event(i);
             self.d[i].te = t;
-            self.tree.set_lazy(i, t);
+            self.calendar.set_lazy(i, t);
         }
-        self.tree.rebuild();
+        self.calendar.rebuild();
     }
 
     fn cell_of(&self, x: f64, y: f64) -> usize {
@@ -626,7 +627,7 @@ impl Engine {
     }
 
     /// Earliest event of `i` (which must be at the current time): sets its partner
-    /// and returns its time, without updating the tree.
+    /// and returns its time, without updating the calendar.
     fn find_event(&mut self, i: usize) -> f64 {
         if self.lists {
             return self.find_event_listed(i);
@@ -865,7 +866,7 @@ impl Engine {
     fn predict(&mut self, i: usize) {
         let t = self.find_event(i);
         self.d[i].te = t;
-        self.tree.update(i, t);
+        self.calendar.update(i, t);
     }
 
     fn cross(&mut self, i: usize, dir: u32) {

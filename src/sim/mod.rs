@@ -2,11 +2,14 @@
 //!
 //! - [`config`]: [`SimConfig`], every model parameter, validated.
 //! - [`engine`]: the event loop (collisions, cell crossings, pair kicks).
-//! - [`tree`]: the event calendar.
+//! - [`tree`]: a tournament tree over the event times (the reference queue
+//!   in tests and benchmarks) and branch-free selects.
+//! - [`calendar`]: the event calendar (O(1) calendar queue, same API).
 //! - [`init`]: random start and Lubachevsky-Stillinger compression.
 //! - [`enskog`]: contact values and the Enskog collision frequency.
 //! - [`run`](mod@run): one simulation from config to trajectory and [`RunSummary`].
 
+pub mod calendar;
 pub mod config;
 pub mod engine;
 pub mod enskog;
