@@ -71,6 +71,12 @@ pub struct BenchArgs {
     /// Relaxation time per size.
     #[arg(long, default_value_t = 2.0)]
     pub relax: f64,
+    /// Radius growth rate of the compression that prepares each state: faster
+    /// than `repro sim`'s default, because only the steady state after the
+    /// relaxation is timed (at N = 10^6 the default compression alone takes
+    /// minutes).
+    #[arg(long, default_value_t = 0.1)]
+    pub compression_rate: f64,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
 }
@@ -223,7 +229,7 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     random_pairs: false,
                     time: b.time,
                     relax: b.relax,
-                    compression_rate: 0.02,
+                    compression_rate: b.compression_rate,
                     kick_rate: KickRate::Balanced,
                     seed: b.seed,
                     json: true,

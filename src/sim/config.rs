@@ -221,9 +221,7 @@ impl SimConfig {
             "must be >= 0",
         )?;
         if self.schedule.origins == 0 && self.schedule.start <= 0.0 {
-            bail!(
-                "schedule.origins = 0 (no frames) needs schedule.start > 0: the production time"
-            );
+            bail!("schedule.origins = 0 (no frames) needs schedule.start > 0: the production time");
         }
         for &l in &self.schedule.lags {
             finite_in(

@@ -15,8 +15,8 @@
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
 
-use super::resources::{big_vec, big_vec_from};
 use super::calendar::EventCalendar;
+use super::resources::{big_vec, big_vec_from};
 use super::tree::{select_f64, select_u32};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -1267,7 +1267,10 @@ fn earliest_pair(
         let tt = _mm_max_pd(_mm_div_pd(c, _mm_sub_pd(root, bb)), zero);
         let hit = _mm_and_pd(
             _mm_and_pd(_mm_cmplt_pd(bb, zero), _mm_cmpge_pd(disc, zero)),
-            _mm_and_pd(_mm_cmplt_pd(tt, best2), _mm_cmple_pd(_mm_add_pd(now2, tt), bte)),
+            _mm_and_pd(
+                _mm_cmplt_pd(tt, best2),
+                _mm_cmple_pd(_mm_add_pd(now2, tt), bte),
+            ),
         );
         best2 = _mm_or_pd(_mm_and_pd(hit, tt), _mm_andnot_pd(hit, best2));
         let hm = _mm_castpd_si128(hit);
@@ -1275,7 +1278,10 @@ fn earliest_pair(
         part2 = _mm_or_si128(_mm_and_si128(hm, jj), _mm_andnot_si128(hm, part2));
         k += 2;
     }
-    let (t0, t1) = (_mm_cvtsd_f64(best2), _mm_cvtsd_f64(_mm_unpackhi_pd(best2, best2)));
+    let (t0, t1) = (
+        _mm_cvtsd_f64(best2),
+        _mm_cvtsd_f64(_mm_unpackhi_pd(best2, best2)),
+    );
     let p0 = _mm_cvtsi128_si64(part2) as u32;
     let p1 = _mm_cvtsi128_si64(_mm_unpackhi_epi64(part2, part2)) as u32;
     // The earlier lane; on a tie the lane of the earlier list position's pair.
@@ -1381,7 +1387,14 @@ mod unit {
 
     #[test]
     fn round_nearest_is_the_nearest_image_count() {
-        for (x, r) in [(0.2, 0.0), (-0.2, 0.0), (0.7, 1.0), (-0.7, -1.0), (1.4, 1.0), (-1.6, -2.0)] {
+        for (x, r) in [
+            (0.2, 0.0),
+            (-0.2, 0.0),
+            (0.7, 1.0),
+            (-0.7, -1.0),
+            (1.4, 1.0),
+            (-1.6, -2.0),
+        ] {
             assert_eq!(round_nearest(x), r, "{x}");
         }
     }
