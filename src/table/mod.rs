@@ -144,7 +144,7 @@ mod tests {
         let b = f64_batch(&[("t", vec![0.1, 1.0, 10.0]), ("Q", vec![0.9, 0.5, 1e-300])]).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("x.parquet");
-        write_parquet(&p, &[b.clone()], &[("phi", "0.78")]).unwrap();
+        write_parquet(&p, std::slice::from_ref(&b), &[("phi", "0.78")]).unwrap();
         let (back, kv) = read_parquet(&p).unwrap();
         assert_eq!(back, vec![b.clone()]);
         assert_eq!(kv, vec![("phi".to_string(), "0.78".to_string())]);
@@ -163,7 +163,7 @@ mod tests {
             );
         }
         assert_eq!(
-            to_parquet_bytes(&[b.clone()], &[]).unwrap(),
+            to_parquet_bytes(std::slice::from_ref(&b), &[]).unwrap(),
             to_parquet_bytes(&[b], &[]).unwrap()
         );
     }
