@@ -697,8 +697,8 @@ impl Engine {
         let dx = a.x - self.bk[i].ox;
         let dy = a.y - self.bk[i].oy;
         // The centre may be on the other side of a periodic boundary.
-        let dx = dx - self.lx * round_nearest(dx / self.lx);
-        let dy = dy - self.ly * round_nearest(dy / self.ly);
+        let dx = nearest_image(dx, self.lx);
+        let dy = nearest_image(dy, self.ly);
         let aa = a.vx * a.vx + a.vy * a.vy;
         if aa == 0.0 {
             return f64::INFINITY;
@@ -784,7 +784,6 @@ impl Engine {
         let c = self.cell[i] as usize;
         let (cx, cy) = (c % self.ncx, c / self.ncx);
         let (oxi, oyi, ri) = (self.bk[i].ox, self.bk[i].oy, self.d[i].radius);
-        let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
         // Cells two away are needed only on a side where the centre is within
         // `reach - w` of its cell's edge (reach < 2 w): about 12 cells instead of 25.
         let reach = (ri + self.rmax + 2.0 * self.shell) * (1.0 + 1e-9);
@@ -808,10 +807,8 @@ impl Engine {
                     if ju == i {
                         continue;
                     }
-                    let mut ddx = self.bk[ju].ox - oxi;
-                    let mut ddy = self.bk[ju].oy - oyi;
-                    ddx += image_shift(ddx, hx, self.lx);
-                    ddy += image_shift(ddy, hy, self.ly);
+                    let ddx = nearest_image(self.bk[ju].ox - oxi, self.lx);
+                    let ddy = nearest_image(self.bk[ju].oy - oyi, self.ly);
                     let range = ri + self.d[ju].radius + 2.0 * self.shell;
                     if ddx * ddx + ddy * ddy < range * range {
                         self.push_list(i, ju);
@@ -909,10 +906,8 @@ impl Engine {
         let (a, b) = (self.d[i], self.d[j]);
         let (ma, mb) = (self.mass(i), self.mass(j));
         // Minimum image: touching disks are closer than half a box.
-        let mut dx = a.x - b.x;
-        let mut dy = a.y - b.y;
-        dx -= self.lx * round_nearest(dx / self.lx);
-        dy -= self.ly * round_nearest(dy / self.ly);
+        let dx = nearest_image(a.x - b.x, self.lx);
+        let dy = nearest_image(a.y - b.y, self.ly);
         let r = (dx * dx + dy * dy).sqrt();
         let (nx, ny) = (dx / r, dy / r);
         let gn = (a.vx - b.vx) * nx + (a.vy - b.vy) * ny;
@@ -1063,12 +1058,9 @@ impl Engine {
         if !self.lists {
             return Err("neighbour lists are not in use".into());
         }
-        let (hx, hy) = (0.5 * self.lx, 0.5 * self.ly);
         let near = |i: usize, x: f64, y: f64| {
-            let dx = x - self.bk[i].ox;
-            let dy = y - self.bk[i].oy;
-            let dx = dx + image_shift(dx, hx, self.lx);
-            let dy = dy + image_shift(dy, hy, self.ly);
+            let dx = nearest_image(x - self.bk[i].ox, self.lx);
+            let dy = nearest_image(y - self.bk[i].oy, self.ly);
             dx * dx + dy * dy
         };
         let list = |i: usize| &self.nb[i * self.cap..i * self.cap + self.bk[i].nn as usize];
@@ -1114,10 +1106,8 @@ impl Engine {
                 if j <= i {
                     return;
                 }
-                let mut dx = ux[i] - ux[j];
-                let mut dy = uy[i] - uy[j];
-                dx -= e.lx * (dx / e.lx).round();
-                dy -= e.ly * (dy / e.ly).round();
+                let dx = nearest_image(ux[i] - ux[j], e.lx);
+                let dy = nearest_image(uy[i] - uy[j], e.ly);
                 let sig = (e.d[i].radius + e.d[j].radius) * scale;
                 let ov = (sig - (dx * dx + dy * dy).sqrt()) / sig;
                 if ov > tol && worst.is_none_or(|w| ov > w.2) {
@@ -1129,17 +1119,11 @@ impl Engine {
     }
 }
 
-/// The shift (0 or +-`l`) that brings a separation `d` along an axis of length
-/// `l` to its nearest image, for |d| < 1.5 l (`h` = l / 2).
-#[inline]
-fn image_shift(d: f64, h: f64, l: f64) -> f64 {
-    if d > h {
-        -l
-    } else if d < -h {
-        l
-    } else {
-        0.0
-    }
+/// The separation `d` along a periodic axis of length `l` brought to its
+/// nearest image.
+#[inline(always)]
+pub(super) fn nearest_image(d: f64, l: f64) -> f64 {
+    d - l * round_nearest(d / l)
 }
 
 /// The earliest collision of disk `a` (at time `now`) with the disks `list` of

@@ -3,7 +3,7 @@
 //! elastically) up to the requested packing fraction, without overlaps.
 
 use super::config::SimConfig;
-use super::engine::{Engine, Setup, rng_from_seed};
+use super::engine::{Engine, Setup, nearest_image, rng_from_seed};
 use super::run::{Progress, Stage};
 use anyhow::{Result, bail};
 use rand::RngExt;
@@ -45,10 +45,8 @@ fn random_disks(
                     let c = ((cy + dy) % ncy) * ncx + (cx + dx) % ncx;
                     for &j in &grid[c] {
                         let j = j as usize;
-                        let mut ddx = px - x[j];
-                        let mut ddy = py - y[j];
-                        ddx -= box_size[0] * (ddx / box_size[0]).round();
-                        ddy -= box_size[1] * (ddy / box_size[1]).round();
+                        let ddx = nearest_image(px - x[j], box_size[0]);
+                        let ddy = nearest_image(py - y[j], box_size[1]);
                         let s = ri + radii[species[j] as usize] * scale;
                         if ddx * ddx + ddy * ddy < s * s {
                             free = false;
