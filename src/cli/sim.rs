@@ -180,6 +180,13 @@ fn json_line(s: &RunSummary) -> anyhow::Result<String> {
 pub fn run(c: Commands) -> anyhow::Result<()> {
     match c {
         Commands::Sim(a) => {
+            // The production time becomes the frame-less schedule's start, whose
+            // own error would not name the flag.
+            anyhow::ensure!(
+                a.time.is_finite() && a.time > 0.0,
+                "--time {} is invalid: the production time must be positive",
+                a.time
+            );
             let s = run_with_progress(&a.config())?;
             if a.json {
                 println!("{}", json_line(&s)?);
@@ -218,6 +225,11 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
             Ok(())
         }
         Commands::Bench(b) => {
+            anyhow::ensure!(
+                b.time.is_finite() && b.time > 0.0,
+                "--time {} is invalid: the measured time must be positive",
+                b.time
+            );
             for &n in &b.n {
                 let args = SimArgs {
                     n,
@@ -239,5 +251,31 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
             }
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Commands, run};
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        c: Commands,
+    }
+
+    fn error_of(args: &[&str]) -> String {
+        let cli = Cli::try_parse_from(std::iter::once("repro").chain(args.iter().copied()))
+            .expect("arguments parse");
+        run(cli.c).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn a_non_positive_time_names_the_flag() {
+        let e = error_of(&["sim", "--n", "200", "--time", "0"]);
+        assert!(e.contains("--time 0 is invalid"), "{e}");
+        let e = error_of(&["bench", "--n", "200", "--time=-1"]);
+        assert!(e.contains("--time -1 is invalid"), "{e}");
     }
 }
