@@ -1372,7 +1372,10 @@ mod unit {
             let mut d = vec![Disk::default(); m + 1];
             for (k, b) in d.iter_mut().enumerate() {
                 let r = if rng.random::<bool>() { 1.0 } else { 1.43 };
-                let (ang, dist) = (rng.random::<f64>() * 6.283, 2.9 + 0.8 * rng.random::<f64>());
+                let (ang, dist) = (
+                    rng.random::<f64>() * std::f64::consts::TAU,
+                    2.9 + 0.8 * rng.random::<f64>(),
+                );
                 // Disk 0 sits at the box edge: neighbours wrap around.
                 let (x, y) = if k == 0 {
                     (0.1, 29.9)
