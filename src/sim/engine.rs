@@ -17,7 +17,7 @@
 
 use super::calendar::EventCalendar;
 use super::resources::{big_vec, big_vec_from};
-use super::tree::{select_f64, select_u32};
+use super::scan::{earliest_pair, nearest_image};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp, StandardNormal};
@@ -27,7 +27,7 @@ const NONE: u32 = u32::MAX;
 /// (0: +x, 1: -x, 2: +y, 3: -y).
 const CROSS: u32 = u32::MAX - 8;
 /// Partner code of "leave the neighbour-list shell".
-const SHELL: u32 = CROSS + 4;
+pub(super) const SHELL: u32 = CROSS + 4;
 /// Starting list capacity per disk: lists hold 5-6 disks on average at
 /// phi = 0.78-0.84 and at most 8 were seen; a longer list doubles the capacity.
 const LIST_CAPACITY: usize = 12;
@@ -85,21 +85,21 @@ pub struct Stats {
 /// cache line: scanning a neighbour costs one memory access instead of seven.
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(64))]
-struct Disk {
-    x: f64,
-    y: f64,
-    vx: f64,
-    vy: f64,
+pub(super) struct Disk {
+    pub(super) x: f64,
+    pub(super) y: f64,
+    pub(super) vx: f64,
+    pub(super) vy: f64,
     /// Time at which `x`, `y` are valid (lazy update).
-    t: f64,
-    radius: f64,
+    pub(super) t: f64,
+    pub(super) radius: f64,
     /// Time of this disk's pending event (a copy of its calendar time, read while
     /// scanning neighbours from the line that is loaded anyway).
-    te: f64,
+    pub(super) te: f64,
     /// Next disk in the same cell.
-    next: u32,
+    pub(super) next: u32,
     /// Velocity changes so far: events predicted with an older value are stale.
-    count: u32,
+    pub(super) count: u32,
 }
 
 /// A disk's pending event partner and its neighbour-list bookkeeping.
@@ -670,11 +670,6 @@ impl Engine {
         let shell = self.shell_time(i, &a);
         let base = i * self.cap;
         let list = &self.nb[base..base + self.bk[i].nn as usize];
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: SSE2 is part of the x86_64 baseline (always enabled).
-        let (best, partner) =
-            unsafe { earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell) };
-        #[cfg(not(target_arch = "x86_64"))]
         let (best, partner) = earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
         self.set_partner(i, partner);
         self.now + best
@@ -1119,159 +1114,6 @@ impl Engine {
     }
 }
 
-/// The separation `d` along a periodic axis of length `l` brought to its
-/// nearest image.
-#[inline(always)]
-pub(super) fn nearest_image(d: f64, l: f64) -> f64 {
-    d - l * round_nearest(d / l)
-}
-
-/// The earliest collision of disk `a` (at time `now`) with the disks `list` of
-/// `d`, if earlier than `best`: (time from now, partner), or (`best`, SHELL).
-/// A listed disk `j` whose own pending event (`te`) is earlier is skipped: it
-/// will predict anew then (every event ends in a prediction) and find `a`
-/// itself (Smallenburg's rule; spares the stale event this one would become).
-///
-/// Written without branches on the pair geometry (which pair approaches is a
-/// coin flip that the branch predictor loses half the time): every pair's root
-/// is computed and the earliest kept by selects. This scalar version is the
-/// reference; x86_64 runs the SSE2 one below, two pairs at a time.
-#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-fn earliest_pair_scalar(
-    d: &[Disk],
-    list: &[u32],
-    a: &Disk,
-    now: f64,
-    lx: f64,
-    ly: f64,
-    mut best: f64,
-) -> (f64, u32) {
-    let (ilx, ily) = (1.0 / lx, 1.0 / ly);
-    let mut partner = SHELL;
-    for &j in list {
-        let b = &d[j as usize];
-        let dtj = now - b.t;
-        let dvx = b.vx - a.vx;
-        let dvy = b.vy - a.vy;
-        let dx = b.x + b.vx * dtj - a.x;
-        let dy = b.y + b.vy * dtj - a.y;
-        // List members are much closer than half a box: the nearest image.
-        let dx = dx - lx * round_nearest(dx * ilx);
-        let dy = dy - ly * round_nearest(dy * ily);
-        let bb = dx * dvx + dy * dvy;
-        let sig = a.radius + b.radius;
-        let c = dx * dx + dy * dy - sig * sig;
-        let aa = dvx * dvx + dvy * dvy;
-        let disc = bb * bb - aa * c;
-        // With bb < 0 the denominator is positive; c <= 0 (touching within
-        // round-off) while approaching gives a collision now.
-        let tt = (c / (disc.max(0.0).sqrt() - bb)).max(0.0);
-        let hit = (bb < 0.0) & (disc >= 0.0) & (tt < best) & (now + tt <= b.te);
-        best = select_f64(hit, tt, best);
-        partner = select_u32(hit, j, partner);
-    }
-    (best, partner)
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-use earliest_pair_scalar as earliest_pair;
-
-/// [`earliest_pair_scalar`] with SSE2 (part of every x86_64): the same
-/// operations in the same order on two listed disks per step, so each pair's
-/// time is bit-identical; only exact ties between pairs may pick another partner.
-#[cfg(target_arch = "x86_64")]
-#[inline]
-#[target_feature(enable = "sse2")]
-fn earliest_pair(
-    d: &[Disk],
-    list: &[u32],
-    a: &Disk,
-    now: f64,
-    lx: f64,
-    ly: f64,
-    best: f64,
-) -> (f64, u32) {
-    use std::arch::x86_64::*;
-    let n = list.len();
-    if n == 0 {
-        return (best, SHELL);
-    }
-    let v = |x: f64| _mm_set1_pd(x);
-    let (now2, ax, ay, avx, avy, ar) = (v(now), v(a.x), v(a.y), v(a.vx), v(a.vy), v(a.radius));
-    let (lx2, ly2, ilx2, ily2) = (v(lx), v(ly), v(1.0 / lx), v(1.0 / ly));
-    let magic = v(6_755_399_441_055_744.0);
-    let zero = _mm_setzero_pd();
-    let mut best2 = v(best);
-    let mut part2 = _mm_set1_epi64x(SHELL as i64);
-    let mut k = 0;
-    while k < n {
-        // An odd last disk is paired with itself: the same time twice.
-        let (j0, j1) = (list[k], list[(k + 1).min(n - 1)]);
-        let (b0, b1) = (&d[j0 as usize], &d[j1 as usize]);
-        // SAFETY: Disk is repr(C, align(64)) and starts with x, y, vx, vy, t,
-        // radius (16-byte aligned pairs); the pointers come from whole-Disk
-        // references, so each aligned 16-byte load stays inside one Disk.
-        let (p0, p1) = (
-            (b0 as *const Disk).cast::<f64>(),
-            (b1 as *const Disk).cast::<f64>(),
-        );
-        let (xy0, xy1, v0, v1, tr0, tr1) = unsafe {
-            (
-                _mm_load_pd(p0),
-                _mm_load_pd(p1),
-                _mm_load_pd(p0.add(2)),
-                _mm_load_pd(p1.add(2)),
-                _mm_load_pd(p0.add(4)),
-                _mm_load_pd(p1.add(4)),
-            )
-        };
-        let (bx, by) = (_mm_unpacklo_pd(xy0, xy1), _mm_unpackhi_pd(xy0, xy1));
-        let (bvx, bvy) = (_mm_unpacklo_pd(v0, v1), _mm_unpackhi_pd(v0, v1));
-        let (bt, br) = (_mm_unpacklo_pd(tr0, tr1), _mm_unpackhi_pd(tr0, tr1));
-        let bte = _mm_set_pd(b1.te, b0.te);
-        let dtj = _mm_sub_pd(now2, bt);
-        let dvx = _mm_sub_pd(bvx, avx);
-        let dvy = _mm_sub_pd(bvy, avy);
-        let dx = _mm_sub_pd(_mm_add_pd(bx, _mm_mul_pd(bvx, dtj)), ax);
-        let dy = _mm_sub_pd(_mm_add_pd(by, _mm_mul_pd(bvy, dtj)), ay);
-        let kx = _mm_sub_pd(_mm_add_pd(_mm_mul_pd(dx, ilx2), magic), magic);
-        let ky = _mm_sub_pd(_mm_add_pd(_mm_mul_pd(dy, ily2), magic), magic);
-        let dx = _mm_sub_pd(dx, _mm_mul_pd(lx2, kx));
-        let dy = _mm_sub_pd(dy, _mm_mul_pd(ly2, ky));
-        let bb = _mm_add_pd(_mm_mul_pd(dx, dvx), _mm_mul_pd(dy, dvy));
-        let sig = _mm_add_pd(ar, br);
-        let c = _mm_sub_pd(
-            _mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
-            _mm_mul_pd(sig, sig),
-        );
-        let aa = _mm_add_pd(_mm_mul_pd(dvx, dvx), _mm_mul_pd(dvy, dvy));
-        let disc = _mm_sub_pd(_mm_mul_pd(bb, bb), _mm_mul_pd(aa, c));
-        // max(x, 0) as in the scalar version (maxpd returns 0 for NaN x).
-        let root = _mm_sqrt_pd(_mm_max_pd(disc, zero));
-        let tt = _mm_max_pd(_mm_div_pd(c, _mm_sub_pd(root, bb)), zero);
-        let hit = _mm_and_pd(
-            _mm_and_pd(_mm_cmplt_pd(bb, zero), _mm_cmpge_pd(disc, zero)),
-            _mm_and_pd(
-                _mm_cmplt_pd(tt, best2),
-                _mm_cmple_pd(_mm_add_pd(now2, tt), bte),
-            ),
-        );
-        best2 = _mm_or_pd(_mm_and_pd(hit, tt), _mm_andnot_pd(hit, best2));
-        let hm = _mm_castpd_si128(hit);
-        let jj = _mm_set_epi64x(j1 as i64, j0 as i64);
-        part2 = _mm_or_si128(_mm_and_si128(hm, jj), _mm_andnot_si128(hm, part2));
-        k += 2;
-    }
-    let (t0, t1) = (
-        _mm_cvtsd_f64(best2),
-        _mm_cvtsd_f64(_mm_unpackhi_pd(best2, best2)),
-    );
-    let p0 = _mm_cvtsi128_si64(part2) as u32;
-    let p1 = _mm_cvtsi128_si64(_mm_unpackhi_epi64(part2, part2)) as u32;
-    // The earlier lane; on a tie the lane of the earlier list position's pair.
-    if t1 < t0 { (t1, p1) } else { (t0, p0) }
-}
-
 /// A hint to bring `r`'s cache line in; it never faults and changes nothing.
 #[inline(always)]
 fn prefetch<T>(r: &T) {
@@ -1306,14 +1148,6 @@ fn permute<T: Copy>(v: &mut [T], order: &[u32], done: &mut [bool]) {
             k = from;
         }
     }
-}
-
-/// `x` rounded to the nearest integer (ties to even) for |x| < 2^51, without a
-/// branch or a libm call: adding 1.5 2^52 leaves no fraction bits.
-#[inline(always)]
-fn round_nearest(x: f64) -> f64 {
-    const MAGIC: f64 = 6_755_399_441_055_744.0;
-    (x + MAGIC) - MAGIC
 }
 
 /// Time until coordinate `x` moving at `v` leaves cell `c` of width `w`.
@@ -1355,68 +1189,7 @@ pub fn rng_from_seed(seed: u64) -> ChaCha8Rng {
 
 #[cfg(test)]
 mod unit {
-    use super::{Disk, SHELL, earliest_pair, earliest_pair_scalar, permute, round_nearest};
-    use rand::{RngExt, SeedableRng};
-
-    /// The SSE2 scan gives the scalar reference's answer, bit for bit, on random
-    /// neighbourhoods of every list length (odd lengths pair the last disk with
-    /// itself), near a periodic boundary, with some neighbours' events earlier
-    /// (no overlaps: touching pairs all give time 0, a tie either may win).
-    #[test]
-    fn paired_scan_equals_the_scalar_reference() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let (lx, ly) = (40.0, 30.0);
-        let mut hits = 0;
-        for case in 0..4000 {
-            let m = case % 13;
-            let mut d = vec![Disk::default(); m + 1];
-            for (k, b) in d.iter_mut().enumerate() {
-                let r = if rng.random::<bool>() { 1.0 } else { 1.43 };
-                let (ang, dist) = (
-                    rng.random::<f64>() * std::f64::consts::TAU,
-                    2.9 + 0.8 * rng.random::<f64>(),
-                );
-                // Disk 0 sits at the box edge: neighbours wrap around.
-                let (x, y) = if k == 0 {
-                    (0.1, 29.9)
-                } else {
-                    (0.1 + dist * ang.cos(), 29.9 + dist * ang.sin())
-                };
-                *b = Disk {
-                    x: x.rem_euclid(lx),
-                    y: y.rem_euclid(ly),
-                    vx: rng.random::<f64>() * 4.0 - 2.0,
-                    vy: rng.random::<f64>() * 4.0 - 2.0,
-                    t: 5.0 - 0.01 * rng.random::<f64>(),
-                    radius: r,
-                    te: 5.0
-                        + if rng.random::<f64>() < 0.2 {
-                            0.05
-                        } else {
-                            10.0
-                        },
-                    ..Disk::default()
-                };
-            }
-            let a = Disk { t: 5.0, ..d[0] };
-            let list: Vec<u32> = (1..=m as u32).collect();
-            let shell = 0.5 * rng.random::<f64>();
-            let want = earliest_pair_scalar(&d, &list, &a, 5.0, lx, ly, shell);
-            // SAFETY: SSE2 is part of the x86_64 baseline.
-            #[cfg(target_arch = "x86_64")]
-            let got = unsafe { earliest_pair(&d, &list, &a, 5.0, lx, ly, shell) };
-            #[cfg(not(target_arch = "x86_64"))]
-            let got = earliest_pair(&d, &list, &a, 5.0, lx, ly, shell);
-            assert_eq!(got.0.to_bits(), want.0.to_bits(), "case {case}");
-            assert_eq!(got.1, want.1, "case {case}");
-            hits += usize::from(want.1 != SHELL);
-        }
-        // Some cases find a collision, the others only the shell exit: both paths run.
-        assert!(
-            hits > 400 && hits < 3900,
-            "{hits} of 4000 found a collision"
-        );
-    }
+    use super::permute;
 
     #[test]
     fn permute_in_place_equals_gather() {
@@ -1428,19 +1201,5 @@ mod unit {
         let mut v = old.clone();
         permute(&mut v, &order, &mut vec![false; n]);
         assert_eq!(v, want);
-    }
-
-    #[test]
-    fn round_nearest_is_the_nearest_image_count() {
-        for (x, r) in [
-            (0.2, 0.0),
-            (-0.2, 0.0),
-            (0.7, 1.0),
-            (-0.7, -1.0),
-            (1.4, 1.0),
-            (-1.6, -2.0),
-        ] {
-            assert_eq!(round_nearest(x), r, "{x}");
-        }
     }
 }

@@ -3,8 +3,9 @@
 //! elastically) up to the requested packing fraction, without overlaps.
 
 use super::config::SimConfig;
-use super::engine::{Engine, Setup, nearest_image, rng_from_seed};
+use super::engine::{Engine, Setup, rng_from_seed};
 use super::run::{Progress, Stage};
+use super::scan::nearest_image;
 use anyhow::{Result, bail};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;

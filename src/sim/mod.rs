@@ -5,6 +5,7 @@
 //! - [`tree`]: a tournament tree over the event times (the reference queue
 //!   in tests and benchmarks) and branch-free selects.
 //! - [`calendar`]: the event calendar (O(1) calendar queue, same API).
+//! - [`scan`]: the pair scan (scalar and SSE2, the same bits).
 //! - [`init`]: random start and Lubachevsky-Stillinger compression.
 //! - [`enskog`]: contact values and the Enskog collision frequency.
 //! - [`run`](mod@run): one simulation from config to trajectory and [`RunSummary`].
@@ -16,6 +17,7 @@ pub mod enskog;
 pub mod init;
 pub mod resources;
 pub mod run;
+pub mod scan;
 pub mod tree;
 
 #[cfg(test)]
