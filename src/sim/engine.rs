@@ -689,11 +689,11 @@ impl Engine {
     /// away from its list centre.
     #[inline]
     fn shell_time(&self, i: usize, a: &Disk) -> f64 {
+        // No nearest image: positions are wrapped into the box only where the
+        // centre is set (shell exits, full rebuilds), so a disk is never more
+        // than `shell` from its centre in unwrapped coordinates.
         let dx = a.x - self.bk[i].ox;
         let dy = a.y - self.bk[i].oy;
-        // The centre may be on the other side of a periodic boundary.
-        let dx = nearest_image(dx, self.lx);
-        let dy = nearest_image(dy, self.ly);
         let aa = a.vx * a.vx + a.vy * a.vy;
         if aa == 0.0 {
             return f64::INFINITY;
@@ -1062,7 +1062,12 @@ impl Engine {
         for i in 0..self.n() {
             let d = &self.d[i];
             let dt = self.now - d.t;
-            let r2 = near(i, d.x + d.vx * dt, d.y + d.vy * dt);
+            // Unwrapped, without a nearest image: shell times rely on it.
+            let (dx, dy) = (
+                d.x + d.vx * dt - self.bk[i].ox,
+                d.y + d.vy * dt - self.bk[i].oy,
+            );
+            let r2 = dx * dx + dy * dy;
             if r2 > self.shell * self.shell * (1.0 + 1e-9) {
                 return Err(format!(
                     "disk {i} is {} from its centre, shell {}",
