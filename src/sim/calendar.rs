@@ -26,6 +26,7 @@
 //! by more than a factor [`RETUNE`] (the collision rate changes, e.g. during
 //! compression). `dt` only affects speed, never the answers.
 
+use super::engine::{prefetch, prefetch_index};
 use super::resources::big_vec;
 
 /// No particle (end of a list).
@@ -72,6 +73,32 @@ struct Entry {
 #[inline(always)]
 fn before(a: Entry, b: Entry) -> bool {
     a.time < b.time || (a.time == b.time && a.idx < b.idx)
+}
+
+/// The particles of one bucket ([`EventCalendar::bucket_members`]). A
+/// particle's record is read only when the one after it is asked for, so taking
+/// the first reads nothing but the bucket's head.
+pub struct BucketMembers<'a> {
+    slot: &'a [Slot],
+    /// The particle handed out last (NONE before the first and at the end).
+    at: u32,
+    first: u32,
+}
+
+impl Iterator for BucketMembers<'_> {
+    type Item = usize;
+
+    #[inline]
+    fn next(&mut self) -> Option<usize> {
+        self.at = if self.first != NONE {
+            std::mem::replace(&mut self.first, NONE)
+        } else if self.at != NONE {
+            self.slot[self.at as usize].next
+        } else {
+            NONE
+        };
+        (self.at != NONE).then_some(self.at as usize)
+    }
 }
 
 pub struct EventCalendar {
@@ -221,6 +248,60 @@ impl EventCalendar {
     /// Current bucket width.
     pub fn bucket_width(&self) -> f64 {
         self.dt
+    }
+
+    /// The current bucket (that of the earliest time). It grows as time runs
+    /// and restarts from 0 when the width is re-tuned or after a rebuild.
+    #[inline]
+    pub fn current_bucket(&self) -> u64 {
+        self.cur
+    }
+
+    /// The particles of the current bucket (those in the heap), in no order.
+    #[inline]
+    pub fn current_members(&self) -> impl Iterator<Item = usize> + '_ {
+        self.heap.iter().map(|e| e.idx as usize)
+    }
+
+    /// The particles whose times are in bucket `b`, a bucket after the current
+    /// one within this year (in no order); none for any other `b`. Names the
+    /// events a few buckets ahead without a search, so that their data can be
+    /// fetched early: the walk reads one calendar record per particle.
+    #[inline]
+    pub fn bucket_members(&self, b: u64) -> BucketMembers<'_> {
+        let first = if self.cur < b && b < self.limit {
+            self.head[(b & self.mask) as usize]
+        } else {
+            NONE
+        };
+        BucketMembers {
+            slot: &self.slot,
+            at: NONE,
+            first,
+        }
+    }
+
+    /// Start fetching the calendar record of particle `i` (read by any update
+    /// of it and by a walk of its bucket); any `i` is allowed (a useless fetch
+    /// if it is not a particle).
+    #[inline]
+    pub fn prefetch(&self, i: usize) {
+        prefetch_index(&self.slot, i);
+    }
+
+    /// Start fetching the records linked to particle `i` in its list: taking
+    /// it out of a ring or overflow list (to give it a new time) writes them.
+    /// Reads `i`'s own record, so fetch that one first ([`Self::prefetch`]).
+    #[inline]
+    pub fn prefetch_links(&self, i: usize) {
+        if let Place::List(_) = self.place_of(i) {
+            let Slot { prev, next, .. } = self.slot[i];
+            for k in [prev, next] {
+                if k != NONE {
+                    prefetch(&self.slot[k as usize]);
+                }
+            }
+        }
     }
 
     /// Bucket of time `t`: non-decreasing in `t`; times before `t0` (and NaN)
