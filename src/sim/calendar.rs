@@ -666,6 +666,45 @@ mod tests {
         (best, times[best])
     }
 
+    /// The members the look-ahead API names, against the times: the current
+    /// bucket holds every finite time of a bucket up to the current one, and
+    /// each later bucket of the year exactly the times that fall in it.
+    /// Returns how many particles the next five buckets named.
+    fn members_match(cal: &EventCalendar, times: &[f64]) -> Result<usize, String> {
+        let sorted = |mut v: Vec<usize>| {
+            v.sort_unstable();
+            v
+        };
+        let cur = cal.current_bucket();
+        let want = |keep: &dyn Fn(u64) -> bool| {
+            (0..times.len())
+                .filter(|&i| times[i].is_finite() && keep(cal.bucket(times[i])))
+                .collect::<Vec<_>>()
+        };
+        if sorted(cal.current_members().collect()) != want(&|b| b <= cur) {
+            return Err(format!("current bucket {cur} members differ"));
+        }
+        let mut named = 0;
+        for b in cur + 1..cur + 6 {
+            let expect = if b < cal.limit {
+                want(&|bt| bt == b)
+            } else {
+                vec![]
+            };
+            if sorted(cal.bucket_members(b).collect()) != expect {
+                return Err(format!("bucket {b} (current {cur}) members differ"));
+            }
+            named += expect.len();
+        }
+        // Nothing is named for buckets that are not ahead of the current one.
+        if cal.bucket_members(cur).next().is_some()
+            || cal.bucket_members(cur.wrapping_sub(1)).next().is_some()
+        {
+            return Err(format!("members named for bucket {cur} or before"));
+        }
+        Ok(named)
+    }
+
     /// Random operations against the brute-force reference. Each step picks one
     /// of: pop the minimum and reschedule it later by an exponential wait (the
     /// EDMD pattern), update a random particle to a time between the last popped
@@ -736,6 +775,7 @@ mod tests {
             }
             if step % 97 == 0 {
                 cal.check()
+                    .and_then(|()| members_match(&cal, &times))
                     .unwrap_or_else(|e| panic!("n {n} seed {seed} step {step}: {e}"));
             }
             assert_eq!(cal.time(i), times[i]);
@@ -766,6 +806,7 @@ mod tests {
         }
         cal.rebuild();
         let dt0 = cal.bucket_width();
+        let mut named = 0;
         for step in 0..60_000 {
             let (i, now) = brute_min(&times);
             assert_eq!(cal.min(), (i, now), "step {step}");
@@ -777,9 +818,14 @@ mod tests {
                 cal.update(j, times[j]);
             }
             if step % 1000 == 0 {
-                cal.check().unwrap_or_else(|e| panic!("step {step}: {e}"));
+                named += cal
+                    .check()
+                    .and_then(|()| members_match(&cal, &times))
+                    .unwrap_or_else(|e| panic!("step {step}: {e}"));
             }
         }
+        // ~2 events per bucket: the 60 checks saw ~600 named ahead.
+        assert!(named > 200, "{named} particles named in buckets ahead");
         // The last phase is 100x sparser than the first: the width followed.
         assert!(
             cal.bucket_width() > 10.0 * dt0,

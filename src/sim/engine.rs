@@ -204,6 +204,8 @@ pub struct Engine {
     ahead_bucket: u64,
     /// The prefetch pipeline is on (lists in use, arrays beyond the L2 cache).
     ahead: bool,
+    /// [`PREFETCH_MIN_BYTES`] (a test forces the pipeline on in small systems).
+    prefetch_min_bytes: usize,
     /// Kick amplitude p_dr.
     p_dr: f64,
     rng: ChaCha8Rng,
@@ -315,6 +317,7 @@ impl Engine {
             kick_pos: 0,
             ahead_bucket: 0,
             ahead: false,
+            prefetch_min_bytes: PREFETCH_MIN_BYTES,
             p_dr: 0.0,
             rng,
             stats: Stats::default(),
@@ -612,7 +615,7 @@ impl Engine {
     /// clock is set to `t_stop`) or `max_events` were processed. True if `t_stop`
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
-        self.ahead = self.lists && self.bytes() > PREFETCH_MIN_BYTES;
+        self.ahead = self.lists && self.bytes() > self.prefetch_min_bytes;
         for _ in 0..max_events {
             let (i, te) = self.calendar.min();
             if self.next_kick <= te {
@@ -1579,6 +1582,42 @@ mod unit {
             hits > 400 && hits < 3900,
             "{hits} of 4000 found a collision"
         );
+    }
+
+    /// The prefetch pipeline is only a hint: forced on in a small driven system
+    /// (where it is off by default), the run is bit-identical to one without.
+    #[test]
+    fn prefetch_pipeline_changes_nothing() {
+        let c = crate::sim::SimConfig {
+            n: 2000,
+            phi: 0.78,
+            eps: 0.9,
+            ..Default::default()
+        };
+        let run = |min_bytes: usize| {
+            let mut e = crate::sim::init::prepare(&c, &|_| {}).unwrap();
+            let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 15.0);
+            (e.eps, e.tc) = (c.eps, c.collapse_tc);
+            e.set_kicks(kicks, rate, p_dr);
+            e.prefetch_min_bytes = min_bytes;
+            e.run_until(f64::INFINITY, 200_000);
+            assert_eq!(e.ahead, min_bytes == 0, "pipeline on/off");
+            let ((x, y), (vx, vy)) = (e.unwrapped_positions(), e.velocities());
+            let bits: Vec<u64> = [x, y, vx, vy]
+                .concat()
+                .iter()
+                .map(|v| v.to_bits())
+                .collect();
+            (e.stats, bits)
+        };
+        let (on, off) = (run(0), run(usize::MAX));
+        assert!(
+            on.0.collisions > 50_000 && on.0.kicks > 50_000,
+            "{:?}",
+            on.0
+        );
+        assert_eq!(on.0, off.0);
+        assert!(on.1 == off.1, "positions or velocities differ");
     }
 
     #[test]
