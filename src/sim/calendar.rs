@@ -26,6 +26,7 @@
 //! by more than a factor [`RETUNE`] (the collision rate changes, e.g. during
 //! compression). `dt` only affects speed, never the answers.
 
+use super::engine::{prefetch, prefetch_index};
 use super::resources::big_vec;
 
 /// No particle (end of a list).
@@ -72,6 +73,32 @@ struct Entry {
 #[inline(always)]
 fn before(a: Entry, b: Entry) -> bool {
     a.time < b.time || (a.time == b.time && a.idx < b.idx)
+}
+
+/// The particles of one bucket ([`EventCalendar::bucket_members`]). A
+/// particle's record is read only when the one after it is asked for, so taking
+/// the first reads nothing but the bucket's head.
+pub struct BucketMembers<'a> {
+    slot: &'a [Slot],
+    /// The particle handed out last (NONE before the first and at the end).
+    at: u32,
+    first: u32,
+}
+
+impl Iterator for BucketMembers<'_> {
+    type Item = usize;
+
+    #[inline]
+    fn next(&mut self) -> Option<usize> {
+        self.at = if self.first != NONE {
+            std::mem::replace(&mut self.first, NONE)
+        } else if self.at != NONE {
+            self.slot[self.at as usize].next
+        } else {
+            NONE
+        };
+        (self.at != NONE).then_some(self.at as usize)
+    }
 }
 
 pub struct EventCalendar {
@@ -221,6 +248,60 @@ impl EventCalendar {
     /// Current bucket width.
     pub fn bucket_width(&self) -> f64 {
         self.dt
+    }
+
+    /// The current bucket (that of the earliest time). It grows as time runs
+    /// and restarts from 0 when the width is re-tuned or after a rebuild.
+    #[inline]
+    pub fn current_bucket(&self) -> u64 {
+        self.cur
+    }
+
+    /// The particles of the current bucket (those in the heap), in no order.
+    #[inline]
+    pub fn current_members(&self) -> impl Iterator<Item = usize> + '_ {
+        self.heap.iter().map(|e| e.idx as usize)
+    }
+
+    /// The particles whose times are in bucket `b`, a bucket after the current
+    /// one within this year (in no order); none for any other `b`. Names the
+    /// events a few buckets ahead without a search, so that their data can be
+    /// fetched early: the walk reads one calendar record per particle.
+    #[inline]
+    pub fn bucket_members(&self, b: u64) -> BucketMembers<'_> {
+        let first = if self.cur < b && b < self.limit {
+            self.head[(b & self.mask) as usize]
+        } else {
+            NONE
+        };
+        BucketMembers {
+            slot: &self.slot,
+            at: NONE,
+            first,
+        }
+    }
+
+    /// Start fetching the calendar record of particle `i` (read by any update
+    /// of it and by a walk of its bucket); any `i` is allowed (a useless fetch
+    /// if it is not a particle).
+    #[inline]
+    pub fn prefetch(&self, i: usize) {
+        prefetch_index(&self.slot, i);
+    }
+
+    /// Start fetching the records linked to particle `i` in its list: taking
+    /// it out of a ring or overflow list (to give it a new time) writes them.
+    /// Reads `i`'s own record, so fetch that one first ([`Self::prefetch`]).
+    #[inline]
+    pub fn prefetch_links(&self, i: usize) {
+        if let Place::List(_) = self.place_of(i) {
+            let Slot { prev, next, .. } = self.slot[i];
+            for k in [prev, next] {
+                if k != NONE {
+                    prefetch(&self.slot[k as usize]);
+                }
+            }
+        }
     }
 
     /// Bucket of time `t`: non-decreasing in `t`; times before `t0` (and NaN)
@@ -585,6 +666,45 @@ mod tests {
         (best, times[best])
     }
 
+    /// The members the look-ahead API names, against the times: the current
+    /// bucket holds every finite time of a bucket up to the current one, and
+    /// each later bucket of the year exactly the times that fall in it.
+    /// Returns how many particles the next five buckets named.
+    fn members_match(cal: &EventCalendar, times: &[f64]) -> Result<usize, String> {
+        let sorted = |mut v: Vec<usize>| {
+            v.sort_unstable();
+            v
+        };
+        let cur = cal.current_bucket();
+        let want = |keep: &dyn Fn(u64) -> bool| {
+            (0..times.len())
+                .filter(|&i| times[i].is_finite() && keep(cal.bucket(times[i])))
+                .collect::<Vec<_>>()
+        };
+        if sorted(cal.current_members().collect()) != want(&|b| b <= cur) {
+            return Err(format!("current bucket {cur} members differ"));
+        }
+        let mut named = 0;
+        for b in cur + 1..cur + 6 {
+            let expect = if b < cal.limit {
+                want(&|bt| bt == b)
+            } else {
+                vec![]
+            };
+            if sorted(cal.bucket_members(b).collect()) != expect {
+                return Err(format!("bucket {b} (current {cur}) members differ"));
+            }
+            named += expect.len();
+        }
+        // Nothing is named for buckets that are not ahead of the current one.
+        if cal.bucket_members(cur).next().is_some()
+            || cal.bucket_members(cur.wrapping_sub(1)).next().is_some()
+        {
+            return Err(format!("members named for bucket {cur} or before"));
+        }
+        Ok(named)
+    }
+
     /// Random operations against the brute-force reference. Each step picks one
     /// of: pop the minimum and reschedule it later by an exponential wait (the
     /// EDMD pattern), update a random particle to a time between the last popped
@@ -655,6 +775,7 @@ mod tests {
             }
             if step % 97 == 0 {
                 cal.check()
+                    .and_then(|()| members_match(&cal, &times))
                     .unwrap_or_else(|e| panic!("n {n} seed {seed} step {step}: {e}"));
             }
             assert_eq!(cal.time(i), times[i]);
@@ -685,6 +806,7 @@ mod tests {
         }
         cal.rebuild();
         let dt0 = cal.bucket_width();
+        let mut named = 0;
         for step in 0..60_000 {
             let (i, now) = brute_min(&times);
             assert_eq!(cal.min(), (i, now), "step {step}");
@@ -696,9 +818,14 @@ mod tests {
                 cal.update(j, times[j]);
             }
             if step % 1000 == 0 {
-                cal.check().unwrap_or_else(|e| panic!("step {step}: {e}"));
+                named += cal
+                    .check()
+                    .and_then(|()| members_match(&cal, &times))
+                    .unwrap_or_else(|e| panic!("step {step}: {e}"));
             }
         }
+        // ~2 events per bucket: the 60 checks saw ~600 named ahead.
+        assert!(named > 200, "{named} particles named in buckets ahead");
         // The last phase is 100x sparser than the first: the width followed.
         assert!(
             cal.bucket_width() > 10.0 * dt0,

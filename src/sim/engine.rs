@@ -34,6 +34,17 @@ const LIST_CAPACITY: usize = 12;
 /// Shell half-width as a fraction of the smallest radius: wider shells mean fewer
 /// list rebuilds but longer lists (measured in docs/sim.md).
 const SHELL_FRACTION: f64 = 0.3;
+/// First disks of kicks drawn ahead of the pending one: each is fetched from
+/// memory in stages over the kicks before it (docs/sim.md, "Prefetch pipeline").
+const KICKS_AHEAD: usize = 3;
+/// At most this many events of one calendar bucket are fetched ahead (a bucket
+/// holds ~2 on average).
+const BUCKET_PREFETCH_MAX: usize = 8;
+/// The prefetch pipeline runs when the engine's arrays exceed this: below, they
+/// stay in the L2 cache (2 MiB per core here, ~200 bytes per disk) and its
+/// instructions and mispredicted loop exits cost more than they save (measured
+/// in docs/sim.md: -8% at N = 10^4, +7% at 2 x 10^4).
+const PREFETCH_MIN_BYTES: usize = 3 << 20;
 
 /// How pairs receive kicks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -181,9 +192,20 @@ pub struct Engine {
     /// Pair kicks per unit time, whole system.
     kick_rate: f64,
     next_kick: f64,
-    /// The first disk of the next kick, drawn with its time so that its data can
-    /// be fetched from memory while the events before it are processed.
+    /// The first disk of the next kick, drawn [`KICKS_AHEAD`] kicks before it so
+    /// that its data is fetched from memory while the events before it run.
     kick_next: usize,
+    /// The first disks of the kicks after `kick_next`: the `m`-th next one
+    /// (from 0) is `kick_ring[(kick_pos + m) % KICKS_AHEAD]`; empty (`None`)
+    /// until driving starts.
+    kick_ring: Option<[u32; KICKS_AHEAD]>,
+    kick_pos: usize,
+    /// The calendar bucket up to which the prefetch pipeline has run.
+    ahead_bucket: u64,
+    /// The prefetch pipeline is on (lists in use, arrays beyond the L2 cache).
+    ahead: bool,
+    /// [`PREFETCH_MIN_BYTES`] (a test forces the pipeline on in small systems).
+    prefetch_min_bytes: usize,
     /// Kick amplitude p_dr.
     p_dr: f64,
     rng: ChaCha8Rng,
@@ -291,6 +313,11 @@ impl Engine {
             kick_rate: 0.0,
             next_kick: f64::INFINITY,
             kick_next: 0,
+            kick_ring: None,
+            kick_pos: 0,
+            ahead_bucket: 0,
+            ahead: false,
+            prefetch_min_bytes: PREFETCH_MIN_BYTES,
             p_dr: 0.0,
             rng,
             stats: Stats::default(),
@@ -363,14 +390,54 @@ impl Engine {
         self.schedule_kick();
     }
 
-    /// Draw the time and the first disk of the next kick, and start fetching
-    /// that disk's data.
+    /// Draw the time of the next kick and the first disk of the kick
+    /// [`KICKS_AHEAD`] kicks after it, and move the fetching of the disks in
+    /// between one stage on.
     fn schedule_kick(&mut self) {
         self.next_kick = self.now + self.kick_wait();
         if self.next_kick < f64::INFINITY {
-            self.kick_next = self.rng.random_range(0..self.n());
-            self.prefetch_around(self.kick_next);
+            let n = self.n();
+            let rng = &mut self.rng;
+            let ring = self
+                .kick_ring
+                .get_or_insert_with(|| std::array::from_fn(|_| rng.random_range(0..n) as u32));
+            let pos = self.kick_pos;
+            self.kick_next = ring[pos] as usize;
+            ring[pos] = self.rng.random_range(0..n) as u32;
+            self.kick_pos = (pos + 1) % KICKS_AHEAD;
+            self.prefetch_kicks();
         }
+    }
+
+    /// One stage of fetching for each kick drawn ahead: the disk line, list
+    /// record and cell of the one just drawn; the list and the 3x3 cells'
+    /// counts and heads (where the partner is drawn) of the one after next;
+    /// the listed neighbours of the next one. Each stage reads only what the
+    /// previous one fetched, a kick (~2 events) earlier.
+    fn prefetch_kicks(&self) {
+        if !self.ahead {
+            // Small systems: only the next kick's disk and neighbours.
+            self.prefetch_around(self.kick_next);
+            return;
+        }
+        let Some(ring) = &self.kick_ring else { return };
+        let at = |m: usize| ring[(self.kick_pos + m) % KICKS_AHEAD] as usize;
+        let drawn = at(KICKS_AHEAD - 1);
+        prefetch(&self.d[drawn]);
+        prefetch(&self.bk[drawn]);
+        prefetch(&self.cell[drawn]);
+        let after_next = at(1);
+        self.prefetch_list(after_next);
+        // Three rows of three cells, ignoring the periodic wrap (a wrong
+        // guess at the box edge only costs a useless fetch).
+        let c = self.cell[after_next] as usize;
+        for row in [c.wrapping_sub(self.ncx), c, c + self.ncx] {
+            for k in [row.wrapping_sub(1), row + 1] {
+                prefetch_index(&self.occupancy, k);
+                prefetch_index(&self.head, k);
+            }
+        }
+        self.prefetch_listed(at(0));
     }
 
     /// Ask the cache for disk `i`'s bookkeeping and its listed neighbours, which
@@ -379,10 +446,92 @@ impl Engine {
     fn prefetch_around(&self, i: usize) {
         prefetch(&self.d[i]);
         prefetch(&self.cell[i]);
+        self.prefetch_listed(i);
+    }
+
+    /// Fetch the neighbour list of disk `i` (its first and last entries: 12
+    /// slots may straddle two lines). Reads `bk[i]`.
+    #[inline]
+    fn prefetch_list(&self, i: usize) {
+        if self.lists {
+            let base = i * self.cap;
+            let m = self.bk[i].nn as usize;
+            prefetch_index(&self.nb, base);
+            prefetch_index(&self.nb, base + m.saturating_sub(1));
+        }
+    }
+
+    /// Fetch the lines of the disks in `i`'s neighbour list (which its
+    /// prediction reads). Reads `bk[i]` and the list.
+    #[inline]
+    fn prefetch_listed(&self, i: usize) {
         if self.lists {
             let base = i * self.cap;
             for &k in &self.nb[base..base + self.bk[i].nn as usize] {
                 prefetch(&self.d[k as usize]);
+            }
+        }
+    }
+
+    /// The prefetch pipeline over the calendar: when the current bucket moves
+    /// on, fetch for the events of the next buckets, each stage reading only
+    /// what an earlier stage fetched one bucket (~1.5 collisions) before:
+    /// - bucket + 4: the calendar record of its first disk;
+    /// - bucket + 3: (walking the bucket) the disks' records, lines and books;
+    /// - bucket + 2: their lists, last collision times, and their partners'
+    ///   lines, books and calendar records;
+    /// - bucket + 1: their listed neighbours, the partners' lists and the
+    ///   records the partners' calendar updates unlink;
+    /// - the current bucket: the partners' listed neighbours.
+    ///
+    /// Events predicted meanwhile into these buckets are missed and stale
+    /// ones fetched for nothing: it is only a hint, results never depend on it.
+    fn look_ahead(&mut self) {
+        let cur = self.calendar.current_bucket();
+        if cur == self.ahead_bucket {
+            return;
+        }
+        // Usually one step; after a jump or a re-binning (numbering restarts),
+        // only the latest.
+        let from = if cur < self.ahead_bucket || cur - self.ahead_bucket > 4 {
+            cur
+        } else {
+            self.ahead_bucket + 1
+        };
+        self.ahead_bucket = cur;
+        let cal = &self.calendar;
+        for b in from..=cur {
+            for j in cal.bucket_members(b + 4).take(1) {
+                cal.prefetch(j);
+            }
+            for j in cal.bucket_members(b + 3).take(BUCKET_PREFETCH_MAX) {
+                cal.prefetch(j);
+                prefetch(&self.d[j]);
+                prefetch(&self.bk[j]);
+            }
+            for j in cal.bucket_members(b + 2).take(BUCKET_PREFETCH_MAX) {
+                self.prefetch_list(j);
+                prefetch(&self.last_collision[j]);
+                // The partner may be a SHELL code: then the fetches are useless.
+                let p = self.bk[j].ev_p as usize;
+                prefetch_index(&self.d, p);
+                prefetch_index(&self.bk, p);
+                prefetch_index(&self.last_collision, p);
+                cal.prefetch(p);
+            }
+            for j in cal.bucket_members(b + 1).take(BUCKET_PREFETCH_MAX) {
+                self.prefetch_listed(j);
+                let p = self.bk[j].ev_p as usize;
+                if p < self.n() {
+                    self.prefetch_list(p);
+                    cal.prefetch_links(p);
+                }
+            }
+        }
+        for j in self.calendar.current_members().take(BUCKET_PREFETCH_MAX) {
+            let p = self.bk[j].ev_p as usize;
+            if p < self.n() {
+                self.prefetch_listed(p);
             }
         }
     }
@@ -466,6 +615,7 @@ impl Engine {
     /// clock is set to `t_stop`) or `max_events` were processed. True if `t_stop`
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
+        self.ahead = self.lists && self.bytes() > self.prefetch_min_bytes;
         for _ in 0..max_events {
             let (i, te) = self.calendar.min();
             if self.next_kick <= te {
@@ -483,6 +633,9 @@ impl Engine {
                 return true;
             }
             self.now = te;
+            if self.ahead {
+                self.look_ahead();
+            }
             let p = self.bk[i].ev_p;
             if p == SHELL {
                 self.shell_exit(i);
@@ -1121,15 +1274,28 @@ impl Engine {
 
 /// A hint to bring `r`'s cache line in; it never faults and changes nothing.
 #[inline(always)]
-fn prefetch<T>(r: &T) {
+pub(super) fn prefetch<T>(r: &T) {
+    prefetch_ptr(r as *const T);
+}
+
+/// [`prefetch`] of `v[k]` for any `k`, without a bounds check: out of range
+/// it fetches a useless line (for guesses that may be off, e.g. cells across
+/// a periodic edge, or event partners that are codes rather than disks).
+#[inline(always)]
+pub(super) fn prefetch_index<T>(v: &[T], k: usize) {
+    prefetch_ptr(v.as_ptr().wrapping_add(k));
+}
+
+#[inline(always)]
+fn prefetch_ptr<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: prefetching is only a hint to the cache; any address is allowed.
     unsafe {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>((r as *const T).cast::<i8>());
+        _mm_prefetch::<_MM_HINT_T0>(p.cast::<i8>());
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = r;
+    let _ = p;
 }
 
 /// Reorder `v` so that `v[k]` becomes the old `v[order[k]]`, following the
@@ -1195,6 +1361,42 @@ pub fn rng_from_seed(seed: u64) -> ChaCha8Rng {
 #[cfg(test)]
 mod unit {
     use super::permute;
+
+    /// The prefetch pipeline is only a hint: forced on in a small driven system
+    /// (where it is off by default), the run is bit-identical to one without.
+    #[test]
+    fn prefetch_pipeline_changes_nothing() {
+        let c = crate::sim::SimConfig {
+            n: 2000,
+            phi: 0.78,
+            eps: 0.9,
+            ..Default::default()
+        };
+        let run = |min_bytes: usize| {
+            let mut e = crate::sim::init::prepare(&c, &|_| {}).unwrap();
+            let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 15.0);
+            (e.eps, e.tc) = (c.eps, c.collapse_tc);
+            e.set_kicks(kicks, rate, p_dr);
+            e.prefetch_min_bytes = min_bytes;
+            e.run_until(f64::INFINITY, 200_000);
+            assert_eq!(e.ahead, min_bytes == 0, "pipeline on/off");
+            let ((x, y), (vx, vy)) = (e.unwrapped_positions(), e.velocities());
+            let bits: Vec<u64> = [x, y, vx, vy]
+                .concat()
+                .iter()
+                .map(|v| v.to_bits())
+                .collect();
+            (e.stats, bits)
+        };
+        let (on, off) = (run(0), run(usize::MAX));
+        assert!(
+            on.0.collisions > 50_000 && on.0.kicks > 50_000,
+            "{:?}",
+            on.0
+        );
+        assert_eq!(on.0, off.0);
+        assert!(on.1 == off.1, "positions or velocities differ");
+    }
 
     #[test]
     fn permute_in_place_equals_gather() {
