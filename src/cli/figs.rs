@@ -262,10 +262,27 @@ pub struct Golden {
     pub figure: String,
     pub quantity: String,
     pub seeds: Vec<u64>,
+    /// Per seed; a seed whose fit gave no number is NaN, written as `null`.
+    #[serde(with = "nan_as_null")]
     pub values: Vec<f64>,
     pub mean: f64,
     pub std: f64,
     pub band: [f64; 2],
+}
+
+/// JSON has no NaN: serde_json writes it as `null`, which must read back as NaN.
+mod nan_as_null {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        let o: Vec<Option<f64>> = v.iter().map(|x| x.is_finite().then_some(*x)).collect();
+        o.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        let o = Vec::<Option<f64>>::deserialize(d)?;
+        Ok(o.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -681,6 +698,27 @@ mod tests {
             (flat.band[1] - 0.808).abs() < 1e-12,
             "floor applies when seeds agree"
         );
+    }
+
+    /// A seed whose fit failed (NaN) is left out of the band, written as
+    /// `null`, and read back as NaN.
+    #[test]
+    fn a_failed_seed_round_trips_as_null() {
+        let g = golden(
+            "fig19",
+            "gamma_xi",
+            &[1, 2, 3],
+            &[1.0, f64::NAN, 3.0],
+            4.0,
+            0.01,
+        );
+        assert!((g.mean - 2.0).abs() < 1e-12);
+        let json = serde_json::to_string(&g).unwrap();
+        assert!(json.contains("[1.0,null,3.0]"), "{json}");
+        let back: Golden = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.values[0], 1.0);
+        assert!(back.values[1].is_nan());
+        assert_eq!(back.band, g.band);
     }
 
     #[test]
