@@ -40,10 +40,11 @@ const KICKS_AHEAD: usize = 3;
 /// At most this many events of one calendar bucket are fetched ahead (a bucket
 /// holds ~2 on average).
 const BUCKET_PREFETCH_MAX: usize = 8;
-/// The prefetch pipeline runs when the engine's arrays exceed this: below, they
-/// stay in the L2 cache (2 MiB per core here, ~200 bytes per disk) and its
-/// instructions and mispredicted loop exits cost more than they save (measured
-/// in docs/sim.md: -8% at N = 10^4, +7% at 2 x 10^4).
+/// The prefetch pipeline runs when the engine's arrays exceed this (~200 bytes
+/// per disk): below, they are served fast enough by the caches (L2 512 KiB per
+/// core, L3 32 MiB here) that its instructions and mispredicted loop exits cost
+/// more than they save (measured in docs/sim.md: -8% at N = 10^4, +7% at
+/// 2 x 10^4).
 const PREFETCH_MIN_BYTES: usize = 3 << 20;
 
 /// How pairs receive kicks.
@@ -202,7 +203,7 @@ pub struct Engine {
     kick_pos: usize,
     /// The calendar bucket up to which the prefetch pipeline has run.
     ahead_bucket: u64,
-    /// The prefetch pipeline is on (lists in use, arrays beyond the L2 cache).
+    /// The prefetch pipeline is on (lists in use, arrays over `PREFETCH_MIN_BYTES`).
     ahead: bool,
     /// [`PREFETCH_MIN_BYTES`] (a test forces the pipeline on in small systems).
     prefetch_min_bytes: usize,
