@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use repro::cli::figs::{GoldenFile, check, golden, read_compare};
-use repro::pipeline::{Registry, RunOptions, Workspace, run_figures};
+use repro::pipeline::{RunOptions, Workspace, run_figures};
 
 const EXPERIMENT: &str = r#"
 description: tiny eps = 0.9 sweep for tests
@@ -113,7 +113,7 @@ fn tiny_figure_end_to_end_then_regression_check() {
         ..RunOptions::default()
     };
     let ids = vec!["tinyfig".to_string()];
-    let run = run_figures(&ws, &Registry::builtin(), &ids, "ci", &opts).unwrap();
+    let run = run_figures(&ws, &repro::stages::registry(), &ids, "ci", &opts).unwrap();
     run.check().unwrap();
     let out = ws.results.join("tinyfig");
     for f in [
@@ -151,7 +151,7 @@ fn tiny_figure_end_to_end_then_regression_check() {
     let before = std::fs::read(out.join("tau_table.parquet")).unwrap();
     let again = run_figures(
         &ws,
-        &Registry::builtin(),
+        &repro::stages::registry(),
         &ids,
         "ci",
         &RunOptions { jobs: 1, ..opts },

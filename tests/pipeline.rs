@@ -18,8 +18,9 @@ fn fixture() -> tempfile::TempDir {
     dir
 }
 
+/// The framework's kinds and the toy kinds (the `toy-kinds` feature, on for tests).
 fn reg() -> Registry {
-    let mut r = Registry::builtin();
+    let mut r = Registry::framework();
     toy::register(&mut r);
     r
 }
@@ -472,8 +473,7 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
 
 fn repro(root: &Path) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_repro"));
-    c.env("REPRO_TEST_KINDS", "1")
-        .arg("figure")
+    c.arg("figure")
         .arg("--all")
         .arg("--profile")
         .arg("ci")
@@ -621,7 +621,6 @@ fn cli_list_why_and_dry_run_explain_the_cache() {
     let d = fixture();
     let cli = |args: &[&str]| {
         let o = Command::new(env!("CARGO_BIN_EXE_repro"))
-            .env("REPRO_TEST_KINDS", "1")
             .args(args)
             .arg("--root")
             .arg(d.path())

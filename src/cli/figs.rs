@@ -17,7 +17,7 @@ use clap::{Args, Subcommand};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::pipeline::{self, Registry, RunOptions, Workspace};
+use crate::pipeline::{self, RunOptions, Workspace};
 
 #[derive(Subcommand, Debug)]
 pub enum Commands {
@@ -252,7 +252,7 @@ fn options(jobs: Option<usize>) -> RunOptions {
 
 /// Build `ids` in workspace `ws`; error if any stage failed.
 fn build(ws: &Workspace, ids: &[String], profile: &str, jobs: Option<usize>) -> Result<()> {
-    let run = pipeline::run_figures(ws, &Registry::builtin(), ids, profile, &options(jobs))?;
+    let run = pipeline::run_figures(ws, &super::registry(), ids, profile, &options(jobs))?;
     run.check()
 }
 

@@ -3,8 +3,10 @@
 //! - [`spec`]: the typed YAML specs (experiments, pipelines) and located errors.
 //! - [`graph`]: expansion of specs into one DAG of stage instances, shared nodes merged.
 //! - [`registry`]: the [`StageKind`] trait and the registry of kinds with their code
-//!   fingerprints; [`kinds`] the framework's own kinds (`table`, `compare`); [`toy`]
-//!   test-only kinds.
+//!   fingerprints; [`kinds`] the framework's own kinds (`table`, `compare`); `toy`
+//!   test-only kinds (unit tests and the `toy-kinds` feature). The library's kinds
+//!   are registered by whoever assembles the registry (`stages::registry()`): this
+//!   module imports nothing from `stages`.
 //! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
 //!   early cut-off, `status`/`why`; [`publish`]: `results/ID/` and provenance.
 //!
@@ -12,12 +14,14 @@
 
 pub mod canon;
 pub mod exec;
+pub mod fingerprint;
 pub mod graph;
 pub mod kinds;
 pub mod publish;
 pub mod registry;
 pub mod spec;
 pub mod store;
+#[cfg(any(test, feature = "toy-kinds"))]
 pub mod toy;
 
 use std::collections::{HashMap, HashSet};

@@ -33,13 +33,6 @@ pub fn every_origin_lags(
     ))
 }
 
-/// The stage name in an artifact label: `fig4/tau[phi=0.6]` -> `tau`,
-/// `eps09[phi=0.6,replica=0]` -> `eps09` (an experiment).
-pub fn stage_of(label: &str) -> &str {
-    let head = label.split('[').next().unwrap_or(label);
-    head.rsplit('/').next().unwrap_or(head)
-}
-
 /// Every input that is a simulated trajectory, decoded.
 pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> {
     let sims: Vec<&Artifact> = inputs.iter().filter(|a| a.kind == "simulate").collect();
@@ -63,12 +56,13 @@ pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> 
 
 /// The inputs produced by stage `name`.
 pub fn inputs_of<'a>(kind: &str, inputs: &'a [Artifact], name: &str) -> Result<Vec<&'a Artifact>> {
-    let v: Vec<&Artifact> = inputs
-        .iter()
-        .filter(|a| stage_of(&a.label) == name)
-        .collect();
+    let v: Vec<&Artifact> = inputs.iter().filter(|a| a.is_from(name)).collect();
     if v.is_empty() {
-        let mut known: Vec<&str> = inputs.iter().map(|a| stage_of(&a.label)).collect();
+        let mut known: Vec<&str> = inputs
+            .iter()
+            .flat_map(|a| a.ids.iter().map(|id| id.stage.as_str()))
+            .collect();
+        known.sort_unstable();
         known.dedup();
         bail!(
             "{kind}: no input comes from stage '{name}'; the inputs come from: {} (add it to `gather`)",
@@ -252,13 +246,6 @@ pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn stage_names_from_labels() {
-        assert_eq!(stage_of("fig4/tau[phi=0.6]"), "tau");
-        assert_eq!(stage_of("fig4/taufit"), "taufit");
-        assert_eq!(stage_of("eps09[phi=0.6,replica=0]"), "eps09");
-    }
 
     #[test]
     fn conditions_select_rows() {
