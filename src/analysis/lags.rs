@@ -82,3 +82,26 @@ pub fn select(trajs: &[&Trajectory], requested: Option<&[f64]>, rel_tol: f64) ->
     }
     Ok(out)
 }
+
+/// The lags every time origin of every replica realises: `requested` if given, else
+/// the schedule's own lags (the shortest lag sets the count of origins; a lag with
+/// fewer pairs comes only from differences between frames of different origins,
+/// and mixing those in makes curves jagged).
+pub fn every_origin(
+    trajs: &[&Trajectory],
+    requested: Option<Vec<f64>>,
+    rel_tol: f64,
+) -> Result<Option<Vec<f64>>> {
+    if requested.is_some() {
+        return Ok(requested);
+    }
+    let lags = select(trajs, None, rel_tol)?;
+    // The shortest lag is realised once per origin and replica, and only then.
+    let every = lags.first().map(|l| l.pairs.len()).unwrap_or(0);
+    Ok(Some(
+        lags.iter()
+            .filter(|l| l.pairs.len() >= every)
+            .map(|l| l.t)
+            .collect(),
+    ))
+}

@@ -119,6 +119,22 @@ pub fn crossing_time(t: &[f64], y: &[f64], level: f64) -> Option<f64> {
     None
 }
 
+/// Linear interpolation of y in ln t at `t0` (t ascending); None outside the samples
+/// (never an extrapolation).
+pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
+    if t0.is_nan() || t0 <= 0.0 || t.len() < 2 || t0 < t[0] || t0 > t[t.len() - 1] {
+        return None;
+    }
+    let k = t.partition_point(|&x| x <= t0).clamp(1, t.len() - 1);
+    let (la, lb) = (t[k - 1].ln(), t[k].ln());
+    let s = if lb > la {
+        (t0.ln() - la) / (lb - la)
+    } else {
+        0.0
+    };
+    Some(y[k - 1] + s * (y[k] - y[k - 1]))
+}
+
 /// Peak (t_peak, y_peak) of a curve sampled at ascending t > 0: the maximum sample,
 /// refined by the parabola through it and its two neighbours in ln t (the sample
 /// itself if it is at an end or the parabola is not concave).

@@ -2,8 +2,9 @@
 //!
 //! - [`simulate`]: one seeded simulation (one replica at one packing fraction) with
 //!   run lengths set in units of an estimated tau_alpha(phi).
-//! - [`overlap`]: Q(t), tau_alpha and the aging check Q(t; t0) from pooled replicas.
-//! - [`chi4`]: chi4(t) and its peaks per sub-box size.
+//! - [`analyse`]: every observable of `src/analysis` (Q(t), tau_alpha, aging, chi4,
+//!   S4, MSD, van Hove, g_ab, clusters, intruder, ...) as a stage kind of its name,
+//!   pooling the gathered replicas.
 //! - [`fits`]: fits of a table column (power law, VFT, ...) and the finite-size
 //!   scaling collapse.
 //! - [`plot`]: a figure drawn from tables.
@@ -11,9 +12,8 @@
 //! Each kind names exactly the source modules it depends on, so editing a plot
 //! adapter never reruns a simulation.
 
-pub mod chi4;
+pub mod analyse;
 pub mod fits;
-pub mod overlap;
 pub mod plot;
 pub mod simulate;
 pub mod tables;
@@ -31,11 +31,7 @@ pub fn registry() -> Registry {
 /// Register every real stage kind.
 pub fn register(r: &mut Registry) {
     r.register(simulate::Simulate);
-    r.register(overlap::Overlap);
-    r.register(overlap::TauAlpha);
-    r.register(overlap::Aging);
-    r.register(chi4::Chi4);
-    r.register(chi4::Chi4Peaks);
+    analyse::register(r);
     r.register(fits::Fit);
     r.register(fits::Collapse);
     r.register(plot::Plot);
