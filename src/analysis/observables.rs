@@ -268,7 +268,13 @@ pub static OBSERVABLES: &[Observable] = &[
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
         modules: &["analysis/msd", "analysis/lags", "analysis/stats"],
         validate: |v| params::<msd::Params>("msd", v).map(drop),
-        compute: |t, v| per_replica("msd", t, v, msd::compute),
+        compute: |t, v| {
+            let mut p: msd::Params = params("msd", v)?;
+            p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
+            let tables = t.iter().map(|x| msd::compute(x, &p)).collect::<Result<Vec<_>>>()?;
+            let (main, errors) = pool::seed_to_seed(&tables)?;
+            Ok(Tables::one(main, errors))
+        },
     },
     Observable {
         name: "van_hove",
