@@ -220,3 +220,85 @@ fn tiny_figure_end_to_end_then_regression_check() {
         "{e}"
     );
 }
+
+const AT_PIPELINE: &str = r#"
+description: Q at multiples of the measured tau_alpha
+stages:
+  - name: tau
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+  - name: q_at
+    kind: overlap
+    gather: [tiny, tau]
+    by: [phi]
+    params:
+      time_unit: {from: tau}
+      at: [0.1, 1, 2]
+  - name: q_at_table
+    kind: table
+    gather: [q_at]
+"#;
+
+/// "At 1 tau_alpha" from YAML: the lag used is the recorded one nearest to the
+/// request, the table says how far, Q there is near 1/e, the errors are labelled,
+/// and a request past the last recorded lag fails the stage with its reason.
+#[test]
+fn times_in_units_of_a_measured_tau_alpha() {
+    let dir = tempfile::tempdir().unwrap();
+    write_specs(dir.path());
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), AT_PIPELINE).unwrap();
+    let ws = Workspace::new(dir.path());
+    let opts = RunOptions {
+        jobs: 2,
+        ..RunOptions::default()
+    };
+    let reg = repro::stages::registry();
+    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
+    run.check().unwrap();
+    let table = ws.results.join("atfig/q_at_table.parquet");
+    let (phi, x, q) = (
+        column(&table, "phi"),
+        column(&table, "t_over_tau_alpha"),
+        column(&table, "Q"),
+    );
+    for p in [0.55, 0.62, 0.68, 0.72] {
+        let rows: Vec<usize> = (0..phi.len()).filter(|&i| phi[i] == p).collect();
+        assert!(!rows.is_empty() && rows.len() <= 3, "phi {p}: {rows:?}");
+        // The row nearest 1 tau_alpha: within one lag step (6 per decade) and Q ~ 1/e.
+        let i = *rows
+            .iter()
+            .min_by(|&&a, &&b| x[a].ln().abs().total_cmp(&x[b].ln().abs()))
+            .unwrap();
+        assert!((x[i].ln()).abs() < 0.5, "phi {p}: t/tau_alpha = {}", x[i]);
+        assert!((q[i] - (-1f64).exp()).abs() < 0.15, "phi {p}: Q = {}", q[i]);
+    }
+    // How the errors were estimated is in the analysis table's metadata.
+    let node = run
+        .graph
+        .nodes
+        .iter()
+        .position(|n| n.kind == "overlap")
+        .unwrap();
+    let entry = run.report.results[&node].entry.as_ref().unwrap();
+    let store = repro::pipeline::Store::open(&ws.store).unwrap();
+    let (_, meta) =
+        repro::table::read_parquet(&store.object_path(&entry.files["parquet"])).unwrap();
+    assert!(
+        meta.iter()
+            .any(|(k, v)| k == "errors" && v.contains("jackknife") && v.contains("2 replica")),
+        "{meta:?}"
+    );
+    // The lags used and their distance from the requests: at.parquet.
+    let (at, _) =
+        repro::table::read_parquet(&store.object_path(&entry.files["at.parquet"])).unwrap();
+    assert_eq!(at[0].num_rows(), 3);
+    let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [1000]");
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), bad).unwrap();
+    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
+    let report = run.report.failure_report(&run.graph);
+    assert!(
+        report.contains("1000 tau_alpha") && report.contains("refusing to extrapolate"),
+        "{report}"
+    );
+}

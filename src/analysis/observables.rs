@@ -168,7 +168,10 @@ fn concat_arrays(parts: &[&dyn arrow_array::Array]) -> Result<ArrayRef> {
             .collect();
         return Ok(Arc::new(BooleanArray::from(v)));
     }
-    bail!("cannot concatenate columns of type {:?}", parts[0].data_type())
+    bail!(
+        "cannot concatenate columns of type {:?}",
+        parts[0].data_type()
+    )
 }
 
 const OVERLAP: &[&str] = &[
@@ -271,7 +274,10 @@ pub static OBSERVABLES: &[Observable] = &[
         compute: |t, v| {
             let mut p: msd::Params = params("msd", v)?;
             p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
-            let tables = t.iter().map(|x| msd::compute(x, &p)).collect::<Result<Vec<_>>>()?;
+            let tables = t
+                .iter()
+                .map(|x| msd::compute(x, &p))
+                .collect::<Result<Vec<_>>>()?;
             let (main, errors) = pool::seed_to_seed(&tables)?;
             Ok(Tables::one(main, errors))
         },
@@ -293,7 +299,12 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "clusters",
         describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
-        modules: &["analysis/clusters", "analysis/gr", "analysis/neighbours", "analysis/lags"],
+        modules: &[
+            "analysis/clusters",
+            "analysis/gr",
+            "analysis/neighbours",
+            "analysis/lags",
+        ],
         validate: |v| params::<clusters::Params>("clusters", v).map(drop),
         compute: |t, v| {
             let b = concat("clusters", t, v, clusters::compute)?;
@@ -303,7 +314,12 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "cluster_sizes",
         describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, n_clusters",
-        modules: &["analysis/clusters", "analysis/gr", "analysis/neighbours", "analysis/lags"],
+        modules: &[
+            "analysis/clusters",
+            "analysis/gr",
+            "analysis/neighbours",
+            "analysis/lags",
+        ],
         validate: |v| params::<clusters::Params>("cluster_sizes", v).map(drop),
         compute: |t, v| {
             let p: clusters::Params = params("cluster_sizes", v)?;

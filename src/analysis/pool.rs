@@ -32,12 +32,12 @@ impl Errors {
     /// One line for the table's metadata (`errors`).
     pub fn describe(&self) -> String {
         match self {
-            Errors::Jackknife { replicas } => format!(
-                "delete-one jackknife over time-origin blocks of {replicas} replica(s)"
-            ),
-            Errors::TimeBlocks { replicas } => format!(
-                "standard error of the mean over time blocks of {replicas} replica(s)"
-            ),
+            Errors::Jackknife { replicas } => {
+                format!("delete-one jackknife over time-origin blocks of {replicas} replica(s)")
+            }
+            Errors::TimeBlocks { replicas } => {
+                format!("standard error of the mean over time blocks of {replicas} replica(s)")
+            }
             Errors::SeedToSeed { replicas } => {
                 format!("seed to seed: standard error of the mean over {replicas} replicas")
             }
@@ -84,7 +84,11 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
                 "replica {k} gives {} rows with columns {:?}, replica 0 gives {} rows with {:?}: \
                  per-replica tables must have one shape to be pooled (fix the lags or bins in the parameters)",
                 t.num_rows(),
-                t.schema().fields().iter().map(|f| f.name()).collect::<Vec<_>>(),
+                t.schema()
+                    .fields()
+                    .iter()
+                    .map(|f| f.name())
+                    .collect::<Vec<_>>(),
                 first.num_rows(),
                 schema.fields().iter().map(|f| f.name()).collect::<Vec<_>>()
             );
@@ -103,14 +107,18 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
         let vals: Option<Vec<&Float64Array>> = cols.iter().map(|c| floats(c)).collect();
         let (Some(vals), false) = (vals, same) else {
             if !same {
-                bail!("column '{name}' differs between replicas but is not a float column: cannot pool it");
+                bail!(
+                    "column '{name}' differs between replicas but is not a float column: cannot pool it"
+                );
             }
             out.push((name.clone(), cols[0].clone()));
             continue;
         };
         let n = first.num_rows();
         if is_count(name) {
-            let sum: Vec<f64> = (0..n).map(|j| vals.iter().map(|v| v.value(j)).sum()).collect();
+            let sum: Vec<f64> = (0..n)
+                .map(|j| vals.iter().map(|v| v.value(j)).sum())
+                .collect();
             out.push((name.clone(), Arc::new(Float64Array::from(sum))));
             continue;
         }

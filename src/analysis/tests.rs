@@ -725,7 +725,13 @@ fn every_origin_lags_keep_only_lags_each_origin_realises() {
     // Kept: lags with at least one pair per origin; dropped: the rest.
     for l in &all {
         let kept = lags.contains(&l.t);
-        assert_eq!(l.pairs.len() >= 4, kept, "lag {} with {} pairs", l.t, l.pairs.len());
+        assert_eq!(
+            l.pairs.len() >= 4,
+            kept,
+            "lag {} with {} pairs",
+            l.t,
+            l.pairs.len()
+        );
     }
     // A request is kept as given.
     assert_eq!(
@@ -758,5 +764,31 @@ fn chi4_peaks_table_reports_chi4_at_tau_alpha_inside_the_lags() {
     let k = ts.partition_point(|&x| x <= ta[0]);
     let (lo, hi) = (cs[k - 1].min(cs[k]), cs[k - 1].max(cs[k]));
     let at = col(&b, "chi4_tau_alpha")[0];
-    assert!(at >= lo - 1e-12 && at <= hi + 1e-12, "{at} not in [{lo}, {hi}]");
+    assert!(
+        at >= lo - 1e-12 && at <= hi + 1e-12,
+        "{at} not in [{lo}, {hi}]"
+    );
+}
+
+#[test]
+fn times_in_units_of_tau_alpha_pick_the_nearest_lag_and_never_extrapolate() {
+    let lags = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0];
+    let tau = 1.1;
+    let r = lags::in_units(&lags, tau, "tau_alpha", &[1.0, 0.1, 8.5], 1e-6).unwrap();
+    assert_eq!(r[0].lag, 1.0);
+    assert!((r[0].rel_diff - (1.0 / 1.1 - 1.0)).abs() < 1e-12);
+    assert_eq!(r[1].lag, 0.1);
+    assert!((r[1].requested - 0.11).abs() < 1e-12);
+    // 8.5 x 1.1 = 9.35: nearest in ln t is 10.
+    assert_eq!(r[2].lag, 10.0);
+    // 10 tau_alpha = 11 > 10: refused, with the numbers.
+    let e = err_text(lags::in_units(&lags, tau, "tau_alpha", &[10.0], 1e-6));
+    assert!(
+        e.contains("10 tau_alpha") && e.contains("extrapolate"),
+        "{e}"
+    );
+    let e = err_text(lags::in_units(&lags, tau, "tau_alpha", &[0.05], 1e-6));
+    assert!(e.contains("outside the recorded lags"), "{e}");
+    let e = err_text(lags::in_units(&lags, f64::NAN, "tau_alpha", &[1.0], 1e-6));
+    assert!(e.contains("not a positive time"), "{e}");
 }

@@ -117,6 +117,24 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
         .clone()
         .into_iter()
         .partition(|(k, _)| RULE_KEYS.contains(&k.as_str()));
+    // The rule sets these: a value given beside it would be silently overwritten.
+    for (key, set_by) in [
+        (
+            "relax_time",
+            "relax_tau x tau_guess(phi), at least relax_min",
+        ),
+        (
+            "schedule",
+            "origins, spacing_tau, lag_min, lag_max_tau and lags_per_decade",
+        ),
+    ] {
+        if rest.contains_key(key) {
+            bail!(
+                "simulate: `{key}` cannot be given with the run-length rule, which sets it from {set_by}; \
+                 remove `{key}` or change those keys"
+            );
+        }
+    }
     let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
     rule.check()?;
     let mut cfg: SimConfig = serde_json::from_value(Value::Object(rest.clone())).with_context(|| {
@@ -221,5 +239,12 @@ mod tests {
         let mut p = params();
         p["relax_tau"] = serde_json::json!(-1.0);
         assert!(format!("{:#}", config(&p).unwrap_err()).contains("relax_tau"));
+        // A relax_time or schedule beside the rule is refused, not overwritten.
+        for key in ["relax_time", "schedule"] {
+            let mut p = params();
+            p[key] = serde_json::json!(100.0);
+            let e = format!("{:#}", config(&p).unwrap_err());
+            assert!(e.contains(key) && e.contains("run-length rule"), "{e}");
+        }
     }
 }
