@@ -74,7 +74,7 @@ stages:
           y: {label: "τ_α", log: true}
           layers:
             - {from: tau_table, x: phi, y: tau_alpha, y_err: tau_alpha_err, style: points}
-            - {from: exponential, file: curve.parquet, x: x, y: y}
+            - {from: exponential, file: curve.parquet, x: phi, y: tau_alpha}
         - x: {label: "N", log: true}
           y: {label: "χ₄ᴾ", log: true}
           layers:
