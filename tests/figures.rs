@@ -238,6 +238,21 @@ stages:
   - name: q_at_table
     kind: table
     gather: [q_at]
+  - name: q
+    kind: overlap
+    gather: [tiny]
+    by: [phi]
+  - name: q_table
+    kind: table
+    gather: [q]
+  - name: relax              # Eq. 8 of paper H, one fit per phi
+    kind: fit
+    gather: [q_table]
+    params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {points: 20}}
+  - name: too_short          # two points for two parameters: a failed fit, not a crash
+    kind: fit
+    gather: [q_table]
+    params: {form: q_relaxation, data: q_table, x: t, y: Q, where: {t: {max: 0.1}}, group_by: [phi]}
 "#;
 
 /// "At 1 tau_alpha" from YAML: the lag used is the recorded one nearest to the
@@ -293,6 +308,41 @@ fn times_in_units_of_a_measured_tau_alpha() {
     let (at, _) =
         repro::table::read_parquet(&store.object_path(&entry.files["at.parquet"])).unwrap();
     assert_eq!(at[0].num_rows(), 3);
+    // Grouped fits: one row group per phi, the relaxation slowing down with phi;
+    // the curve is named after the fitted columns.
+    let relax = ws.results.join("atfig/relax.parquet");
+    let (batches, _) = repro::table::read_parquet(&relax).unwrap();
+    let (mut phis, mut tau0) = (Vec::new(), Vec::new());
+    for b in &batches {
+        use arrow_array::{Array, Float64Array, StringArray};
+        let q = b.column_by_name("quantity").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
+        let v = b.column_by_name("value").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+        let p = b.column_by_name("phi").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+        for i in 0..b.num_rows() {
+            if q.value(i) == "tau0" {
+                phis.push(p.value(i));
+                tau0.push(v.value(i));
+            }
+        }
+    }
+    assert_eq!(phis, vec![0.55, 0.62, 0.68, 0.72]);
+    assert!(tau0.windows(2).all(|w| w[0] < w[1]), "{tau0:?}");
+    let curve = ws.results.join("atfig/relax.curve.parquet");
+    assert_eq!(column(&curve, "phi").len(), 80);
+    assert!(column(&curve, "Q").iter().all(|q| (0.0..=1.0).contains(q)));
+    let failed = ws.results.join("atfig/too_short.parquet");
+    assert!(column(&failed, "value").iter().all(|v| v.is_nan()));
+    let (b, _) = repro::table::read_parquet(&failed).unwrap();
+    let note = b[0]
+        .column_by_name("note")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<arrow_array::StringArray>()
+        .unwrap()
+        .value(0)
+        .to_string();
+    assert!(note.starts_with("fit failed:") && note.contains("q_relaxation"), "{note}");
+
     let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [1000]");
     std::fs::write(dir.path().join("pipelines/atfig.yaml"), bad).unwrap();
     let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();

@@ -172,6 +172,6 @@ mod tests {
         }
         let e = (find("gaussian").unwrap().fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
         assert!(e.to_string().contains("lag t"), "{e}");
-        assert!(find("gausian").unwrap_err().contains("log_normal"));
+        assert!(find("gausian").err().unwrap().contains("log_normal"));
     }
 }
