@@ -46,6 +46,9 @@ fn kinds() {
     for name in reg.names() {
         let k = reg.get(&name).expect("listed kind");
         println!("{name}\n    {}", k.describe());
+        for line in k.details().lines() {
+            println!("    {line}");
+        }
         println!("    code: src/{}", k.modules().join(", src/"));
     }
 }

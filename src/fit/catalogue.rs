@@ -29,7 +29,7 @@ fn fixed_value(fixed: Fixed<'_>, name: &str) -> Option<f64> {
 pub static FORMS: &[Form] = &[
     Form {
         name: "power_law_offset",
-        describe: "y = A (phi_c - x)^-gamma (Eq. 2 of paper H)",
+        describe: "y = A (phi_c - x)^-gamma (paper H, Fig. 4 dashed line)",
         params: &["A", "phi_c", "gamma"],
         log_x: false,
         fit: forms::power_law_offset,
@@ -37,7 +37,7 @@ pub static FORMS: &[Form] = &[
     },
     Form {
         name: "vft",
-        describe: "y = A exp[B / (phi_0 - x)] (Vogel-Fulcher-Tammann)",
+        describe: "y = A exp[B / (phi_0 - x)] (Vogel-Fulcher-Tammann; paper H, Fig. 4 solid line)",
         params: &["A", "phi_0", "B"],
         log_x: false,
         fit: forms::vft,
@@ -77,7 +77,7 @@ pub static FORMS: &[Form] = &[
     },
     Form {
         name: "oz",
-        describe: "S4(q) = chi0 / (1 + (q xi)^2) (Ornstein-Zernike, Eq. 16 of paper H)",
+        describe: "S4(q) = chi0 / (1 + (q xi)^2) (Ornstein-Zernike, Eq. 18 of paper H)",
         params: &["chi0", "xi"],
         log_x: true,
         fit: forms::oz,
@@ -85,7 +85,7 @@ pub static FORMS: &[Form] = &[
     },
     Form {
         name: "oz_quartic",
-        describe: "S4(q) = chi0 / (1 + (q xi)^2 + A^2 (q xi)^4) (OZ with a q^4 term)",
+        describe: "S4(q) = chi0 / (1 + (q xi)^2 + A^2 (q xi)^4) (Eq. 20 of paper H)",
         params: &["chi0", "xi", "A"],
         log_x: true,
         fit: forms::oz_quartic,

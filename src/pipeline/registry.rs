@@ -24,6 +24,10 @@ pub trait StageKind: Send + Sync {
     fn describe(&self) -> &str {
         ""
     }
+    /// More lines for `repro kinds`: parameters, forms, an example.
+    fn details(&self) -> String {
+        String::new()
+    }
     /// The source modules implementing this kind (folders or files under `src/`).
     fn modules(&self) -> &[&str];
     /// Check parameters before anything runs; the error says what is valid.

@@ -167,6 +167,15 @@ impl StageKind for Analyse {
     fn describe(&self) -> &str {
         self.obs.describe
     }
+    fn details(&self) -> String {
+        format!(
+            "parameters: those of the observable (docs/analysis.md), plus\n  \
+             time_unit: {{from: STAGE, column: tau_alpha}}  adds t_over_tau_alpha\n  \
+             at: [0.01, 1, 8.5]  lags at these multiples of the measured time (at.parquet)\n\
+             example: {{name: {n}, kind: {n}, gather: [eps09], by: [phi]}}",
+            n = self.obs.name
+        )
+    }
     fn modules(&self) -> &[&str] {
         &self.modules
     }

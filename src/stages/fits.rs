@@ -197,8 +197,20 @@ impl StageKind for Fit {
     fn name(&self) -> &str {
         "fit"
     }
+    fn details(&self) -> String {
+        let mut s = String::from(
+            "parameters: form, data (stage), file, x, y, y_err, where, fixed, fixed_from, rename, curve, group_by\nforms:\n",
+        );
+        for f in catalogue::FORMS {
+            s.push_str(&format!("  {:<17} {} [{}]\n", f.name, f.describe, f.params.join(", ")));
+        }
+        s.push_str("  drift             relative change of y over the x range, from a line [drift]\n");
+        s.push_str("  value             no fit: the mean of y over the selected rows [value]\n");
+        s.push_str("example: {name: relax, kind: fit, gather: [q_table], params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {}}}");
+        s
+    }
     fn describe(&self) -> &str {
-        "fit a form (power_law_offset, vft, power_law, line, drift) to two columns of a table"
+        "fit a named form to two columns of a table, one fit per group; a failed fit is a row of NaN with its reason in `note`"
     }
     fn modules(&self) -> &[&str] {
         MODULES
