@@ -315,9 +315,24 @@ fn times_in_units_of_a_measured_tau_alpha() {
     let (mut phis, mut tau0) = (Vec::new(), Vec::new());
     for b in &batches {
         use arrow_array::{Array, Float64Array, StringArray};
-        let q = b.column_by_name("quantity").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
-        let v = b.column_by_name("value").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
-        let p = b.column_by_name("phi").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+        let q = b
+            .column_by_name("quantity")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .unwrap();
+        let v = b
+            .column_by_name("value")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<Float64Array>()
+            .unwrap();
+        let p = b
+            .column_by_name("phi")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<Float64Array>()
+            .unwrap();
         for i in 0..b.num_rows() {
             if q.value(i) == "tau0" {
                 phis.push(p.value(i));
@@ -341,7 +356,10 @@ fn times_in_units_of_a_measured_tau_alpha() {
         .unwrap()
         .value(0)
         .to_string();
-    assert!(note.starts_with("fit failed:") && note.contains("q_relaxation"), "{note}");
+    assert!(
+        note.starts_with("fit failed:") && note.contains("q_relaxation"),
+        "{note}"
+    );
 
     let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [1000]");
     std::fs::write(dir.path().join("pipelines/atfig.yaml"), bad).unwrap();

@@ -335,12 +335,7 @@ pub static OBSERVABLES: &[Observable] = &[
         validate: |v| params::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {
             let p: intruder::VelocityParams = params("intruder_velocity", v)?;
-            let e = intruder::stationary_velocity(t, &p)?;
-            let b = f64_batch(&[
-                ("v", vec![e.value]),
-                ("v_err", vec![e.err]),
-                ("n_blocks", vec![(p.blocks * t.len()) as f64]),
-            ])?;
+            let b = intruder::velocity_table(t, &p)?;
             Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
         },
     },

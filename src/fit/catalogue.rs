@@ -144,16 +144,48 @@ mod tests {
     #[test]
     fn every_form_fits_its_own_model() {
         let cases: &[(&str, &[f64], Vec<f64>)] = &[
-            ("power_law_offset", &[2.0, 0.8, 1.5], (0..12).map(|i| 0.6 + 0.015 * i as f64).collect()),
-            ("vft", &[0.7, 0.85, 0.15], (0..12).map(|i| 0.6 + 0.015 * i as f64).collect()),
-            ("power_law", &[3.0, -1.5], (1..20).map(|i| i as f64).collect()),
+            (
+                "power_law_offset",
+                &[2.0, 0.8, 1.5],
+                (0..12).map(|i| 0.6 + 0.015 * i as f64).collect(),
+            ),
+            (
+                "vft",
+                &[0.7, 0.85, 0.15],
+                (0..12).map(|i| 0.6 + 0.015 * i as f64).collect(),
+            ),
+            (
+                "power_law",
+                &[3.0, -1.5],
+                (1..20).map(|i| i as f64).collect(),
+            ),
             ("line", &[1.0, 2.0], (0..10).map(|i| i as f64).collect()),
             ("proportional", &[2.5], (1..10).map(|i| i as f64).collect()),
-            ("q_relaxation", &[5.0, 0.8], (0..30).map(|i| 0.05 * 1.3f64.powi(i)).collect()),
-            ("oz", &[20.0, 4.0], (1..30).map(|i| 0.05 * i as f64).collect()),
-            ("oz_quartic", &[20.0, 4.0, 0.5], (1..30).map(|i| 0.05 * i as f64).collect()),
-            ("exponential_tail", &[0.3, 0.7], (0..15).map(|i| 1.0 + 0.3 * i as f64).collect()),
-            ("log_normal", &[0.2, 5.0, 1.2], (0..20).map(|i| 1.5f64.powi(i)).collect()),
+            (
+                "q_relaxation",
+                &[5.0, 0.8],
+                (0..30).map(|i| 0.05 * 1.3f64.powi(i)).collect(),
+            ),
+            (
+                "oz",
+                &[20.0, 4.0],
+                (1..30).map(|i| 0.05 * i as f64).collect(),
+            ),
+            (
+                "oz_quartic",
+                &[20.0, 4.0, 0.5],
+                (1..30).map(|i| 0.05 * i as f64).collect(),
+            ),
+            (
+                "exponential_tail",
+                &[0.3, 0.7],
+                (0..15).map(|i| 1.0 + 0.3 * i as f64).collect(),
+            ),
+            (
+                "log_normal",
+                &[0.2, 5.0, 1.2],
+                (0..20).map(|i| 1.5f64.powi(i)).collect(),
+            ),
         ];
         for (name, truth, x) in cases {
             let f = find(name).unwrap();
@@ -168,9 +200,14 @@ mod tests {
                     f.params[k]
                 );
             }
-            assert_eq!(r.names, f.params.iter().map(|s| s.to_string()).collect::<Vec<_>>(), "{name}");
+            assert_eq!(
+                r.names,
+                f.params.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+                "{name}"
+            );
         }
-        let e = (find("gaussian").unwrap().fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
+        let e =
+            (find("gaussian").unwrap().fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
         assert!(e.to_string().contains("lag t"), "{e}");
         assert!(find("gausian").err().unwrap().contains("log_normal"));
     }

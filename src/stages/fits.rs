@@ -14,8 +14,8 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of, pick};
-use crate::fit::collapse::{self, Curve};
 use crate::fit::catalogue::{self, Form};
+use crate::fit::collapse::{self, Curve};
 use crate::fit::{Data, FitResult, linear};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
@@ -129,7 +129,12 @@ fn quantity_table(
 ) -> Result<RecordBatch> {
     let mut cols: Vec<(String, ArrayRef)> = group
         .iter()
-        .map(|(k, v)| (k.clone(), Arc::new(Float64Array::from(vec![*v; rows.len()])) as ArrayRef))
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                Arc::new(Float64Array::from(vec![*v; rows.len()])) as ArrayRef,
+            )
+        })
         .collect();
     let rest = RecordBatch::try_from_iter([
         (
@@ -202,9 +207,16 @@ impl StageKind for Fit {
             "parameters: form, data (stage), file, x, y, y_err, where, fixed, fixed_from, rename, curve, group_by\nforms:\n",
         );
         for f in catalogue::FORMS {
-            s.push_str(&format!("  {:<17} {} [{}]\n", f.name, f.describe, f.params.join(", ")));
+            s.push_str(&format!(
+                "  {:<17} {} [{}]\n",
+                f.name,
+                f.describe,
+                f.params.join(", ")
+            ));
         }
-        s.push_str("  drift             relative change of y over the x range, from a line [drift]\n");
+        s.push_str(
+            "  drift             relative change of y over the x range, from a line [drift]\n",
+        );
         s.push_str("  value             no fit: the mean of y over the selected rows [value]\n");
         s.push_str("example: {name: relax, kind: fit, gather: [q_table], params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {}}}");
         s
@@ -229,11 +241,7 @@ impl StageKind for Fit {
             fixed.push((name.clone(), from.get("fit", inputs)?));
         }
         // Rows per group, groups in ascending order of their values.
-        let keys: Vec<&[f64]> = p
-            .group_by
-            .iter()
-            .map(|k| c.col(k))
-            .collect::<Result<_>>()?;
+        let keys: Vec<&[f64]> = p.group_by.iter().map(|k| c.col(k)).collect::<Result<_>>()?;
         let mut groups: BTreeMap<Vec<u64>, Vec<usize>> = BTreeMap::new();
         for &i in &rows {
             let key = keys.iter().map(|k| ordered(k[i])).collect();
@@ -308,7 +316,10 @@ fn fit_group(
         } else {
             ""
         };
-        return Ok((quantity_table(group, &[(name("value"), mean, err)], note)?, None));
+        return Ok((
+            quantity_table(group, &[(name("value"), mean, err)], note)?,
+            None,
+        ));
     }
     let form = named_form(p)?;
     let (rows, note, curve) = match fit_form(p, &x, &y, &s, &fixed_ref) {
@@ -382,7 +393,12 @@ fn fit_group(
             let mut cols: Vec<(String, ArrayRef)> = group
                 .iter()
                 .filter(|(k, _)| *k != p.x && *k != p.y)
-                .map(|(k, v)| (k.clone(), Arc::new(Float64Array::from(vec![*v; n])) as ArrayRef))
+                .map(|(k, v)| {
+                    (
+                        k.clone(),
+                        Arc::new(Float64Array::from(vec![*v; n])) as ArrayRef,
+                    )
+                })
                 .collect();
             cols.push((p.x.clone(), Arc::new(Float64Array::from(cx))));
             cols.push((p.y.clone(), Arc::new(Float64Array::from(cy))));
