@@ -147,6 +147,23 @@ fn tiny_figure_end_to_end_then_regression_check() {
             .all(|&c| c > 0.0)
     );
 
+    // Every published column says its unit and what it is (Parquet field metadata).
+    for e in std::fs::read_dir(&out).unwrap().flatten() {
+        let p = e.path();
+        if p.extension().is_some_and(|x| x == "parquet") {
+            let (batches, _) = repro::table::read_parquet(&p).unwrap();
+            for f in batches[0].schema().fields() {
+                let m = f.metadata();
+                assert!(
+                    m.contains_key("unit") && m.get("description").is_some_and(|d| !d.is_empty()),
+                    "{}: column {} has no unit/description",
+                    p.display(),
+                    f.name()
+                );
+            }
+        }
+    }
+
     // Rerunning is all cached and bit-identical.
     let before = std::fs::read(out.join("tau_table.parquet")).unwrap();
     let again = run_figures(
