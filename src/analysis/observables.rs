@@ -125,7 +125,7 @@ fn concat<P: DeserializeOwned>(
     let Some(first) = out.first() else {
         bail!("analysis `{name}`: no trajectory");
     };
-    Ok(arrow_select_concat(&first.schema(), &out)?)
+    arrow_select_concat(&first.schema(), &out)
 }
 
 fn arrow_select_concat(

@@ -53,12 +53,12 @@ fn split(name: &str, params: &Value) -> Result<Split> {
         .with_context(|| format!("parameters of analysis `{name}` must be a mapping"))?;
     let unit: Option<TimeUnit> = map
         .remove("time_unit")
-        .map(|v| serde_json::from_value(v))
+        .map(serde_json::from_value)
         .transpose()
         .with_context(|| format!("parameters of analysis `{name}`: `time_unit` wants {{from: STAGE, column: tau_alpha}}"))?;
     let at: Option<Vec<f64>> = map
         .remove("at")
-        .map(|v| serde_json::from_value(v))
+        .map(serde_json::from_value)
         .transpose()
         .with_context(|| format!("parameters of analysis `{name}`: `at` wants a list of multiples, e.g. [0.01, 1, 8.5]"))?;
     if at.is_some() {
