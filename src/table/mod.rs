@@ -169,7 +169,13 @@ mod tests {
         let p = dir.path().join("x.parquet");
         write_parquet(&p, std::slice::from_ref(&b), &[("phi", "0.78")]).unwrap();
         let (back, kv) = read_parquet(&p).unwrap();
-        assert_eq!(back, vec![b.clone()]);
+        assert_eq!(back.len(), 1);
+        assert_eq!(back[0].columns(), b.columns());
+        // Known columns gain their unit and meaning; the data are unchanged.
+        let f = back[0].schema().field(0).clone();
+        assert_eq!(f.name(), "t");
+        assert_eq!(f.metadata()["unit"], "r1 sqrt(m1/T)");
+        assert!(f.metadata()["description"].contains("lag"));
         assert_eq!(kv, vec![("phi".to_string(), "0.78".to_string())]);
         let q = back[0]
             .column(1)
