@@ -266,6 +266,13 @@ stages:
     kind: fit
     gather: [q_table]
     params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {points: 20}}
+  - name: tau_table
+    kind: table
+    gather: [tau]
+  - name: q_scaled           # Q(t) with t/tau_alpha, joined by phi
+    kind: join
+    gather: [q_table, tau_table]
+    params: {left: q_table, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}
   - name: too_short          # two points for two parameters: a failed fit, not a crash
     kind: fit
     gather: [q_table]
@@ -376,6 +383,28 @@ fn times_in_units_of_a_measured_tau_alpha() {
     assert!(
         note.starts_with("fit failed:") && note.contains("q_relaxation"),
         "{note}"
+    );
+
+    // The join: every Q row got its phi's tau_alpha and t / tau_alpha.
+    let scaled = ws.results.join("atfig/q_scaled.parquet");
+    let (t, ta, x) = (
+        column(&scaled, "t"),
+        column(&scaled, "tau_alpha"),
+        column(&scaled, "t_over_tau"),
+    );
+    assert_eq!(
+        t.len(),
+        column(&ws.results.join("atfig/q_table.parquet"), "t").len()
+    );
+    assert!((0..t.len()).all(|i| ta[i] > 0.0 && x[i] == t[i] / ta[i]));
+    // A key missing from one table is an error naming it.
+    let missing = AT_PIPELINE.replace("on: [phi]", "on: [eps]");
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), missing).unwrap();
+    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
+    let report = run.report.failure_report(&run.graph);
+    assert!(
+        report.contains("key 'eps' is not a column of stage 'q_table'"),
+        "{report}"
     );
 
     let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [1000]");

@@ -7,6 +7,7 @@
 //!   pooling the gathered replicas.
 //! - [`fits`]: fits of a table column (power law, VFT, ...) and the finite-size
 //!   scaling collapse.
+//! - [`join`]: two tables joined by key columns, with derived columns.
 //! - [`plot`]: a figure drawn from tables.
 //!
 //! Each kind names exactly the source modules it depends on, so editing a plot
@@ -14,6 +15,7 @@
 
 pub mod analyse;
 pub mod fits;
+pub mod join;
 pub mod plot;
 pub mod simulate;
 pub mod tables;
@@ -34,6 +36,7 @@ pub fn register(r: &mut Registry) {
     analyse::register(r);
     r.register(fits::Fit);
     r.register(fits::Collapse);
+    r.register(join::Join);
     r.register(plot::Plot);
 }
 
