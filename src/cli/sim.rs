@@ -18,7 +18,7 @@ pub enum Commands {
 #[derive(Args, Debug)]
 pub struct SimArgs {
     /// Number of disks.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = 10_000, allow_negative_numbers = true, value_parser = parse_count)]
     pub n: usize,
     /// Packing fraction.
     #[arg(long, default_value_t = 0.78)]
@@ -79,6 +79,15 @@ pub struct BenchArgs {
     pub compression_rate: f64,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+}
+
+/// A number of disks: a positive integer (negative values reach here, not clap's
+/// "unexpected argument", thanks to `allow_negative_numbers`).
+fn parse_count(s: &str) -> Result<usize, String> {
+    match s.parse::<i128>() {
+        Ok(v) if v >= 1 && v <= usize::MAX as i128 => Ok(v as usize),
+        _ => Err(format!("n must be a positive integer, got `{s}`")),
+    }
 }
 
 fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
@@ -269,6 +278,19 @@ mod tests {
         let cli = Cli::try_parse_from(std::iter::once("repro").chain(args.iter().copied()))
             .expect("arguments parse");
         run(cli.c).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn a_negative_n_is_named_a_bad_count_not_an_unexpected_argument() {
+        for bad in ["-5", "0", "abc"] {
+            let e = Cli::try_parse_from(["repro", "sim", "--n", bad])
+                .err()
+                .expect("must be refused")
+                .to_string();
+            assert!(e.contains("n must be a positive integer"), "{e}");
+            assert!(!e.contains("unexpected argument"), "{e}");
+        }
+        assert!(Cli::try_parse_from(["repro", "sim", "--n", "200"]).is_ok());
     }
 
     #[test]
