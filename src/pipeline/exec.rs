@@ -332,7 +332,8 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
             );
         }
     };
-    if !forced && let Some(e) = find_or_repair(sh, &key) {
+    // Damage found above is already reported and quarantined: only a hit counts.
+    if !forced && let Some(e) = sh.store.lookup(&key) {
         return hit(e);
     }
     let kind = match sh.reg.get(&node.kind) {
