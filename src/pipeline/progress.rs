@@ -30,8 +30,8 @@ pub fn heartbeat() -> Duration {
     Duration::from_secs_f64(s)
 }
 
-/// Last report of a running stage: done, total, message.
-type Last = Arc<Mutex<Option<(f64, f64, String)>>>;
+/// Last report of a running stage: done, total, message, when.
+type Last = Arc<Mutex<Option<(f64, f64, String, Instant)>>>;
 
 struct Running {
     label: String,
@@ -90,15 +90,13 @@ impl Progress {
         self.emit(text, true)
     }
 
-    /// `above_bars`: also print it on a terminal (else only plain output and log).
-    fn emit(&self, text: &str, above_bars: bool) {
+    /// `news`: print it on stderr too (else only in the log).
+    fn emit(&self, text: &str, news: bool) {
         let t = self.t0.elapsed().as_secs_f64();
         let line = format!("[{t:7.1} s] {text}");
-        if self.plain {
+        if news && self.plain {
             eprintln!("{line}");
-        } else if let Some(mp) = &self.bars
-            && above_bars
-        {
+        } else if news && let Some(mp) = &self.bars {
             let _ = mp.println(text);
         }
         if let Some(f) = &self.log {
@@ -124,7 +122,7 @@ impl Progress {
         let mp = self.bars.clone();
         let label = label.to_string();
         Arc::new(move |done: f64, total: f64, msg: &str| {
-            *last.lock().unwrap() = Some((done, total, msg.to_string()));
+            *last.lock().unwrap() = Some((done, total, msg.to_string(), Instant::now()));
             let Some(mp) = &mp else { return };
             let mut b = bar.lock().unwrap();
             let b = b.get_or_insert_with(|| {
@@ -161,7 +159,7 @@ impl Progress {
         let took = ran
             .map(|r| format!(" in {:.1} s", r.started.elapsed().as_secs_f64()))
             .unwrap_or_default();
-        // On a terminal the overall bar counts cached stages; only news is printed.
+        // Cached stages only go to the log: the closing summary counts them.
         self.emit(
             &format!("[{k}/{}] {what} {label} ({kind}){took}", self.total),
             what != "cached",
@@ -177,8 +175,15 @@ impl Progress {
             }
             r.printed = Instant::now();
             let how = match &*r.last.lock().unwrap() {
-                Some((done, total, msg)) => {
-                    format!("{:.0}% ({msg})", 100.0 * fraction(*done, *total))
+                Some((done, total, msg, at)) => {
+                    let ago = at.elapsed();
+                    // A stage may go quiet for a while (a phase without reports): say so.
+                    let when = if ago >= every {
+                        format!(", reported {:.0} s ago", ago.as_secs_f64())
+                    } else {
+                        String::new()
+                    };
+                    format!("{:.0}% ({msg}{when})", 100.0 * fraction(*done, *total))
                 }
                 None => "no progress report yet".to_string(),
             };

@@ -434,3 +434,27 @@ pub fn param_error(
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaml_marks_locate_keys_and_values_in_block_and_flow_style() {
+        let text = "a: 1\nstages:\n  - name: s\n    params: {n: 10, tau: {A: x}}\n";
+        let m = yaml_marks(text);
+        let at = |p: &[&str]| m[&p.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+        let mk = |line, column| Mark { line, column };
+        assert_eq!(at(&["a"]), (Some(mk(1, 1)), mk(1, 4)));
+        assert_eq!(at(&["stages", "0", "name"]).1, mk(3, 11));
+        assert_eq!(
+            at(&["stages", "0", "params", "n"]),
+            (Some(mk(4, 14)), mk(4, 17))
+        );
+        assert_eq!(at(&["stages", "0", "params", "tau", "A"]).1, mk(4, 30));
+        assert!(snippet(text, mk(4, 30)).ends_with(&format!(
+            " 4 |     params: {{n: 10, tau: {{A: x}}}}\n   | {}^",
+            " ".repeat(29)
+        )));
+    }
+}
