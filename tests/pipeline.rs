@@ -967,6 +967,16 @@ fn errors_inside_params_point_at_the_key_or_value_with_a_snippet() {
         "{e}"
     );
     no_dump(&e);
+    // A kind's check that names the key only in its message (`n`).
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        "description: d\nstages:\n  - name: s\n    kind: chi4_peaks\n    gather: [toy_sweep]\n    params:\n      n: []\n",
+        "figtoy",
+    );
+    assert!(
+        e.contains("figtoy.yaml:7:10:") && e.contains("is empty"),
+        "{e}"
+    );
     // Experiment params: the same three classes.
     let exp = |from: &str, to: &str| {
         plan_error(
@@ -990,12 +1000,12 @@ fn errors_inside_params_point_at_the_key_or_value_with_a_snippet() {
     assert!(e.contains("toy_sweep.yaml:9:17:"), "{e}");
     assert!(e.contains("n must be at least 1"), "{e}");
     no_dump(&e);
-    // A common parameter overridden nowhere is found in the common block.
-    let e = exp(
-        "replicas: 1\n",
-        "replicas: 1\n    params: {n: 10}\nparams:\n  eps: high\n",
+    // A common parameter (not overridden by the profile) is found in the common block.
+    let e = exp("seed: 1\n", "seed: 1\nparams:\n  eps: high\n");
+    assert!(
+        e.contains("toy_sweep.yaml:5:8:") && e.contains("invalid type"),
+        "{e}"
     );
-    assert!(!e.is_empty());
 }
 
 #[test]

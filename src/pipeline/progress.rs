@@ -128,11 +128,15 @@ impl Progress {
             let b = b.get_or_insert_with(|| {
                 let b = mp.add(ProgressBar::new(1000));
                 b.set_style(
-                    ProgressStyle::with_template("{prefix} [{bar:20}] {msg} ETA {eta}")
-                        .unwrap()
-                        .progress_chars("=> "),
+                    ProgressStyle::with_template(
+                        "{prefix} [{bar:20}] {msg} ({elapsed}, ETA {eta})",
+                    )
+                    .unwrap()
+                    .progress_chars("=> "),
                 );
                 b.set_prefix(label.clone());
+                // Redraw (elapsed time) even while the stage sends no report.
+                b.enable_steady_tick(std::time::Duration::from_secs(1));
                 b
             });
             b.set_position((fraction(done, total) * 1000.0) as u64);

@@ -385,11 +385,38 @@ pub fn snippet(text: &str, mark: Mark) -> String {
     )
 }
 
+/// Where parameter error `pe` points in the file: the deepest node of its path
+/// that exists (a nested key may sit in a flow map) in the first source holding it.
+fn locate(
+    marks: &HashMap<Vec<String>, Marks>,
+    text: &str,
+    sources: &[Vec<String>],
+    pe: &ParamError,
+) -> Option<(Mark, String)> {
+    let unknown = pe.message.contains("unknown field");
+    for k in (1..=pe.path.len()).rev() {
+        for src in sources {
+            let mut p = src.clone();
+            p.extend(pe.path[..k].iter().cloned());
+            if let Some(&(key, value)) = marks.get(&p) {
+                let at = if unknown || k < pe.path.len() {
+                    key.unwrap_or(value)
+                } else {
+                    value
+                };
+                return Some((at, snippet(text, at)));
+            }
+        }
+    }
+    None
+}
+
 /// A kind's rejection of parameters as a located error. When `err` names the
 /// offending parameter (a [`ParamError`]), the error points at it in the first of
 /// `sources` that holds it (paths of the YAML maps the parameters were merged from,
 /// highest precedence first): an unknown key at the key, anything else at the value,
-/// with a snippet. Otherwise it points at `fallback`.
+/// with a snippet. Otherwise at the first parameter the message names in backticks,
+/// else at `fallback`.
 pub fn param_error(
     file: &Path,
     sources: &[Vec<String>],
@@ -398,27 +425,29 @@ pub fn param_error(
     err: &anyhow::Error,
 ) -> SpecError {
     let message = format!("{context}: {err:#}");
-    let located = err.downcast_ref::<ParamError>().and_then(|pe| {
+    // Without a ParamError, a key the message names in backticks (`n`), if any.
+    let named = || {
+        message
+            .split('`')
+            .skip(1)
+            .step_by(2)
+            .map(|k| ParamError {
+                path: vec![k.to_string()],
+                message: String::new(),
+            })
+            .collect::<Vec<_>>()
+    };
+    let candidates = match err.downcast_ref::<ParamError>() {
+        Some(pe) => vec![pe.clone()],
+        None => named(),
+    };
+    let located = (|| {
         let text = std::fs::read_to_string(file).ok()?;
         let marks = yaml_marks(&text);
-        let unknown = pe.message.contains("unknown field");
-        // The deepest node that exists: a nested key may sit in a flow map.
-        for k in (1..=pe.path.len()).rev() {
-            for src in sources {
-                let mut p = src.clone();
-                p.extend(pe.path[..k].iter().cloned());
-                if let Some(&(key, value)) = marks.get(&p) {
-                    let at = if unknown || k < pe.path.len() {
-                        key.unwrap_or(value)
-                    } else {
-                        value
-                    };
-                    return Some((at, snippet(&text, at)));
-                }
-            }
-        }
-        None
-    });
+        candidates
+            .iter()
+            .find_map(|pe| locate(&marks, &text, sources, pe))
+    })();
     match located {
         Some((at, snip)) => SpecError {
             file: file.to_path_buf(),
