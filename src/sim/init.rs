@@ -4,7 +4,7 @@
 
 use super::config::SimConfig;
 use super::engine::{Engine, Setup, rng_from_seed};
-use super::run::{Progress, Stage};
+use super::progress::{Progress, Stage};
 use super::scan::nearest_image;
 use anyhow::{Result, bail};
 use rand::RngExt;

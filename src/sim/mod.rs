@@ -12,10 +12,15 @@
 
 pub mod calendar;
 pub mod config;
+mod disk;
 pub mod engine;
 pub mod enskog;
 pub mod init;
+pub mod kicks;
+mod prefetch;
+pub mod progress;
 pub mod resources;
+pub mod restitution;
 pub mod run;
 pub mod scan;
 pub mod tree;
@@ -24,4 +29,5 @@ pub mod tree;
 mod tests;
 
 pub use config::{Drive, KickRate, Masses, SimConfig};
-pub use run::{Progress, RunSummary, Sample, Stage, run};
+pub use progress::{Progress, Stage};
+pub use run::{RunSummary, Sample, run};

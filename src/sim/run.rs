@@ -5,46 +5,13 @@ use super::config::{Drive, KickRate, SimConfig};
 use super::engine::{Engine, Kicks};
 use super::enskog;
 use super::init;
+use super::kicks;
+use super::progress::{Progress, Stage};
 use super::resources;
 use crate::traj::{Frame, Trajectory};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-
-/// Which part of the run is going on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Stage {
-    Compress,
-    Relax,
-    Production,
-}
-
-/// Reported to the caller now and then (about every 10^6 events).
-#[derive(Clone, Copy, Debug)]
-pub struct Progress {
-    pub stage: Stage,
-    /// Simulated time now and at the end of this stage.
-    pub time: f64,
-    pub end: f64,
-    pub collisions: u64,
-    /// Events (collisions, crossings, shell exits, kicks) per wall-clock second in this stage.
-    pub events_per_second: f64,
-}
-
-impl Progress {
-    pub(crate) fn new(stage: Stage, e: &Engine, end: f64, since: Instant) -> Progress {
-        let s = &e.stats;
-        let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events + s.shell_exits;
-        Progress {
-            stage,
-            time: e.now,
-            end,
-            collisions: s.collisions,
-            events_per_second: events as f64 / since.elapsed().as_secs_f64().max(1e-9),
-        }
-    }
-}
 
 /// Temperature and pressure at one time.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -176,7 +143,7 @@ fn advance(
 pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
     let masses = cfg.species_masses();
     let nf = cfg.n as f64;
-    let p_dr = ((1.0 - cfg.eps * cfg.eps) * masses[0] * masses[1] / (masses[0] + masses[1])).sqrt();
+    let p_dr = kicks::amplitude(cfg.eps, 0.0, 1.0, enskog, masses[0], masses[1]);
     let kicks = match cfg.drive {
         _ if cfg.eps == 1.0 => Kicks::Off,
         Drive::None => Kicks::Off,
