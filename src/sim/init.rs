@@ -150,11 +150,11 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
 fn compress(e: &mut Engine, cfg: &SimConfig, s0: f64, progress: &dyn Fn(Progress)) -> Result<()> {
     let rate = cfg.compression_rate;
     e.set_growth(s0, rate);
-    let t_end = e.now + (1.0 - s0) / rate;
+    let t_end = e.time() + (1.0 - s0) / rate;
     let n = e.n() as u64;
     let clock = std::time::Instant::now();
-    while e.now < t_end {
-        let stop = (e.now + 1.0).min(t_end);
+    while e.time() < t_end {
+        let stop = (e.time() + 1.0).min(t_end);
         let c0 = e.stats.collisions;
         while !e.run_until(stop, 1 << 20) {
             progress(Progress::new(Stage::Compress, e, t_end, clock));

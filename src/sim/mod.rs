@@ -15,6 +15,7 @@ pub mod config;
 mod disk;
 pub mod engine;
 pub mod enskog;
+pub mod friction;
 pub mod init;
 pub mod kicks;
 mod prefetch;

@@ -31,7 +31,7 @@ impl Progress {
         let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events + s.shell_exits;
         Progress {
             stage,
-            time: e.now,
+            time: e.time(),
             end,
             collisions: s.collisions,
             events_per_second: events as f64 / since.elapsed().as_secs_f64().max(1e-9),

@@ -64,8 +64,16 @@ pub struct RunSummary {
     pub kick_rate: f64,
     pub energy_injected: f64,
     pub energy_dissipated: f64,
-    /// |dE - (injected - dissipated)| / E over production.
+    /// Energy removed by viscous friction over production (exact, per event).
+    pub energy_friction: f64,
+    /// |dE - (injected - dissipated - friction)| / E over production.
     pub energy_balance_error: f64,
+    /// Viscous friction rate gamma.
+    pub gamma: f64,
+    /// Kick amplitude p_dr (Eq. 7 of paper I).
+    pub kick_amplitude: f64,
+    /// Time-averaged kinetic energy per particle of each species (small, large).
+    pub species_temperature: Vec<f64>,
     /// CPU seconds of the simulating thread, whole run.
     pub cpu_seconds: f64,
     /// Production collisions per CPU second of production.
@@ -89,23 +97,27 @@ struct Sampler {
     last_t: f64,
     area: f64,
     samples: Vec<Sample>,
+    /// Per-species temperature at each sample.
+    species: Vec<Vec<f64>>,
 }
 
 impl Sampler {
     fn take(&mut self, e: &Engine) {
         let n = e.n() as f64;
         let t = e.kinetic_energy() / n;
-        let dt = e.now - self.last_time;
+        let now = e.time();
+        let dt = now - self.last_time;
         let tm = 0.5 * (t + self.last_t);
         let pv = (e.stats.virial - self.last_virial) / (2.0 * dt);
         let pressure = (n * tm + pv) / self.area;
         self.samples.push(Sample {
-            time: e.now - self.t0,
+            time: now - self.t0,
             temperature: t,
             pressure,
             z: pressure * self.area / (n * tm),
         });
-        self.last_time = e.now;
+        self.species.push(e.temperature_by_species());
+        self.last_time = now;
         self.last_virial = e.stats.virial;
         self.last_t = t;
     }
@@ -136,25 +148,35 @@ fn advance(
     }
 }
 
-/// The driving of `cfg`: which pairs, how many pair kicks per unit time in the
-/// whole system (starting value for the balanced rule), and the amplitude
-/// p_dr = sqrt((1 - eps^2) m1 m2 / (m1 + m2)). `enskog` is the Enskog collision
-/// frequency per particle at T = 1. No kicks when eps = 1 (zero amplitude).
+/// The driving of `cfg`: which particles, how many kicks per unit time in the
+/// whole system (starting value for the balanced rule), and the amplitude p_dr
+/// of Eq. (7) of paper I (paper H's sqrt((1 - eps^2) m1 m2 / (m1 + m2)) at
+/// gamma = 0, T = 1). `enskog` is the Enskog collision frequency per particle
+/// at `cfg.temperature`. No kicks when the amplitude is 0 (eps = 1 without friction).
 pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
     let masses = cfg.species_masses();
     let nf = cfg.n as f64;
-    let p_dr = kicks::amplitude(cfg.eps, 0.0, 1.0, enskog, masses[0], masses[1]);
+    let p_dr = kicks::amplitude(
+        cfg.eps,
+        cfg.gamma,
+        cfg.temperature,
+        enskog,
+        masses[0],
+        masses[1],
+    );
     let kicks = match cfg.drive {
-        _ if cfg.eps == 1.0 => Kicks::Off,
+        _ if p_dr == 0.0 => Kicks::Off,
         Drive::None => Kicks::Off,
         Drive::NeighbourPairs => Kicks::NeighbourPairs,
         Drive::RandomPairs => Kicks::RandomPairs,
+        Drive::Single => Kicks::Single,
     };
     // Each pair kick (like each collision) involves two particles.
+    let per_kick = if kicks == Kicks::Single { 1.0 } else { 2.0 };
     let rate = match cfg.kick_rate {
-        KickRate::Balanced => enskog * nf / 2.0,
-        KickRate::Enskog { prefactor } => prefactor * enskog * nf / 2.0,
-        KickRate::PerParticle(r) => r * nf / 2.0,
+        KickRate::Balanced => enskog * nf / per_kick,
+        KickRate::Enskog { prefactor } => prefactor * enskog * nf / per_kick,
+        KickRate::PerParticle(r) => r * nf / per_kick,
     };
     (kicks, rate, p_dr)
 }
@@ -164,7 +186,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     cfg.validate()?;
     let cpu0 = resources::thread_cpu_seconds();
     let mut e = init::prepare(cfg, progress)?;
-    let compress_time = e.now;
+    let compress_time = e.time();
     let n = e.n();
     let nf = n as f64;
     let fractions = [1.0 - cfg.n_large() as f64 / nf, cfg.n_large() as f64 / nf];
@@ -174,23 +196,30 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
 
     e.eps = cfg.eps;
     e.tc = cfg.collapse_tc;
-    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(1.0));
+    if cfg.temperature != 1.0 {
+        init::set_temperature(&mut e, cfg.temperature);
+    }
+    if cfg.gamma > 0.0 {
+        e.set_friction(cfg.gamma);
+    }
+    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     e.set_kicks(kicks, rate, p_dr);
 
     let prod = cfg.schedule.end();
     let total = cfg.relax_time + prod;
-    let t_relax0 = e.now;
+    let t_relax0 = e.time();
     let t0 = t_relax0 + cfg.relax_time;
     let dt = total / cfg.samples as f64;
     let mut s = Sampler {
         dt,
         next: t_relax0 + dt,
         t0,
-        last_time: e.now,
+        last_time: e.time(),
         last_virial: e.stats.virial,
         last_t: e.kinetic_energy() / nf,
         area: e.lx * e.ly,
         samples: Vec::with_capacity(cfg.samples + 1),
+        species: Vec::with_capacity(cfg.samples + 1),
     };
 
     // Relaxation. With the balanced rule, the first 80% is cut in windows after
@@ -228,7 +257,9 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
             advance(&mut e, start + w, &mut s, Stage::Relax, t0, clock, progress);
         }
     }
-    e.now = t0.max(e.now);
+    if e.time() < t0 {
+        e.skip_to(t0);
+    }
     let before = e.stats;
     let ke0 = e.kinetic_energy();
     let cpu_prod0 = resources::thread_cpu_seconds();
@@ -286,6 +317,11 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let ke1 = e.kinetic_energy();
     let injected = st.injected - before.injected;
     let dissipated = st.dissipated - before.dissipated;
+    let friction = st.friction - before.friction;
+    let species_prod = &s.species[n_relax_samples..];
+    let species_temperature = (0..masses.len())
+        .map(|k| mean(&species_prod.iter().map(|v| v[k]).collect::<Vec<_>>()))
+        .collect();
     let bytes = e.bytes() as f64;
     let summary = RunSummary {
         n,
@@ -311,7 +347,11 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         kick_rate: 2.0 * e.kick_rate() / nf,
         energy_injected: injected,
         energy_dissipated: dissipated,
-        energy_balance_error: ((ke1 - ke0) - (injected - dissipated)).abs() / ke1,
+        energy_friction: friction,
+        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction)).abs() / ke1,
+        gamma: cfg.gamma,
+        kick_amplitude: p_dr,
+        species_temperature,
         cpu_seconds: resources::thread_cpu_seconds() - cpu0,
         collisions_per_second: collisions as f64 / cpu_prod.max(1e-9),
         events_per_second: [

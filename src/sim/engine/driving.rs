@@ -7,7 +7,7 @@ use rand::RngExt;
 use rand_distr::{Distribution, Exp, StandardNormal};
 
 impl Engine {
-    /// Start (or stop) driving: `rate` pair kicks per unit time in the whole
+    /// Start (or stop) driving: `rate` kicks per unit time in the whole
     /// system, each of momentum `p_dr` times a unit 2D Gaussian vector.
     pub fn set_kicks(&mut self, kicks: Kicks, rate: f64, p_dr: f64) {
         self.kicks = kicks;
@@ -20,7 +20,13 @@ impl Engine {
     /// [`KICKS_AHEAD`] kicks after it, and move the fetching of the disks in
     /// between one stage on.
     pub(super) fn schedule_kick(&mut self) {
-        self.next_kick = self.now + self.kick_wait();
+        let wait = self.kick_wait();
+        // Kicks come at a constant rate in time, not in the friction clock.
+        self.next_kick = if self.clock.gamma == 0.0 {
+            self.now + wait
+        } else {
+            self.clock.s(self.clock.t(self.now) + wait)
+        };
         if self.next_kick < f64::INFINITY {
             let n = self.n();
             let rng = &mut self.rng;
@@ -48,10 +54,27 @@ impl Engine {
             .sample(&mut self.rng)
     }
 
-    /// A pair kick (Eq. 4 of paper H): equal and opposite Gaussian momenta.
+    /// A kick: one particle (Eq. 2 of paper I) or a pair with equal and
+    /// opposite Gaussian momenta (Eq. 4 of paper H). With friction the
+    /// velocities are u = v / lambda, so a momentum p changes u by p / (m lambda).
     pub(super) fn kick(&mut self) {
         let n = self.n();
         let i = self.kick_next;
+        let lam = self.lambda();
+        if self.kicks == Kicks::Single {
+            self.advance(i);
+            let kx: f64 = StandardNormal.sample(&mut self.rng);
+            let ky: f64 = StandardNormal.sample(&mut self.rng);
+            let before = self.kinetic_energy_of(i);
+            let m = self.mass(i) * lam;
+            let d = &mut self.d[i];
+            d.vx += self.p_dr * kx / m;
+            d.vy += self.p_dr * ky / m;
+            d.count = d.count.wrapping_add(1);
+            self.account_injection(self.kinetic_energy_of(i) - before, lam);
+            self.predict(i);
+            return;
+        }
         let j = match self.kicks {
             Kicks::NeighbourPairs => self.random_neighbour(i),
             _ => None,
@@ -67,17 +90,30 @@ impl Engine {
         let (px, py) = (self.p_dr * kx, self.p_dr * ky);
         let before = self.kinetic_energy_of(i) + self.kinetic_energy_of(j);
         for (k, s) in [(i, 1.0), (j, -1.0)] {
-            let m = self.mass(k);
+            let m = self.mass(k) * lam;
             let d = &mut self.d[k];
             d.vx += s * px / m;
             d.vy += s * py / m;
             d.count = d.count.wrapping_add(1);
         }
-        self.stats.injected += self.kinetic_energy_of(i) + self.kinetic_energy_of(j) - before;
-        self.stats.kicks += 1;
+        self.account_injection(
+            self.kinetic_energy_of(i) + self.kinetic_energy_of(j) - before,
+            lam,
+        );
         self.prefetch_around(j);
         self.predict(i);
         self.predict(j);
+    }
+
+    /// Count a kick that changed the kinetic energy in u by `du` at `lam`.
+    #[inline]
+    fn account_injection(&mut self, du: f64, lam: f64) {
+        if self.clock.gamma > 0.0 {
+            self.account_friction();
+            self.ke_u += du;
+        }
+        self.stats.injected += du * (lam * lam);
+        self.stats.kicks += 1;
     }
 
     /// A uniformly chosen other particle from the 3x3 cells around `i`, if any

@@ -21,6 +21,7 @@ mod lists;
 
 use super::calendar::EventCalendar;
 use super::disk::{CROSS, Disk, NONE, SHELL};
+use super::friction::Clock;
 pub use super::kicks::Kicks;
 use super::resources::{big_vec, big_vec_from};
 use super::restitution;
@@ -79,6 +80,10 @@ pub struct Stats {
     pub virial: f64,
     /// Neighbour lists rebuilt because a disk left its shell.
     pub shell_exits: u64,
+    /// Kinetic energy removed by viscous friction (exact, summed between events).
+    pub friction: f64,
+    /// Re-anchorings of the friction clock.
+    pub reanchors: u64,
 }
 
 /// A disk's pending event partner and its neighbour-list bookkeeping.
@@ -147,8 +152,16 @@ pub struct Engine {
     overflow: bool,
     /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]`.
     nb: Vec<u32>,
-    /// Current simulated time.
-    pub now: f64,
+    /// Current clock reading: the time without friction, the friction clock s
+    /// with it (velocities are then u = v / lambda, see [`super::friction`]).
+    now: f64,
+    /// Current time (`clock.t(now)`, exact at the stop times of [`Self::run_until`]).
+    time: f64,
+    clock: Clock,
+    /// With friction: the kinetic energy in u (sum of m u^2 / 2) and lambda^2
+    /// when friction was last accounted for (the friction ledger).
+    ke_u: f64,
+    lam2: f64,
     pub eps: f64,
     /// Collapse guard: a collision within `tc` of a particle's previous one is elastic.
     pub tc: f64,
@@ -272,6 +285,10 @@ impl Engine {
                 Vec::new()
             },
             now: 0.0,
+            time: 0.0,
+            clock: Clock::NONE,
+            ke_u: 0.0,
+            lam2: 1.0,
             eps,
             tc,
             scale0: 1.0,
@@ -361,15 +378,87 @@ impl Engine {
 
     /// Velocities [vx, vy] of every particle.
     pub fn velocities(&self) -> (Vec<f64>, Vec<f64>) {
+        let lam = self.lambda();
         (
-            self.d.iter().map(|d| d.vx).collect(),
-            self.d.iter().map(|d| d.vy).collect(),
+            self.d.iter().map(|d| d.vx * lam).collect(),
+            self.d.iter().map(|d| d.vy * lam).collect(),
         )
     }
 
     /// Total kinetic energy.
     pub fn kinetic_energy(&self) -> f64 {
-        (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum()
+        let lam = self.lambda();
+        (0..self.n())
+            .map(|i| self.kinetic_energy_of(i))
+            .sum::<f64>()
+            * (lam * lam)
+    }
+
+    /// Kinetic energy per particle of each species.
+    pub fn temperature_by_species(&self) -> Vec<f64> {
+        let lam = self.lambda();
+        let mut sum = vec![0.0; self.masses.len()];
+        let mut count = vec![0usize; self.masses.len()];
+        for i in 0..self.n() {
+            sum[self.species[i] as usize] += self.kinetic_energy_of(i);
+            count[self.species[i] as usize] += 1;
+        }
+        sum.iter()
+            .zip(&count)
+            .map(|(s, &c)| s * (lam * lam) / c.max(1) as f64)
+            .collect()
+    }
+
+    /// The current time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// lambda = v / u now (1 without friction).
+    #[inline]
+    pub(super) fn lambda(&self) -> f64 {
+        self.clock.lambda(self.now)
+    }
+
+    /// Switch viscous friction -gamma m v on (or off, gamma = 0) from now on:
+    /// anchors the friction clock here.
+    pub fn set_friction(&mut self, gamma: f64) {
+        self.anchor(gamma);
+    }
+
+    /// Anchor the clock at the current time with friction rate `gamma`: s = 0
+    /// and u = v now (Eqs. 8-9 of paper I restart from here). Every event is
+    /// predicted anew.
+    fn anchor(&mut self, gamma: f64) {
+        self.sync_all();
+        self.account_friction();
+        let lam = self.lambda();
+        let t = self.clock.t(self.now);
+        let t_kick = self.clock.t(self.next_kick);
+        for d in &mut self.d {
+            d.vx *= lam;
+            d.vy *= lam;
+            d.t = 0.0;
+        }
+        self.clock = Clock { gamma, t0: t };
+        self.now = 0.0;
+        self.time = t;
+        self.next_kick = self.clock.s(t_kick);
+        self.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
+        self.lam2 = 1.0;
+        self.reschedule_all();
+    }
+
+    /// Add the energy friction removed since the last call (the kinetic energy
+    /// in u is constant between events, so the loss is ke_u (lambda_a^2 - lambda_b^2)).
+    #[inline]
+    pub(super) fn account_friction(&mut self) {
+        if self.clock.gamma > 0.0 {
+            let l = self.lambda();
+            let l2 = l * l;
+            self.stats.friction += self.ke_u * (self.lam2 - l2);
+            self.lam2 = l2;
+        }
     }
 
     #[inline]
@@ -385,17 +474,20 @@ impl Engine {
 
     /// Total momentum.
     pub fn momentum(&self) -> [f64; 2] {
-        (0..self.n()).fold([0.0; 2], |p, i| {
+        let lam = self.lambda();
+        let p = (0..self.n()).fold([0.0; 2], |p, i| {
             let (m, d) = (self.mass(i), &self.d[i]);
             [p[0] + m * d.vx, p[1] + m * d.vy]
-        })
+        });
+        [p[0] * lam, p[1] * lam]
     }
 
     /// Sum of |m v|, the scale against which momentum conservation is judged.
     pub fn momentum_scale(&self) -> f64 {
         (0..self.n())
             .map(|i| self.mass(i) * self.d[i].vx.hypot(self.d[i].vy))
-            .sum()
+            .sum::<f64>()
+            * self.lambda()
     }
 
     /// Unwrapped positions at the current time (does not move the particles).
@@ -416,11 +508,21 @@ impl Engine {
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
         self.ahead = self.lists && self.bytes() > self.prefetch_min_bytes;
+        let mut s_stop = self.clock.s(t_stop);
+        let s_max = self.clock.s_max();
         for _ in 0..max_events {
             let (i, te) = self.calendar.min();
+            if te.min(self.next_kick).min(s_stop) > s_max {
+                // Friction: nothing happens before lambda = 1/8; re-anchor there.
+                self.now = s_max;
+                self.anchor(self.clock.gamma);
+                self.stats.reanchors += 1;
+                s_stop = self.clock.s(t_stop);
+                continue;
+            }
             if self.next_kick <= te {
-                if self.next_kick > t_stop {
-                    self.now = t_stop;
+                if self.next_kick > s_stop {
+                    self.stop_at(s_stop, t_stop);
                     return true;
                 }
                 self.now = self.next_kick;
@@ -428,8 +530,8 @@ impl Engine {
                 self.schedule_kick();
                 continue;
             }
-            if te > t_stop {
-                self.now = t_stop;
+            if te > s_stop {
+                self.stop_at(s_stop, t_stop);
                 return true;
             }
             self.now = te;
@@ -449,7 +551,23 @@ impl Engine {
                 self.collide(i, p as usize);
             }
         }
+        self.time = self.clock.t(self.now);
+        self.account_friction();
         false
+    }
+
+    /// Move the clock on to `t` without processing events: only to absorb the
+    /// round-off between stop times that should coincide.
+    pub fn skip_to(&mut self, t: f64) {
+        self.stop_at(self.clock.s(t), t);
+    }
+
+    /// Set the clock to `s` at time `t` (the same reading) with nothing happening between.
+    #[inline]
+    fn stop_at(&mut self, s: f64, t: f64) {
+        self.now = s;
+        self.time = t;
+        self.account_friction();
     }
 
     #[inline]
@@ -691,11 +809,13 @@ impl Engine {
         let (nx, ny) = (dx / r, dy / r);
         let gn = (a.vx - b.vx) * nx + (a.vy - b.vy) * ny;
         let mu = ma * mb / (ma + mb);
+        // The guard counts real time (the clock reading without friction).
+        let t = self.clock.t(self.now);
         let (e, guarded) = restitution::coefficient(
             self.eps,
             self.growth != 0.0,
-            self.now - self.last_collision[i],
-            self.now - self.last_collision[j],
+            t - self.last_collision[i],
+            t - self.last_collision[j],
             self.tc,
         );
         self.stats.guard_activations += u64::from(guarded);
@@ -710,11 +830,18 @@ impl Engine {
         db.vx += imp / mb * nx;
         db.vy += imp / mb * ny;
         db.count = db.count.wrapping_add(1);
-        self.stats.dissipated += restitution::energy_loss(mu, e, g);
-        self.stats.virial += -imp * r;
+        // Velocities are u = v / lambda: energies scale by lambda^2, momenta by lambda.
+        let loss = restitution::energy_loss(mu, e, g);
+        let lam = self.lambda();
+        if self.clock.gamma > 0.0 {
+            self.account_friction();
+            self.ke_u -= loss;
+        }
+        self.stats.dissipated += loss * (lam * lam);
+        self.stats.virial += -imp * r * lam;
         self.stats.collisions += 1;
-        self.last_collision[i] = self.now;
-        self.last_collision[j] = self.now;
+        self.last_collision[i] = t;
+        self.last_collision[j] = t;
         self.prefetch_around(j);
         self.predict(i);
         self.predict(j);
