@@ -17,7 +17,7 @@
 pub const REANCHOR_LAMBDA: f64 = 0.125;
 
 /// The friction clock: rate `gamma` and the time `t0` at which s = 0. With
-/// gamma = 0, s = t (t0 stays 0) and every conversion is the identity.
+/// gamma = 0, s = t - t0 (the identity for [`Clock::NONE`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Clock {
     pub gamma: f64,
@@ -34,7 +34,7 @@ impl Clock {
     #[inline]
     pub fn s(&self, t: f64) -> f64 {
         if self.gamma == 0.0 {
-            t
+            t - self.t0
         } else {
             -(-self.gamma * (t - self.t0)).exp_m1() / self.gamma
         }
@@ -44,7 +44,7 @@ impl Clock {
     #[inline]
     pub fn t(&self, s: f64) -> f64 {
         if self.gamma == 0.0 {
-            s
+            s + self.t0
         } else if self.gamma * s >= 1.0 {
             f64::INFINITY
         } else {

@@ -1,7 +1,11 @@
 //! Event-driven molecular dynamics of 2D hard disks (paper H, Sec. 2; paper I).
 //!
 //! - [`config`]: [`SimConfig`], every model parameter, validated.
-//! - [`engine`]: the event loop (collisions, cell crossings, pair kicks).
+//! - [`engine`]: the event loop (collisions, cell and shell crossings, kicks),
+//!   with its neighbour lists, driving and prefetch pipeline in submodules.
+//! - [`restitution`]: the collision rule and the collapse guard (Eq. 1).
+//! - [`friction`]: the friction clock (Eqs. 8-9 of paper I).
+//! - [`kicks`]: single and pair kicks, the amplitude of Eq. (7) of paper I.
 //! - [`tree`]: a tournament tree over the event times (the reference queue
 //!   in tests and benchmarks) and branch-free selects.
 //! - [`calendar`]: the event calendar (O(1) calendar queue, same API).
@@ -9,6 +13,7 @@
 //! - [`init`]: random start and Lubachevsky-Stillinger compression.
 //! - [`enskog`]: contact values and the Enskog collision frequency.
 //! - [`run`](mod@run): one simulation from config to trajectory and [`RunSummary`].
+//! - [`progress`]: what a running simulation reports.
 
 pub mod calendar;
 pub mod config;
@@ -28,6 +33,8 @@ pub mod tree;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_friction;
 
 pub use config::{Drive, KickRate, Masses, SimConfig};
 pub use progress::{Progress, Stage};

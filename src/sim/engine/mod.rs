@@ -369,6 +369,8 @@ impl Engine {
     /// Multiply every velocity by `f` (e.g. to restore T = 1 during compression).
     pub fn scale_velocities(&mut self, f: f64) {
         self.sync_all();
+        self.account_friction();
+        self.ke_u *= f * f;
         for d in &mut self.d {
             d.vx *= f;
             d.vy *= f;
