@@ -484,6 +484,11 @@ impl Engine {
         [p[0] * lam, p[1] * lam]
     }
 
+    /// Total mass.
+    pub fn total_mass(&self) -> f64 {
+        (0..self.n()).map(|i| self.mass(i)).sum()
+    }
+
     /// Sum of |m v|, the scale against which momentum conservation is judged.
     pub fn momentum_scale(&self) -> f64 {
         (0..self.n())
