@@ -46,6 +46,8 @@ pub struct RunSummary {
     pub stale_events: u64,
     /// Neighbour-list rebuilds (a disk left its shell).
     pub shell_exits: u64,
+    /// Re-anchorings of the friction clock (each predicts every event anew).
+    pub reanchors: u64,
     /// Time-averaged kinetic energy per particle.
     pub temperature: f64,
     /// Standard deviation of the sampled temperature (its fluctuation).
@@ -347,6 +349,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         cell_crossings: st.cell_crossings - before.cell_crossings,
         stale_events: st.stale_events - before.stale_events,
         shell_exits: st.shell_exits - before.shell_exits,
+        reanchors: st.reanchors - before.reanchors,
         temperature,
         temperature_std,
         temperature_halves: [mean(&temps[..half]), mean(&temps[half..])],
