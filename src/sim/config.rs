@@ -95,7 +95,8 @@ pub struct SimConfig {
     /// The temperature the driving holds (Eq. 7 of paper I sets the kick
     /// amplitude for it; paper H: 1). Also the temperature after compression.
     pub temperature: f64,
-    /// Hard walls instead of periodic boundaries, per axis. Not supported yet.
+    /// Hard walls at 0 and L instead of periodic boundaries, per axis [x, y]
+    /// (elastic reflection).
     pub walls: [bool; 2],
     /// An intruder (paper I). Not supported yet.
     pub intruder: Option<Intruder>,
@@ -285,10 +286,22 @@ impl SimConfig {
             );
         }
         if self.walls != [false, false] {
-            bail!(
-                "walls = {:?} is not supported yet: only periodic boxes; use [false, false]",
-                self.walls
-            );
+            // Every walled axis must hold a few large disks side by side at the
+            // target packing: the compression would otherwise jam against the walls.
+            let box_size = self.box_size();
+            let d_large = 2.0 * self.radius_ratio;
+            for k in 0..2 {
+                if self.walls[k] && box_size[k] < 4.0 * d_large {
+                    bail!(
+                        "walls = {:?} cannot fit: the box is {:.3} long between the walls of axis {} at phi = {}, less than four large-disk diameters ({:.3}); use more disks or another aspect",
+                        self.walls,
+                        box_size[k],
+                        ["x", "y"][k],
+                        self.phi,
+                        4.0 * d_large
+                    );
+                }
+            }
         }
         if self.intruder.is_some() {
             bail!("intruder is not supported yet (paper I); remove the key");

@@ -5,6 +5,8 @@ pub(crate) const NONE: u32 = u32::MAX;
 /// Partner codes >= CROSS mean "leave the cell" in direction `code - CROSS`
 /// (0: +x, 1: -x, 2: +y, 3: -y).
 pub(crate) const CROSS: u32 = u32::MAX - 8;
+/// Partner codes of "hit the wall" of axis `code - WALL` (0: x, 1: y).
+pub(crate) const WALL: u32 = CROSS + 5;
 /// Partner code of "leave the neighbour-list shell".
 pub(crate) const SHELL: u32 = CROSS + 4;
 

@@ -6,6 +6,7 @@
 //! - [`restitution`]: the collision rule and the collapse guard (Eq. 1).
 //! - [`friction`]: the friction clock (Eqs. 8-9 of paper I).
 //! - [`kicks`]: single and pair kicks, the amplitude of Eq. (7) of paper I.
+//! - [`walls`]: hard walls per axis (wall times, reflection, padding).
 //! - [`tree`]: a tournament tree over the event times (the reference queue
 //!   in tests and benchmarks) and branch-free selects.
 //! - [`calendar`]: the event calendar (O(1) calendar queue, same API).
@@ -30,11 +31,14 @@ pub mod restitution;
 pub mod run;
 pub mod scan;
 pub mod tree;
+pub mod walls;
 
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests_friction;
+#[cfg(test)]
+mod tests_walls;
 
 pub use config::{Drive, KickRate, Masses, SimConfig};
 pub use progress::{Progress, Stage};

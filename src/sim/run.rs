@@ -48,6 +48,10 @@ pub struct RunSummary {
     pub shell_exits: u64,
     /// Re-anchorings of the friction clock (each predicts every event anew).
     pub reanchors: u64,
+    pub wall_collisions: u64,
+    /// Pressure on the walls of each axis [x, y]: momentum given to them per
+    /// unit time and length (0 on a periodic axis).
+    pub wall_pressure: [f64; 2],
     /// Time-averaged kinetic energy per particle.
     pub temperature: f64,
     /// Standard deviation of the sampled temperature (its fluctuation).
@@ -226,7 +230,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         last_time: e.time(),
         last_virial: e.stats.virial,
         last_t: e.kinetic_energy() / nf,
-        area: e.lx * e.ly,
+        area: cfg.box_size()[0] * cfg.box_size()[1],
         samples: Vec::with_capacity(cfg.samples + 1),
         species: Vec::with_capacity(cfg.samples + 1),
         drift: Vec::with_capacity(cfg.samples + 1),
@@ -276,7 +280,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let n_relax_samples = s.samples.len();
 
     // Production: frames at the schedule's times.
-    let (lx, ly) = (e.lx, e.ly);
+    let [lx, ly] = cfg.box_size();
     let mut frames = Vec::new();
     let clock = Instant::now();
     for ft in cfg.schedule.times() {
@@ -350,6 +354,9 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         stale_events: st.stale_events - before.stale_events,
         shell_exits: st.shell_exits - before.shell_exits,
         reanchors: st.reanchors - before.reanchors,
+        wall_collisions: st.wall_collisions - before.wall_collisions,
+        wall_pressure: [0, 1]
+            .map(|k| (st.wall_impulse[k] - before.wall_impulse[k]) / (2.0 * [ly, lx][k] * prod)),
         temperature,
         temperature_std,
         temperature_halves: [mean(&temps[..half]), mean(&temps[half..])],
@@ -384,7 +391,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     };
     let traj = Trajectory {
         box_size: [lx, ly],
-        periodic: [true, true],
+        periodic: cfg.walls.map(|w| !w),
         species: e.species.clone(),
         radii,
         masses,

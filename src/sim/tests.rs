@@ -268,9 +268,11 @@ fn invalid_configs_are_named() {
         (
             SimConfig {
                 walls: [true, false],
+                n: 200,
+                aspect: 100.0,
                 ..d()
             },
-            "walls",
+            "cannot fit",
         ),
     ];
     let mut empty = d();

@@ -13,6 +13,7 @@ fn two_disks(x: [f64; 2], vx: [f64; 2]) -> Engine {
     let setup = Setup {
         lx: 100.0,
         ly: 100.0,
+        walls: [false, false],
         radii: vec![1.0],
         masses: vec![1.0],
         species: vec![0, 0],

@@ -20,12 +20,13 @@ mod driving;
 mod lists;
 
 use super::calendar::EventCalendar;
-use super::disk::{CROSS, Disk, NONE, SHELL};
+use super::disk::{CROSS, Disk, NONE, SHELL, WALL};
 use super::friction::Clock;
 pub use super::kicks::Kicks;
 use super::resources::{big_vec, big_vec_from};
 use super::restitution;
 use super::scan::{earliest_pair, nearest_image};
+use super::walls;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -52,6 +53,8 @@ const PREFETCH_MIN_BYTES: usize = 3 << 20;
 pub struct Setup {
     pub lx: f64,
     pub ly: f64,
+    /// Hard walls at 0 and L instead of periodic boundaries, per axis.
+    pub walls: [bool; 2],
     /// Radius of each species (final radius if the radii grow).
     pub radii: Vec<f64>,
     pub masses: Vec<f64>,
@@ -84,6 +87,12 @@ pub struct Stats {
     pub friction: f64,
     /// Re-anchorings of the friction clock.
     pub reanchors: u64,
+    /// Collisions with the walls.
+    pub wall_collisions: u64,
+    /// Momentum transferred to the walls of each axis (sum of |dp|).
+    pub wall_impulse: [f64; 2],
+    /// Virial of the wall forces, sum of r . dp at each wall collision.
+    pub wall_virial: f64,
 }
 
 /// A disk's pending event partner and its neighbour-list bookkeeping.
@@ -114,8 +123,13 @@ impl Default for Book {
 }
 
 pub struct Engine {
+    /// The engine's box: the physical box, padded on walled axes.
     pub lx: f64,
     pub ly: f64,
+    /// Length of each walled axis (the walls are at 0 and there); infinity
+    /// on periodic axes.
+    wall_len: [f64; 2],
+    has_walls: bool,
     ncx: usize,
     ncy: usize,
     wx: f64,
@@ -205,8 +219,20 @@ impl Engine {
         anyhow::ensure!(n >= 2, "need at least 2 particles, got {n}");
         anyhow::ensure!(n < CROSS as usize, "too many particles: {n}");
         let rmax = s.radii.iter().copied().fold(0.0, f64::max);
-        let ncx = (s.lx / (2.0 * rmax)).floor() as usize;
-        let ncy = (s.ly / (2.0 * rmax)).floor() as usize;
+        let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
+        let shell = SHELL_FRACTION * rmin;
+        let pad = walls::padding(rmax, shell);
+        let wall_len = [0, 1].map(|k| {
+            if s.walls[k] {
+                [s.lx, s.ly][k]
+            } else {
+                f64::INFINITY
+            }
+        });
+        let lx = if s.walls[0] { s.lx + pad } else { s.lx };
+        let ly = if s.walls[1] { s.ly + pad } else { s.ly };
+        let ncx = (lx / (2.0 * rmax)).floor() as usize;
+        let ncy = (ly / (2.0 * rmax)).floor() as usize;
         anyhow::ensure!(
             ncx >= 3 && ncy >= 3,
             "box {:.3} x {:.3} is smaller than 3 cells of one large-disk diameter ({:.3}); use more particles",
@@ -214,8 +240,15 @@ impl Engine {
             s.ly,
             2.0 * rmax
         );
-        let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
-        let shell = SHELL_FRACTION * rmin;
+        for k in 0..2 {
+            anyhow::ensure!(
+                wall_len[k] > 4.0 * rmax,
+                "walls: the box ({:.3} between the walls of axis {}) must be wider than two large-disk diameters ({:.3})",
+                wall_len[k],
+                ["x", "y"][k],
+                4.0 * rmax
+            );
+        }
         // Disks of radius r - shell around the list centres never overlap, and those
         // in a list lie within r_i + 2 r_max + shell of the centre: an area bound.
         let cap_max = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
@@ -228,8 +261,8 @@ impl Engine {
         let d = big_vec_from(
             n,
             (0..n).map(|i| Disk {
-                x: s.x[i].rem_euclid(s.lx),
-                y: s.y[i].rem_euclid(s.ly),
+                x: s.x[i].rem_euclid(lx),
+                y: s.y[i].rem_euclid(ly),
                 vx: s.vx[i],
                 vy: s.vy[i],
                 t: 0.0,
@@ -242,8 +275,6 @@ impl Engine {
         // The setup's coordinates are in `d` now: free them before the other
         // arrays are made (they would add 32 bytes per disk to the peak).
         let Setup {
-            lx,
-            ly,
             radii,
             masses,
             species,
@@ -251,11 +282,14 @@ impl Engine {
             y,
             vx,
             vy,
+            ..
         } = s;
         drop((x, y, vx, vy));
         let mut e = Engine {
             lx,
             ly,
+            wall_len,
+            has_walls: wall_len.iter().any(|l| l.is_finite()),
             ncx,
             ncy,
             wx: lx / ncx as f64,
@@ -548,6 +582,8 @@ impl Engine {
             let p = self.bk[i].ev_p;
             if p == SHELL {
                 self.shell_exit(i);
+            } else if p >= WALL {
+                self.hit_wall(i, (p - WALL) as usize);
             } else if p >= CROSS {
                 self.cross(i, p - CROSS);
             } else if self.d[p as usize].count != self.bk[i].ev_c {
@@ -736,8 +772,54 @@ impl Engine {
                 }
             }
         });
+        if self.has_walls {
+            self.earlier_wall(&a, scale, &mut best, &mut partner);
+        }
         self.set_partner(i, partner);
         self.now + best
+    }
+
+    /// Replace the event (`best`, `partner`) of disk `a` by a wall collision if
+    /// that comes first.
+    #[inline]
+    fn earlier_wall(&self, a: &Disk, scale: f64, best: &mut f64, partner: &mut u32) {
+        for (k, (x, v)) in [(a.x, a.vx), (a.y, a.vy)].into_iter().enumerate() {
+            let l = self.wall_len[k];
+            if l.is_finite() {
+                let (t, _) = walls::wall_time(x, v, a.radius, scale, self.growth, l);
+                if t < *best {
+                    *best = t;
+                    *partner = WALL + k as u32;
+                }
+            }
+        }
+    }
+
+    /// Disk `i` hits a wall of `axis`: elastic reflection (in the frame of its
+    /// growing surface during compression), the momentum given to the wall
+    /// counted for the wall pressure.
+    fn hit_wall(&mut self, i: usize, axis: usize) {
+        self.advance(i);
+        let (m, lam, d) = (self.mass(i), self.lambda(), self.d[i]);
+        let (pos, old) = if axis == 0 { (d.x, d.vx) } else { (d.y, d.vy) };
+        let upper = pos > 0.5 * self.wall_len[axis];
+        let new = walls::reflect(old, d.radius, self.growth, upper);
+        let dm = &mut self.d[i];
+        if axis == 0 {
+            dm.vx = new;
+        } else {
+            dm.vy = new;
+        }
+        dm.count = dm.count.wrapping_add(1);
+        if self.clock.gamma > 0.0 {
+            self.account_friction();
+            self.ke_u += 0.5 * m * (new * new - old * old);
+        }
+        let dp = m * (new - old) * lam;
+        self.stats.wall_collisions += 1;
+        self.stats.wall_impulse[axis] += dp.abs();
+        self.stats.wall_virial += pos * dp;
+        self.predict(i);
     }
 
     /// [`Self::find_event`] from the neighbour list: the shell exit or the
@@ -748,7 +830,11 @@ impl Engine {
         let shell = self.shell_time(i, &a);
         let base = i * self.cap;
         let list = &self.nb[base..base + self.bk[i].nn as usize];
-        let (best, partner) = earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
+        let (mut best, mut partner) =
+            earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
+        if self.has_walls {
+            self.earlier_wall(&a, 1.0, &mut best, &mut partner);
+        }
         self.set_partner(i, partner);
         self.now + best
     }
