@@ -51,6 +51,10 @@ pub struct SimArgs {
     /// Box aspect ratio Ly / Lx.
     #[arg(long, default_value_t = 1.0)]
     pub aspect: f64,
+    /// Hard walls per axis, `x,y` from `wall` or `periodic` (e.g. `periodic,wall`:
+    /// a channel with walls at y = 0 and Ly).
+    #[arg(long, default_value = "periodic,periodic", value_parser = parse_walls)]
+    pub walls: [bool; 2],
     /// Measured (production) time after relaxation.
     #[arg(long, default_value_t = 10.0)]
     pub time: f64,
@@ -95,6 +99,22 @@ pub struct BenchArgs {
     pub seed: u64,
 }
 
+fn parse_walls(s: &str) -> Result<[bool; 2], String> {
+    let axis = |a: &str| match a.trim() {
+        "wall" | "walls" => Ok(true),
+        "periodic" => Ok(false),
+        _ => Err(format!(
+            "invalid walls `{s}`: use two of wall|periodic, e.g. periodic,wall"
+        )),
+    };
+    match s.split(',').collect::<Vec<_>>()[..] {
+        [x, y] => Ok([axis(x)?, axis(y)?]),
+        _ => Err(format!(
+            "invalid walls `{s}`: use two of wall|periodic, e.g. periodic,wall"
+        )),
+    }
+}
+
 fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
     let bad = || format!("invalid kick rate `{s}`: use balanced, enskog, enskog*F or a number");
     match s {
@@ -135,6 +155,7 @@ impl SimArgs {
             gamma: self.gamma,
             temperature: self.temperature,
             aspect: self.aspect,
+            walls: self.walls,
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
@@ -238,6 +259,12 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                         .join(" / ")
                 );
                 println!("Z = {:.4} +- {:.4}", s.z, s.z_err);
+                if s.wall_collisions > 0 {
+                    println!(
+                        "wall pressure = {:.4} (x walls) / {:.4} (y walls), {} wall collisions",
+                        s.wall_pressure[0], s.wall_pressure[1], s.wall_collisions
+                    );
+                }
                 println!(
                     "collision rate = {:.4} per particle (Enskog {:.4}); kick rate = {:.4}",
                     s.collision_rate, s.enskog_collision_rate, s.kick_rate
@@ -281,6 +308,7 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     gamma: 0.0,
                     temperature: 1.0,
                     aspect: 1.0,
+                    walls: [false, false],
                     time: b.time,
                     relax: b.relax,
                     compression_rate: b.compression_rate,
@@ -329,5 +357,17 @@ mod tests {
         assert!(e.contains("drive: single with gamma = 0"), "{e}");
         let e = error_of(&["sim", "--n", "200", "--temperature", "0"]);
         assert!(e.contains("temperature = 0 is invalid"), "{e}");
+        let e = error_of(&[
+            "sim",
+            "--n",
+            "200",
+            "--walls",
+            "wall,periodic",
+            "--aspect",
+            "100",
+        ]);
+        assert!(e.contains("cannot fit"), "{e}");
+        let bad = Cli::try_parse_from(["repro", "sim", "--walls", "wall"]);
+        assert!(bad.is_err_and(|e| e.to_string().contains("invalid walls")));
     }
 }
