@@ -192,6 +192,35 @@ fn dense_driven_run_with_friction_closes_its_energy_ledger() {
     assert!((s.temperature - 1.0).abs() < 0.25, "T = {}", s.temperature);
 }
 
+/// Eq. (11) of paper I without the force: collisions conserve momentum and
+/// friction decays it, so P(t) = P(0) exp(-gamma t) + sum_k dp_k exp(-gamma (t - t_k))
+/// over the single kicks, exactly (through re-anchorings).
+#[test]
+fn momentum_decays_as_eq_11_plus_the_decayed_kicks() {
+    let c = paper_i(1000, 0.6, 0.9, 1.0);
+    let mut e = init::prepare(&c, &quiet).unwrap();
+    (e.eps, e.tc) = (c.eps, c.collapse_tc);
+    e.set_friction(c.gamma);
+    let (kicks, rate, p_dr) = super::run::drive(&c, 4.9);
+    e.set_kicks(kicks, rate, p_dr);
+    let (p0, t0) = (e.momentum(), e.time());
+    for dt in [0.5, 3.0, 10.0] {
+        e.run_until(t0 + dt, u64::MAX);
+        let (p, k) = (e.momentum(), e.kick_momentum());
+        let decay = (-c.gamma * dt).exp();
+        let scale = e.momentum_scale();
+        for a in 0..2 {
+            let want = p0[a] * decay + k[a];
+            assert!(
+                (p[a] - want).abs() < 1e-10 * scale,
+                "t = {dt}, axis {a}: P = {}, Eq. (11) {want}",
+                p[a]
+            );
+        }
+    }
+    assert!(e.stats.reanchors >= 4 && e.stats.kicks > 40_000 && e.stats.collisions > 40_000);
+}
+
 #[test]
 fn impossible_friction_settings_are_named() {
     let bad = |c: SimConfig| c.validate().unwrap_err().to_string();

@@ -71,6 +71,8 @@ impl Engine {
             d.vx += self.p_dr * kx / m;
             d.vy += self.p_dr * ky / m;
             d.count = d.count.wrapping_add(1);
+            self.kick_momentum_u[0] += self.p_dr * kx / lam;
+            self.kick_momentum_u[1] += self.p_dr * ky / lam;
             self.account_injection(self.kinetic_energy_of(i) - before, lam);
             self.predict(i);
             return;

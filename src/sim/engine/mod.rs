@@ -176,6 +176,9 @@ pub struct Engine {
     /// when friction was last accounted for (the friction ledger).
     ke_u: f64,
     lam2: f64,
+    /// Momentum brought by single kicks, each decayed by friction since
+    /// (sum dp_k exp(-gamma (t - t_k))), in u units (divided by lambda).
+    kick_momentum_u: [f64; 2],
     pub eps: f64,
     /// Collapse guard: a collision within `tc` of a particle's previous one is elastic.
     pub tc: f64,
@@ -323,6 +326,7 @@ impl Engine {
             clock: Clock::NONE,
             ke_u: 0.0,
             lam2: 1.0,
+            kick_momentum_u: [0.0; 2],
             eps,
             tc,
             scale0: 1.0,
@@ -476,6 +480,7 @@ impl Engine {
             d.vy *= lam;
             d.t = 0.0;
         }
+        self.kick_momentum_u = self.kick_momentum_u.map(|p| p * lam);
         self.clock = Clock { gamma, t0: t };
         self.now = 0.0;
         self.time = t;
@@ -516,6 +521,14 @@ impl Engine {
             [p[0] + m * d.vx, p[1] + m * d.vy]
         });
         [p[0] * lam, p[1] * lam]
+    }
+
+    /// The momentum single kicks brought, each decayed by friction since:
+    /// sum over kicks of dp_k exp(-gamma (t - t_k)) (the kicks' part of Eq. (11)
+    /// of paper I; pair kicks bring none).
+    pub fn kick_momentum(&self) -> [f64; 2] {
+        let lam = self.lambda();
+        self.kick_momentum_u.map(|p| p * lam)
     }
 
     /// Total mass.
