@@ -156,6 +156,9 @@ fn advance(
             s.next += s.dt;
         }
         if stop == t {
+            // Small systems finish a window in fewer than 2^20 events: report at
+            // every window's end too, or the bar stays at the previous stage.
+            progress(Progress::new(stage, e, end, clock));
             return;
         }
     }
