@@ -8,7 +8,8 @@
 //!   are registered by whoever assembles the registry (`stages::registry()`): this
 //!   module imports nothing from `stages`.
 //! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
-//!   early cut-off, `status`/`why`; [`publish`]: `results/ID/` and provenance.
+//!   early cut-off, `status`/`why`; [`progress`]: bars, plain lines and the run
+//!   log; [`publish`]: `results/ID/` and provenance.
 //!
 //! The functions here are what the CLI and the tests call.
 
@@ -17,6 +18,7 @@ pub mod exec;
 pub mod fingerprint;
 pub mod graph;
 pub mod kinds;
+pub mod progress;
 pub mod publish;
 pub mod registry;
 pub mod spec;
@@ -33,7 +35,7 @@ pub use exec::{Outcome, RunOptions, RunReport, State};
 pub use graph::Graph;
 pub use registry::{Artifact, Output, Registry, StageCtx, StageKind};
 pub use spec::{Catalogue, DEFAULT_PROFILE, SpecError};
-pub use store::{GcReport, Store};
+pub use store::{GcReport, Store, VerifyReport};
 
 /// Where specs, results and the store live.
 #[derive(Debug, Clone)]
