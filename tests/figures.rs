@@ -5,8 +5,9 @@
 
 use std::path::Path;
 
-use repro::cli::figs::{GoldenFile, check, golden, read_compare};
 use repro::pipeline::{Registry, RunOptions, Workspace, run_figures};
+use repro::study::golden::{GoldenFile, check, golden};
+use repro::study::results::read_compare;
 
 const EXPERIMENT: &str = r#"
 description: tiny eps = 0.9 sweep for tests

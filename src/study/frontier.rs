@@ -1,0 +1,267 @@
+//! Speed against accuracy (`repro frontier`): a figure rebuilt from variants of
+//! the catalogue (N, replicas, master seed); each key number's seed-to-seed mean
+//! and spread against the CPU seconds of all its stages.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+
+use super::results::{nan_as_null, provenance, read_compare};
+use super::variant::{self, Variant};
+use crate::pipeline::RunOptions;
+
+/// One frontier configuration's outcome for one quantity.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FrontierRow {
+    pub n: usize,
+    pub replicas: u64,
+    pub quantity: String,
+    #[serde(deserialize_with = "nan_as_null::one")]
+    pub mean: f64,
+    #[serde(deserialize_with = "nan_as_null::one")]
+    pub spread: f64,
+    pub paper: f64,
+    pub tolerance: f64,
+    #[serde(deserialize_with = "nan_as_null::one")]
+    pub cpu_s: f64,
+    /// Per master seed.
+    #[serde(with = "nan_as_null")]
+    pub values: Vec<f64>,
+}
+
+/// What a frontier run varies.
+pub struct Frontier<'a> {
+    pub root: &'a Path,
+    pub experiment: &'a str,
+    pub profile: &'a str,
+    pub id: &'a str,
+    pub n: &'a [usize],
+    pub replicas: &'a [u64],
+    pub seeds: &'a [u64],
+}
+
+/// Build every configuration at every seed; one row per (configuration, quantity).
+pub fn measure(f: &Frontier, opts: &RunOptions) -> Result<Vec<FrontierRow>> {
+    let ids = vec![f.id.to_string()];
+    let mut rows: Vec<FrontierRow> = Vec::new();
+    for &n in f.n {
+        for &r in f.replicas {
+            let mut per_q: BTreeMap<String, (Vec<f64>, f64, f64)> = BTreeMap::new();
+            let mut cpu = Vec::new();
+            for &seed in f.seeds {
+                let v = Variant {
+                    seed: Some(seed),
+                    n: Some(n),
+                    replicas: Some(r),
+                    ..Variant::default()
+                };
+                eprintln!("frontier {}: N = {n}, replicas = {r}, seed {seed}", f.id);
+                let built = variant::build(f.root, f.experiment, f.profile, &v, &ids, opts)?;
+                let dir = built.results.join(f.id);
+                cpu.push(provenance(&dir)?.cpu_s);
+                for c in read_compare(&dir)? {
+                    let e = per_q
+                        .entry(c.quantity)
+                        .or_insert((vec![], c.paper, c.tolerance));
+                    e.0.push(c.ours);
+                }
+            }
+            let cpu_s = cpu.iter().sum::<f64>() / cpu.len() as f64;
+            for (q, (vals, paper, tol)) in per_q {
+                let (mean, spread) = crate::analysis::stats::mean_std(&vals);
+                rows.push(FrontierRow {
+                    n,
+                    replicas: r,
+                    quantity: q,
+                    mean,
+                    spread,
+                    paper,
+                    tolerance: tol,
+                    cpu_s,
+                    values: vals,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Write `out/STEM.{parquet,json,svg,png}`; returns the stem's path.
+pub fn write(
+    out: &Path,
+    id: &str,
+    profile: &str,
+    seeds: &[u64],
+    rows: &[FrontierRow],
+) -> Result<PathBuf> {
+    let stem = out.join(format!("{id}-{profile}"));
+    std::fs::create_dir_all(out)?;
+    let b = crate::table::f64_batch(&[
+        ("N", rows.iter().map(|r| r.n as f64).collect()),
+        ("replicas", rows.iter().map(|r| r.replicas as f64).collect()),
+        ("mean", rows.iter().map(|r| r.mean).collect()),
+        ("spread", rows.iter().map(|r| r.spread).collect()),
+        ("paper", rows.iter().map(|r| r.paper).collect()),
+        ("tolerance", rows.iter().map(|r| r.tolerance).collect()),
+        ("cpu_s", rows.iter().map(|r| r.cpu_s).collect()),
+    ])?;
+    let q =
+        arrow_array::StringArray::from(rows.iter().map(|r| r.quantity.clone()).collect::<Vec<_>>());
+    let b = {
+        let schema = b.schema();
+        let mut cols: Vec<(&str, arrow_array::ArrayRef)> =
+            vec![("quantity", std::sync::Arc::new(q))];
+        for (f, c) in schema.fields().iter().zip(b.columns()) {
+            cols.push((f.name().as_str(), c.clone()));
+        }
+        arrow_array::RecordBatch::try_from_iter(cols)?
+    };
+    crate::table::write_parquet(
+        &stem.with_extension("parquet"),
+        &[b],
+        &[("seeds", &format!("{seeds:?}"))],
+    )?;
+    std::fs::write(
+        stem.with_extension("json"),
+        serde_json::to_string_pretty(&rows)?,
+    )?;
+    let fig = chart(&format!("{id} ({profile})"), rows);
+    crate::plot::draw(
+        &fig,
+        &stem.with_extension("svg"),
+        &stem.with_extension("png"),
+    )?;
+    Ok(stem)
+}
+
+/// The cheapest configuration whose every quantity is within the paper's
+/// tolerance, with a seed spread inside it too.
+pub fn smallest(rows: &[FrontierRow]) -> String {
+    let mut configs: BTreeMap<(usize, u64), (f64, bool)> = BTreeMap::new();
+    for r in rows {
+        let ok = (r.mean - r.paper).abs() <= r.tolerance && r.spread <= r.tolerance;
+        let e = configs.entry((r.n, r.replicas)).or_insert((r.cpu_s, true));
+        e.1 &= ok;
+    }
+    match configs
+        .iter()
+        .filter(|(_, (_, ok))| *ok)
+        .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
+    {
+        Some(((n, r), (cpu, _))) => format!(
+            "smallest configuration within the paper's tolerance: N = {n}, replicas = {r} ({cpu:.1} CPU s)"
+        ),
+        None => "no configuration tried reproduces every key number within the paper's tolerance"
+            .to_string(),
+    }
+}
+
+fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
+    use crate::plot::{Axis, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style};
+    let mut qs: Vec<&str> = rows.iter().map(|r| r.quantity.as_str()).collect();
+    qs.sort();
+    qs.dedup();
+    let panels: Vec<Panel> = qs
+        .iter()
+        .map(|q| {
+            let mine: Vec<&FrontierRow> = rows.iter().filter(|r| r.quantity == *q).collect();
+            let mut reps: Vec<u64> = mine.iter().map(|r| r.replicas).collect();
+            reps.sort();
+            reps.dedup();
+            let series = reps
+                .iter()
+                .map(|&rep| {
+                    let mut pts: Vec<&&FrontierRow> =
+                        mine.iter().filter(|r| r.replicas == rep).collect();
+                    pts.sort_by(|a, b| a.cpu_s.total_cmp(&b.cpu_s));
+                    Series {
+                        label: format!(
+                            "{rep} replicas, N = {}",
+                            pts.iter()
+                                .map(|r| r.n.to_string())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                        x: pts.iter().map(|r| r.cpu_s).collect(),
+                        y: pts.iter().map(|r| r.mean).collect(),
+                        y_err: Some(pts.iter().map(|r| r.spread).collect()),
+                        style: Style::LinePoints,
+                        dashed: false,
+                        color: None,
+                        marker: Marker::Circle,
+                    }
+                })
+                .collect();
+            let paper = mine.first().map(|r| r.paper).unwrap_or(f64::NAN);
+            // Show the paper's value even when every configuration misses it.
+            let (lo, hi) = mine.iter().fold((paper, paper), |(lo, hi), r| {
+                (lo.min(r.mean - r.spread), hi.max(r.mean + r.spread))
+            });
+            let pad = 0.08 * (hi - lo).max(1e-9);
+            let range = (lo.is_finite() && hi.is_finite()).then_some((lo - pad, hi + pad));
+            Panel {
+                title: format!("{id}: {q}"),
+                x: Axis {
+                    label: "CPU seconds (all stages)".into(),
+                    log: true,
+                    range: None,
+                },
+                y: Axis {
+                    label: q.to_string(),
+                    log: false,
+                    range,
+                },
+                series,
+                hlines: vec![RefLine {
+                    at: paper,
+                    label: "paper".into(),
+                    dashed: true,
+                    color: None,
+                }],
+                vlines: vec![],
+                legend: Legend::Auto,
+                legend_title: String::new(),
+                palette: Palette::Categorical,
+            }
+        })
+        .collect();
+    let n = panels.len().max(1) as u32;
+    Figure {
+        title: String::new(),
+        panels,
+        columns: None,
+        width: 480 * n,
+        height: 400,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn smallest_configuration_needs_every_quantity_within_tolerance() {
+        let row = |n, q: &str, mean, spread, cpu| FrontierRow {
+            n,
+            replicas: 2,
+            quantity: q.into(),
+            mean,
+            spread,
+            paper: 0.82,
+            tolerance: 0.01,
+            cpu_s: cpu,
+            values: vec![],
+        };
+        let rows = vec![
+            row(500, "phi_c", 0.79, 0.005, 1.0),
+            row(1000, "phi_c", 0.815, 0.005, 2.0),
+            row(1000, "phi_0", 0.80, 0.005, 2.0),
+            row(2000, "phi_c", 0.82, 0.002, 4.0),
+            row(2000, "phi_0", 0.825, 0.002, 4.0),
+        ];
+        assert!(smallest(&rows).contains("N = 2000"), "{}", smallest(&rows));
+        assert!(smallest(&rows[..1]).starts_with("no configuration"));
+    }
+}
