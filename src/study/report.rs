@@ -38,7 +38,7 @@ pub fn collect(results: &Path, profile: Option<&str>) -> Result<(String, Vec<Fig
         })?
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.join("compare.parquet").is_file() && p.join("provenance.json").is_file())
+        .filter(|p| p.join("provenance.json").is_file())
         .collect();
     dirs.sort_by_key(|p| fig_order(&p.file_name().unwrap_or_default().to_string_lossy()));
     let mut all = Vec::new();
@@ -66,7 +66,12 @@ pub fn collect(results: &Path, profile: Option<&str>) -> Result<(String, Vec<Fig
     };
     let mut out = Vec::new();
     for (d, prov) in all.into_iter().filter(|(_, p)| p.profile == profile) {
-        let compared = read_compare(&d)?;
+        // A figure without paper values (e.g. a qualitative one) has no compare table.
+        let compared = if d.join("compare.parquet").is_file() {
+            read_compare(&d)?
+        } else {
+            Vec::new()
+        };
         let others = fitted(&d)?
             .into_iter()
             .filter(|(q, _)| !compared.iter().any(|c| &c.quantity == q))
@@ -115,6 +120,9 @@ pub fn number(v: f64, err: f64) -> String {
     let has_err = err.is_finite() && err > 0.0;
     if a >= 1e5 || (a != 0.0 && a < 1e-3 && !has_err) {
         return format!("{v:.3e}");
+    }
+    if !has_err && v.fract() == 0.0 {
+        return format!("{v:.0}");
     }
     let digits = if has_err {
         1 - err.log10().floor() as i32
@@ -420,6 +428,24 @@ mod tests {
     }
 
     #[test]
+    fn a_figure_without_paper_values_is_in_the_gallery() {
+        let dir = tempfile::tempdir().unwrap();
+        let results = dir.path().join("results");
+        built(&results, "fig4", "ci", 0.8, 0.01);
+        built(&results, "fig3", "ci", 0.8, 0.01);
+        std::fs::remove_file(results.join("fig3/compare.parquet")).unwrap();
+        std::fs::write(results.join("fig3/figure.png"), b"png").unwrap();
+        write(dir.path(), &results, None, true).unwrap();
+        let md = std::fs::read_to_string(dir.path().join("docs/report-ci.md")).unwrap();
+        assert!(md.contains("![fig3](img/fig3-ci.png)"), "{md}");
+        assert!(
+            md.find("### fig3").unwrap() < md.find("### fig4").unwrap(),
+            "{md}"
+        );
+        assert!(dir.path().join("docs/img/fig3-ci.png").is_file());
+    }
+
+    #[test]
     fn figures_of_another_profile_are_left_out_or_named() {
         let dir = tempfile::tempdir().unwrap();
         let results = dir.path().join("results");
@@ -447,6 +473,7 @@ mod tests {
         assert_eq!(number(1.19, f64::NAN), "1.190");
         assert_eq!(number(241.3, 12.0), "241");
         assert_eq!(number(f64::NAN, 1.0), "—");
+        assert_eq!(number(8.0, f64::NAN), "8", "counts stay integers");
         assert_eq!(number(2.5e-5, f64::NAN), "2.500e-5");
         assert_eq!(
             utc(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1_795_000_000)),
