@@ -101,6 +101,26 @@ impl Schedule {
         t
     }
 
+    /// The same recorded window (first origin to last frame, so the same
+    /// simulated time) with origins every `spacing` instead of `origin_spacing`:
+    /// blocks of the same lags that overlap when `spacing` is shorter than the
+    /// longest lag, so every lag is realised by more time origins at the same cost
+    /// (and more stored frames).
+    pub fn overlapping(&self, spacing: f64) -> Schedule {
+        assert!(spacing > 0.0 && spacing.is_finite());
+        let span = self.origins.saturating_sub(1) as f64 * self.origin_spacing;
+        Schedule {
+            origins: if self.origins == 0 {
+                0
+            } else {
+                // The slack keeps a last origin that lands exactly on the span.
+                (span / spacing + 1e-9).floor() as usize + 1
+            },
+            origin_spacing: spacing,
+            ..self.clone()
+        }
+    }
+
     /// Time of the last frame.
     pub fn end(&self) -> f64 {
         self.times().last().copied().unwrap_or(self.start)
@@ -159,5 +179,57 @@ mod tests {
             assert_eq!(traj.pairs_at_lag(lag, 1e-6).len(), 4, "lag {lag}");
         }
         assert!(traj.pairs_at_lag(0.37, 1e-6).is_empty());
+    }
+
+    /// Overlapping origins: same last frame (same simulated time), four times the
+    /// origins, and every lag realised by at least every origin.
+    #[test]
+    fn overlapping_origins_keep_the_window_and_multiply_the_pairs() {
+        let s = Schedule {
+            start: 5.0,
+            origins: 4,
+            origin_spacing: 20.0,
+            lags: Schedule::log_lags(0.1, 50.0, 4),
+        };
+        let o = s.overlapping(5.0);
+        assert_eq!(o.origins, 13);
+        assert!(
+            (o.end() - s.end()).abs() < 1e-9,
+            "{} vs {}",
+            o.end(),
+            s.end()
+        );
+        assert!(o.times().len() > 3 * s.times().len());
+        let frames = |sch: &Schedule| Trajectory {
+            box_size: [1.0, 1.0],
+            periodic: [true, true],
+            species: vec![0],
+            radii: vec![1.0],
+            masses: vec![1.0],
+            frames: sch
+                .times()
+                .into_iter()
+                .map(|time| Frame {
+                    time,
+                    x: vec![0.0],
+                    y: vec![0.0],
+                    vx: vec![],
+                    vy: vec![],
+                })
+                .collect(),
+        };
+        let (a, b) = (frames(&s), frames(&o));
+        for &lag in &s.lags {
+            let (na, nb) = (
+                a.pairs_at_lag(lag, 1e-9).len(),
+                b.pairs_at_lag(lag, 1e-9).len(),
+            );
+            assert!(na >= 4 && nb >= 13, "lag {lag}: {na} and {nb} origins");
+        }
+        assert_eq!(
+            s.overlapping(20.0),
+            s,
+            "the same spacing is the same schedule"
+        );
     }
 }

@@ -81,6 +81,14 @@ pub struct FrontierArgs {
     /// Master seeds of each configuration (the spread between them is the error).
     #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3])]
     pub seeds: Vec<u64>,
+    /// Profile parameters set in every configuration (KEY=VALUE, e.g.
+    /// overlap_spacing_tau=0.5 for overlapping time origins).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Name of these configurations; rows of other labels already in
+    /// results/frontier/ID-PROFILE.json are kept, so one chart compares them.
+    #[arg(long, default_value = "")]
+    pub label: String,
     #[arg(long, default_value = "eps09")]
     pub experiment: String,
     #[arg(long)]
@@ -146,14 +154,11 @@ fn regress(a: RegressArgs) -> Result<()> {
         return Ok(());
     }
     let g = GoldenFile::read(&golden_path)?;
-    let mut v = Variant {
+    let v = Variant {
         seed: a.seed,
+        set: settings(&a.set)?,
         ..Variant::default()
     };
-    for s in &a.set {
-        let (k, x) = variant::parse_setting(s)?;
-        v.set.insert(k, x);
-    }
     let built;
     let results = if v.seed.is_some() || !v.set.is_empty() {
         let ids: Vec<String> = if a.ids.is_empty() {
@@ -183,7 +188,12 @@ fn regress(a: RegressArgs) -> Result<()> {
     Ok(())
 }
 
+fn settings(set: &[String]) -> Result<std::collections::BTreeMap<String, serde_json::Value>> {
+    set.iter().map(|s| variant::parse_setting(s)).collect()
+}
+
 fn frontier(a: FrontierArgs) -> Result<()> {
+    let set = settings(&a.set)?;
     let rows = frontier::measure(
         &Frontier {
             root: &a.root,
@@ -193,19 +203,36 @@ fn frontier(a: FrontierArgs) -> Result<()> {
             n: &a.n,
             replicas: &a.replicas,
             seeds: &a.seeds,
+            set: &set,
+            label: &a.label,
         },
         &options(a.jobs),
     )?;
     let out = Workspace::new(&a.root).results.join("frontier");
-    let stem = frontier::write(&out, &a.id, &a.profile, &a.seeds, &rows)?;
-    for r in &rows {
+    let all = frontier::write(&out, &a.id, &a.profile, &a.seeds, &rows)?;
+    for r in &all {
         println!(
-            "{} N = {:>6} replicas = {} : {} = {:.4} +- {:.4} (seed spread; paper {} +- {}), {:.1} CPU s",
-            a.id, r.n, r.replicas, r.quantity, r.mean, r.spread, r.paper, r.tolerance, r.cpu_s
+            "{} [{}] N = {:>6} replicas = {} : {} = {:.4} +- {:.4} (seed spread; paper {} +- {}), {:.1} CPU s, {:.1} MB of trajectories",
+            a.id,
+            r.label,
+            r.n,
+            r.replicas,
+            r.quantity,
+            r.mean,
+            r.spread,
+            r.paper,
+            r.tolerance,
+            r.cpu_s,
+            r.trajectory_bytes / 1e6
         );
     }
-    println!("{}", frontier::smallest(&rows));
-    println!("wrote {}.{{parquet,json,svg,png}}", stem.display());
+    println!("{}", frontier::smallest(&all));
+    println!(
+        "wrote {}/{}-{}.{{parquet,json,svg,png}}",
+        out.display(),
+        a.id,
+        a.profile
+    );
     Ok(())
 }
 

@@ -259,16 +259,18 @@ pub fn render(
             let _ = writeln!(s, "### {id}\n");
             let _ = writeln!(
                 s,
-                "| N | replicas | CPU s | quantity | mean | spread | paper | seeds |"
+                "| configuration | N | replicas | CPU s | trajectories (MB) | quantity | mean | spread | paper | seeds |"
             );
-            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
             for r in rows {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {:.0} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {:.0} | {:.1} | {} | {} | {} | {} | {} |",
+                    if r.label.is_empty() { "base" } else { &r.label },
                     r.n,
                     r.replicas,
                     r.cpu_s,
+                    r.trajectory_bytes / 1e6,
                     cell(&r.quantity),
                     number(r.mean, r.spread),
                     error(r.spread),
