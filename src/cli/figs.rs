@@ -30,6 +30,34 @@ pub enum Commands {
     /// gallery and every key number (ours, error, paper, verdict, reason) of the
     /// built figures, with the profile, commit and date that produced them.
     Report(ReportArgs),
+    /// Do the quoted errors mean what they say? Build the figures at several
+    /// master seeds; per key number, the fraction of seeds whose quoted 1-sigma
+    /// interval covers the all-seed mean and the ratio quoted error / seed-to-seed
+    /// spread; written to results/coverage-PROFILE.json.
+    Coverage(CoverageArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct CoverageArgs {
+    /// Figures (default: the CI figures).
+    #[arg(value_name = "ID")]
+    pub ids: Vec<String>,
+    #[arg(long, default_value = "ci")]
+    pub profile: String,
+    #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3, 4, 5, 6, 7, 8, 9, 10])]
+    pub seeds: Vec<u64>,
+    /// Profile parameters set at every seed (KEY=VALUE), e.g. a frame schedule.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Suffix of the output file: results/coverage-PROFILE[-LABEL].json.
+    #[arg(long, default_value = "")]
+    pub label: String,
+    #[arg(long, default_value = "eps09")]
+    pub experiment: String,
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub root: PathBuf,
 }
 
 #[derive(Args, Debug)]
@@ -124,6 +152,60 @@ fn options(jobs: Option<usize>) -> RunOptions {
 
 const CI_FIGURES: [&str; 5] = ["fig2", "fig3", "fig4", "fig15", "fig19"];
 
+fn or_ci_figures(ids: &[String]) -> Vec<String> {
+    if ids.is_empty() {
+        CI_FIGURES.iter().map(|s| s.to_string()).collect()
+    } else {
+        ids.to_vec()
+    }
+}
+
+fn coverage(a: CoverageArgs) -> Result<()> {
+    let ids = or_ci_figures(&a.ids);
+    let per_seed = golden::seed_numbers(
+        &a.root,
+        &a.experiment,
+        &a.profile,
+        &ids,
+        &a.seeds,
+        &Variant {
+            set: settings(&a.set)?,
+            ..Variant::default()
+        },
+        &options(a.jobs),
+    )?;
+    let rows: Vec<crate::study::coverage::Coverage> = per_seed
+        .iter()
+        .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
+        .collect();
+    println!(
+        "| figure | quantity | seeds | mean | seed-to-seed spread | rms quoted error | quoted / spread | coverage |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for c in &rows {
+        println!(
+            "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.2} | {:.0}% |",
+            c.figure,
+            c.quantity,
+            c.seeds,
+            c.mean,
+            c.spread,
+            c.quoted,
+            c.ratio,
+            100.0 * c.coverage
+        );
+    }
+    let out = Workspace::new(&a.root).results.join(if a.label.is_empty() {
+        format!("coverage-{}.json", a.profile)
+    } else {
+        format!("coverage-{}-{}.json", a.profile, a.label)
+    });
+    std::fs::create_dir_all(out.parent().expect("results dir"))?;
+    crate::table::write_atomic(&out, serde_json::to_string_pretty(&rows)?.as_bytes())?;
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
 fn regress(a: RegressArgs) -> Result<()> {
     let golden_path = a.golden.clone().unwrap_or_else(|| {
         a.root
@@ -133,11 +215,7 @@ fn regress(a: RegressArgs) -> Result<()> {
     });
     let opts = options(a.jobs);
     if a.record {
-        let ids: Vec<String> = if a.ids.is_empty() {
-            CI_FIGURES.iter().map(|s| s.to_string()).collect()
-        } else {
-            a.ids.clone()
-        };
+        let ids = or_ci_figures(&a.ids);
         let g = golden::record(
             &Recording {
                 root: &a.root,
@@ -255,5 +333,6 @@ pub fn run(c: Commands) -> Result<()> {
         Commands::Regress(a) => regress(a),
         Commands::Frontier(a) => frontier(a),
         Commands::Report(a) => report(a),
+        Commands::Coverage(a) => coverage(a),
     }
 }

@@ -10,7 +10,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 
-use super::results::{key_numbers, provenance};
+use super::results::{Fitted, key_numbers, key_numbers_with_errors, provenance};
 use super::variant::{self, Variant};
 use crate::pipeline::RunOptions;
 
@@ -152,7 +152,18 @@ pub struct Recording<'a> {
 /// Build the figures at every master seed (in-memory variants of the catalogue)
 /// and derive the golden file.
 pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
-    let values = seed_values(r.root, r.experiment, r.profile, r.ids, r.seeds, opts)?;
+    let values: BTreeMap<(String, String), Vec<f64>> = seed_numbers(
+        r.root,
+        r.experiment,
+        r.profile,
+        r.ids,
+        r.seeds,
+        &Variant::default(),
+        opts,
+    )?
+    .into_iter()
+    .map(|(k, v)| (k, v.iter().map(|f| f.value).collect()))
+    .collect();
     // A number no seed produced (a fit failing at this profile) has no band.
     let quantities = values
         .iter()
@@ -187,30 +198,40 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
     })
 }
 
-/// Every key number of figures `ids` at each master seed: (figure, quantity) ->
-/// one value per seed (NaN where that seed gave none).
-pub fn seed_values(
+/// Every key number of figures `ids` with its quoted error at each master seed:
+/// (figure, quantity) -> one entry per seed (NaN where that seed gave none);
+/// `base` changes the experiment besides the seed.
+pub fn seed_numbers(
     root: &Path,
     experiment: &str,
     profile: &str,
     ids: &[String],
     seeds: &[u64],
+    base: &Variant,
     opts: &RunOptions,
-) -> Result<BTreeMap<(String, String), Vec<f64>>> {
-    let mut values: BTreeMap<(String, String), Vec<f64>> = BTreeMap::new();
+) -> Result<BTreeMap<(String, String), Vec<Fitted>>> {
+    let none = Fitted {
+        value: f64::NAN,
+        error: f64::NAN,
+    };
+    let mut values: BTreeMap<(String, String), Vec<Fitted>> = BTreeMap::new();
     for (k, &seed) in seeds.iter().enumerate() {
         eprintln!("master seed {seed}");
-        let built = variant::build(root, experiment, profile, &Variant::seed(seed), ids, opts)?;
+        let v = Variant {
+            seed: Some(seed),
+            ..base.clone()
+        };
+        let built = variant::build(root, experiment, profile, &v, ids, opts)?;
         for id in ids {
-            for (q, v) in key_numbers(&built.results.join(id))? {
+            for (q, v) in key_numbers_with_errors(&built.results.join(id))? {
                 let e = values
                     .entry((id.clone(), q))
-                    .or_insert_with(|| vec![f64::NAN; k]);
+                    .or_insert_with(|| vec![none; k]);
                 e.push(v);
             }
         }
         for e in values.values_mut() {
-            e.resize(k + 1, f64::NAN);
+            e.resize(k + 1, none);
         }
     }
     Ok(values)

@@ -8,10 +8,12 @@
 //!   is shared, so a variant already computed is not recomputed.
 //! - [`golden`]: the CI regression: golden bands from several master seeds, and
 //!   the check of a built figure against them.
+//! - [`coverage`]: whether quoted errors cover the seed-to-seed scatter.
 //! - [`frontier`]: accuracy of the key numbers against their CPU cost.
 //! - [`report`]: the gallery and the table of every key number, written from the
 //!   compare tables (never typed by hand).
 
+pub mod coverage;
 pub mod frontier;
 pub mod golden;
 pub mod report;

@@ -112,19 +112,30 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
     Ok(out)
 }
 
-/// Every key number of a built figure: the `value` of every published fit table
-/// and the `ours` column of compare.parquet, by name.
-pub fn key_numbers(dir: &Path) -> Result<BTreeMap<String, f64>> {
-    let mut out: BTreeMap<String, f64> = fitted(dir)?
-        .into_iter()
-        .map(|(q, f)| (q, f.value))
-        .collect();
+/// Every key number of a built figure with its quoted error: every published fit
+/// table's rows and the `ours`, `ours_err` columns of compare.parquet, by name.
+pub fn key_numbers_with_errors(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
+    let mut out = fitted(dir)?;
     if dir.join("compare.parquet").exists() {
         for c in read_compare(dir)? {
-            out.insert(c.quantity, c.ours);
+            out.insert(
+                c.quantity,
+                Fitted {
+                    value: c.ours,
+                    error: c.ours_err,
+                },
+            );
         }
     }
     Ok(out)
+}
+
+/// Every key number of a built figure (see [`key_numbers_with_errors`]).
+pub fn key_numbers(dir: &Path) -> Result<BTreeMap<String, f64>> {
+    Ok(key_numbers_with_errors(dir)?
+        .into_iter()
+        .map(|(q, f)| (q, f.value))
+        .collect())
 }
 
 /// What `provenance.json` says about a built figure.
