@@ -148,15 +148,9 @@ impl Trajectory {
 mod tests {
     use super::*;
 
-    #[test]
-    fn schedule_pairs_cover_every_origin() {
-        let s = Schedule {
-            start: 10.0,
-            origins: 4,
-            origin_spacing: 50.0,
-            lags: Schedule::log_lags(0.1, 10.0, 5),
-        };
-        let traj = Trajectory {
+    /// One disk at rest, recorded at every time of `s`.
+    fn at_rest(s: &Schedule) -> Trajectory {
+        Trajectory {
             box_size: [1.0, 1.0],
             periodic: [true, true],
             species: vec![0],
@@ -173,7 +167,18 @@ mod tests {
                     vy: vec![],
                 })
                 .collect(),
+        }
+    }
+
+    #[test]
+    fn schedule_pairs_cover_every_origin() {
+        let s = Schedule {
+            start: 10.0,
+            origins: 4,
+            origin_spacing: 50.0,
+            lags: Schedule::log_lags(0.1, 10.0, 5),
         };
+        let traj = at_rest(&s);
         assert_eq!(s.lags.len(), 11);
         for &lag in &s.lags {
             assert_eq!(traj.pairs_at_lag(lag, 1e-6).len(), 4, "lag {lag}");
@@ -200,25 +205,7 @@ mod tests {
             s.end()
         );
         assert!(o.times().len() > 3 * s.times().len());
-        let frames = |sch: &Schedule| Trajectory {
-            box_size: [1.0, 1.0],
-            periodic: [true, true],
-            species: vec![0],
-            radii: vec![1.0],
-            masses: vec![1.0],
-            frames: sch
-                .times()
-                .into_iter()
-                .map(|time| Frame {
-                    time,
-                    x: vec![0.0],
-                    y: vec![0.0],
-                    vx: vec![],
-                    vy: vec![],
-                })
-                .collect(),
-        };
-        let (a, b) = (frames(&s), frames(&o));
+        let (a, b) = (at_rest(&s), at_rest(&o));
         for &lag in &s.lags {
             let (na, nb) = (
                 a.pairs_at_lag(lag, 1e-9).len(),

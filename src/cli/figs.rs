@@ -46,18 +46,11 @@ pub struct CoverageArgs {
     pub profile: String,
     #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3, 4, 5, 6, 7, 8, 9, 10])]
     pub seeds: Vec<u64>,
-    /// Profile parameters set at every seed (KEY=VALUE), e.g. a frame schedule.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
     /// Suffix of the output file: results/coverage-PROFILE[-LABEL].json.
     #[arg(long, default_value = "")]
     pub label: String,
-    #[arg(long, default_value = "eps09")]
-    pub experiment: String,
-    #[arg(long)]
-    pub jobs: Option<usize>,
-    #[arg(long, value_name = "DIR", default_value = ".")]
-    pub root: PathBuf,
+    #[command(flatten)]
+    pub variant: VariantArgs,
 }
 
 #[derive(Args, Debug)]
@@ -79,20 +72,11 @@ pub struct RegressArgs {
     /// that the profile cannot resolve and whose seed-to-seed scatter is heavy-tailed.
     #[arg(long, value_delimiter = ',')]
     pub ungated: Vec<String>,
-    /// Check a variant instead of results/: the experiment with these profile
-    /// parameters changed (KEY=VALUE, e.g. eps=0.88), built in a temporary directory.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
     /// Check a variant built at this master seed.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// The experiment whose seed or parameters the variants change.
-    #[arg(long, default_value = "eps09")]
-    pub experiment: String,
-    #[arg(long)]
-    pub jobs: Option<usize>,
-    #[arg(long, value_name = "DIR", default_value = ".")]
-    pub root: PathBuf,
+    #[command(flatten)]
+    pub variant: VariantArgs,
 }
 
 #[derive(Args, Debug)]
@@ -109,14 +93,23 @@ pub struct FrontierArgs {
     /// Master seeds of each configuration (the spread between them is the error).
     #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3])]
     pub seeds: Vec<u64>,
-    /// Profile parameters set in every configuration (KEY=VALUE, e.g.
-    /// overlap_spacing_tau=0.5 for overlapping time origins).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
     /// Name of these configurations; rows of other labels already in
     /// results/frontier/ID-PROFILE.json are kept, so one chart compares them.
     #[arg(long, default_value = "")]
     pub label: String,
+    #[command(flatten)]
+    pub variant: VariantArgs,
+}
+
+/// What every command that builds variants of the specs shares.
+#[derive(Args, Debug)]
+pub struct VariantArgs {
+    /// Profile parameters to change (KEY=VALUE, e.g. eps=0.88 for a deliberate
+    /// physics change, overlap_spacing_tau=0.5 for overlapping time origins);
+    /// regress then checks that variant, built in a temporary directory.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// The experiment whose seed or parameters the variants change.
     #[arg(long, default_value = "eps09")]
     pub experiment: String,
     #[arg(long)]
@@ -163,16 +156,16 @@ fn or_ci_figures(ids: &[String]) -> Vec<String> {
 fn coverage(a: CoverageArgs) -> Result<()> {
     let ids = or_ci_figures(&a.ids);
     let per_seed = golden::seed_numbers(
-        &a.root,
-        &a.experiment,
+        &a.variant.root,
+        &a.variant.experiment,
         &a.profile,
         &ids,
         &a.seeds,
         &Variant {
-            set: settings(&a.set)?,
+            set: settings(&a.variant.set)?,
             ..Variant::default()
         },
-        &options(a.jobs),
+        &options(a.variant.jobs),
     )?;
     let rows: Vec<crate::study::coverage::Coverage> = per_seed
         .iter()
@@ -195,11 +188,13 @@ fn coverage(a: CoverageArgs) -> Result<()> {
             100.0 * c.coverage
         );
     }
-    let out = Workspace::new(&a.root).results.join(if a.label.is_empty() {
-        format!("coverage-{}.json", a.profile)
-    } else {
-        format!("coverage-{}-{}.json", a.profile, a.label)
-    });
+    let out = Workspace::new(&a.variant.root)
+        .results
+        .join(if a.label.is_empty() {
+            format!("coverage-{}.json", a.profile)
+        } else {
+            format!("coverage-{}-{}.json", a.profile, a.label)
+        });
     std::fs::create_dir_all(out.parent().expect("results dir"))?;
     crate::table::write_atomic(&out, serde_json::to_string_pretty(&rows)?.as_bytes())?;
     println!("wrote {}", out.display());
@@ -208,18 +203,19 @@ fn coverage(a: CoverageArgs) -> Result<()> {
 
 fn regress(a: RegressArgs) -> Result<()> {
     let golden_path = a.golden.clone().unwrap_or_else(|| {
-        a.root
+        a.variant
+            .root
             .join("tests")
             .join("golden")
             .join(format!("{}.json", a.profile))
     });
-    let opts = options(a.jobs);
+    let opts = options(a.variant.jobs);
     if a.record {
         let ids = or_ci_figures(&a.ids);
         let g = golden::record(
             &Recording {
-                root: &a.root,
-                experiment: &a.experiment,
+                root: &a.variant.root,
+                experiment: &a.variant.experiment,
                 profile: &a.profile,
                 ids: &ids,
                 seeds: &a.seeds,
@@ -234,7 +230,7 @@ fn regress(a: RegressArgs) -> Result<()> {
     let g = GoldenFile::read(&golden_path)?;
     let v = Variant {
         seed: a.seed,
-        set: settings(&a.set)?,
+        set: settings(&a.variant.set)?,
         ..Variant::default()
     };
     let built;
@@ -246,10 +242,17 @@ fn regress(a: RegressArgs) -> Result<()> {
         } else {
             a.ids.clone()
         };
-        built = variant::build(&a.root, &a.experiment, &a.profile, &v, &ids, &opts)?;
+        built = variant::build(
+            &a.variant.root,
+            &a.variant.experiment,
+            &a.profile,
+            &v,
+            &ids,
+            &opts,
+        )?;
         built.results.clone()
     } else {
-        Workspace::new(&a.root).results
+        Workspace::new(&a.variant.root).results
     };
     let (lines, failures) = golden::check(&g, &results, &a.ids)?;
     for l in &lines {
@@ -271,11 +274,11 @@ fn settings(set: &[String]) -> Result<std::collections::BTreeMap<String, serde_j
 }
 
 fn frontier(a: FrontierArgs) -> Result<()> {
-    let set = settings(&a.set)?;
+    let set = settings(&a.variant.set)?;
     let rows = frontier::measure(
         &Frontier {
-            root: &a.root,
-            experiment: &a.experiment,
+            root: &a.variant.root,
+            experiment: &a.variant.experiment,
             profile: &a.profile,
             id: &a.id,
             n: &a.n,
@@ -284,9 +287,9 @@ fn frontier(a: FrontierArgs) -> Result<()> {
             set: &set,
             label: &a.label,
         },
-        &options(a.jobs),
+        &options(a.variant.jobs),
     )?;
-    let out = Workspace::new(&a.root).results.join("frontier");
+    let out = Workspace::new(&a.variant.root).results.join("frontier");
     let all = frontier::write(&out, &a.id, &a.profile, &a.seeds, &rows)?;
     for r in &all {
         println!(

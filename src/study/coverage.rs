@@ -1,8 +1,8 @@
 //! Do the quoted errors mean what they say? Over several master seeds, the
 //! fraction of seeds whose quoted 1-sigma interval covers the all-seed mean
 //! (about 68% for honest Gaussian errors; a little more with few seeds, since
-//! the mean shares each seed's noise: 71% with ten) and the ratio of the typical quoted error to the
-//! seed-to-seed standard deviation (about 1 for honest errors).
+//! the mean shares each seed's noise: 71% with ten) and the ratio of the typical
+//! quoted error to the seed-to-seed standard deviation (about 1 when honest).
 
 use serde::{Deserialize, Serialize};
 
