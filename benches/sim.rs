@@ -33,7 +33,7 @@ fn driven_events(bencher: divan::Bencher, n: usize) {
     e.tc = cfg.collapse_tc;
     // The balanced rule settles at 1.18 x Enskog at phi = 0.78 (docs/sim.md).
     e.set_kicks(kicks, rate * 1.18, p_dr);
-    e.run_until(e.now + 2.0, u64::MAX);
+    e.run_until(e.time() + 2.0, u64::MAX);
     bencher
         .counter(divan::counter::ItemsCount::new(100_000usize))
         .bench_local(|| e.run_until(f64::INFINITY, 100_000));

@@ -179,6 +179,7 @@ fn changing_an_analysis_parameter_reruns_no_simulation_and_why_names_it() {
         .flat_map(|(_, s)| match s {
             State::Stale { reasons } => reasons.clone(),
             State::Cached { .. } => vec!["cached".into()],
+            State::Damaged { .. } => vec!["damaged".into()],
         })
         .collect();
     assert_eq!(why, vec!["parameter a: 1.0 -> 1.5"; 4]);
@@ -398,7 +399,7 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
     assert_located(
         &e,
         "toy_sweep.yaml",
-        2,
+        9,
         &["kind toy_simulate", "unknown field `colour`"],
     );
     let e = plan_error(
@@ -412,7 +413,11 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
         6,
         &["unknown profile 'tiny'", "small"],
     );
-    let e = plan_error("pipelines/x.yaml", "description: d\nstages: []\n", "fig99");
+    let e = plan_error(
+        "pipelines/x.yaml",
+        "description: d\nstages:\n  - name: s\n    kind: table\n    gather: [toy_sweep]\n",
+        "fig99",
+    );
     assert!(
         e.contains("unknown figure id 'fig99'") && e.contains("figtoy, figtoy2"),
         "{e}"
@@ -442,7 +447,7 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
         &pipe("  - name: s\n    kind: toy_analyse\n    map: toy_sweep\n    params: {a: -1}\n"),
         "figtoy",
     );
-    assert_located(&e, "figtoy.yaml", 3, &["stage 's'", "a must be > 0"]);
+    assert_located(&e, "figtoy.yaml", 6, &["stage 's'", "a must be > 0"]);
     let e = plan_error(
         "pipelines/figtoy.yaml",
         &pipe("  - name: s\n    kind: chi5\n    map: toy_sweep\n"),
@@ -660,5 +665,376 @@ fn cli_list_why_and_dry_run_explain_the_cache() {
     assert!(
         run(d.path(), &["figtoy2"]).len() == 11,
         "dry run ran nothing"
+    );
+}
+
+// ---- store integrity, side records, publishing, params errors, progress ---------
+
+fn provenance(root: &Path, fig: &str) -> serde_json::Value {
+    let p = root.join("results").join(fig).join("provenance.json");
+    serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+}
+
+fn object(root: &Path, hash: &str) -> PathBuf {
+    root.join(".repro/store/objects")
+        .join(&hash[..2])
+        .join(hash)
+}
+
+/// The store object behind published file `name` of figure `fig`.
+fn published_object(root: &Path, fig: &str, name: &str) -> PathBuf {
+    object(
+        root,
+        provenance(root, fig)["published"][name].as_str().unwrap(),
+    )
+}
+
+fn quarantined(root: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(root.join(".repro/store/quarantine"))
+        .map(|rd| rd.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default()
+}
+
+fn labels_in_state(root: &Path, fig: &str, f: fn(&State) -> bool) -> Vec<String> {
+    let (g, st) =
+        pipeline::figure_status(&Workspace::new(root), &reg(), &ids(&[fig]), "ci", &[]).unwrap();
+    let mut v: Vec<String> = st
+        .iter()
+        .filter(|(_, s)| f(s))
+        .map(|(i, _)| g.nodes[*i].label().to_string())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn a_damaged_artifact_is_quarantined_recomputed_and_never_published() {
+    let d = fixture();
+    run(d.path(), &["figtoy"]);
+    let table = d.path().join("results/figtoy/overlap_table.parquet");
+    let good = std::fs::read(&table).unwrap();
+    // One flipped byte in the stored table.
+    let obj = published_object(d.path(), "figtoy", "overlap_table.parquet");
+    let mut bytes = std::fs::read(&obj).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 1;
+    std::fs::write(&obj, &bytes).unwrap();
+    assert_eq!(
+        labels_in_state(d.path(), "figtoy", |s| matches!(s, State::Damaged { .. })),
+        vec!["figtoy/overlap_table"]
+    );
+    let fr = pipeline::run_figures(
+        &Workspace::new(d.path()),
+        &reg(),
+        &ids(&["figtoy"]),
+        "ci",
+        &opts(2),
+    )
+    .unwrap();
+    fr.check().unwrap();
+    // Recomputed (same bytes), so its dependents are cut off.
+    assert_eq!(fr.report.executed(&fr.graph), vec!["figtoy/overlap_table"]);
+    assert_eq!(fr.report.damaged.len(), 1);
+    let msg = &fr.report.damaged[0];
+    assert!(
+        msg.contains(&obj.display().to_string()) && msg.contains("figtoy/overlap_table"),
+        "{msg}"
+    );
+    assert_eq!(std::fs::read(&table).unwrap(), good);
+    let q = quarantined(d.path());
+    assert_eq!(q.len(), 1);
+    assert_eq!(std::fs::read(&q[0]).unwrap(), bytes, "kept, not deleted");
+
+    // A simulation truncated to 0 bytes: recomputed bit for bit, nothing else reruns.
+    let prov = provenance(d.path(), "figtoy");
+    let sim = prov["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["kind"] == "toy_simulate")
+        .unwrap();
+    std::fs::write(
+        object(d.path(), sim["files"]["parquet"].as_str().unwrap()),
+        b"",
+    )
+    .unwrap();
+    assert_eq!(
+        run_with(d.path(), &reg(), &["figtoy"], &opts(2)),
+        vec![sim["label"].as_str().unwrap().to_string()]
+    );
+    assert!(run(d.path(), &["figtoy"]).is_empty());
+    all_objects_intact(d.path());
+}
+
+#[test]
+fn repro_verify_and_status_report_damage() {
+    let d = fixture();
+    run(d.path(), &["figtoy"]);
+    let cli = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_repro"))
+            .env("REPRO_TEST_KINDS", "1")
+            .args(args)
+            .arg("--root")
+            .arg(d.path())
+            .output()
+            .unwrap()
+    };
+    let ok = cli(&["verify"]);
+    assert!(ok.status.success());
+    assert!(String::from_utf8_lossy(&ok.stdout).contains(": 0 damaged"));
+    // Half an object gone.
+    let obj = published_object(d.path(), "figtoy", "fit.parquet");
+    let bytes = std::fs::read(&obj).unwrap();
+    std::fs::write(&obj, &bytes[..bytes.len() / 2]).unwrap();
+    let st = cli(&["status", "figtoy", "--profile", "ci"]);
+    let out = String::from_utf8_lossy(&st.stdout);
+    assert!(out.contains("damaged figtoy/fit"), "{out}");
+    assert!(out.contains(", 1 damaged"), "{out}");
+    let bad = cli(&["verify"]);
+    let out = String::from_utf8_lossy(&bad.stdout);
+    assert!(!bad.status.success(), "{out}");
+    assert!(
+        out.contains(&obj.display().to_string())
+            && out.contains("figtoy/fit")
+            && out.contains("moved to"),
+        "{out}"
+    );
+    assert!(!obj.exists() && quarantined(d.path()).len() == 1);
+    // Already quarantined: status still says damaged until a run recomputes it.
+    let out =
+        String::from_utf8_lossy(&cli(&["status", "figtoy", "--profile", "ci"]).stdout).into_owned();
+    assert!(out.contains("damaged figtoy/fit"), "{out}");
+    assert_eq!(run(d.path(), &["figtoy"]), vec!["figtoy/fit"]);
+    assert!(cli(&["verify"]).status.success());
+}
+
+const SIM_EXP: &str = r#"
+description: two tiny simulations
+kind: simulate
+seed: 7
+params:
+  eps: 0.9
+  tau_guess: {A: 0.76, B: 0.148, phi0: 0.83}
+  relax_tau: 5
+  relax_min: 5
+  origins: 2
+  spacing_tau: 2
+  lag_min: 0.05
+  lag_max_tau: 8
+  lags_per_decade: 4
+profiles:
+  ci:
+    grid:
+      phi: [0.6]
+    replicas: 2
+    params:
+      n: 100
+"#;
+
+const SIM_PIPE: &str = r#"
+description: tau_alpha of two tiny simulations
+stages:
+  - name: tau
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+  - name: tau_table
+    kind: table
+    gather: [tau]
+"#;
+
+#[test]
+fn forcing_real_simulations_reruns_them_and_nothing_downstream() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(d.path().join("experiments")).unwrap();
+    std::fs::create_dir_all(d.path().join("pipelines")).unwrap();
+    std::fs::write(d.path().join("experiments/tiny.yaml"), SIM_EXP).unwrap();
+    std::fs::write(d.path().join("pipelines/simfig.yaml"), SIM_PIPE).unwrap();
+    let r = Registry::builtin();
+    assert_eq!(run_with(d.path(), &r, &["simfig"], &opts(2)).len(), 4);
+    let forced = RunOptions {
+        force: vec!["simulate".into()],
+        ..opts(2)
+    };
+    // The timings differ between the two runs; the digests must not.
+    assert_eq!(
+        run_with(d.path(), &r, &["simfig"], &forced),
+        vec!["tiny[phi=0.6,replica=0]", "tiny[phi=0.6,replica=1]"]
+    );
+    // The measurements live in the side record, kept with provenance.
+    let prov = provenance(d.path(), "simfig");
+    let sim = prov["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["kind"] == "simulate")
+        .unwrap();
+    assert!(sim["side"]["cpu_seconds"].as_f64().unwrap() > 0.0, "{sim}");
+    assert!(sim["side"]["peak_rss_bytes"].as_u64().unwrap() > 0);
+    let summary: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(object(d.path(), sim["files"]["json"].as_str().unwrap())).unwrap(),
+    )
+    .unwrap();
+    assert!(summary.get("cpu_seconds").is_none() && summary.get("collisions").is_some());
+}
+
+#[test]
+fn publishing_replaces_only_the_files_the_pipeline_owns() {
+    let d = fixture();
+    run(d.path(), &["figtoy"]);
+    let dir = d.path().join("results/figtoy");
+    std::fs::write(dir.join("notes.txt"), "my notes").unwrap();
+    std::fs::write(dir.join("extra.svg"), "<svg/>").unwrap();
+    assert!(run(d.path(), &["figtoy"]).is_empty());
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
+        "my notes"
+    );
+    // The plot stage renamed: its old file goes, the new one comes, the user's stay.
+    edit(
+        d.path(),
+        "pipelines/figtoy.yaml",
+        "  - name: figure\n",
+        "  - name: chart\n",
+    );
+    run(d.path(), &["figtoy"]);
+    assert!(!dir.join("figure.svg").exists());
+    assert!(dir.join("chart.svg").is_file());
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
+        "my notes"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("extra.svg")).unwrap(),
+        "<svg/>"
+    );
+    let mut owned: Vec<String> = provenance(d.path(), "figtoy")["published"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .cloned()
+        .collect();
+    owned.sort();
+    assert_eq!(
+        owned,
+        vec![
+            "chart.svg",
+            "compare.parquet",
+            "fit.parquet",
+            "overlap_table.parquet"
+        ]
+    );
+    // A pipeline without stages is an error naming its file.
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        "description: d\nstages: []\n",
+        "figtoy",
+    );
+    assert_located(&e, "figtoy.yaml", 2, &["`stages` is empty"]);
+}
+
+#[test]
+fn errors_inside_params_point_at_the_key_or_value_with_a_snippet() {
+    let pipe = |params: &str| {
+        plan_error(
+            "pipelines/figtoy.yaml",
+            &format!(
+                "description: d\nstages:\n  - name: s\n    kind: toy_analyse\n    map: toy_sweep\n    params:\n{params}"
+            ),
+            "figtoy",
+        )
+    };
+    let no_dump = |e: &str| assert!(!e.contains("{\"") && !e.contains("\"a\":"), "{e}");
+    // Stage params: unknown key, wrong type, bad value.
+    let e = pipe("      a: 1\n      y_er: 2\n");
+    assert!(e.contains("figtoy.yaml:8:7:"), "{e}");
+    assert!(
+        e.contains("unknown field `y_er`") && e.contains("8 |       y_er: 2"),
+        "{e}"
+    );
+    no_dump(&e);
+    let e = pipe("      a: low\n");
+    assert!(e.contains("figtoy.yaml:7:10:"), "{e}");
+    assert!(
+        e.contains("invalid type") && e.contains("7 |       a: low"),
+        "{e}"
+    );
+    no_dump(&e);
+    let e = pipe("      a: -1\n");
+    assert!(e.contains("figtoy.yaml:7:10:"), "{e}");
+    assert!(
+        e.contains("a must be > 0") && e.contains("7 |       a: -1"),
+        "{e}"
+    );
+    no_dump(&e);
+    // A kind's check that names the key only in its message (`n`).
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        "description: d\nstages:\n  - name: s\n    kind: chi4_peaks\n    gather: [toy_sweep]\n    params:\n      n: []\n",
+        "figtoy",
+    );
+    assert!(
+        e.contains("figtoy.yaml:7:10:") && e.contains("is empty"),
+        "{e}"
+    );
+    // Experiment params: the same three classes.
+    let exp = |from: &str, to: &str| {
+        plan_error(
+            "experiments/toy_sweep.yaml",
+            &GOOD_EXP.replace(from, to),
+            "figtoy",
+        )
+    };
+    let e = exp("n: 10", "n: 10, colour: red");
+    assert!(e.contains("toy_sweep.yaml:9:21:"), "{e}");
+    assert!(
+        e.contains("unknown field `colour`") && e.contains("9 |     params: {n: 10, colour: red}"),
+        "{e}"
+    );
+    no_dump(&e);
+    let e = exp("n: 10", "n: abc");
+    assert!(e.contains("toy_sweep.yaml:9:17:"), "{e}");
+    assert!(e.contains("invalid type"), "{e}");
+    no_dump(&e);
+    let e = exp("n: 10", "n: 0");
+    assert!(e.contains("toy_sweep.yaml:9:17:"), "{e}");
+    assert!(e.contains("n must be at least 1"), "{e}");
+    no_dump(&e);
+    // A common parameter (not overridden by the profile) is found in the common block.
+    let e = exp("seed: 1\n", "seed: 1\nparams:\n  eps: high\n");
+    assert!(
+        e.contains("toy_sweep.yaml:5:8:") && e.contains("invalid type"),
+        "{e}"
+    );
+}
+
+#[test]
+fn without_a_terminal_each_finished_stage_and_long_stage_prints_a_line() {
+    let d = fixture();
+    edit(
+        d.path(),
+        "experiments/toy_sweep.yaml",
+        "n: 200",
+        "n: 200\n      sleep_ms: 700",
+    );
+    let o = repro(d.path())
+        .args(["--jobs", "2"])
+        .env("REPRO_HEARTBEAT_S", "0.2")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    let finished = err.lines().filter(|l| l.contains("] executed ")).count();
+    assert_eq!(finished, 19, "{err}");
+    assert!(err.contains("[1/19] executed toy_sweep["), "{err}");
+    assert!(
+        err.lines()
+            .any(|l| l.contains("running toy_sweep[") && l.contains("% (")),
+        "{err}"
+    );
+    let log = std::fs::read_to_string(d.path().join(".repro/log/LAST-RUN.log")).unwrap();
+    assert_eq!(
+        log.lines().filter(|l| l.contains("] executed ")).count(),
+        19
     );
 }

@@ -83,6 +83,13 @@ pub enum Commands {
     /// Explain why stages of a figure would rerun: which parameter, input or code
     /// fingerprint differs from the cached result.
     Why(OneFigure),
+    /// Check every artifact of the cache against its content hash. Damaged ones
+    /// are moved to .repro/store/quarantine/ (never deleted) and their stages rerun
+    /// on the next `repro figure`; exits non-zero if any was damaged.
+    Verify {
+        #[command(flatten)]
+        root: RootArgs,
+    },
     /// Free cache entries and artifacts that no current spec (at any profile) reaches.
     Gc {
         /// Only report what would be freed.
@@ -101,6 +108,13 @@ fn print_status(graph: &pipeline::Graph, st: &[(usize, State)], only_stale: bool
                 println!("cached  {}  ({}, key {})", n.label(), n.kind, &key[..12])
             }
             State::Cached { .. } => {}
+            State::Damaged { problems } => {
+                println!("damaged {}  ({})", n.label(), n.kind);
+                for p in problems {
+                    println!("          - {p}");
+                }
+                println!("          - the next run quarantines it and recomputes the stage");
+            }
             State::Stale { reasons } => {
                 println!("stale   {}  ({})", n.label(), n.kind);
                 for r in reasons {
@@ -113,10 +127,19 @@ fn print_status(graph: &pipeline::Graph, st: &[(usize, State)], only_stale: bool
         .iter()
         .filter(|(_, s)| matches!(s, State::Stale { .. }))
         .count();
+    let damaged = st
+        .iter()
+        .filter(|(_, s)| matches!(s, State::Damaged { .. }))
+        .count();
     println!(
-        "{} stage(s): {} cached, {stale} stale",
+        "{} stage(s): {} cached, {stale} stale{}",
         st.len(),
-        st.len() - stale
+        st.len() - stale - damaged,
+        if damaged > 0 {
+            format!(", {damaged} damaged")
+        } else {
+            String::new()
+        }
     );
 }
 
@@ -163,6 +186,9 @@ pub fn run(c: Commands) -> Result<()> {
                     .filter(|r| f(&r.outcome))
                     .count()
             };
+            for d in &run.report.damaged {
+                eprintln!("warning: {d}");
+            }
             eprintln!(
                 "{} stage(s): {} executed, {} cached",
                 run.report.results.len(),
@@ -197,7 +223,7 @@ pub fn run(c: Commands) -> Result<()> {
                     Ok((_, st)) => {
                         let stale = st
                             .iter()
-                            .filter(|(_, s)| matches!(s, State::Stale { .. }))
+                            .filter(|(_, s)| !matches!(s, State::Cached { .. }))
                             .count();
                         if stale == 0 {
                             "cached".to_string()
@@ -213,6 +239,28 @@ pub fn run(c: Commands) -> Result<()> {
         }
         Commands::Status(f) => status(&reg, &f, false),
         Commands::Why(f) => status(&reg, &f, true),
+        Commands::Verify { root } => {
+            let ws = root.workspace();
+            let store = pipeline::Store::open(&ws.store)?;
+            let r = store.verify()?;
+            for d in &r.damaged {
+                println!("{d}");
+            }
+            println!(
+                "checked {} artifacts ({:.1} MB) in {}: {} damaged",
+                r.objects,
+                r.bytes as f64 / 1e6,
+                ws.store.display(),
+                r.damaged.len()
+            );
+            if !r.damaged.is_empty() {
+                bail!(
+                    "{} damaged artifact(s) quarantined; `repro figure` recomputes their stages",
+                    r.damaged.len()
+                );
+            }
+            Ok(())
+        }
         Commands::Gc { dry_run, root } => {
             let r = pipeline::gc(&root.workspace(), &reg, dry_run)?;
             println!(

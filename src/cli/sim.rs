@@ -18,7 +18,7 @@ pub enum Commands {
 #[derive(Args, Debug)]
 pub struct SimArgs {
     /// Number of disks.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = 10_000, allow_negative_numbers = true, value_parser = parse_count)]
     pub n: usize,
     /// Packing fraction.
     #[arg(long, default_value_t = 0.78)]
@@ -38,6 +38,23 @@ pub struct SimArgs {
     /// Kick random pairs instead of neighbour pairs.
     #[arg(long, conflicts_with = "no_drive")]
     pub random_pairs: bool,
+    /// What a kick moves: `pairs` (a particle and a neighbour, opposite
+    /// momenta; paper H) or `single` (one particle; paper I with friction).
+    #[arg(long, default_value = "pairs", value_parser = ["pairs", "single"], conflicts_with_all = ["no_drive", "random_pairs"])]
+    pub drive: String,
+    /// Viscous friction rate gamma (force -gamma m v on every particle).
+    #[arg(long, default_value_t = 0.0)]
+    pub gamma: f64,
+    /// The temperature the driving holds (sets the kick amplitude by Eq. 7 of paper I).
+    #[arg(long, default_value_t = 1.0)]
+    pub temperature: f64,
+    /// Box aspect ratio Ly / Lx.
+    #[arg(long, default_value_t = 1.0)]
+    pub aspect: f64,
+    /// Hard walls per axis, `x,y` from `wall` or `periodic` (e.g. `periodic,wall`:
+    /// a channel with walls at y = 0 and Ly).
+    #[arg(long, default_value = "periodic,periodic", value_parser = parse_walls)]
+    pub walls: [bool; 2],
     /// Measured (production) time after relaxation.
     #[arg(long, default_value_t = 10.0)]
     pub time: f64,
@@ -48,10 +65,11 @@ pub struct SimArgs {
     #[arg(long, default_value_t = 0.02)]
     pub compression_rate: f64,
     /// Kick rate rule: `balanced` (tuned during relaxation to hold T = 1),
-    /// `enskog` (the Enskog collision frequency), `enskog*F` (F times it), or a
-    /// number (pair kicks each particle receives per unit time).
-    #[arg(long, default_value = "balanced", value_parser = parse_kick_rate)]
-    pub kick_rate: KickRate,
+    /// `enskog` (the Enskog collision frequency at --temperature), `enskog*F`
+    /// (F times it), or a number (kicks each particle receives per unit time).
+    /// Default: balanced without friction, enskog with it.
+    #[arg(long, value_parser = parse_kick_rate)]
+    pub kick_rate: Option<KickRate>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -81,6 +99,31 @@ pub struct BenchArgs {
     pub seed: u64,
 }
 
+/// A number of disks: a positive integer (negative values reach here, not clap's
+/// "unexpected argument", thanks to `allow_negative_numbers`).
+fn parse_count(s: &str) -> Result<usize, String> {
+    match s.parse::<i128>() {
+        Ok(v) if v >= 1 && v <= usize::MAX as i128 => Ok(v as usize),
+        _ => Err(format!("n must be a positive integer, got `{s}`")),
+    }
+}
+
+fn parse_walls(s: &str) -> Result<[bool; 2], String> {
+    let axis = |a: &str| match a.trim() {
+        "wall" | "walls" => Ok(true),
+        "periodic" => Ok(false),
+        _ => Err(format!(
+            "invalid walls `{s}`: use two of wall|periodic, e.g. periodic,wall"
+        )),
+    };
+    match s.split(',').collect::<Vec<_>>()[..] {
+        [x, y] => Ok([axis(x)?, axis(y)?]),
+        _ => Err(format!(
+            "invalid walls `{s}`: use two of wall|periodic, e.g. periodic,wall"
+        )),
+    }
+}
+
 fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
     let bad = || format!("invalid kick rate `{s}`: use balanced, enskog, enskog*F or a number");
     match s {
@@ -108,10 +151,20 @@ impl SimArgs {
                 Drive::None
             } else if self.random_pairs {
                 Drive::RandomPairs
+            } else if self.drive == "single" {
+                Drive::Single
             } else {
                 Drive::NeighbourPairs
             },
-            kick_rate: self.kick_rate.clone(),
+            kick_rate: self.kick_rate.clone().unwrap_or(if self.gamma > 0.0 {
+                KickRate::Enskog { prefactor: 1.0 }
+            } else {
+                KickRate::Balanced
+            }),
+            gamma: self.gamma,
+            temperature: self.temperature,
+            aspect: self.aspect,
+            walls: self.walls,
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
@@ -206,7 +259,21 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     s.temperature_halves[0],
                     s.temperature_halves[1]
                 );
+                println!(
+                    "temperature per species = {}",
+                    s.species_temperature
+                        .iter()
+                        .map(|t| format!("{t:.4}"))
+                        .collect::<Vec<_>>()
+                        .join(" / ")
+                );
                 println!("Z = {:.4} +- {:.4}", s.z, s.z_err);
+                if s.wall_collisions > 0 {
+                    println!(
+                        "wall pressure = {:.4} (x walls) / {:.4} (y walls), {} wall collisions",
+                        s.wall_pressure[0], s.wall_pressure[1], s.wall_collisions
+                    );
+                }
                 println!(
                     "collision rate = {:.4} per particle (Enskog {:.4}); kick rate = {:.4}",
                     s.collision_rate, s.enskog_collision_rate, s.kick_rate
@@ -214,6 +281,13 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                 println!(
                     "collisions = {}, kicks = {}, guard activations = {}",
                     s.collisions, s.kicks, s.guard_activations
+                );
+                println!(
+                    "energy: injected {:.6e}, dissipated {:.6e}, friction {:.6e}; ledger error {:.1e}",
+                    s.energy_injected,
+                    s.energy_dissipated,
+                    s.energy_friction,
+                    s.energy_balance_error
                 );
                 println!(
                     "{:.3e} collisions/s, {:.1} CPU s, {:.1} MB peak RSS",
@@ -239,10 +313,15 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     fraction_large: 0.5,
                     no_drive: false,
                     random_pairs: false,
+                    drive: "pairs".into(),
+                    gamma: 0.0,
+                    temperature: 1.0,
+                    aspect: 1.0,
+                    walls: [false, false],
                     time: b.time,
                     relax: b.relax,
                     compression_rate: b.compression_rate,
-                    kick_rate: KickRate::Balanced,
+                    kick_rate: Some(KickRate::Balanced),
                     seed: b.seed,
                     json: true,
                 };
@@ -272,10 +351,45 @@ mod tests {
     }
 
     #[test]
+    fn a_negative_n_is_named_a_bad_count_not_an_unexpected_argument() {
+        for bad in ["-5", "0", "abc"] {
+            let e = Cli::try_parse_from(["repro", "sim", "--n", bad])
+                .err()
+                .expect("must be refused")
+                .to_string();
+            assert!(e.contains("n must be a positive integer"), "{e}");
+            assert!(!e.contains("unexpected argument"), "{e}");
+        }
+        assert!(Cli::try_parse_from(["repro", "sim", "--n", "200"]).is_ok());
+    }
+
+    #[test]
     fn a_non_positive_time_names_the_flag() {
         let e = error_of(&["sim", "--n", "200", "--time", "0"]);
         assert!(e.contains("--time 0 is invalid"), "{e}");
         let e = error_of(&["bench", "--n", "200", "--time=-1"]);
         assert!(e.contains("--time -1 is invalid"), "{e}");
+    }
+
+    #[test]
+    fn impossible_friction_options_are_named() {
+        let e = error_of(&["sim", "--n", "200", "--gamma=-1"]);
+        assert!(e.contains("gamma = -1 is invalid"), "{e}");
+        let e = error_of(&["sim", "--n", "200", "--drive", "single"]);
+        assert!(e.contains("drive: single with gamma = 0"), "{e}");
+        let e = error_of(&["sim", "--n", "200", "--temperature", "0"]);
+        assert!(e.contains("temperature = 0 is invalid"), "{e}");
+        let e = error_of(&[
+            "sim",
+            "--n",
+            "200",
+            "--walls",
+            "wall,periodic",
+            "--aspect",
+            "100",
+        ]);
+        assert!(e.contains("cannot fit"), "{e}");
+        let bad = Cli::try_parse_from(["repro", "sim", "--walls", "wall"]);
+        assert!(bad.is_err_and(|e| e.to_string().contains("invalid walls")));
     }
 }

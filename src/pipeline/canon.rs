@@ -12,6 +12,32 @@ use serde_json::Value;
 /// (e.g. `{phi: 0.78, replica: 2, N_sub: 400}`).
 pub type Point = BTreeMap<String, Value>;
 
+/// An error about one parameter of a stage kind, with the path of the offending key
+/// or value inside the parameters (`["tau_guess", "A"]`), so the planner can point at
+/// it in the YAML file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamError {
+    pub path: Vec<String>,
+    pub message: String,
+}
+
+impl std::fmt::Display for ParamError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for ParamError {}
+
+/// An error about the parameter at `path` (keys, outermost first).
+pub fn param_error(path: &[&str], message: impl Into<String>) -> anyhow::Error {
+    ParamError {
+        path: path.iter().map(|s| s.to_string()).collect(),
+        message: message.into(),
+    }
+    .into()
+}
+
 /// Canonical text of a JSON value (sorted keys, shortest-roundtrip floats).
 pub fn canonical(v: &Value) -> String {
     serde_json::to_string(v).expect("a serde_json::Value always serialises")

@@ -9,17 +9,17 @@
 
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
 use anyhow::Result;
-use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::canon::{canonical, diff_params, hash_fields};
 use super::graph::{Graph, Node};
-use super::registry::{Artifact, ProgressSink, Registry, StageCtx};
-use super::store::{Entry, Store};
+use super::progress::{self, Progress};
+use super::registry::{Artifact, Registry, StageCtx};
+use super::store::{Entry, Found, Store};
 
 /// How to run.
 #[derive(Debug, Clone)]
@@ -28,7 +28,9 @@ pub struct RunOptions {
     pub jobs: usize,
     /// Stage kinds to rerun even when cached.
     pub force: Vec<String>,
-    /// Draw progress bars (only when stderr is a terminal).
+    /// Tell the user how the run goes: bars when stderr is a terminal, else one
+    /// plain line per finished stage and a heartbeat per long stage. The run log
+    /// (`.repro/log/LAST-RUN.log` beside the store) is written either way.
     pub progress: bool,
 }
 
@@ -69,6 +71,8 @@ pub struct StageResult {
 #[derive(Debug, Clone)]
 pub struct RunReport {
     pub results: BTreeMap<usize, StageResult>,
+    /// Damaged artifacts found in the store (each quarantined, its stage recomputed).
+    pub damaged: Vec<String>,
 }
 
 impl RunReport {
@@ -168,8 +172,8 @@ struct Shared<'a> {
     dependents: Vec<Vec<usize>>,
     remaining: Vec<AtomicUsize>,
     results: Vec<Mutex<Option<StageResult>>>,
-    bars: Option<MultiProgress>,
-    overall: ProgressBar,
+    progress: Progress,
+    damaged: Mutex<Vec<String>>,
 }
 
 /// Run `nodes` (and nothing else; they must be closed under inputs) of `graph`.
@@ -194,22 +198,10 @@ pub fn execute(
             remaining[i].fetch_add(1, Ordering::Relaxed);
         }
     }
-    let draw = opts.progress && std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let bars = draw.then(MultiProgress::new);
-    let overall = match &bars {
-        Some(mp) => {
-            let b = mp.add(ProgressBar::new(nodes.len() as u64));
-            b.set_style(
-                ProgressStyle::with_template("stages [{bar:30}] {pos}/{len} {msg} ({elapsed})")
-                    .unwrap()
-                    .progress_chars("=> "),
-            );
-            b
-        }
-        None => {
-            ProgressBar::with_draw_target(Some(nodes.len() as u64), ProgressDrawTarget::hidden())
-        }
-    };
+    let log = store
+        .dir
+        .parent()
+        .map(|d| d.join("log").join("LAST-RUN.log"));
     let sh = Shared {
         graph,
         reg,
@@ -218,8 +210,8 @@ pub fn execute(
         dependents,
         remaining,
         results: (0..n).map(|_| Mutex::new(None)).collect(),
-        bars,
-        overall,
+        progress: Progress::new(opts.progress, nodes.len(), log.as_deref()),
+        damaged: Mutex::new(Vec::new()),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))
@@ -230,24 +222,46 @@ pub fn execute(
         .filter(|&i| graph.nodes[i].inputs.is_empty())
         .collect();
     let shr = &sh;
-    pool.scope(|s| {
-        for i in roots {
-            s.spawn(move |s| process(s, shr, i));
-        }
+    let (stop, stopped) = std::sync::mpsc::channel::<()>();
+    std::thread::scope(|t| {
+        // Heartbeat of long stages, until the pool is done.
+        t.spawn(move || {
+            let every = progress::heartbeat();
+            let tick = every.min(std::time::Duration::from_secs(1));
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = stopped.recv_timeout(tick) {
+                shr.progress.beat(every);
+            }
+        });
+        pool.scope(|s| {
+            for i in roots {
+                s.spawn(move |s| process(s, shr, i));
+            }
+        });
+        let _ = stop.send(());
     });
-    sh.overall.finish_and_clear();
+    sh.progress.done();
     let mut results = BTreeMap::new();
     for &i in nodes {
         let r = sh.results[i].lock().unwrap().take();
         results.insert(i, r.expect("every node of the set was processed"));
     }
-    Ok(RunReport { results })
+    Ok(RunReport {
+        results,
+        damaged: sh.damaged.into_inner().unwrap(),
+    })
 }
 
 fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
     let r = run_node(sh, i);
+    let node = &sh.graph.nodes[i];
+    let what = match &r.outcome {
+        Outcome::Cached => "cached".to_string(),
+        Outcome::Executed => "executed".to_string(),
+        Outcome::Failed { error, .. } => format!("FAILED ({error})"),
+        Outcome::Skipped { failed_input } => format!("skipped (input {failed_input} failed)"),
+    };
+    sh.progress.finish(i, node.label(), &node.kind, &what);
     *sh.results[i].lock().unwrap() = Some(r);
-    sh.overall.inc(1);
     for &d in &sh.dependents[i] {
         if sh.remaining[d].fetch_sub(1, Ordering::AcqRel) == 1 {
             s.spawn(move |s| process(s, sh, d));
@@ -301,7 +315,7 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
             entry: Some(e),
         }
     };
-    if !forced && let Some(e) = sh.store.lookup(&key) {
+    if !forced && let Some(e) = find_or_repair(sh, &key) {
         return hit(e);
     }
     let fail = |error: String, log: Vec<String>| StageResult {
@@ -318,6 +332,7 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
             );
         }
     };
+    // Damage found above is already reported and quarantined: only a hit counts.
     if !forced && let Some(e) = sh.store.lookup(&key) {
         return hit(e);
     }
@@ -325,8 +340,8 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
         Ok(k) => k.clone(),
         Err(e) => return fail(format!("{e:#}"), vec![]),
     };
-    let (sink, bar) = stage_bar(sh, node);
-    let ctx = StageCtx::new(node.seed, node.label().to_string(), sink);
+    let sink = sh.progress.start(i, node.label());
+    let ctx = StageCtx::new(node.seed, node.label().to_string(), Some(sink));
     let t0 = Instant::now();
     let cpu0 = thread_cpu_seconds();
     let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.params, &inputs)));
@@ -335,9 +350,6 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
         (Some(a), Some(b)) => Some(b - a),
         _ => None,
     };
-    if let Some(b) = bar.get() {
-        b.finish_and_clear();
-    }
     let log = ctx.take_log();
     let out = match out {
         Ok(Ok(o)) => o,
@@ -379,6 +391,7 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
         wall_s,
         cpu_s,
         log,
+        side: out.side,
     };
     if let Err(e) = sh.store.put_entry(&entry) {
         return fail(format!("writing the cache entry: {e:#}"), entry.log);
@@ -392,34 +405,27 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     }
 }
 
-/// A progress sink drawing a bar for this stage on its first report.
-fn stage_bar(sh: &Shared, node: &Node) -> (Option<ProgressSink>, Arc<OnceLock<ProgressBar>>) {
-    let cell: Arc<OnceLock<ProgressBar>> = Arc::new(OnceLock::new());
-    let Some(mp) = sh.bars.clone() else {
-        return (None, cell);
-    };
-    let label = node.label().to_string();
-    let c = cell.clone();
-    let sink: ProgressSink = Arc::new(move |done: f64, total: f64, msg: &str| {
-        let b = c.get_or_init(|| {
-            let b = mp.add(ProgressBar::new(1000));
-            b.set_style(
-                ProgressStyle::with_template("{prefix} [{bar:20}] {msg} ETA {eta}")
-                    .unwrap()
-                    .progress_chars("=> "),
-            );
-            b.set_prefix(label.clone());
-            b
-        });
-        let frac = if total > 0.0 {
-            (done / total).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        b.set_position((frac * 1000.0) as u64);
-        b.set_message(msg.to_string());
-    });
-    (Some(sink), cell)
+/// The intact cache entry of `key`, if any. A damaged one is reported (object path
+/// and stage), its damaged objects are quarantined, and it counts as a miss: the
+/// stage is recomputed in this run.
+fn find_or_repair(sh: &Shared, key: &str) -> Option<Entry> {
+    match sh.store.find(key) {
+        Found::Hit(e) => Some(e),
+        Found::Miss => None,
+        Found::Damaged { problems, .. } => {
+            for d in problems {
+                let moved = match sh.store.quarantine(&d.hash) {
+                    Ok(Some(to)) => format!("; moved to {}", to.display()),
+                    Ok(None) => String::new(),
+                    Err(e) => format!("; could not be moved aside: {e:#}"),
+                };
+                let msg = format!("{d}{moved}; recomputing it");
+                sh.progress.line(&msg);
+                sh.damaged.lock().unwrap().push(msg);
+            }
+            None
+        }
+    }
 }
 
 /// Cache state of one stage, without running anything.
@@ -427,6 +433,9 @@ fn stage_bar(sh: &Shared, node: &Node) -> (Option<ProgressSink>, Arc<OnceLock<Pr
 pub enum State {
     /// Cached under this key.
     Cached { key: String },
+    /// Cached, but a file of the entry is damaged: the next run quarantines it
+    /// and recomputes the stage. One line per damaged file.
+    Damaged { problems: Vec<String> },
     /// Will run; the reasons say what differs from the last cached result.
     Stale { reasons: Vec<String> },
 }
@@ -452,10 +461,18 @@ pub fn status(
         let forced = force.contains(&node.kind);
         if let Some(d) = &known {
             let key = stage_key(&node.kind, &node.params, d, fp);
-            if let Some(e) = store.lookup(&key).filter(|_| !forced) {
-                digest.insert(i, e.digest.clone());
-                out.push((i, State::Cached { key }));
-                continue;
+            match store.find(&key) {
+                Found::Hit(e) if !forced => {
+                    digest.insert(i, e.digest.clone());
+                    out.push((i, State::Cached { key }));
+                    continue;
+                }
+                Found::Damaged { problems, .. } if !forced => {
+                    let problems = problems.iter().map(|d| d.to_string()).collect();
+                    out.push((i, State::Damaged { problems }));
+                    continue;
+                }
+                _ => {}
             }
         }
         let mut reasons = Vec::new();
@@ -530,7 +547,7 @@ pub fn reachable_keys(
                 }
                 keep.insert(key);
             }
-            State::Stale { .. } => {
+            State::Stale { .. } | State::Damaged { .. } => {
                 let fp = reg.fingerprint(&node.kind);
                 for e in node
                     .labels

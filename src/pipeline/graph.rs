@@ -16,6 +16,7 @@ use serde_saphyr::Spanned;
 
 use super::canon::{Point, canonical, derive_seed, hash_fields, point_label};
 use super::registry::Registry;
+use super::spec;
 use super::spec::{Catalogue, ExperimentSpec, PROFILES, PipelineSpec, SpecError, StageSpec};
 
 /// One stage instance.
@@ -104,6 +105,13 @@ fn err<T>(file: &Path, span: &Spanned<T>, msg: String) -> anyhow::Error {
     SpecError::at(file, span, msg).into()
 }
 
+fn mark<T>(span: &Spanned<T>) -> spec::Mark {
+    spec::Mark {
+        line: span.referenced.line(),
+        column: span.referenced.column(),
+    }
+}
+
 /// Every combination of the listed values, keys in sorted order, last key fastest.
 fn combinations(lists: &BTreeMap<String, Vec<Value>>) -> Vec<Point> {
     let mut out = vec![Point::new()];
@@ -169,11 +177,7 @@ impl Planner<'_> {
         i
     }
 
-    fn validate(
-        &mut self,
-        kind: &str,
-        params: &serde_json::Map<String, Value>,
-    ) -> Result<(), String> {
+    fn validate(&mut self, kind: &str, params: &serde_json::Map<String, Value>) -> Result<()> {
         let canon = canonical(&Value::Object(params.clone()));
         if self
             .validated
@@ -181,9 +185,8 @@ impl Planner<'_> {
         {
             return Ok(());
         }
-        let k = self.reg.get(kind).map_err(|e| format!("{e:#}"))?;
-        k.validate(&Value::Object(params.clone()))
-            .map_err(|e| format!("{e:#}"))?;
+        let k = self.reg.get(kind)?;
+        k.validate(&Value::Object(params.clone()))?;
         self.validated.insert((kind.to_string(), canon), ());
         Ok(())
     }
@@ -221,11 +224,18 @@ impl Planner<'_> {
                 let mut params = base.clone();
                 params.extend(point.clone());
                 params.insert("seed".into(), Value::from(seed));
-                self.validate(&kind, &params).map_err(|m| {
-                    err(
+                self.validate(&kind, &params).map_err(|e| {
+                    let at = |p: &[&str]| p.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+                    spec::param_error(
                         file,
-                        &spec.kind,
-                        format!("experiment '{name}', profile '{profile}' (kind {kind}): {m}"),
+                        &[
+                            at(&["profiles", &profile, "params"]),
+                            at(&["profiles", &profile, "grid"]),
+                            at(&["params"]),
+                        ],
+                        mark(&spec.kind),
+                        &format!("experiment '{name}', profile '{profile}' (kind {kind})"),
+                        &e,
                     )
                 })?;
                 let mut pt = point.clone();
@@ -408,11 +418,24 @@ impl Planner<'_> {
                     }
                     let mut p = params.clone();
                     p.extend(sw.clone());
-                    self.validate(&st.kind, &p).map_err(|m| {
-                        err(
+                    self.validate(&st.kind, &p).map_err(|e| {
+                        let i = spec
+                            .stages
+                            .iter()
+                            .position(|x| x.value.name == st.name)
+                            .unwrap_or(0)
+                            .to_string();
+                        let at = |p: &[&str]| p.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+                        spec::param_error(
                             file,
-                            s,
-                            format!("stage '{}' (kind {}): {m}", st.name, st.kind),
+                            &[
+                                at(&["stages", &i, "sweep"]),
+                                at(&["stages", &i, "profiles", &self.graph.profile]),
+                                at(&["stages", &i, "params"]),
+                            ],
+                            mark(s),
+                            &format!("stage '{}' (kind {})", st.name, st.kind),
+                            &e,
                         )
                     })?;
                     let label = if point.is_empty() {

@@ -6,7 +6,8 @@
 //!   fingerprints; [`kinds`] the framework's own kinds (`table`, `compare`); [`toy`]
 //!   test-only kinds.
 //! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
-//!   early cut-off, `status`/`why`; [`publish`]: `results/ID/` and provenance.
+//!   early cut-off, `status`/`why`; [`progress`]: bars, plain lines and the run
+//!   log; [`publish`]: `results/ID/` and provenance.
 //!
 //! The functions here are what the CLI and the tests call.
 
@@ -14,6 +15,7 @@ pub mod canon;
 pub mod exec;
 pub mod graph;
 pub mod kinds;
+pub mod progress;
 pub mod publish;
 pub mod registry;
 pub mod spec;
@@ -29,7 +31,7 @@ pub use exec::{Outcome, RunOptions, RunReport, State};
 pub use graph::Graph;
 pub use registry::{Artifact, Output, Registry, StageCtx, StageKind};
 pub use spec::{Catalogue, DEFAULT_PROFILE, SpecError};
-pub use store::{GcReport, Store};
+pub use store::{GcReport, Store, VerifyReport};
 
 /// Where specs, results and the store live.
 #[derive(Debug, Clone)]

@@ -1,4 +1,10 @@
 //! Write `results/ID/`: the published stage files and `provenance.json`.
+//!
+//! The directory is shared with the user: the pipeline owns only the files listed
+//! in the `published` map of its `provenance.json` (the manifest) and
+//! `provenance.json` itself. A publish writes each file to a temporary name and
+//! renames it; files of the previous manifest that are no longer produced are
+//! removed; every other file (notes, an extra plot) is left alone.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -41,9 +47,25 @@ fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// The files the previous publish into `dir` owned (its manifest), if any.
+fn previous_manifest(dir: &Path) -> Vec<String> {
+    std::fs::read(dir.join(PROVENANCE))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+        .and_then(|v| {
+            v.get("published")?
+                .as_object()
+                .map(|m| m.keys().cloned().collect())
+        })
+        .unwrap_or_default()
+}
+
+const PROVENANCE: &str = "provenance.json";
+
 /// Publish one figure whose stages all succeeded into `results_dir/ID/`: each
-/// published stage's files as `<stage>.<ext>`, and `provenance.json`. Files left
-/// from an earlier publish that are no longer produced are removed.
+/// published stage's files as `<stage>.<ext>` (checked against their hash on the
+/// way), and `provenance.json` with the manifest. Files of the previous manifest
+/// that are no longer produced are removed; files the pipeline never wrote stay.
 pub fn publish(
     root: &Path,
     results_dir: &Path,
@@ -55,6 +77,7 @@ pub fn publish(
 ) -> Result<()> {
     let dir = results_dir.join(&fig.id);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let before = previous_manifest(&dir);
     let mut published: BTreeMap<String, String> = BTreeMap::new();
     for (stage, node) in &fig.publish {
         let e = report.results[node]
@@ -63,7 +86,8 @@ pub fn publish(
             .context("published stage has no result")?;
         for (ext, hash) in &e.files {
             let name = format!("{stage}.{ext}");
-            write_if_changed(&dir.join(&name), &std::fs::read(store.object_path(hash))?)?;
+            let label = graph.nodes[*node].label();
+            write_if_changed(&dir.join(&name), &store.read_verified(hash, label)?)?;
             published.insert(name, hash.clone());
         }
     }
@@ -91,6 +115,7 @@ pub fn publish(
                 "files": e.map(|e| e.files.clone()),
                 "wall_s": e.map(|e| e.wall_s),
                 "cpu_s": e.and_then(|e| e.cpu_s),
+                "side": e.and_then(|e| e.side.clone()),
                 "executed_in_this_run": r.outcome == Outcome::Executed,
             })
         })
@@ -104,17 +129,14 @@ pub fn publish(
         "published": published,
         "stages": stages,
     });
-    write_if_changed(
-        &dir.join("provenance.json"),
-        &serde_json::to_vec_pretty(&prov)?,
-    )?;
-    // Remove files of an earlier publish that this run no longer produces.
-    for e in std::fs::read_dir(&dir)?.flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        // `.tmp*` files are another process's writes in flight: not ours to remove.
-        let ours = !name.starts_with(".tmp") && name != "provenance.json";
-        if e.path().is_file() && ours && !published.contains_key(&name) {
-            std::fs::remove_file(e.path())?;
+    write_if_changed(&dir.join(PROVENANCE), &serde_json::to_vec_pretty(&prov)?)?;
+    // The new manifest is in place: remove what the old one owned and this one does not.
+    for name in before {
+        let path = dir.join(&name);
+        let plain_name = !name.contains(['/', '\\']) && name != PROVENANCE && name != "..";
+        if plain_name && !published.contains_key(&name) && path.is_file() {
+            std::fs::remove_file(&path)
+                .with_context(|| format!("removing {} (no longer produced)", path.display()))?;
         }
     }
     Ok(())

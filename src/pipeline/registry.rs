@@ -13,7 +13,7 @@ use anyhow::{Context, Result, bail};
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 
-use super::canon::{Point, hash_fields};
+use super::canon::{ParamError, Point, hash_fields};
 
 /// One kind of stage (simulate, chi4, table, fit, plot, ...).
 pub trait StageKind: Send + Sync {
@@ -32,16 +32,43 @@ pub trait StageKind: Send + Sync {
 }
 
 /// Deserialize a kind's parameters into a typed struct (use
-/// `#[serde(deny_unknown_fields)]` on it), with an error that lists the problem.
+/// `#[serde(deny_unknown_fields)]` on it). The error is a [`ParamError`] naming the
+/// offending key (the planner points at it in the YAML file).
 pub fn typed<T: DeserializeOwned>(kind: &str, params: &Value) -> Result<T> {
-    serde_json::from_value(params.clone())
-        .with_context(|| format!("invalid parameters for stage kind '{kind}': {params}"))
+    serde_path_to_error::deserialize(params.clone()).map_err(|e| {
+        use serde_path_to_error::Segment;
+        let mut path: Vec<String> = e
+            .path()
+            .iter()
+            .filter_map(|s| match s {
+                Segment::Map { key } => Some(key.clone()),
+                Segment::Seq { index } => Some(index.to_string()),
+                _ => None,
+            })
+            .collect();
+        let message = e.inner().to_string();
+        // An unknown key is reported at its map: point at the key itself.
+        if let Some(key) = message
+            .strip_prefix("unknown field `")
+            .and_then(|r| r.split('`').next())
+        {
+            path.push(key.to_string());
+        }
+        ParamError {
+            path,
+            message: format!("invalid parameters for stage kind '{kind}': {message}"),
+        }
+        .into()
+    })
 }
 
 /// The files a stage produced, named by extension (`parquet`, `svg`, `png`, ...).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Output {
     pub files: BTreeMap<String, Vec<u8>>,
+    /// Measurements of the run (CPU seconds, speeds, memory): kept with the cache
+    /// entry and provenance, not part of the output digest.
+    pub side: Option<Value>,
 }
 
 impl Output {
@@ -52,6 +79,11 @@ impl Output {
     /// Add one file.
     pub fn with(mut self, ext: &str, bytes: Vec<u8>) -> Self {
         self.files.insert(ext.to_string(), bytes);
+        self
+    }
+    /// Attach the side record.
+    pub fn with_side(mut self, side: Value) -> Self {
+        self.side = Some(side);
         self
     }
 }

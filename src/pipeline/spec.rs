@@ -4,7 +4,7 @@
 //! every error names the file, the line and column, the key, and what is valid.
 //! The schema is documented with examples in docs/spec.md.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -12,6 +12,9 @@ use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 use serde_saphyr::Spanned;
+use serde_saphyr::granit_parser::{Event, Parser};
+
+use super::canon::ParamError;
 
 /// The profiles every experiment may define; `small` is the default.
 pub const PROFILES: &[&str] = &["ci", "small", "paper"];
@@ -206,7 +209,21 @@ impl Catalogue {
             c.experiments.insert(name, (file, spec));
         }
         for (name, file) in yaml_files(&root.join("pipelines"))? {
-            let spec: PipelineSpec = parse(&file, &read(&file)?)?;
+            let text = read(&file)?;
+            let spec: PipelineSpec = parse(&file, &text)?;
+            if spec.stages.is_empty() {
+                let (line, column) = yaml_marks(&text)
+                    .get(&vec!["stages".to_string()])
+                    .map(|(k, _)| k.unwrap_or_default())
+                    .map(|m| (m.line, m.column))
+                    .unwrap_or((0, 0));
+                return Err(SpecError {
+                    file,
+                    line,
+                    column,
+                    message: "`stages` is empty: a pipeline needs at least one stage".into(),
+                });
+            }
             c.pipelines.insert(name, (file, spec));
         }
         Ok(c)
@@ -271,4 +288,202 @@ fn check_experiment(file: &Path, spec: &ExperimentSpec) -> Result<(), SpecError>
         }
     }
     Ok(())
+}
+
+/// A position in a YAML file (1-based line and column).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Mark {
+    pub line: u64,
+    pub column: u64,
+}
+
+/// The marks of one node: of its key (map entries) and of its value.
+pub type Marks = (Option<Mark>, Mark);
+
+/// Every node of the first document of `text`, by path (map keys and sequence
+/// indices, outermost first), with the marks of its key and value. serde-saphyr
+/// locates the typed spec; this locates inside free-form values such as `params`.
+/// Whatever follows a syntax error is missing (that error is reported by itself).
+pub fn yaml_marks(text: &str) -> HashMap<Vec<String>, Marks> {
+    enum Frame {
+        Map {
+            path: Vec<String>,
+            key: Option<(String, Mark)>,
+        },
+        Seq {
+            path: Vec<String>,
+            index: usize,
+        },
+    }
+    let mut out = HashMap::new();
+    let mut stack: Vec<Frame> = Vec::new();
+    for ev in Parser::new_from_str(text) {
+        let Ok((ev, span)) = ev else { break };
+        let mark = Mark {
+            line: span.start.line() as u64,
+            column: span.start.col() as u64 + 1,
+        };
+        let (scalar, opens) = match &ev {
+            Event::Scalar(v, ..) => (Some(v.to_string()), false),
+            Event::Alias(_) => (Some(String::new()), false),
+            Event::MappingStart(..) | Event::SequenceStart(..) => (None, true),
+            Event::MappingEnd | Event::SequenceEnd => {
+                stack.pop();
+                continue;
+            }
+            Event::DocumentEnd => break,
+            _ => continue,
+        };
+        let (path, key_mark) = match stack.last_mut() {
+            None => (Vec::new(), None),
+            Some(Frame::Map {
+                key: key @ None, ..
+            }) => match scalar {
+                Some(k) => {
+                    *key = Some((k, mark));
+                    continue;
+                }
+                // A mapping or sequence as a key: too exotic for a spec.
+                None => break,
+            },
+            Some(Frame::Map { path, key }) => {
+                let (k, km) = key.take().expect("matched Some above");
+                let mut p = path.clone();
+                p.push(k);
+                (p, Some(km))
+            }
+            Some(Frame::Seq { path, index }) => {
+                let mut p = path.clone();
+                p.push(index.to_string());
+                *index += 1;
+                (p, None)
+            }
+        };
+        out.insert(path.clone(), (key_mark, mark));
+        if opens {
+            stack.push(match ev {
+                Event::MappingStart(..) => Frame::Map { path, key: None },
+                _ => Frame::Seq { path, index: 0 },
+            });
+        }
+    }
+    out
+}
+
+/// The line `mark` points at, with a caret under the column (like serde-saphyr's
+/// own errors).
+pub fn snippet(text: &str, mark: Mark) -> String {
+    let line = text
+        .lines()
+        .nth(mark.line.saturating_sub(1) as usize)
+        .unwrap_or("");
+    let n = mark.line.to_string();
+    let pad = " ".repeat(n.len());
+    format!(
+        "\n {pad} |\n {n} | {line}\n {pad} | {}^",
+        " ".repeat(mark.column.saturating_sub(1) as usize)
+    )
+}
+
+/// Where parameter error `pe` points in the file: the deepest node of its path
+/// that exists (a nested key may sit in a flow map) in the first source holding it.
+fn locate(
+    marks: &HashMap<Vec<String>, Marks>,
+    text: &str,
+    sources: &[Vec<String>],
+    pe: &ParamError,
+) -> Option<(Mark, String)> {
+    let unknown = pe.message.contains("unknown field");
+    for k in (1..=pe.path.len()).rev() {
+        for src in sources {
+            let mut p = src.clone();
+            p.extend(pe.path[..k].iter().cloned());
+            if let Some(&(key, value)) = marks.get(&p) {
+                let at = if unknown || k < pe.path.len() {
+                    key.unwrap_or(value)
+                } else {
+                    value
+                };
+                return Some((at, snippet(text, at)));
+            }
+        }
+    }
+    None
+}
+
+/// A kind's rejection of parameters as a located error. When `err` names the
+/// offending parameter (a [`ParamError`]), the error points at it in the first of
+/// `sources` that holds it (paths of the YAML maps the parameters were merged from,
+/// highest precedence first): an unknown key at the key, anything else at the value,
+/// with a snippet. Otherwise at the first parameter the message names in backticks,
+/// else at `fallback`.
+pub fn param_error(
+    file: &Path,
+    sources: &[Vec<String>],
+    fallback: Mark,
+    context: &str,
+    err: &anyhow::Error,
+) -> SpecError {
+    let message = format!("{context}: {err:#}");
+    // Without a ParamError, a key the message names in backticks (`n`), if any.
+    let named = || {
+        message
+            .split('`')
+            .skip(1)
+            .step_by(2)
+            .map(|k| ParamError {
+                path: vec![k.to_string()],
+                message: String::new(),
+            })
+            .collect::<Vec<_>>()
+    };
+    let candidates = match err.downcast_ref::<ParamError>() {
+        Some(pe) => vec![pe.clone()],
+        None => named(),
+    };
+    let located = (|| {
+        let text = std::fs::read_to_string(file).ok()?;
+        let marks = yaml_marks(&text);
+        candidates
+            .iter()
+            .find_map(|pe| locate(&marks, &text, sources, pe))
+    })();
+    match located {
+        Some((at, snip)) => SpecError {
+            file: file.to_path_buf(),
+            line: at.line,
+            column: at.column,
+            message: format!("{message}{snip}"),
+        },
+        None => SpecError {
+            file: file.to_path_buf(),
+            line: fallback.line,
+            column: fallback.column,
+            message,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaml_marks_locate_keys_and_values_in_block_and_flow_style() {
+        let text = "a: 1\nstages:\n  - name: s\n    params: {n: 10, tau: {A: x}}\n";
+        let m = yaml_marks(text);
+        let at = |p: &[&str]| m[&p.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+        let mk = |line, column| Mark { line, column };
+        assert_eq!(at(&["a"]), (Some(mk(1, 1)), mk(1, 4)));
+        assert_eq!(at(&["stages", "0", "name"]).1, mk(3, 11));
+        assert_eq!(
+            at(&["stages", "0", "params", "n"]),
+            (Some(mk(4, 14)), mk(4, 17))
+        );
+        assert_eq!(at(&["stages", "0", "params", "tau", "A"]).1, mk(4, 30));
+        assert!(snippet(text, mk(4, 30)).ends_with(&format!(
+            " 4 |     params: {{n: 10, tau: {{A: x}}}}\n   | {}^",
+            " ".repeat(29)
+        )));
+    }
 }

@@ -9,7 +9,13 @@
 //! entries/ab/<key>.json   one cache entry per stage key
 //! labels/<hash>.json      latest key per stage label (for `status`/`why`)
 //! locks/<key>.lock        held while a process computes that stage
+//! quarantine/<blake3>[.N] damaged objects, moved aside (never deleted by repro)
 //! ```
+//!
+//! Every object read from the store is checked against its name: a cache hit is a
+//! hit only if each of its files still hashes to the blake3 it was stored under
+//! ([`Store::find`]). A file that does not is *damaged*: it is moved to
+//! `quarantine/` and the stage is recomputed; `repro verify` checks the whole store.
 //!
 //! Every file is written to a temporary name and renamed, objects before the entry
 //! that names them, so a run killed at any point leaves only complete files (and
@@ -48,6 +54,53 @@ pub struct Entry {
     pub wall_s: f64,
     pub cpu_s: Option<f64>,
     pub log: Vec<String>,
+    /// The stage's side record: measurements of how it ran (CPU seconds, speeds,
+    /// memory) that are not a pure function of its inputs, hence kept out of
+    /// `digest` so that a rerun with identical files is cut off early.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub side: Option<Value>,
+}
+
+/// What a cache lookup found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Found {
+    /// Every file of the entry is present and hashes to its recorded blake3.
+    Hit(Entry),
+    /// No entry, an unreadable entry, or a file removed (gc, an interrupted run).
+    Miss,
+    /// A file of the entry is damaged (or was quarantined): one line per file.
+    Damaged { entry: Entry, problems: Vec<Damage> },
+}
+
+/// One damaged object of a cache entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Damage {
+    pub hash: String,
+    /// Where the object is (or was, if already quarantined).
+    pub path: PathBuf,
+    /// Label of the stage it belongs to.
+    pub label: String,
+    /// What is wrong with it.
+    pub what: String,
+}
+
+impl std::fmt::Display for Damage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "damaged artifact {} of stage {}: {}",
+            self.path.display(),
+            self.label,
+            self.what
+        )
+    }
+}
+
+/// Blake3 of a file's bytes, and its size.
+pub fn hash_file(path: &Path) -> std::io::Result<(String, u64)> {
+    let mut h = blake3::Hasher::new();
+    h.update_reader(File::open(path)?)?;
+    Ok((h.finalize().to_hex().to_string(), h.count()))
 }
 
 /// An open store. Holding it holds a shared lock on the store (gc holds it
@@ -89,7 +142,7 @@ impl Store {
             }
             Err(e) => bail!("cannot read {}: {e}", vfile.display()),
         }
-        for sub in ["objects", "entries", "labels", "locks"] {
+        for sub in ["objects", "entries", "labels", "locks", "quarantine"] {
             std::fs::create_dir_all(dir.join(sub))?;
         }
         let lock = OpenOptions::new()
@@ -138,14 +191,166 @@ impl Store {
         Ok(hash)
     }
 
-    /// The entry for `key`, if it exists and all its files are present.
+    /// The entry for `key` if it exists and every file of it is intact.
     pub fn lookup(&self, key: &str) -> Option<Entry> {
-        let text = std::fs::read(self.entry_path(key)).ok()?;
-        let e: Entry = serde_json::from_slice(&text).ok()?;
-        e.files
-            .values()
-            .all(|h| self.object_path(h).exists())
-            .then_some(e)
+        match self.find(key) {
+            Found::Hit(e) => Some(e),
+            _ => None,
+        }
+    }
+
+    /// Look `key` up and check every file of its entry against its hash
+    /// (read-only: see [`Store::quarantine`] for what a run does with damage).
+    pub fn find(&self, key: &str) -> Found {
+        let Some(e) = std::fs::read(self.entry_path(key))
+            .ok()
+            .and_then(|t| serde_json::from_slice::<Entry>(&t).ok())
+        else {
+            return Found::Miss;
+        };
+        let mut problems = Vec::new();
+        for hash in e.files.values() {
+            let path = self.object_path(hash);
+            let what = match hash_file(&path) {
+                Ok((h, _)) if h == *hash => continue,
+                Ok((h, size)) => {
+                    format!("its {size} bytes hash to {h}, not to the recorded blake3 {hash}")
+                }
+                Err(err) if err.kind() == std::io::ErrorKind::NotFound => {
+                    if self.quarantined(hash).is_empty() {
+                        // Removed by gc or never written: an ordinary miss.
+                        return Found::Miss;
+                    }
+                    format!(
+                        "it was found damaged earlier and moved to {}",
+                        self.dir.join("quarantine").display()
+                    )
+                }
+                Err(err) => format!("cannot be read: {err}"),
+            };
+            problems.push(Damage {
+                hash: hash.clone(),
+                path,
+                label: e.label.clone(),
+                what,
+            });
+        }
+        if problems.is_empty() {
+            Found::Hit(e)
+        } else {
+            Found::Damaged { entry: e, problems }
+        }
+    }
+
+    /// Quarantined copies of object `hash`.
+    fn quarantined(&self, hash: &str) -> Vec<PathBuf> {
+        let Ok(rd) = std::fs::read_dir(self.dir.join("quarantine")) else {
+            return Vec::new();
+        };
+        rd.flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with(hash))
+            })
+            .collect()
+    }
+
+    /// Move a damaged object aside to `quarantine/` (never deleted), so that the
+    /// next write of that hash stores good bytes. Returns where it went (`None` if
+    /// it was already gone).
+    pub fn quarantine(&self, hash: &str) -> Result<Option<PathBuf>> {
+        let from = self.object_path(hash);
+        if !from.exists() {
+            return Ok(None);
+        }
+        let dir = self.dir.join("quarantine");
+        std::fs::create_dir_all(&dir)?;
+        let mut to = dir.join(hash);
+        let mut k = 1;
+        while to.exists() {
+            to = dir.join(format!("{hash}.{k}"));
+            k += 1;
+        }
+        std::fs::rename(&from, &to).with_context(|| {
+            format!("moving the damaged {} to {}", from.display(), to.display())
+        })?;
+        Ok(Some(to))
+    }
+
+    /// Read object `hash` of stage `label`, checking its bytes against the hash.
+    pub fn read_verified(&self, hash: &str, label: &str) -> Result<Vec<u8>> {
+        let path = self.object_path(hash);
+        let bytes = std::fs::read(&path)
+            .with_context(|| format!("reading {} of {label}", path.display()))?;
+        let h = blake3::hash(&bytes).to_hex();
+        if h.as_str() != hash {
+            bail!(
+                "{}",
+                Damage {
+                    hash: hash.to_string(),
+                    path,
+                    label: label.to_string(),
+                    what: format!(
+                        "its {} bytes hash to {h}, not to the recorded blake3 {hash}",
+                        bytes.len()
+                    ),
+                }
+            );
+        }
+        Ok(bytes)
+    }
+
+    /// Check every object of the store against its name; quarantine the damaged
+    /// ones. Each damage names the stages (entries) that use the object.
+    pub fn verify(&self) -> Result<VerifyReport> {
+        let mut users: std::collections::HashMap<String, Vec<String>> = Default::default();
+        for e in self.entries() {
+            for h in e.files.values() {
+                users.entry(h.clone()).or_default().push(e.label.clone());
+            }
+        }
+        let mut report = VerifyReport::default();
+        for p in walk_files(&self.dir.join("objects")) {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if name.starts_with(".tmp") {
+                continue;
+            }
+            report.objects += 1;
+            let what = match hash_file(&p) {
+                Ok((h, size)) => {
+                    report.bytes += size;
+                    if h == name {
+                        continue;
+                    }
+                    format!("its {size} bytes hash to {h}")
+                }
+                Err(e) => format!("cannot be read: {e}"),
+            };
+            let mut labels = users.get(name).cloned().unwrap_or_default();
+            labels.sort();
+            labels.dedup();
+            let label = if labels.is_empty() {
+                "(no entry)".to_string()
+            } else {
+                labels.join(", ")
+            };
+            let moved = self.quarantine(name)?;
+            report.damaged.push(format!(
+                "{}{}",
+                Damage {
+                    hash: name.to_string(),
+                    path: p.clone(),
+                    label,
+                    what,
+                },
+                moved
+                    .map(|m| format!("; moved to {}", m.display()))
+                    .unwrap_or_default()
+            ));
+        }
+        Ok(report)
     }
 
     /// Record an entry (after its objects) and point its label at it.
@@ -247,6 +452,15 @@ impl Store {
     }
 }
 
+/// What `repro verify` checked and found.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct VerifyReport {
+    pub objects: usize,
+    pub bytes: u64,
+    /// One line per damaged object (path, stages, what, where it was moved).
+    pub damaged: Vec<String>,
+}
+
 /// What gc freed (or would free).
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
 pub struct GcReport {
@@ -293,6 +507,7 @@ mod tests {
             wall_s: 0.0,
             cpu_s: None,
             log: vec![],
+            side: None,
         }
     }
 

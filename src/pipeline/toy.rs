@@ -12,6 +12,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::Deserialize;
 use serde_json::Value;
 
+use super::canon::param_error;
 use super::registry::{Artifact, Output, Registry, StageCtx, StageKind, typed};
 use crate::table::{f64_batch, read_parquet_bytes, to_parquet_bytes};
 
@@ -77,7 +78,7 @@ impl StageKind for ToySimulate {
     fn validate(&self, params: &Value) -> Result<()> {
         let p: SimParams = typed("toy_simulate", params)?;
         if p.n == 0 {
-            bail!("toy_simulate: n must be at least 1");
+            return Err(param_error(&["n"], "toy_simulate: n must be at least 1"));
         }
         Ok(())
     }
@@ -129,7 +130,10 @@ impl StageKind for ToyAnalyse {
     fn validate(&self, params: &Value) -> Result<()> {
         let p: AnalyseParams = typed("toy_analyse", params)?;
         if p.a.is_nan() || p.a <= 0.0 {
-            bail!("toy_analyse: cutoff a must be > 0, got {}", p.a);
+            return Err(param_error(
+                &["a"],
+                format!("toy_analyse: cutoff a must be > 0, got {}", p.a),
+            ));
         }
         Ok(())
     }

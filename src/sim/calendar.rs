@@ -26,7 +26,7 @@
 //! by more than a factor [`RETUNE`] (the collision rate changes, e.g. during
 //! compression). `dt` only affects speed, never the answers.
 
-use super::engine::{prefetch, prefetch_index};
+use super::prefetch::{prefetch, prefetch_index};
 use super::resources::big_vec;
 
 /// No particle (end of a list).

@@ -17,7 +17,7 @@ pub enum Masses {
     Ratio(f64),
 }
 
-/// Which particles receive the pair kicks.
+/// Which particles receive the kicks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Drive {
@@ -25,11 +25,14 @@ pub enum Drive {
     NeighbourPairs,
     /// Two random particles (momentum conserved globally only).
     RandomPairs,
+    /// One random particle at a time (paper I with friction, which removes the
+    /// momentum the kicks bring).
+    Single,
     /// No driving (elastic gas, free cooling).
     None,
 }
 
-/// How often pairs are kicked.
+/// How often particles are kicked.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum KickRate {
@@ -37,10 +40,11 @@ pub enum KickRate {
     /// rescale the rate window by window so that the mean kinetic energy per
     /// particle is 1; the rate is then frozen (docs/sim.md explains why).
     Balanced,
-    /// The Enskog collision frequency from the Jenkins-Mancini contact values,
-    /// as pair kicks per particle per unit time, times `prefactor` (1 = as is).
+    /// The Enskog collision frequency from the Jenkins-Mancini contact values
+    /// at `temperature`, as kicks each particle receives per unit time, times
+    /// `prefactor` (1 = as is).
     Enskog { prefactor: f64 },
-    /// A fixed number of pair kicks per particle per unit time.
+    /// A fixed number of kicks each particle receives per unit time.
     PerParticle(f64),
 }
 
@@ -86,9 +90,13 @@ pub struct SimConfig {
     pub samples: usize,
     /// Lubachevsky-Stillinger compression: relative radius growth per unit time.
     pub compression_rate: f64,
-    /// Viscous friction (paper I). Only 0 is supported yet.
+    /// Viscous friction -gamma m v on every particle (paper I), exact.
     pub gamma: f64,
-    /// Hard walls instead of periodic boundaries, per axis. Not supported yet.
+    /// The temperature the driving holds (Eq. 7 of paper I sets the kick
+    /// amplitude for it; paper H: 1). Also the temperature after compression.
+    pub temperature: f64,
+    /// Hard walls at 0 and L instead of periodic boundaries, per axis [x, y]
+    /// (elastic reflection).
     pub walls: [bool; 2],
     /// An intruder (paper I). Not supported yet.
     pub intruder: Option<Intruder>,
@@ -119,6 +127,7 @@ impl Default for SimConfig {
             samples: 100,
             compression_rate: 0.02,
             gamma: 0.0,
+            temperature: 1.0,
             walls: [false, false],
             intruder: None,
         }
@@ -251,17 +260,48 @@ impl SimConfig {
             1.0,
             "must be in [1e-7, 1]",
         )?;
-        if self.gamma != 0.0 {
+        finite_in(
+            "gamma",
+            self.gamma,
+            0.0,
+            1e6,
+            "the friction rate must be in [0, 1e6]",
+        )?;
+        finite_in(
+            "temperature",
+            self.temperature,
+            1e-12,
+            1e12,
+            "must be positive",
+        )?;
+        if self.drive == Drive::Single && self.gamma == 0.0 {
             bail!(
-                "gamma = {} is not supported yet: viscous friction (paper I) is not implemented; use 0",
+                "drive: single with gamma = 0 is invalid: single-particle kicks without friction heat the system without bound; use gamma > 0 or drive: neighbour_pairs"
+            );
+        }
+        if self.gamma > 0.0 && self.kick_rate == KickRate::Balanced && self.drive != Drive::None {
+            bail!(
+                "kick_rate: balanced with gamma = {} is invalid: the balanced rule assumes no friction; use kick_rate: {{enskog: {{prefactor: 1}}}} (Eq. 7 of paper I then sets the amplitude for `temperature`)",
                 self.gamma
             );
         }
         if self.walls != [false, false] {
-            bail!(
-                "walls = {:?} is not supported yet: only periodic boxes; use [false, false]",
-                self.walls
-            );
+            // Every walled axis must hold a few large disks side by side at the
+            // target packing: the compression would otherwise jam against the walls.
+            let box_size = self.box_size();
+            let d_large = 2.0 * self.radius_ratio;
+            for k in 0..2 {
+                if self.walls[k] && box_size[k] < 4.0 * d_large {
+                    bail!(
+                        "walls = {:?} cannot fit: the box is {:.3} long between the walls of axis {} at phi = {}, less than four large-disk diameters ({:.3}); use more disks or another aspect",
+                        self.walls,
+                        box_size[k],
+                        ["x", "y"][k],
+                        self.phi,
+                        4.0 * d_large
+                    );
+                }
+            }
         }
         if self.intruder.is_some() {
             bail!("intruder is not supported yet (paper I); remove the key");

@@ -4,7 +4,7 @@
 
 use super::config::SimConfig;
 use super::engine::{Engine, Setup, rng_from_seed};
-use super::run::{Progress, Stage};
+use super::progress::{Progress, Stage};
 use super::scan::nearest_image;
 use anyhow::{Result, bail};
 use rand::RngExt;
@@ -18,6 +18,7 @@ const START_PHI: f64 = 0.3;
 /// Place disks of radius `scale * radii[s]` at random without overlaps.
 fn random_disks(
     box_size: [f64; 2],
+    walls: [bool; 2],
     radii: &[f64],
     species: &[u8],
     scale: f64,
@@ -34,9 +35,10 @@ fn random_disks(
         let ri = radii[species[i] as usize] * scale;
         let mut placed = false;
         for _ in 0..100_000 {
+            // Between walls the centres stay a radius away from them.
             let (px, py) = (
-                rng.random::<f64>() * box_size[0],
-                rng.random::<f64>() * box_size[1],
+                place(rng.random::<f64>(), box_size[0], walls[0], ri),
+                place(rng.random::<f64>(), box_size[1], walls[1], ri),
             );
             let cx = ((px / wx) as usize).min(ncx - 1);
             let cy = ((py / wy) as usize).min(ncy - 1);
@@ -69,6 +71,14 @@ fn random_disks(
         }
     }
     Ok((x, y))
+}
+
+/// A coordinate from a uniform draw `u`: anywhere in [0, l) on a periodic
+/// axis, in [r, l - r] between walls. (Overlap checks use the nearest image
+/// on both kinds: across the walls it only rejects more placements.)
+#[inline]
+fn place(u: f64, l: f64, wall: bool, r: f64) -> f64 {
+    if wall { r + u * (l - 2.0 * r) } else { u * l }
 }
 
 /// Gaussian velocities with zero total momentum and kinetic energy 1 per particle.
@@ -126,11 +136,12 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     let box_size = cfg.box_size();
     let phi0 = cfg.phi.min(START_PHI);
     let s0 = (phi0 / cfg.phi).sqrt();
-    let (x, y) = random_disks(box_size, &radii, &species, s0, &mut rng)?;
+    let (x, y) = random_disks(box_size, cfg.walls, &radii, &species, s0, &mut rng)?;
     let (vx, vy) = maxwell_velocities(&masses, &species, &mut rng);
     let setup = Setup {
         lx: box_size[0],
         ly: box_size[1],
+        walls: cfg.walls,
         radii,
         masses,
         species,
@@ -150,11 +161,11 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
 fn compress(e: &mut Engine, cfg: &SimConfig, s0: f64, progress: &dyn Fn(Progress)) -> Result<()> {
     let rate = cfg.compression_rate;
     e.set_growth(s0, rate);
-    let t_end = e.now + (1.0 - s0) / rate;
+    let t_end = e.time() + (1.0 - s0) / rate;
     let n = e.n() as u64;
     let clock = std::time::Instant::now();
-    while e.now < t_end {
-        let stop = (e.now + 1.0).min(t_end);
+    while e.time() < t_end {
+        let stop = (e.time() + 1.0).min(t_end);
         let c0 = e.stats.collisions;
         while !e.run_until(stop, 1 << 20) {
             progress(Progress::new(Stage::Compress, e, t_end, clock));

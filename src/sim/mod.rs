@@ -1,7 +1,12 @@
 //! Event-driven molecular dynamics of 2D hard disks (paper H, Sec. 2; paper I).
 //!
 //! - [`config`]: [`SimConfig`], every model parameter, validated.
-//! - [`engine`]: the event loop (collisions, cell crossings, pair kicks).
+//! - [`engine`]: the event loop (collisions, cell and shell crossings, kicks),
+//!   with its neighbour lists, driving and prefetch pipeline in submodules.
+//! - [`restitution`]: the collision rule and the collapse guard (Eq. 1).
+//! - [`friction`]: the friction clock (Eqs. 8-9 of paper I).
+//! - [`kicks`]: single and pair kicks, the amplitude of Eq. (7) of paper I.
+//! - [`walls`]: hard walls per axis (wall times, reflection, padding).
 //! - [`tree`]: a tournament tree over the event times (the reference queue
 //!   in tests and benchmarks) and branch-free selects.
 //! - [`calendar`]: the event calendar (O(1) calendar queue, same API).
@@ -9,19 +14,32 @@
 //! - [`init`]: random start and Lubachevsky-Stillinger compression.
 //! - [`enskog`]: contact values and the Enskog collision frequency.
 //! - [`run`](mod@run): one simulation from config to trajectory and [`RunSummary`].
+//! - [`progress`]: what a running simulation reports.
 
 pub mod calendar;
 pub mod config;
+mod disk;
 pub mod engine;
 pub mod enskog;
+pub mod friction;
 pub mod init;
+pub mod kicks;
+mod prefetch;
+pub mod progress;
 pub mod resources;
+pub mod restitution;
 pub mod run;
 pub mod scan;
 pub mod tree;
+pub mod walls;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_friction;
+#[cfg(test)]
+mod tests_walls;
 
 pub use config::{Drive, KickRate, Masses, SimConfig};
-pub use run::{Progress, RunSummary, Sample, Stage, run};
+pub use progress::{Progress, Stage};
+pub use run::{RunSummary, Sample, run};

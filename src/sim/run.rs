@@ -5,46 +5,13 @@ use super::config::{Drive, KickRate, SimConfig};
 use super::engine::{Engine, Kicks};
 use super::enskog;
 use super::init;
+use super::kicks;
+use super::progress::{Progress, Stage};
 use super::resources;
 use crate::traj::{Frame, Trajectory};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-
-/// Which part of the run is going on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Stage {
-    Compress,
-    Relax,
-    Production,
-}
-
-/// Reported to the caller now and then (about every 10^6 events).
-#[derive(Clone, Copy, Debug)]
-pub struct Progress {
-    pub stage: Stage,
-    /// Simulated time now and at the end of this stage.
-    pub time: f64,
-    pub end: f64,
-    pub collisions: u64,
-    /// Events (collisions, crossings, shell exits, kicks) per wall-clock second in this stage.
-    pub events_per_second: f64,
-}
-
-impl Progress {
-    pub(crate) fn new(stage: Stage, e: &Engine, end: f64, since: Instant) -> Progress {
-        let s = &e.stats;
-        let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events + s.shell_exits;
-        Progress {
-            stage,
-            time: e.now,
-            end,
-            collisions: s.collisions,
-            events_per_second: events as f64 / since.elapsed().as_secs_f64().max(1e-9),
-        }
-    }
-}
 
 /// Temperature and pressure at one time.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -79,6 +46,12 @@ pub struct RunSummary {
     pub stale_events: u64,
     /// Neighbour-list rebuilds (a disk left its shell).
     pub shell_exits: u64,
+    /// Re-anchorings of the friction clock (each predicts every event anew).
+    pub reanchors: u64,
+    pub wall_collisions: u64,
+    /// Pressure on the walls of each axis [x, y]: momentum given to them per
+    /// unit time and length (0 on a periodic axis).
+    pub wall_pressure: [f64; 2],
     /// Time-averaged kinetic energy per particle.
     pub temperature: f64,
     /// Standard deviation of the sampled temperature (its fluctuation).
@@ -93,12 +66,22 @@ pub struct RunSummary {
     pub collision_rate: f64,
     /// The Enskog estimate of collision_rate at the measured temperature.
     pub enskog_collision_rate: f64,
-    /// Pair kicks each particle receives per unit time: 2 kick rate / N.
+    /// Kicks each particle receives per unit time (2 kick rate / N with pairs).
     pub kick_rate: f64,
     pub energy_injected: f64,
     pub energy_dissipated: f64,
-    /// |dE - (injected - dissipated)| / E over production.
+    /// Energy removed by viscous friction over production (exact, per event).
+    pub energy_friction: f64,
+    /// |dE - (injected - dissipated - friction)| / E over production.
     pub energy_balance_error: f64,
+    /// Viscous friction rate gamma.
+    pub gamma: f64,
+    /// Kick amplitude p_dr (Eq. 7 of paper I).
+    pub kick_amplitude: f64,
+    /// Time-averaged kinetic energy per particle of each species (small, large).
+    pub species_temperature: Vec<f64>,
+    /// Time-averaged centre-of-mass velocity [vx, vy] (the bath's drift).
+    pub drift: [f64; 2],
     /// CPU seconds of the simulating thread, whole run.
     pub cpu_seconds: f64,
     /// Production collisions per CPU second of production.
@@ -122,23 +105,32 @@ struct Sampler {
     last_t: f64,
     area: f64,
     samples: Vec<Sample>,
+    /// Per-species temperature at each sample.
+    species: Vec<Vec<f64>>,
+    /// Centre-of-mass velocity at each sample.
+    drift: Vec<[f64; 2]>,
 }
 
 impl Sampler {
     fn take(&mut self, e: &Engine) {
         let n = e.n() as f64;
         let t = e.kinetic_energy() / n;
-        let dt = e.now - self.last_time;
+        let now = e.time();
+        let dt = now - self.last_time;
         let tm = 0.5 * (t + self.last_t);
         let pv = (e.stats.virial - self.last_virial) / (2.0 * dt);
         let pressure = (n * tm + pv) / self.area;
         self.samples.push(Sample {
-            time: e.now - self.t0,
+            time: now - self.t0,
             temperature: t,
             pressure,
             z: pressure * self.area / (n * tm),
         });
-        self.last_time = e.now;
+        self.species.push(e.temperature_by_species());
+        let p = e.momentum();
+        let m = e.total_mass();
+        self.drift.push([p[0] / m, p[1] / m]);
+        self.last_time = now;
         self.last_virial = e.stats.virial;
         self.last_t = t;
     }
@@ -169,25 +161,35 @@ fn advance(
     }
 }
 
-/// The driving of `cfg`: which pairs, how many pair kicks per unit time in the
-/// whole system (starting value for the balanced rule), and the amplitude
-/// p_dr = sqrt((1 - eps^2) m1 m2 / (m1 + m2)). `enskog` is the Enskog collision
-/// frequency per particle at T = 1. No kicks when eps = 1 (zero amplitude).
+/// The driving of `cfg`: which particles, how many kicks per unit time in the
+/// whole system (starting value for the balanced rule), and the amplitude p_dr
+/// of Eq. (7) of paper I (paper H's sqrt((1 - eps^2) m1 m2 / (m1 + m2)) at
+/// gamma = 0, T = 1). `enskog` is the Enskog collision frequency per particle
+/// at `cfg.temperature`. No kicks when the amplitude is 0 (eps = 1 without friction).
 pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
     let masses = cfg.species_masses();
     let nf = cfg.n as f64;
-    let p_dr = ((1.0 - cfg.eps * cfg.eps) * masses[0] * masses[1] / (masses[0] + masses[1])).sqrt();
+    let p_dr = kicks::amplitude(
+        cfg.eps,
+        cfg.gamma,
+        cfg.temperature,
+        enskog,
+        masses[0],
+        masses[1],
+    );
     let kicks = match cfg.drive {
-        _ if cfg.eps == 1.0 => Kicks::Off,
+        _ if p_dr == 0.0 => Kicks::Off,
         Drive::None => Kicks::Off,
         Drive::NeighbourPairs => Kicks::NeighbourPairs,
         Drive::RandomPairs => Kicks::RandomPairs,
+        Drive::Single => Kicks::Single,
     };
     // Each pair kick (like each collision) involves two particles.
+    let per_kick = if kicks == Kicks::Single { 1.0 } else { 2.0 };
     let rate = match cfg.kick_rate {
-        KickRate::Balanced => enskog * nf / 2.0,
-        KickRate::Enskog { prefactor } => prefactor * enskog * nf / 2.0,
-        KickRate::PerParticle(r) => r * nf / 2.0,
+        KickRate::Balanced => enskog * nf / per_kick,
+        KickRate::Enskog { prefactor } => prefactor * enskog * nf / per_kick,
+        KickRate::PerParticle(r) => r * nf / per_kick,
     };
     (kicks, rate, p_dr)
 }
@@ -197,7 +199,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     cfg.validate()?;
     let cpu0 = resources::thread_cpu_seconds();
     let mut e = init::prepare(cfg, progress)?;
-    let compress_time = e.now;
+    let compress_time = e.time();
     let n = e.n();
     let nf = n as f64;
     let fractions = [1.0 - cfg.n_large() as f64 / nf, cfg.n_large() as f64 / nf];
@@ -207,23 +209,31 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
 
     e.eps = cfg.eps;
     e.tc = cfg.collapse_tc;
-    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(1.0));
+    if cfg.temperature != 1.0 {
+        init::set_temperature(&mut e, cfg.temperature);
+    }
+    if cfg.gamma > 0.0 {
+        e.set_friction(cfg.gamma);
+    }
+    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     e.set_kicks(kicks, rate, p_dr);
 
     let prod = cfg.schedule.end();
     let total = cfg.relax_time + prod;
-    let t_relax0 = e.now;
+    let t_relax0 = e.time();
     let t0 = t_relax0 + cfg.relax_time;
     let dt = total / cfg.samples as f64;
     let mut s = Sampler {
         dt,
         next: t_relax0 + dt,
         t0,
-        last_time: e.now,
+        last_time: e.time(),
         last_virial: e.stats.virial,
         last_t: e.kinetic_energy() / nf,
-        area: e.lx * e.ly,
+        area: cfg.box_size()[0] * cfg.box_size()[1],
         samples: Vec::with_capacity(cfg.samples + 1),
+        species: Vec::with_capacity(cfg.samples + 1),
+        drift: Vec::with_capacity(cfg.samples + 1),
     };
 
     // Relaxation. With the balanced rule, the first 80% is cut in windows after
@@ -261,14 +271,16 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
             advance(&mut e, start + w, &mut s, Stage::Relax, t0, clock, progress);
         }
     }
-    e.now = t0.max(e.now);
+    if e.time() < t0 {
+        e.skip_to(t0);
+    }
     let before = e.stats;
     let ke0 = e.kinetic_energy();
     let cpu_prod0 = resources::thread_cpu_seconds();
     let n_relax_samples = s.samples.len();
 
     // Production: frames at the schedule's times.
-    let (lx, ly) = (e.lx, e.ly);
+    let [lx, ly] = cfg.box_size();
     let mut frames = Vec::new();
     let clock = Instant::now();
     for ft in cfg.schedule.times() {
@@ -319,6 +331,13 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let ke1 = e.kinetic_energy();
     let injected = st.injected - before.injected;
     let dissipated = st.dissipated - before.dissipated;
+    let friction = st.friction - before.friction;
+    let species_prod = &s.species[n_relax_samples..];
+    let species_temperature = (0..masses.len())
+        .map(|k| mean(&species_prod.iter().map(|v| v[k]).collect::<Vec<_>>()))
+        .collect();
+    let drift_prod = &s.drift[n_relax_samples..];
+    let drift = [0, 1].map(|k| mean(&drift_prod.iter().map(|v| v[k]).collect::<Vec<_>>()));
     let bytes = e.bytes() as f64;
     let summary = RunSummary {
         n,
@@ -334,6 +353,10 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         cell_crossings: st.cell_crossings - before.cell_crossings,
         stale_events: st.stale_events - before.stale_events,
         shell_exits: st.shell_exits - before.shell_exits,
+        reanchors: st.reanchors - before.reanchors,
+        wall_collisions: st.wall_collisions - before.wall_collisions,
+        wall_pressure: [0, 1]
+            .map(|k| (st.wall_impulse[k] - before.wall_impulse[k]) / (2.0 * [ly, lx][k] * prod)),
         temperature,
         temperature_std,
         temperature_halves: [mean(&temps[..half]), mean(&temps[half..])],
@@ -341,10 +364,15 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         z_err,
         collision_rate: 2.0 * collisions as f64 / (nf * prod),
         enskog_collision_rate: enskog_rate(temperature),
-        kick_rate: 2.0 * e.kick_rate() / nf,
+        kick_rate: if kicks == Kicks::Single { 1.0 } else { 2.0 } * e.kick_rate() / nf,
         energy_injected: injected,
         energy_dissipated: dissipated,
-        energy_balance_error: ((ke1 - ke0) - (injected - dissipated)).abs() / ke1,
+        energy_friction: friction,
+        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction)).abs() / ke1,
+        gamma: cfg.gamma,
+        kick_amplitude: p_dr,
+        species_temperature,
+        drift,
         cpu_seconds: resources::thread_cpu_seconds() - cpu0,
         collisions_per_second: collisions as f64 / cpu_prod.max(1e-9),
         events_per_second: [
@@ -363,7 +391,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     };
     let traj = Trajectory {
         box_size: [lx, ly],
-        periodic: [true, true],
+        periodic: cfg.walls.map(|w| !w),
         species: e.species.clone(),
         radii,
         masses,

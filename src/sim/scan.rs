@@ -15,7 +15,7 @@
 //! Wider vectors did not pay (docs/sim.md): lists hold 5.4 disks on average at
 //! phi = 0.78, and the scan waits on loading the listed disks' lines.
 
-use super::engine::{Disk, SHELL};
+use super::disk::{Disk, SHELL};
 use super::tree::{select_f64, select_u32};
 
 /// The earliest collision of disk `a` (at time `now`) with the disks `list` of

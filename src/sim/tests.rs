@@ -264,13 +264,15 @@ fn invalid_configs_are_named() {
         (SimConfig { eps: 0.0, ..d() }, "eps = 0"),
         (SimConfig { eps: 1.5, ..d() }, "(0, 1]"),
         (SimConfig { n: 1, ..d() }, "n = 1"),
-        (SimConfig { gamma: 0.1, ..d() }, "not supported"),
+        (SimConfig { gamma: -0.1, ..d() }, "gamma = -0.1 is invalid"),
         (
             SimConfig {
                 walls: [true, false],
+                n: 200,
+                aspect: 100.0,
                 ..d()
             },
-            "walls",
+            "cannot fit",
         ),
     ];
     let mut empty = d();

@@ -20,6 +20,7 @@ use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
+use crate::pipeline::canon::{ParamError, param_error};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::sim::{self, SimConfig};
@@ -105,7 +106,11 @@ impl RunLength {
             ),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                bail!("simulate: `{name}` = {v} must be a finite number > 0");
+                let path: Vec<&str> = name.split('.').collect();
+                return Err(param_error(
+                    &path,
+                    format!("simulate: `{name}` = {v} must be a finite number > 0"),
+                ));
             }
         }
         if !(g.b.is_finite() && g.b >= 0.0 && g.phi0.is_finite()) {
@@ -115,8 +120,16 @@ impl RunLength {
                 g.phi0
             );
         }
-        if self.origins == 0 || self.lags_per_decade == 0 {
-            bail!("simulate: `origins` and `lags_per_decade` must be at least 1");
+        for (name, v) in [
+            ("origins", self.origins),
+            ("lags_per_decade", self.lags_per_decade),
+        ] {
+            if v == 0 {
+                return Err(param_error(
+                    &[name],
+                    format!("simulate: `{name}` must be at least 1"),
+                ));
+            }
         }
         Ok(())
     }
@@ -133,26 +146,42 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
         .partition(|(k, _)| RULE_KEYS.contains(&k.as_str()));
     let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
     rule.check()?;
-    let mut cfg: SimConfig = serde_json::from_value(Value::Object(rest.clone())).with_context(|| {
-        format!(
-            "invalid parameters for stage kind 'simulate': {}; valid keys are the SimConfig fields \
-             (n, phi, eps, radius_ratio, ...) and the run-length rule ({})",
-            Value::Object(rest),
-            RULE_KEYS.join(", ")
-        )
-    })?;
+    let mut cfg: SimConfig =
+        typed("simulate", &Value::Object(rest)).map_err(|e| match e.downcast::<ParamError>() {
+            Ok(mut pe) => {
+                pe.message = format!(
+                    "{}; valid keys are the SimConfig fields (n, phi, eps, radius_ratio, ...) \
+                     and the run-length rule ({})",
+                    pe.message,
+                    RULE_KEYS.join(", ")
+                );
+                pe.into()
+            }
+            Err(e) => e,
+        })?;
     let phi = cfg.phi;
     // NaN-safe: a NaN phi is rejected too.
     if phi.partial_cmp(&rule.tau_guess.phi0) != Some(std::cmp::Ordering::Less) {
-        bail!(
-            "simulate: phi = {phi} is at or beyond tau_guess.phi0 = {}, where the run-length rule diverges",
-            rule.tau_guess.phi0
-        );
+        return Err(param_error(
+            &["phi"],
+            format!(
+                "simulate: phi = {phi} is at or beyond tau_guess.phi0 = {}, where the run-length rule diverges",
+                rule.tau_guess.phi0
+            ),
+        ));
     }
     (cfg.relax_time, cfg.schedule) = rule.schedule(phi);
     cfg.validate()?;
     Ok((rule, cfg))
 }
+
+/// Summary fields that measure the machine rather than the physics.
+const MEASURED: &[&str] = &[
+    "cpu_seconds",
+    "collisions_per_second",
+    "events_per_second",
+    "peak_rss_bytes",
+];
 
 pub struct Simulate;
 
@@ -191,11 +220,24 @@ impl StageKind for Simulate {
             summary.cpu_seconds,
             summary.guard_activations
         ));
+        // Timings, speeds and memory differ between identical runs: they go in the
+        // side record, so the summary file (and the digest) stays a pure function of
+        // the parameters and a rerun is cut off early.
+        let mut json = serde_json::to_value(&summary)?;
+        let mut side = Map::new();
+        if let Some(obj) = json.as_object_mut() {
+            for k in MEASURED {
+                if let Some(v) = obj.remove(*k) {
+                    side.insert(k.to_string(), v);
+                }
+            }
+        }
         Ok(Output::single(
             "parquet",
             crate::table::trajectory::to_parquet_bytes(&traj)?,
         )
-        .with("json", serde_json::to_vec_pretty(&summary)?))
+        .with("json", serde_json::to_vec_pretty(&json)?)
+        .with_side(Value::Object(side)))
     }
 }
 

@@ -15,19 +15,21 @@
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
 
-use super::calendar::EventCalendar;
-use super::resources::{big_vec, big_vec_from};
-use super::scan::{earliest_pair, nearest_image};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Exp, StandardNormal};
+mod ahead;
+mod driving;
+mod lists;
 
-const NONE: u32 = u32::MAX;
-/// Partner codes >= CROSS mean "leave the cell" in direction `code - CROSS`
-/// (0: +x, 1: -x, 2: +y, 3: -y).
-const CROSS: u32 = u32::MAX - 8;
-/// Partner code of "leave the neighbour-list shell".
-pub(super) const SHELL: u32 = CROSS + 4;
+use super::calendar::EventCalendar;
+use super::disk::{CROSS, Disk, NONE, SHELL, WALL};
+use super::friction::Clock;
+pub use super::kicks::Kicks;
+use super::resources::{big_vec, big_vec_from};
+use super::restitution;
+use super::scan::{earliest_pair, nearest_image};
+use super::walls;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
 /// Starting list capacity per disk: lists hold 5-6 disks on average at
 /// phi = 0.78-0.84 and at most 8 were seen; a longer list doubles the capacity.
 const LIST_CAPACITY: usize = 12;
@@ -47,22 +49,12 @@ const BUCKET_PREFETCH_MAX: usize = 8;
 /// 2 x 10^4).
 const PREFETCH_MIN_BYTES: usize = 3 << 20;
 
-/// How pairs receive kicks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kicks {
-    /// No driving.
-    Off,
-    /// A random particle and a random particle from its 3x3 cell neighbourhood
-    /// (local momentum conservation).
-    NeighbourPairs,
-    /// Two random particles anywhere in the box.
-    RandomPairs,
-}
-
 /// Everything the engine needs to start: box, species table, particles.
 pub struct Setup {
     pub lx: f64,
     pub ly: f64,
+    /// Hard walls at 0 and L instead of periodic boundaries, per axis.
+    pub walls: [bool; 2],
     /// Radius of each species (final radius if the radii grow).
     pub radii: Vec<f64>,
     pub masses: Vec<f64>,
@@ -91,27 +83,16 @@ pub struct Stats {
     pub virial: f64,
     /// Neighbour lists rebuilt because a disk left its shell.
     pub shell_exits: u64,
-}
-
-/// The state of one disk that every collision prediction reads, packed in one
-/// cache line: scanning a neighbour costs one memory access instead of seven.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(64))]
-pub(super) struct Disk {
-    pub(super) x: f64,
-    pub(super) y: f64,
-    pub(super) vx: f64,
-    pub(super) vy: f64,
-    /// Time at which `x`, `y` are valid (lazy update).
-    pub(super) t: f64,
-    pub(super) radius: f64,
-    /// Time of this disk's pending event (a copy of its calendar time, read while
-    /// scanning neighbours from the line that is loaded anyway).
-    pub(super) te: f64,
-    /// Next disk in the same cell.
-    pub(super) next: u32,
-    /// Velocity changes so far: events predicted with an older value are stale.
-    pub(super) count: u32,
+    /// Kinetic energy removed by viscous friction (exact, summed between events).
+    pub friction: f64,
+    /// Re-anchorings of the friction clock.
+    pub reanchors: u64,
+    /// Collisions with the walls.
+    pub wall_collisions: u64,
+    /// Momentum transferred to the walls of each axis (sum of |dp|).
+    pub wall_impulse: [f64; 2],
+    /// Virial of the wall forces, sum of r . dp at each wall collision.
+    pub wall_virial: f64,
 }
 
 /// A disk's pending event partner and its neighbour-list bookkeeping.
@@ -142,8 +123,13 @@ impl Default for Book {
 }
 
 pub struct Engine {
+    /// The engine's box: the physical box, padded on walled axes.
     pub lx: f64,
     pub ly: f64,
+    /// Length of each walled axis (the walls are at 0 and there); infinity
+    /// on periodic axes.
+    wall_len: [f64; 2],
+    has_walls: bool,
     ncx: usize,
     ncy: usize,
     wx: f64,
@@ -180,8 +166,19 @@ pub struct Engine {
     overflow: bool,
     /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]`.
     nb: Vec<u32>,
-    /// Current simulated time.
-    pub now: f64,
+    /// Current clock reading: the time without friction, the friction clock s
+    /// with it (velocities are then u = v / lambda, see [`super::friction`]).
+    now: f64,
+    /// Current time (`clock.t(now)`, exact at the stop times of [`Self::run_until`]).
+    time: f64,
+    clock: Clock,
+    /// With friction: the kinetic energy in u (sum of m u^2 / 2) and lambda^2
+    /// when friction was last accounted for (the friction ledger).
+    ke_u: f64,
+    lam2: f64,
+    /// Momentum brought by single kicks, each decayed by friction since
+    /// (sum dp_k exp(-gamma (t - t_k))), in u units (divided by lambda).
+    kick_momentum_u: [f64; 2],
     pub eps: f64,
     /// Collapse guard: a collision within `tc` of a particle's previous one is elastic.
     pub tc: f64,
@@ -225,8 +222,20 @@ impl Engine {
         anyhow::ensure!(n >= 2, "need at least 2 particles, got {n}");
         anyhow::ensure!(n < CROSS as usize, "too many particles: {n}");
         let rmax = s.radii.iter().copied().fold(0.0, f64::max);
-        let ncx = (s.lx / (2.0 * rmax)).floor() as usize;
-        let ncy = (s.ly / (2.0 * rmax)).floor() as usize;
+        let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
+        let shell = SHELL_FRACTION * rmin;
+        let pad = walls::padding(rmax, shell);
+        let wall_len = [0, 1].map(|k| {
+            if s.walls[k] {
+                [s.lx, s.ly][k]
+            } else {
+                f64::INFINITY
+            }
+        });
+        let lx = if s.walls[0] { s.lx + pad } else { s.lx };
+        let ly = if s.walls[1] { s.ly + pad } else { s.ly };
+        let ncx = (lx / (2.0 * rmax)).floor() as usize;
+        let ncy = (ly / (2.0 * rmax)).floor() as usize;
         anyhow::ensure!(
             ncx >= 3 && ncy >= 3,
             "box {:.3} x {:.3} is smaller than 3 cells of one large-disk diameter ({:.3}); use more particles",
@@ -234,8 +243,15 @@ impl Engine {
             s.ly,
             2.0 * rmax
         );
-        let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
-        let shell = SHELL_FRACTION * rmin;
+        for k in 0..2 {
+            anyhow::ensure!(
+                wall_len[k] > 4.0 * rmax,
+                "walls: the box ({:.3} between the walls of axis {}) must be wider than two large-disk diameters ({:.3})",
+                wall_len[k],
+                ["x", "y"][k],
+                4.0 * rmax
+            );
+        }
         // Disks of radius r - shell around the list centres never overlap, and those
         // in a list lie within r_i + 2 r_max + shell of the centre: an area bound.
         let cap_max = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
@@ -248,8 +264,8 @@ impl Engine {
         let d = big_vec_from(
             n,
             (0..n).map(|i| Disk {
-                x: s.x[i].rem_euclid(s.lx),
-                y: s.y[i].rem_euclid(s.ly),
+                x: s.x[i].rem_euclid(lx),
+                y: s.y[i].rem_euclid(ly),
                 vx: s.vx[i],
                 vy: s.vy[i],
                 t: 0.0,
@@ -262,8 +278,6 @@ impl Engine {
         // The setup's coordinates are in `d` now: free them before the other
         // arrays are made (they would add 32 bytes per disk to the peak).
         let Setup {
-            lx,
-            ly,
             radii,
             masses,
             species,
@@ -271,11 +285,14 @@ impl Engine {
             y,
             vx,
             vy,
+            ..
         } = s;
         drop((x, y, vx, vy));
         let mut e = Engine {
             lx,
             ly,
+            wall_len,
+            has_walls: wall_len.iter().any(|l| l.is_finite()),
             ncx,
             ncy,
             wx: lx / ncx as f64,
@@ -305,6 +322,11 @@ impl Engine {
                 Vec::new()
             },
             now: 0.0,
+            time: 0.0,
+            clock: Clock::NONE,
+            ke_u: 0.0,
+            lam2: 1.0,
+            kick_momentum_u: [0.0; 2],
             eps,
             tc,
             scale0: 1.0,
@@ -382,177 +404,11 @@ impl Engine {
         self.scale0 + self.growth * (self.now - self.scale_t0)
     }
 
-    /// Start (or stop) driving: `rate` pair kicks per unit time in the whole
-    /// system, each of momentum `p_dr` times a unit 2D Gaussian vector.
-    pub fn set_kicks(&mut self, kicks: Kicks, rate: f64, p_dr: f64) {
-        self.kicks = kicks;
-        self.kick_rate = rate;
-        self.p_dr = p_dr;
-        self.schedule_kick();
-    }
-
-    /// Draw the time of the next kick and the first disk of the kick
-    /// [`KICKS_AHEAD`] kicks after it, and move the fetching of the disks in
-    /// between one stage on.
-    fn schedule_kick(&mut self) {
-        self.next_kick = self.now + self.kick_wait();
-        if self.next_kick < f64::INFINITY {
-            let n = self.n();
-            let rng = &mut self.rng;
-            let ring = self
-                .kick_ring
-                .get_or_insert_with(|| std::array::from_fn(|_| rng.random_range(0..n) as u32));
-            let pos = self.kick_pos;
-            self.kick_next = ring[pos] as usize;
-            ring[pos] = self.rng.random_range(0..n) as u32;
-            self.kick_pos = (pos + 1) % KICKS_AHEAD;
-            self.prefetch_kicks();
-        }
-    }
-
-    /// One stage of fetching for each kick drawn ahead: the disk line, list
-    /// record and cell of the one just drawn; the list and the 3x3 cells'
-    /// counts and heads (where the partner is drawn) of the one after next;
-    /// the listed neighbours of the next one. Each stage reads only what the
-    /// previous one fetched, a kick (~2 events) earlier.
-    fn prefetch_kicks(&self) {
-        if !self.ahead {
-            // Small systems: only the next kick's disk and neighbours.
-            self.prefetch_around(self.kick_next);
-            return;
-        }
-        let Some(ring) = &self.kick_ring else { return };
-        let at = |m: usize| ring[(self.kick_pos + m) % KICKS_AHEAD] as usize;
-        let drawn = at(KICKS_AHEAD - 1);
-        prefetch(&self.d[drawn]);
-        prefetch(&self.bk[drawn]);
-        prefetch(&self.cell[drawn]);
-        let after_next = at(1);
-        self.prefetch_list(after_next);
-        // Three rows of three cells, ignoring the periodic wrap (a wrong
-        // guess at the box edge only costs a useless fetch).
-        let c = self.cell[after_next] as usize;
-        for row in [c.wrapping_sub(self.ncx), c, c + self.ncx] {
-            for k in [row.wrapping_sub(1), row + 1] {
-                prefetch_index(&self.occupancy, k);
-                prefetch_index(&self.head, k);
-            }
-        }
-        self.prefetch_listed(at(0));
-    }
-
-    /// Ask the cache for disk `i`'s bookkeeping and its listed neighbours, which
-    /// its next prediction reads (at large N each is a miss to the L3 cache).
-    #[inline]
-    fn prefetch_around(&self, i: usize) {
-        prefetch(&self.d[i]);
-        prefetch(&self.cell[i]);
-        self.prefetch_listed(i);
-    }
-
-    /// Fetch the neighbour list of disk `i` (its first and last entries: 12
-    /// slots may straddle two lines). Reads `bk[i]`.
-    #[inline]
-    fn prefetch_list(&self, i: usize) {
-        if self.lists {
-            let base = i * self.cap;
-            let m = self.bk[i].nn as usize;
-            prefetch_index(&self.nb, base);
-            prefetch_index(&self.nb, base + m.saturating_sub(1));
-        }
-    }
-
-    /// Fetch the lines of the disks in `i`'s neighbour list (which its
-    /// prediction reads). Reads `bk[i]` and the list.
-    #[inline]
-    fn prefetch_listed(&self, i: usize) {
-        if self.lists {
-            let base = i * self.cap;
-            for &k in &self.nb[base..base + self.bk[i].nn as usize] {
-                prefetch(&self.d[k as usize]);
-            }
-        }
-    }
-
-    /// The prefetch pipeline over the calendar: when the current bucket moves
-    /// on, fetch for the events of the next buckets, each stage reading only
-    /// what an earlier stage fetched one bucket (~1.5 collisions) before:
-    /// - bucket + 4: the calendar record of its first disk;
-    /// - bucket + 3: (walking the bucket) the disks' records, lines and books;
-    /// - bucket + 2: their lists, last collision times, and their partners'
-    ///   lines, books and calendar records;
-    /// - bucket + 1: their listed neighbours, the partners' lists and the
-    ///   records the partners' calendar updates unlink;
-    /// - the current bucket: the partners' listed neighbours.
-    ///
-    /// Events predicted meanwhile into these buckets are missed and stale
-    /// ones fetched for nothing: it is only a hint, results never depend on it.
-    fn look_ahead(&mut self) {
-        let cur = self.calendar.current_bucket();
-        if cur == self.ahead_bucket {
-            return;
-        }
-        // Usually one step; after a jump or a re-binning (numbering restarts),
-        // only the latest.
-        let from = if cur < self.ahead_bucket || cur - self.ahead_bucket > 4 {
-            cur
-        } else {
-            self.ahead_bucket + 1
-        };
-        self.ahead_bucket = cur;
-        let cal = &self.calendar;
-        for b in from..=cur {
-            for j in cal.bucket_members(b + 4).take(1) {
-                cal.prefetch(j);
-            }
-            for j in cal.bucket_members(b + 3).take(BUCKET_PREFETCH_MAX) {
-                cal.prefetch(j);
-                prefetch(&self.d[j]);
-                prefetch(&self.bk[j]);
-            }
-            for j in cal.bucket_members(b + 2).take(BUCKET_PREFETCH_MAX) {
-                self.prefetch_list(j);
-                prefetch(&self.last_collision[j]);
-                // The partner may be a SHELL code: then the fetches are useless.
-                let p = self.bk[j].ev_p as usize;
-                prefetch_index(&self.d, p);
-                prefetch_index(&self.bk, p);
-                prefetch_index(&self.last_collision, p);
-                cal.prefetch(p);
-            }
-            for j in cal.bucket_members(b + 1).take(BUCKET_PREFETCH_MAX) {
-                self.prefetch_listed(j);
-                let p = self.bk[j].ev_p as usize;
-                if p < self.n() {
-                    self.prefetch_list(p);
-                    cal.prefetch_links(p);
-                }
-            }
-        }
-        for j in self.calendar.current_members().take(BUCKET_PREFETCH_MAX) {
-            let p = self.bk[j].ev_p as usize;
-            if p < self.n() {
-                self.prefetch_listed(p);
-            }
-        }
-    }
-
-    pub fn kick_rate(&self) -> f64 {
-        self.kick_rate
-    }
-
-    fn kick_wait(&mut self) -> f64 {
-        if self.kicks == Kicks::Off || self.kick_rate <= 0.0 {
-            return f64::INFINITY;
-        }
-        Exp::new(self.kick_rate)
-            .expect("kick rate is positive and finite")
-            .sample(&mut self.rng)
-    }
-
     /// Multiply every velocity by `f` (e.g. to restore T = 1 during compression).
     pub fn scale_velocities(&mut self, f: f64) {
         self.sync_all();
+        self.account_friction();
+        self.ke_u *= f * f;
         for d in &mut self.d {
             d.vx *= f;
             d.vy *= f;
@@ -562,15 +418,88 @@ impl Engine {
 
     /// Velocities [vx, vy] of every particle.
     pub fn velocities(&self) -> (Vec<f64>, Vec<f64>) {
+        let lam = self.lambda();
         (
-            self.d.iter().map(|d| d.vx).collect(),
-            self.d.iter().map(|d| d.vy).collect(),
+            self.d.iter().map(|d| d.vx * lam).collect(),
+            self.d.iter().map(|d| d.vy * lam).collect(),
         )
     }
 
     /// Total kinetic energy.
     pub fn kinetic_energy(&self) -> f64 {
-        (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum()
+        let lam = self.lambda();
+        (0..self.n())
+            .map(|i| self.kinetic_energy_of(i))
+            .sum::<f64>()
+            * (lam * lam)
+    }
+
+    /// Kinetic energy per particle of each species.
+    pub fn temperature_by_species(&self) -> Vec<f64> {
+        let lam = self.lambda();
+        let mut sum = vec![0.0; self.masses.len()];
+        let mut count = vec![0usize; self.masses.len()];
+        for i in 0..self.n() {
+            sum[self.species[i] as usize] += self.kinetic_energy_of(i);
+            count[self.species[i] as usize] += 1;
+        }
+        sum.iter()
+            .zip(&count)
+            .map(|(s, &c)| s * (lam * lam) / c.max(1) as f64)
+            .collect()
+    }
+
+    /// The current time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// lambda = v / u now (1 without friction).
+    #[inline]
+    pub(super) fn lambda(&self) -> f64 {
+        self.clock.lambda(self.now)
+    }
+
+    /// Switch viscous friction -gamma m v on (or off, gamma = 0) from now on:
+    /// anchors the friction clock here.
+    pub fn set_friction(&mut self, gamma: f64) {
+        self.anchor(gamma);
+    }
+
+    /// Anchor the clock at the current time with friction rate `gamma`: s = 0
+    /// and u = v now (Eqs. 8-9 of paper I restart from here). Every event is
+    /// predicted anew.
+    fn anchor(&mut self, gamma: f64) {
+        self.sync_all();
+        self.account_friction();
+        let lam = self.lambda();
+        let t = self.clock.t(self.now);
+        let t_kick = self.clock.t(self.next_kick);
+        for d in &mut self.d {
+            d.vx *= lam;
+            d.vy *= lam;
+            d.t = 0.0;
+        }
+        self.kick_momentum_u = self.kick_momentum_u.map(|p| p * lam);
+        self.clock = Clock { gamma, t0: t };
+        self.now = 0.0;
+        self.time = t;
+        self.next_kick = self.clock.s(t_kick);
+        self.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
+        self.lam2 = 1.0;
+        self.reschedule_all();
+    }
+
+    /// Add the energy friction removed since the last call (the kinetic energy
+    /// in u is constant between events, so the loss is ke_u (lambda_a^2 - lambda_b^2)).
+    #[inline]
+    pub(super) fn account_friction(&mut self) {
+        if self.clock.gamma > 0.0 {
+            let l = self.lambda();
+            let l2 = l * l;
+            self.stats.friction += self.ke_u * (self.lam2 - l2);
+            self.lam2 = l2;
+        }
     }
 
     #[inline]
@@ -586,17 +515,33 @@ impl Engine {
 
     /// Total momentum.
     pub fn momentum(&self) -> [f64; 2] {
-        (0..self.n()).fold([0.0; 2], |p, i| {
+        let lam = self.lambda();
+        let p = (0..self.n()).fold([0.0; 2], |p, i| {
             let (m, d) = (self.mass(i), &self.d[i]);
             [p[0] + m * d.vx, p[1] + m * d.vy]
-        })
+        });
+        [p[0] * lam, p[1] * lam]
+    }
+
+    /// The momentum single kicks brought, each decayed by friction since:
+    /// sum over kicks of dp_k exp(-gamma (t - t_k)) (the kicks' part of Eq. (11)
+    /// of paper I; pair kicks bring none).
+    pub fn kick_momentum(&self) -> [f64; 2] {
+        let lam = self.lambda();
+        self.kick_momentum_u.map(|p| p * lam)
+    }
+
+    /// Total mass.
+    pub fn total_mass(&self) -> f64 {
+        (0..self.n()).map(|i| self.mass(i)).sum()
     }
 
     /// Sum of |m v|, the scale against which momentum conservation is judged.
     pub fn momentum_scale(&self) -> f64 {
         (0..self.n())
             .map(|i| self.mass(i) * self.d[i].vx.hypot(self.d[i].vy))
-            .sum()
+            .sum::<f64>()
+            * self.lambda()
     }
 
     /// Unwrapped positions at the current time (does not move the particles).
@@ -617,11 +562,21 @@ impl Engine {
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
         self.ahead = self.lists && self.bytes() > self.prefetch_min_bytes;
+        let mut s_stop = self.clock.s(t_stop);
+        let s_max = self.clock.s_max();
         for _ in 0..max_events {
             let (i, te) = self.calendar.min();
+            if te.min(self.next_kick).min(s_stop) > s_max {
+                // Friction: nothing happens before lambda = 1/8; re-anchor there.
+                self.now = s_max;
+                self.anchor(self.clock.gamma);
+                self.stats.reanchors += 1;
+                s_stop = self.clock.s(t_stop);
+                continue;
+            }
             if self.next_kick <= te {
-                if self.next_kick > t_stop {
-                    self.now = t_stop;
+                if self.next_kick > s_stop {
+                    self.stop_at(s_stop, t_stop);
                     return true;
                 }
                 self.now = self.next_kick;
@@ -629,8 +584,8 @@ impl Engine {
                 self.schedule_kick();
                 continue;
             }
-            if te > t_stop {
-                self.now = t_stop;
+            if te > s_stop {
+                self.stop_at(s_stop, t_stop);
                 return true;
             }
             self.now = te;
@@ -640,6 +595,8 @@ impl Engine {
             let p = self.bk[i].ev_p;
             if p == SHELL {
                 self.shell_exit(i);
+            } else if p >= WALL {
+                self.hit_wall(i, (p - WALL) as usize);
             } else if p >= CROSS {
                 self.cross(i, p - CROSS);
             } else if self.d[p as usize].count != self.bk[i].ev_c {
@@ -650,7 +607,23 @@ impl Engine {
                 self.collide(i, p as usize);
             }
         }
+        self.time = self.clock.t(self.now);
+        self.account_friction();
         false
+    }
+
+    /// Move the clock on to `t` without processing events: only to absorb the
+    /// round-off between stop times that should coincide.
+    pub fn skip_to(&mut self, t: f64) {
+        self.stop_at(self.clock.s(t), t);
+    }
+
+    /// Set the clock to `s` at time `t` (the same reading) with nothing happening between.
+    #[inline]
+    fn stop_at(&mut self, s: f64, t: f64) {
+        self.now = s;
+        self.time = t;
+        self.account_friction();
     }
 
     #[inline]
@@ -812,8 +785,54 @@ impl Engine {
                 }
             }
         });
+        if self.has_walls {
+            self.earlier_wall(&a, scale, &mut best, &mut partner);
+        }
         self.set_partner(i, partner);
         self.now + best
+    }
+
+    /// Replace the event (`best`, `partner`) of disk `a` by a wall collision if
+    /// that comes first.
+    #[inline]
+    fn earlier_wall(&self, a: &Disk, scale: f64, best: &mut f64, partner: &mut u32) {
+        for (k, (x, v)) in [(a.x, a.vx), (a.y, a.vy)].into_iter().enumerate() {
+            let l = self.wall_len[k];
+            if l.is_finite() {
+                let (t, _) = walls::wall_time(x, v, a.radius, scale, self.growth, l);
+                if t < *best {
+                    *best = t;
+                    *partner = WALL + k as u32;
+                }
+            }
+        }
+    }
+
+    /// Disk `i` hits a wall of `axis`: elastic reflection (in the frame of its
+    /// growing surface during compression), the momentum given to the wall
+    /// counted for the wall pressure.
+    fn hit_wall(&mut self, i: usize, axis: usize) {
+        self.advance(i);
+        let (m, lam, d) = (self.mass(i), self.lambda(), self.d[i]);
+        let (pos, old) = if axis == 0 { (d.x, d.vx) } else { (d.y, d.vy) };
+        let upper = pos > 0.5 * self.wall_len[axis];
+        let new = walls::reflect(old, d.radius, self.growth, upper);
+        let dm = &mut self.d[i];
+        if axis == 0 {
+            dm.vx = new;
+        } else {
+            dm.vy = new;
+        }
+        dm.count = dm.count.wrapping_add(1);
+        if self.clock.gamma > 0.0 {
+            self.account_friction();
+            self.ke_u += 0.5 * m * (new * new - old * old);
+        }
+        let dp = m * (new - old) * lam;
+        self.stats.wall_collisions += 1;
+        self.stats.wall_impulse[axis] += dp.abs();
+        self.stats.wall_virial += pos * dp;
+        self.predict(i);
     }
 
     /// [`Self::find_event`] from the neighbour list: the shell exit or the
@@ -824,7 +843,11 @@ impl Engine {
         let shell = self.shell_time(i, &a);
         let base = i * self.cap;
         let list = &self.nb[base..base + self.bk[i].nn as usize];
-        let (best, partner) = earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
+        let (mut best, mut partner) =
+            earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
+        if self.has_walls {
+            self.earlier_wall(&a, 1.0, &mut best, &mut partner);
+        }
         self.set_partner(i, partner);
         self.now + best
     }
@@ -837,175 +860,6 @@ impl Engine {
         } else {
             0
         };
-    }
-
-    /// Time from now until disk `a` (= disk `i` at the current time) is `shell`
-    /// away from its list centre.
-    #[inline]
-    fn shell_time(&self, i: usize, a: &Disk) -> f64 {
-        // No nearest image: positions are wrapped into the box only where the
-        // centre is set (shell exits, full rebuilds), so a disk is never more
-        // than `shell` from its centre in unwrapped coordinates.
-        let dx = a.x - self.bk[i].ox;
-        let dy = a.y - self.bk[i].oy;
-        let aa = a.vx * a.vx + a.vy * a.vy;
-        if aa == 0.0 {
-            return f64::INFINITY;
-        }
-        let bb = dx * a.vx + dy * a.vy;
-        let c = dx * dx + dy * dy - self.shell * self.shell;
-        if c >= 0.0 {
-            return 0.0;
-        }
-        // c < 0: one positive root; this form avoids cancellation when bb > 0.
-        let root = (bb * bb - aa * c).sqrt();
-        if bb >= 0.0 {
-            -c / (bb + root)
-        } else {
-            (root - bb) / aa
-        }
-    }
-
-    /// Disk `i` left its shell: centre its list on where it is now. With lists
-    /// a disk's cell is that of its list centre, so this is also where its
-    /// position is wrapped into the box and its cell changes (no crossing events).
-    fn shell_exit(&mut self, i: usize) {
-        self.stats.shell_exits += 1;
-        self.advance(i);
-        self.wrap_into_box(i);
-        let c = self.cell_of(self.d[i].x, self.d[i].y);
-        if c != self.cell[i] as usize {
-            self.remove(i);
-            self.insert(i, c);
-        }
-        let base = i * self.cap;
-        for k in 0..self.bk[i].nn as usize {
-            let j = self.nb[base + k] as usize;
-            self.unlist(j, i as u32);
-        }
-        self.bk[i].nn = 0;
-        self.bk[i].ox = self.d[i].x;
-        self.bk[i].oy = self.d[i].y;
-        self.scan_list(i, true);
-        if self.overflow {
-            self.grow_lists(2 * self.cap);
-        } else {
-            self.predict(i);
-        }
-    }
-
-    /// Give every list room for `cap` disks (at most the packing bound) and
-    /// rebuild them all, with every event predicted anew.
-    fn grow_lists(&mut self, cap: usize) {
-        self.cap = cap.min(self.cap_max);
-        self.nb = big_vec(self.n() * self.cap, NONE);
-        self.reschedule_all();
-    }
-
-    /// Remove `i` from the list of `j`.
-    fn unlist(&mut self, j: usize, i: u32) {
-        let base = j * self.cap;
-        let m = self.bk[j].nn as usize;
-        let list = &mut self.nb[base..base + m];
-        let k = list
-            .iter()
-            .position(|&x| x == i)
-            .expect("neighbour lists are symmetric");
-        list[k] = list[m - 1];
-        self.bk[j].nn -= 1;
-    }
-
-    fn push_list(&mut self, i: usize, j: usize) {
-        let m = self.bk[i].nn as usize;
-        if m == self.cap {
-            self.overflow = true;
-            return;
-        }
-        self.nb[i * self.cap + m] = j as u32;
-        self.bk[i].nn += 1;
-    }
-
-    /// Fill the list of `i` with every disk whose centre is within the list
-    /// range of its own, from the 5x5 cells around `i` (a disk is within
-    /// `shell` of its centre, so it is within sigma_max + 3 shell <= two cells
-    /// of `i`). With `both`, also put `i` in their lists.
-    fn scan_list(&mut self, i: usize, both: bool) {
-        let c = self.cell[i] as usize;
-        let (cx, cy) = (c % self.ncx, c / self.ncx);
-        let (oxi, oyi, ri) = (self.bk[i].ox, self.bk[i].oy, self.d[i].radius);
-        // Cells two away are needed only on a side where the centre is within
-        // `reach - w` of its cell's edge (reach < 2 w): about 12 cells instead of 25.
-        let reach = (ri + self.rmax + 2.0 * self.shell) * (1.0 + 1e-9);
-        let (fx, fy) = (oxi - cx as f64 * self.wx, oyi - cy as f64 * self.wy);
-        let (x0, x1) = (
-            if fx + self.wx < reach { -2 } else { -1 },
-            if 2.0 * self.wx - fx < reach { 2 } else { 1 },
-        );
-        let (y0, y1) = (
-            if fy + self.wy < reach { -2 } else { -1 },
-            if 2.0 * self.wy - fy < reach { 2 } else { 1 },
-        );
-        for dy in y0..=y1 {
-            let (ny, _) = Self::wrap(cy, dy, self.ncy, self.ly);
-            for dx in x0..=x1 {
-                let (nx, _) = Self::wrap(cx, dx, self.ncx, self.lx);
-                let mut j = self.head[ny * self.ncx + nx];
-                while j != NONE {
-                    let ju = j as usize;
-                    j = self.d[ju].next;
-                    if ju == i {
-                        continue;
-                    }
-                    let ddx = nearest_image(self.bk[ju].ox - oxi, self.lx);
-                    let ddy = nearest_image(self.bk[ju].oy - oyi, self.ly);
-                    let range = ri + self.d[ju].radius + 2.0 * self.shell;
-                    if ddx * ddx + ddy * ddy < range * range {
-                        self.push_list(i, ju);
-                        if both {
-                            self.push_list(ju, i);
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// Centre every list on the current positions and fill them.
-    fn build_all_lists(&mut self) {
-        for i in 0..self.n() {
-            self.bk[i].ox = self.d[i].x;
-            self.bk[i].oy = self.d[i].y;
-        }
-        loop {
-            self.overflow = false;
-            for b in &mut self.bk {
-                b.nn = 0;
-            }
-            for i in 0..self.n() {
-                self.scan_list(i, false);
-            }
-            if !self.overflow {
-                return;
-            }
-            assert!(
-                self.cap < self.cap_max,
-                "a neighbour list exceeds its packing bound {}: overlapping disks",
-                self.cap_max
-            );
-            self.cap = (2 * self.cap).min(self.cap_max);
-            self.nb = big_vec(self.n() * self.cap, NONE);
-        }
-    }
-
-    /// Start the lists over with capacity `cap` (to exercise their growth).
-    #[cfg(test)]
-    pub(crate) fn set_list_capacity(&mut self, cap: usize) {
-        self.grow_lists(cap);
-    }
-
-    /// Current list capacity per disk.
-    pub fn list_capacity(&self) -> usize {
-        self.cap
     }
 
     #[inline]
@@ -1061,19 +915,19 @@ impl Engine {
         let (nx, ny) = (dx / r, dy / r);
         let gn = (a.vx - b.vx) * nx + (a.vy - b.vy) * ny;
         let mu = ma * mb / (ma + mb);
-        let e = if self.growth != 0.0 || self.eps == 1.0 {
-            1.0
-        } else if self.now - self.last_collision[i] < self.tc
-            || self.now - self.last_collision[j] < self.tc
-        {
-            self.stats.guard_activations += 1;
-            1.0
-        } else {
-            self.eps
-        };
+        // The guard counts real time (the clock reading without friction).
+        let t = self.clock.t(self.now);
+        let (e, guarded) = restitution::coefficient(
+            self.eps,
+            self.growth != 0.0,
+            t - self.last_collision[i],
+            t - self.last_collision[j],
+            self.tc,
+        );
+        self.stats.guard_activations += u64::from(guarded);
         // Approach speed of the surfaces (-gn when radii are fixed).
         let g = gn - (a.radius + b.radius) * self.growth;
-        let imp = mu * (1.0 + e) * g;
+        let imp = restitution::normal_impulse(mu, e, g);
         let da = &mut self.d[i];
         da.vx -= imp / ma * nx;
         da.vy -= imp / ma * ny;
@@ -1082,85 +936,21 @@ impl Engine {
         db.vx += imp / mb * nx;
         db.vy += imp / mb * ny;
         db.count = db.count.wrapping_add(1);
-        self.stats.dissipated += 0.5 * (1.0 - e * e) * mu * g * g;
-        self.stats.virial += -imp * r;
+        // Velocities are u = v / lambda: energies scale by lambda^2, momenta by lambda.
+        let loss = restitution::energy_loss(mu, e, g);
+        let lam = self.lambda();
+        if self.clock.gamma > 0.0 {
+            self.account_friction();
+            self.ke_u -= loss;
+        }
+        self.stats.dissipated += loss * (lam * lam);
+        self.stats.virial += -imp * r * lam;
         self.stats.collisions += 1;
-        self.last_collision[i] = self.now;
-        self.last_collision[j] = self.now;
+        self.last_collision[i] = t;
+        self.last_collision[j] = t;
         self.prefetch_around(j);
         self.predict(i);
         self.predict(j);
-    }
-
-    /// A pair kick (Eq. 4 of paper H): equal and opposite Gaussian momenta.
-    fn kick(&mut self) {
-        let n = self.n();
-        let i = self.kick_next;
-        let j = match self.kicks {
-            Kicks::NeighbourPairs => self.random_neighbour(i),
-            _ => None,
-        }
-        .unwrap_or_else(|| {
-            let k = self.rng.random_range(0..n - 1);
-            if k >= i { k + 1 } else { k }
-        });
-        self.advance(i);
-        self.advance(j);
-        let kx: f64 = StandardNormal.sample(&mut self.rng);
-        let ky: f64 = StandardNormal.sample(&mut self.rng);
-        let (px, py) = (self.p_dr * kx, self.p_dr * ky);
-        let before = self.kinetic_energy_of(i) + self.kinetic_energy_of(j);
-        for (k, s) in [(i, 1.0), (j, -1.0)] {
-            let m = self.mass(k);
-            let d = &mut self.d[k];
-            d.vx += s * px / m;
-            d.vy += s * py / m;
-            d.count = d.count.wrapping_add(1);
-        }
-        self.stats.injected += self.kinetic_energy_of(i) + self.kinetic_energy_of(j) - before;
-        self.stats.kicks += 1;
-        self.prefetch_around(j);
-        self.predict(i);
-        self.predict(j);
-    }
-
-    /// A uniformly chosen other particle from the 3x3 cells around `i`, if any
-    /// (with lists, cells hold list centres, within `shell` of the disks). The
-    /// cell occupancies give the total and the cell of the chosen disk, so only
-    /// that cell is walked. (Partners from the neighbour list instead, i.e. disks
-    /// in contact, were tried: kicked contact pairs collide at once and dissipate
-    /// more, and the balanced rate left T at 0.94 at phi = 0.7.)
-    fn random_neighbour(&mut self, i: usize) -> Option<usize> {
-        let c = self.cell[i] as usize;
-        let cells = self.neighbour_cells(c);
-        // `i` itself is in its own cell and never chosen.
-        let total = cells
-            .iter()
-            .map(|&k| self.occupancy[k] as usize)
-            .sum::<usize>()
-            - 1;
-        if total == 0 {
-            return None;
-        }
-        let mut k = self.rng.random_range(0..total);
-        for cell in cells {
-            let m = self.occupancy[cell] as usize - usize::from(cell == c);
-            if k >= m {
-                k -= m;
-                continue;
-            }
-            let mut j = self.head[cell];
-            loop {
-                if j as usize != i {
-                    if k == 0 {
-                        return Some(j as usize);
-                    }
-                    k -= 1;
-                }
-                j = self.d[j as usize].next;
-            }
-        }
-        unreachable!("the draw is below the number of neighbours")
     }
 
     /// The 3x3 cells around cell `c`, in the order [`Self::for_neighbour_cells`]
@@ -1200,52 +990,6 @@ impl Engine {
         }
     }
 
-    /// Check the neighbour-list invariants against all pairs: every disk is within
-    /// `shell` of its centre, and `j` is in the list of `i` exactly when their
-    /// centres are within range. The error names the first violation.
-    pub fn check_lists(&self) -> Result<(), String> {
-        if !self.lists {
-            return Err("neighbour lists are not in use".into());
-        }
-        let near = |i: usize, x: f64, y: f64| {
-            let dx = nearest_image(x - self.bk[i].ox, self.lx);
-            let dy = nearest_image(y - self.bk[i].oy, self.ly);
-            dx * dx + dy * dy
-        };
-        let list = |i: usize| &self.nb[i * self.cap..i * self.cap + self.bk[i].nn as usize];
-        for i in 0..self.n() {
-            let d = &self.d[i];
-            let dt = self.now - d.t;
-            // Unwrapped, without a nearest image: shell times rely on it.
-            let (dx, dy) = (
-                d.x + d.vx * dt - self.bk[i].ox,
-                d.y + d.vy * dt - self.bk[i].oy,
-            );
-            let r2 = dx * dx + dy * dy;
-            if r2 > self.shell * self.shell * (1.0 + 1e-9) {
-                return Err(format!(
-                    "disk {i} is {} from its centre, shell {}",
-                    r2.sqrt(),
-                    self.shell
-                ));
-            }
-            for j in 0..self.n() {
-                if j == i {
-                    continue;
-                }
-                let range = d.radius + self.d[j].radius + 2.0 * self.shell;
-                let inside = near(i, self.bk[j].ox, self.bk[j].oy) < range * range;
-                if inside != list(i).contains(&(j as u32)) {
-                    return Err(format!(
-                        "disk {j} is wrongly {} the list of {i}",
-                        if inside { "missing from" } else { "in" }
-                    ));
-                }
-            }
-        }
-        Ok(())
-    }
-
     /// The largest overlap (sigma_ij - r_ij)/sigma_ij among all pairs at the
     /// current time, with the pair, if any pair overlaps by more than `tol`.
     pub fn worst_overlap(&self, tol: f64) -> Option<(usize, usize, f64)> {
@@ -1271,32 +1015,6 @@ impl Engine {
         }
         worst
     }
-}
-
-/// A hint to bring `r`'s cache line in; it never faults and changes nothing.
-#[inline(always)]
-pub(super) fn prefetch<T>(r: &T) {
-    prefetch_ptr(r as *const T);
-}
-
-/// [`prefetch`] of `v[k]` for any `k`, without a bounds check: out of range
-/// it fetches a useless line (for guesses that may be off, e.g. cells across
-/// a periodic edge, or event partners that are codes rather than disks).
-#[inline(always)]
-pub(super) fn prefetch_index<T>(v: &[T], k: usize) {
-    prefetch_ptr(v.as_ptr().wrapping_add(k));
-}
-
-#[inline(always)]
-fn prefetch_ptr<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: prefetching is only a hint to the cache; any address is allowed.
-    unsafe {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>(p.cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }
 
 /// Reorder `v` so that `v[k]` becomes the old `v[order[k]]`, following the

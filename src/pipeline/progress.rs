@@ -1,0 +1,219 @@
+//! What a run tells while it goes: bars on a terminal, plain lines otherwise, and
+//! the same plain lines in a log file (`.repro/log/LAST-RUN.log`).
+//!
+//! On a terminal, one bar for the whole run and one per running stage that reports
+//! progress. When stderr is not a terminal (CI, a batch job, `| tee`), bars would be
+//! invisible until the end, so instead: one line per finished stage, and one line
+//! every [`heartbeat`] seconds per stage still running, with its last report (what
+//! it does, how far, the rate). Every line also goes to the log file, whatever
+//! stderr is.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::Write;
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+
+use super::registry::ProgressSink;
+
+/// Seconds between two plain lines about one running stage: `REPRO_HEARTBEAT_S`,
+/// default 30.
+pub fn heartbeat() -> Duration {
+    let s = std::env::var("REPRO_HEARTBEAT_S")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .unwrap_or(30.0);
+    Duration::from_secs_f64(s)
+}
+
+/// Last report of a running stage: done, total, message, when.
+type Last = Arc<Mutex<Option<(f64, f64, String, Instant)>>>;
+
+struct Running {
+    label: String,
+    started: Instant,
+    printed: Instant,
+    last: Last,
+    bar: Arc<Mutex<Option<ProgressBar>>>,
+}
+
+/// Progress of one run.
+pub struct Progress {
+    bars: Option<MultiProgress>,
+    overall: Option<ProgressBar>,
+    /// Print plain lines to stderr (stderr is not a terminal).
+    plain: bool,
+    log: Option<Mutex<File>>,
+    total: usize,
+    finished: Mutex<usize>,
+    running: Mutex<BTreeMap<usize, Running>>,
+    t0: Instant,
+}
+
+impl Progress {
+    /// `show`: tell the user (bars on a terminal, else plain lines). `log`: the
+    /// file the plain lines also go to (created or truncated; none if it cannot be).
+    pub fn new(show: bool, total: usize, log: Option<&Path>) -> Progress {
+        let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
+        let bars = (show && terminal).then(MultiProgress::new);
+        let overall = bars.as_ref().map(|mp| {
+            let b = mp.add(ProgressBar::new(total as u64));
+            b.set_style(
+                ProgressStyle::with_template("stages [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+                    .unwrap()
+                    .progress_chars("=> "),
+            );
+            b
+        });
+        let log = log.and_then(|p| {
+            std::fs::create_dir_all(p.parent()?).ok()?;
+            File::create(p).ok().map(Mutex::new)
+        });
+        Progress {
+            bars,
+            overall,
+            plain: show && !terminal,
+            log,
+            total,
+            finished: Mutex::new(0),
+            running: Mutex::new(BTreeMap::new()),
+            t0: Instant::now(),
+        }
+    }
+
+    /// Write a line to the log and to stderr (above the bars on a terminal).
+    pub fn line(&self, text: &str) {
+        self.emit(text, true)
+    }
+
+    /// `news`: print it on stderr too (else only in the log).
+    fn emit(&self, text: &str, news: bool) {
+        let t = self.t0.elapsed().as_secs_f64();
+        let line = format!("[{t:7.1} s] {text}");
+        if news && self.plain {
+            eprintln!("{line}");
+        } else if news && let Some(mp) = &self.bars {
+            let _ = mp.println(text);
+        }
+        if let Some(f) = &self.log {
+            let _ = writeln!(f.lock().unwrap(), "{line}");
+        }
+    }
+
+    /// Stage `node` starts: the sink it reports progress to.
+    pub fn start(&self, node: usize, label: &str) -> ProgressSink {
+        let last: Last = Arc::new(Mutex::new(None));
+        let bar: Arc<Mutex<Option<ProgressBar>>> = Arc::new(Mutex::new(None));
+        let now = Instant::now();
+        self.running.lock().unwrap().insert(
+            node,
+            Running {
+                label: label.to_string(),
+                started: now,
+                printed: now,
+                last: last.clone(),
+                bar: bar.clone(),
+            },
+        );
+        let mp = self.bars.clone();
+        let label = label.to_string();
+        Arc::new(move |done: f64, total: f64, msg: &str| {
+            *last.lock().unwrap() = Some((done, total, msg.to_string(), Instant::now()));
+            let Some(mp) = &mp else { return };
+            let mut b = bar.lock().unwrap();
+            let b = b.get_or_insert_with(|| {
+                let b = mp.add(ProgressBar::new(1000));
+                b.set_style(
+                    ProgressStyle::with_template(
+                        "{prefix} [{bar:20}] {msg} ({elapsed}, ETA {eta})",
+                    )
+                    .unwrap()
+                    .progress_chars("=> "),
+                );
+                b.set_prefix(label.clone());
+                // Redraw (elapsed time) even while the stage sends no report.
+                b.enable_steady_tick(std::time::Duration::from_secs(1));
+                b
+            });
+            b.set_position((fraction(done, total) * 1000.0) as u64);
+            b.set_message(msg.to_string());
+        })
+    }
+
+    /// Stage `node` finished (`what`: executed, cached, failed, ...).
+    pub fn finish(&self, node: usize, label: &str, kind: &str, what: &str) {
+        let ran = self.running.lock().unwrap().remove(&node);
+        if let Some(r) = &ran
+            && let Some(b) = r.bar.lock().unwrap().take()
+        {
+            b.finish_and_clear();
+        }
+        let k = {
+            let mut f = self.finished.lock().unwrap();
+            *f += 1;
+            *f
+        };
+        if let Some(o) = &self.overall {
+            o.inc(1);
+        }
+        let took = ran
+            .map(|r| format!(" in {:.1} s", r.started.elapsed().as_secs_f64()))
+            .unwrap_or_default();
+        // Cached stages only go to the log: the closing summary counts them.
+        self.emit(
+            &format!("[{k}/{}] {what} {label} ({kind}){took}", self.total),
+            what != "cached",
+        );
+    }
+
+    /// One line per stage running for more than a heartbeat since its last line.
+    pub fn beat(&self, every: Duration) {
+        let mut due = Vec::new();
+        for r in self.running.lock().unwrap().values_mut() {
+            if r.printed.elapsed() < every {
+                continue;
+            }
+            r.printed = Instant::now();
+            let how = match &*r.last.lock().unwrap() {
+                Some((done, total, msg, at)) => {
+                    let ago = at.elapsed();
+                    // A stage may go quiet for a while (a phase without reports): say so.
+                    let when = if ago >= every {
+                        format!(", reported {:.0} s ago", ago.as_secs_f64())
+                    } else {
+                        String::new()
+                    };
+                    format!("{:.0}% ({msg}{when})", 100.0 * fraction(*done, *total))
+                }
+                None => "no progress report yet".to_string(),
+            };
+            due.push(format!(
+                "running {} for {:.0} s: {how}",
+                r.label,
+                r.started.elapsed().as_secs_f64()
+            ));
+        }
+        for l in due {
+            self.line(&l);
+        }
+    }
+
+    /// Remove the bars.
+    pub fn done(&self) {
+        if let Some(o) = &self.overall {
+            o.finish_and_clear();
+        }
+    }
+}
+
+fn fraction(done: f64, total: f64) -> f64 {
+    if total > 0.0 {
+        (done / total).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
