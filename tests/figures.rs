@@ -5,8 +5,9 @@
 
 use std::path::Path;
 
-use repro::cli::figs::{GoldenFile, check, golden, read_compare};
 use repro::pipeline::{RunOptions, Workspace, run_figures};
+use repro::study::golden::{GoldenFile, check, golden};
+use repro::study::results::read_compare;
 
 const EXPERIMENT: &str = r#"
 description: tiny eps = 0.9 sweep for tests
@@ -236,6 +237,17 @@ fn tiny_figure_end_to_end_then_regression_check() {
         e.contains("profile 'ci'") && e.contains("repro figure tinyfig --profile small"),
         "{e}"
     );
+
+    // The report quotes the compare stage's number with its error and verdict.
+    let c = ours.iter().find(|c| c.quantity == "phi_0").unwrap();
+    repro::study::report::write(dir.path(), &ws.results, Some("ci"), false).unwrap();
+    let md = std::fs::read_to_string(ws.results.join("REPORT.md")).unwrap();
+    let row = format!(
+        "| tinyfig | phi_0 | {} |",
+        repro::study::report::number(c.ours, c.ours_err)
+    );
+    assert!(md.contains(&row) && md.contains(&c.verdict), "{row}\n{md}");
+    assert!(md.contains("![tinyfig](tinyfig/figure.png)"), "{md}");
 }
 
 const AT_PIPELINE: &str = r#"

@@ -99,6 +99,21 @@ pub fn jackknife_err(estimates: Vec<f64>) -> f64 {
     ((n - 1.0) / n * x.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt()
 }
 
+/// Mean and sample standard deviation (n - 1) of the finite values: the
+/// seed-to-seed spread of independent runs. NaN mean without a finite value, NaN
+/// deviation with fewer than two.
+pub fn mean_std(values: &[f64]) -> (f64, f64) {
+    let x: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    let std = if x.len() > 1 {
+        (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        f64::NAN
+    };
+    (mean, std)
+}
+
 /// First time at which a decaying curve `y(t)` crosses `level`, by linear
 /// interpolation in ln t between the two bracketing samples (t ascending, t > 0).
 /// None if it never crosses.

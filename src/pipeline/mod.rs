@@ -115,7 +115,17 @@ pub fn run_figures(
     profile: &str,
     opts: &RunOptions,
 ) -> Result<FigureRun> {
-    let graph = ws.plan(reg, ids, profile)?;
+    run_planned(ws, reg, ws.plan(reg, ids, profile)?, opts)
+}
+
+/// [`run_figures`] for a graph already planned (e.g. from a catalogue changed in
+/// memory): results go to `ws.results`, the cache is `ws.store`.
+pub fn run_planned(
+    ws: &Workspace,
+    reg: &Registry,
+    graph: Graph,
+    opts: &RunOptions,
+) -> Result<FigureRun> {
     let store = Store::open(&ws.store)?;
     let nodes = needed_nodes(&graph);
     let report = exec::execute(&graph, &nodes, reg, &store, opts)?;
