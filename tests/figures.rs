@@ -428,3 +428,98 @@ fn times_in_units_of_a_measured_tau_alpha() {
         "{report}"
     );
 }
+
+const S4_PIPELINE: &str = r#"
+description: tiny figs 16-18
+stages:
+  - name: tau
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+  - name: tau_table
+    kind: table
+    gather: [tau]
+  - name: s4
+    kind: s4
+    gather: [tiny, tau]
+    by: [phi]
+    params: {a: 0.6, q_max: 2.0, time_unit: {from: tau}, at: [1]}
+  - name: s4_table
+    kind: table
+    gather: [s4]
+  - name: chi4_whole
+    kind: chi4
+    gather: [tiny, tau]
+    by: [phi]
+    params: {a: 0.6, n: [100000], time_unit: {from: tau}, at: [1]}
+  - name: chi4_table
+    kind: table
+    gather: [chi4_whole]
+  - name: s4_vs_chi4
+    kind: join
+    gather: [s4_table, chi4_table]
+    params: {left: s4_table, right: chi4_table, on: [phi, t]}
+  - name: oz
+    kind: fit
+    gather: [s4_table]
+    params: {form: oz, data: s4_table, x: q, y: S4, y_err: S4_err, where: {q: {min: 0.001, max: 1.5}}, group_by: [phi]}
+  - name: xi_table
+    kind: join
+    gather: [tau_table, oz]
+    params: {left: tau_table, right: oz, on: [phi], derive: [{name: xi_over_tau, op: divide, a: xi, b: tau_alpha}]}
+"#;
+
+/// Figs 16-18: S4 at tau_alpha pooled over replicas, its q = 0 row equal to chi4
+/// of the whole system at the same lag, and a grouped fit table joined as one row
+/// per phi with a column per fitted quantity.
+#[test]
+fn s4_q_zero_is_chi4_and_fit_tables_join_as_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    write_specs(dir.path());
+    std::fs::write(dir.path().join("pipelines/s4fig.yaml"), S4_PIPELINE).unwrap();
+    let ws = Workspace::new(dir.path());
+    let opts = RunOptions {
+        jobs: 2,
+        ..RunOptions::default()
+    };
+    let reg = repro::stages::registry();
+    let run = run_figures(&ws, &reg, &["s4fig".to_string()], "ci", &opts).unwrap();
+    run.check().unwrap();
+    let joined = ws.results.join("s4fig/s4_vs_chi4.parquet");
+    let (phi, q, s4, chi4, n) = (
+        column(&joined, "phi"),
+        column(&joined, "q"),
+        column(&joined, "S4"),
+        column(&joined, "chi4"),
+        column(&joined, "N"),
+    );
+    let zeros: Vec<usize> = (0..q.len()).filter(|&i| q[i] == 0.0).collect();
+    assert_eq!(zeros.len(), 4, "one q = 0 row per phi");
+    for &i in &zeros {
+        assert_eq!(n[i], 200.0, "chi4 of the whole system");
+        assert!(
+            (s4[i] - chi4[i]).abs() <= 1e-9 * chi4[i],
+            "phi {}: S4(0) = {} vs chi4 = {}",
+            phi[i],
+            s4[i],
+            chi4[i]
+        );
+    }
+    assert!(q.iter().filter(|&&v| v > 0.0).count() > 4 * 3);
+    // The fit table (4 quantities per phi) joined as one row per phi.
+    let xi = ws.results.join("s4fig/xi_table.parquet");
+    let (phis, x, xe, ta, r) = (
+        column(&xi, "phi"),
+        column(&xi, "xi"),
+        column(&xi, "xi_err"),
+        column(&xi, "tau_alpha"),
+        column(&xi, "xi_over_tau"),
+    );
+    assert_eq!(phis, vec![0.55, 0.62, 0.68, 0.72]);
+    assert_eq!(column(&xi, "chi0").len(), 4);
+    for i in 0..4 {
+        assert!(x[i].is_nan() || (x[i] > 0.0 && xe[i] >= 0.0), "xi {}", x[i]);
+        assert!(x[i].is_nan() || r[i] == x[i] / ta[i]);
+    }
+    assert!(x.iter().any(|v| v.is_finite()), "{x:?}");
+}

@@ -261,10 +261,14 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "s4",
-        describe: "four-point structure factor S4(q, t) per shell: t, q, q2, S4, S4_err, n_vectors",
+        describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: t, q, q2, S4, S4_err, n_vectors",
         modules: &["analysis/s4", "analysis/lags", "analysis/stats"],
         validate: |v| params::<s4::Params>("s4", v).map(drop),
-        compute: |t, v| per_replica("s4", t, v, s4::compute),
+        compute: |t, v| {
+            let p: s4::Params = params("s4", v)?;
+            let b = s4::compute_pooled(t, &p)?;
+            Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
+        },
     },
     Observable {
         name: "msd",

@@ -3,6 +3,8 @@
 //!
 //! S4(q, t) = (1/N) [<|W(q)|^2> - |<W(q)>|^2], W(q) = sum_i theta_i exp(-i q.r_i(t0)),
 //! theta_i = 1 for slow particles, N the number of particles, <.> over time origins.
+//! The q = 0 point is Eq. 15 itself with W(0) = the number of slow particles, i.e.
+//! chi4 of the whole system (Eq. 14 with one sub-box; paper H, Fig. 16 caption).
 //!
 //! W(q) for all |q| <= q_max comes from a type-1 non-uniform FFT with Gaussian
 //! gridding (Greengard and Lee, SIAM Rev. 46, 443 (2004)): each slow particle is spread
@@ -371,9 +373,41 @@ impl<'a> Accumulator<'a> {
     }
 }
 
-/// S4(q) at each requested lag: `(lag, shells)`.
+/// S4(q) at each requested lag: `(lag, shells)`, shells of q > 0 only (see [`s4_zero`]).
 pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
-    check_trajectory(traj)?;
+    Ok(s4_with_zero(&[traj], p)?
+        .into_iter()
+        .map(|(t, _, s)| (t, s))
+        .collect())
+}
+
+/// S4(q = 0) at each requested lag, one shell with q = 0: (1/N) var(N_slow) over
+/// time origins, which is chi4 of the whole system (Eq. 14 with a single box).
+pub fn s4_zero(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
+    Ok(s4_with_zero(&[traj], p)?
+        .into_iter()
+        .map(|(t, z, _)| (t, z))
+        .collect())
+}
+
+/// Per lag: (lag, the q = 0 shell, the shells of q > 0), averages over every time
+/// origin of every trajectory (replicas of one state point: one box, one N).
+fn s4_with_zero(trajs: &[&Trajectory], p: &Params) -> Result<Vec<(f64, Shells, Shells)>> {
+    let Some(&traj) = trajs.first() else {
+        bail!("S4 needs at least one trajectory");
+    };
+    for (k, t) in trajs.iter().enumerate() {
+        check_trajectory(t)?;
+        if t.box_size != traj.box_size || t.n() != traj.n() {
+            bail!(
+                "S4 pools replicas of one state point: replica {k} has box {:?} and N = {}, replica 0 has box {:?} and N = {}",
+                t.box_size,
+                t.n(),
+                traj.box_size,
+                traj.n()
+            );
+        }
+    }
     ensure_positive("a", p.a)?;
     ensure_positive("q_max", p.q_max)?;
     if traj.periodic != [true, true] {
@@ -397,14 +431,15 @@ pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
         );
     }
     let nufft = Nufft::new(traj.box_size, lat.modes, p.tolerance)?;
-    let lags = super::lags::select(&[traj], Some(&p.lags), p.rel_tol)?;
+    let lags = super::lags::select(trajs, Some(&p.lags), p.rel_tol)?;
     let ny = 2 * lat.modes[1] + 1;
     let a2 = p.a * p.a;
     let mut out = Vec::new();
     for lag in lags {
         let mut acc = Accumulator::new(&lat, dq);
-        for &(_, i, j) in &lag.pairs {
-            let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
+        let mut slow = Vec::with_capacity(lag.pairs.len());
+        for &(r, i, j) in &lag.pairs {
+            let (f0, f1) = (&trajs[r].frames[i], &trajs[r].frames[j]);
             let theta: Vec<f64> = squared_displacements(f0, f1)
                 .into_iter()
                 .map(|d2| if d2 < a2 { 1.0 } else { 0.0 })
@@ -416,22 +451,56 @@ pub fn s4(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
                 .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
                 .collect();
             acc.add(&w);
+            slow.push(theta.iter().sum::<f64>());
         }
-        out.push((lag.t, acc.shells(traj.n() as f64)));
+        let n = traj.n() as f64;
+        out.push((lag.t, zero_shell(&slow, n), acc.shells(n)));
     }
     Ok(out)
 }
 
-/// Table `t, q, q2, S4, S4_err, n_vectors` (q2 = shell mean of q^2).
+/// S4(q = 0) = var(N_slow) / N over the time origins (W(0) = N_slow), with a
+/// delete-one jackknife error (the variance is not a mean over origins).
+fn zero_shell(slow: &[f64], n: f64) -> Shells {
+    let s4 = |v: &[f64]| {
+        let k = v.len() as f64;
+        let m = v.iter().sum::<f64>() / k;
+        (v.iter().map(|x| x * x).sum::<f64>() / k - m * m) / n
+    };
+    let loo: Vec<f64> = (0..slow.len())
+        .map(|i| {
+            let rest: Vec<f64> = [&slow[..i], &slow[i + 1..]].concat();
+            s4(&rest)
+        })
+        .collect();
+    Shells {
+        q: vec![0.0],
+        q2: vec![0.0],
+        s4: vec![s4(slow)],
+        s4_err: vec![super::stats::jackknife_err(loo)],
+        n_vectors: vec![1],
+    }
+}
+
+/// Table `t, q, q2, S4, S4_err, n_vectors` (q2 = shell mean of q^2); per lag the
+/// first row is q = 0 (chi4 of the whole system), then the shells of q > 0.
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    compute_pooled(&[traj], p)
+}
+
+/// As [`compute`], averaging over every time origin of several replicas (errors:
+/// standard error over all those origins).
+pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
     let mut cols: [Vec<f64>; 6] = Default::default();
-    for (t, s) in s4(traj, p)? {
-        cols[0].extend(std::iter::repeat_n(t, s.q.len()));
-        cols[1].extend(&s.q);
-        cols[5].extend(&s.q2);
-        cols[2].extend(&s.s4);
-        cols[3].extend(&s.s4_err);
-        cols[4].extend(s.n_vectors.iter().map(|&c| c as f64));
+    for (t, z, s) in s4_with_zero(trajs, p)? {
+        for s in [z, s] {
+            cols[0].extend(std::iter::repeat_n(t, s.q.len()));
+            cols[1].extend(&s.q);
+            cols[5].extend(&s.q2);
+            cols[2].extend(&s.s4);
+            cols[3].extend(&s.s4_err);
+            cols[4].extend(s.n_vectors.iter().map(|&c| c as f64));
+        }
     }
     let [t, q, s, e, n, q2] = cols;
     f64_batch(&[
@@ -467,4 +536,57 @@ pub fn direct_w(
                 .sum()
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::chi4;
+    use crate::analysis::synthetic::oz_slow;
+
+    fn col(b: &RecordBatch, name: &str) -> Vec<f64> {
+        b.column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
+            .map(|a| a.values().to_vec())
+            .unwrap_or_else(|| panic!("no column {name}"))
+    }
+
+    /// Fig. 16: the q = 0 point of S4 is Eq. 15 with W(0) = N_slow, i.e. chi4 of the
+    /// whole system (Eq. 14 with one box), on correlated (OZ) slow particles.
+    #[test]
+    fn q_zero_point_is_chi4_of_the_whole_system() {
+        let traj = oz_slow(4000, 60.0, 60, 3.0, 0.5, 0.2, 30, 5);
+        let p = Params {
+            a: 0.6,
+            lags: vec![1.0],
+            q_max: 1.0,
+            dq: None,
+            tolerance: 1e-6,
+            rel_tol: 1e-6,
+        };
+        let s = compute(&traj, &p).unwrap();
+        let (q, s4) = (col(&s, "q"), col(&s, "S4"));
+        assert_eq!(q[0], 0.0, "first row is q = 0");
+        assert!(q[1..].iter().all(|&v| v > 0.0));
+        let c = chi4::compute(
+            &traj,
+            &chi4::Params {
+                a: 0.6,
+                n: vec![traj.n() as f64],
+                lags: Some(vec![1.0]),
+                rel_tol: 1e-6,
+            },
+        )
+        .unwrap();
+        let whole = col(&c, "chi4")[0];
+        assert!(
+            (s4[0] - whole).abs() <= 1e-9 * whole,
+            "S4(0) = {} vs chi4 = {whole}",
+            s4[0]
+        );
+        // Correlated slow particles: the q = 0 point is far above the uncorrelated p0.
+        assert!(whole > 2.0, "chi4 of the whole system = {whole}");
+        let zero = s4_zero(&traj, &p).unwrap();
+        assert_eq!(zero[0].1.s4[0], s4[0]);
+    }
 }

@@ -42,6 +42,57 @@ const OPS: &[&str] = &["divide", "multiply", "sqrt_divide"];
 
 pub struct Join;
 
+/// A fit table (rows `quantity, value, error` per group of the key columns `on`)
+/// as one row per group, each quantity a column `NAME` with its error `NAME_err`;
+/// any other table unchanged. This is how a fitted xi joins the data (chi4 vs xi).
+fn wide(c: Columns, on: &[String]) -> Result<Columns> {
+    let (Some(names), Some(value), Some(error)) = (
+        c.str.get("quantity"),
+        c.f64.get("value"),
+        c.f64.get("error"),
+    ) else {
+        return Ok(c);
+    };
+    let keys: Vec<&Vec<f64>> = on.iter().filter_map(|k| c.f64.get(k)).collect();
+    let mut group_of = Vec::with_capacity(c.rows);
+    let mut firsts: Vec<usize> = Vec::new();
+    for i in 0..c.rows {
+        let g = firsts
+            .iter()
+            .position(|&j| keys.iter().all(|k| same(k[i], k[j])));
+        group_of.push(g.unwrap_or_else(|| {
+            firsts.push(i);
+            firsts.len() - 1
+        }));
+    }
+    let mut out = Columns {
+        rows: firsts.len(),
+        source: c.source.clone(),
+        ..Columns::default()
+    };
+    for k in on.iter().filter(|k| c.f64.contains_key(*k)) {
+        out.f64
+            .insert(k.clone(), firsts.iter().map(|&j| c.f64[k][j]).collect());
+    }
+    for i in 0..c.rows {
+        for (col, v) in [
+            (names[i].clone(), value[i]),
+            (format!("{}_err", names[i]), error[i]),
+        ] {
+            if on.contains(&col) {
+                bail!(
+                    "join: fit table of {} reports a quantity '{col}', which is also a key",
+                    c.source
+                );
+            }
+            out.f64
+                .entry(col)
+                .or_insert_with(|| vec![f64::NAN; firsts.len()])[group_of[i]] = v;
+        }
+    }
+    Ok(out)
+}
+
 fn same(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-300)
 }
@@ -81,7 +132,7 @@ impl StageKind for Join {
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: JoinParams = typed("join", params)?;
         let l = Columns::read(&inputs_of("join", inputs, &p.left)?)?;
-        let r = Columns::read(&inputs_of("join", inputs, &p.right)?)?;
+        let r = wide(Columns::read(&inputs_of("join", inputs, &p.right)?)?, &p.on)?;
         for (side, c) in [(&p.left, &l), (&p.right, &r)] {
             for k in &p.on {
                 if !c.f64.contains_key(k) {
