@@ -467,6 +467,14 @@ stages:
     kind: join
     gather: [tau_table, oz]
     params: {left: tau_table, right: oz, on: [phi], derive: [{name: xi_over_tau, op: divide, a: xi, b: tau_alpha}]}
+  - name: tau_pl
+    kind: fit
+    gather: [tau_table]
+    params: {form: power_law_offset, data: tau_table, x: phi, y: tau_alpha, y_err: tau_alpha_err, fixed: {phi_c: 0.725}}
+  - name: compare
+    kind: compare
+    gather: [tau_pl]
+    params: {paper: [{quantity: gamma, value: 1.6, tolerance: 100}]}
 "#;
 
 /// Figs 16-18: S4 at tau_alpha pooled over replicas, its q = 0 row equal to chi4
@@ -522,4 +530,13 @@ fn s4_q_zero_is_chi4_and_fit_tables_join_as_columns() {
         assert!(x[i].is_nan() || r[i] == x[i] / ta[i]);
     }
     assert!(x.iter().any(|v| v.is_finite()), "{x:?}");
+    // A divergence 0.005 beyond the last phi (steps of 0.04): the compare verdict
+    // is `unreliable` with the reason, however wide the tolerance.
+    let c = read_compare(&ws.results.join("s4fig")).unwrap();
+    assert_eq!(c[0].verdict, "unreliable", "{}", c[0].reason);
+    assert!(
+        c[0].reason.contains("last data point 0.72"),
+        "{}",
+        c[0].reason
+    );
 }

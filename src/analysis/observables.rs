@@ -261,7 +261,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "s4",
-        describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: t, q, q2, S4, S4_err, n_vectors",
+        describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
         modules: &["analysis/s4", "analysis/lags", "analysis/stats"],
         validate: |v| params::<s4::Params>("s4", v).map(drop),
         compute: |t, v| {

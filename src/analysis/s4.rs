@@ -482,8 +482,9 @@ fn zero_shell(slow: &[f64], n: f64) -> Shells {
     }
 }
 
-/// Table `t, q, q2, S4, S4_err, n_vectors` (q2 = shell mean of q^2); per lag the
-/// first row is q = 0 (chi4 of the whole system), then the shells of q > 0.
+/// Table `L, t, q, q2, S4, S4_err, n_vectors` (L the short side of the box, q2 the
+/// shell mean of q^2); per lag the first row is q = 0 (chi4 of the whole system),
+/// then the shells of q > 0.
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     compute_pooled(&[traj], p)
 }
@@ -503,7 +504,10 @@ pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> 
         }
     }
     let [t, q, s, e, n, q2] = cols;
+    // The box side: xi / L says how close the correlation length is to the box.
+    let side = trajs[0].box_size[0].min(trajs[0].box_size[1]);
     f64_batch(&[
+        ("L", vec![side; t.len()]),
         ("t", t),
         ("q", q),
         ("q2", q2),

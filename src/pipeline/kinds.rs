@@ -102,7 +102,8 @@ impl StageKind for Table {
 }
 
 /// `compare`: one row per paper value: quantity, ours, ours_err, paper, tolerance,
-/// verdict (`agree`, `disagree`, `out_of_reach`, `missing`) and the reason.
+/// verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
+/// says its data cannot support the number, `missing`) and the reason.
 pub struct Compare;
 
 /// One number from the paper to check.
@@ -170,7 +171,9 @@ impl StageKind for Compare {
     }
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: CompareParams = typed("compare", params)?;
-        let mut ours: Vec<(String, f64, f64)> = Vec::new();
+        // (quantity, value, error, note); a note saying `unreliable` (a fit that
+        // ran but whose numbers its data cannot support) makes the verdict.
+        let mut ours: Vec<(String, f64, f64, String)> = Vec::new();
         for a in inputs {
             for b in read_parquet_bytes(a.read("parquet")?)?.0 {
                 let (q, v, e) = (
@@ -178,15 +181,17 @@ impl StageKind for Compare {
                     f64_col(&b, "value", &a.label)?,
                     f64_col(&b, "error", &a.label)?,
                 );
+                let note = str_col(&b, "note", &a.label).ok();
                 for r in 0..b.num_rows() {
-                    ours.push((q.value(r).to_string(), v.value(r), e.value(r)));
+                    let n = note.map_or(String::new(), |n| n.value(r).to_string());
+                    ours.push((q.value(r).to_string(), v.value(r), e.value(r), n));
                 }
             }
         }
         let (mut q, mut o, mut oe, mut pv, mut tol, mut verdict, mut reason) =
             (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
         for pval in &p.paper {
-            let found = ours.iter().find(|(name, _, _)| *name == pval.quantity);
+            let found = ours.iter().find(|(name, ..)| *name == pval.quantity);
             let (v, e, ver, why) = match found {
                 None => (
                     f64::NAN,
@@ -194,7 +199,14 @@ impl StageKind for Compare {
                     "missing",
                     format!("no input reports '{}'", pval.quantity),
                 ),
-                Some(&(_, v, e)) => {
+                Some((_, v, e, note)) if note.contains("unreliable") => {
+                    let why = match p.out_of_reach.get(&pval.quantity) {
+                        Some(reach) => format!("{note}; {reach}"),
+                        None => note.clone(),
+                    };
+                    (*v, *e, "unreliable", why)
+                }
+                Some(&(_, v, e, _)) => {
                     let d = (v - pval.value).abs();
                     if d <= pval.tolerance {
                         (

@@ -44,7 +44,8 @@ pub struct Join;
 
 /// A fit table (rows `quantity, value, error` per group of the key columns `on`)
 /// as one row per group, each quantity a column `NAME` with its error `NAME_err`;
-/// any other table unchanged. This is how a fitted xi joins the data (chi4 vs xi).
+/// plus `unreliable` (1 where the fit's note says so, else 0); any other table
+/// unchanged. This is how a fitted xi joins the data (chi4 vs xi).
 fn wide(c: Columns, on: &[String]) -> Result<Columns> {
     let (Some(names), Some(value), Some(error)) = (
         c.str.get("quantity"),
@@ -73,6 +74,14 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
     for k in on.iter().filter(|k| c.f64.contains_key(*k)) {
         out.f64
             .insert(k.clone(), firsts.iter().map(|&j| c.f64[k][j]).collect());
+    }
+    // 1 where the fit's note says its numbers are unreliable (a plot marks them).
+    if let Some(notes) = c.str.get("note") {
+        let flag = firsts
+            .iter()
+            .map(|&j| f64::from(u8::from(notes[j].contains("unreliable"))))
+            .collect();
+        out.f64.insert("unreliable".into(), flag);
     }
     for i in 0..c.rows {
         for (col, v) in [

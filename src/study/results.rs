@@ -17,7 +17,7 @@ pub struct Compared {
     pub ours_err: f64,
     pub paper: f64,
     pub tolerance: f64,
-    /// `agree`, `disagree`, `out_of_reach` or `missing`.
+    /// `agree`, `disagree`, `out_of_reach`, `unreliable` or `missing`.
     pub verdict: String,
     pub reason: String,
 }

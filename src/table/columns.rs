@@ -142,7 +142,11 @@ const COLUMNS: &[(&str, &str, &str)] = &[
         "as the quantity",
         "largest accepted |ours - paper|",
     ),
-    ("verdict", "", "agree, disagree, out_of_reach or missing"),
+    (
+        "verdict",
+        "",
+        "agree, disagree, out_of_reach, unreliable or missing",
+    ),
     ("reason", "", "why the verdict"),
     ("X", "1", "collapse abscissa sqrt(N)/xi (paper H, Fig. 19)"),
     ("Y", "1", "collapse ordinate chi4P xi^-g"),

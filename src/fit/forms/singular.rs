@@ -51,6 +51,32 @@ pub fn vft(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     fit_singular(&VFT, data, fixed)
 }
 
+/// How a warning that makes the fitted numbers untrustworthy starts (the
+/// `compare` stage turns it into the verdict `unreliable`).
+pub const UNRELIABLE: &str = "unreliable: ";
+
+/// Why a singular point `c` fitted above the data `x` is not resolved by them, if
+/// it is not: it lies closer to the last data point than the last step of the
+/// data, so the divergence could as well sit on that point (Fig. 4 at the ci
+/// profile: phi_c = 0.788 beyond phi = 0.78 with steps of 0.01; the paper's
+/// 0.82 lies 0.015 beyond its last point, three of its steps).
+pub fn on_last_point(x: &[f64], c: f64) -> Option<String> {
+    let mut v: Vec<f64> = x.iter().copied().filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    let [.., before, last] = v[..] else {
+        return None;
+    };
+    let (gap, step) = (c - last, last - before);
+    (gap < step).then(|| {
+        format!(
+            "the divergence lies {gap:.4} beyond the last data point {last}, less than the \
+             last step of the data ({step:.4}): it falls on the last point, and the data \
+             cannot locate it (add points between {last} and the divergence)"
+        )
+    })
+}
+
 fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     data.validate(s.form, 3usize.saturating_sub(fixed.len()))?;
     let (ly, ls) = log_y(s.form, data)?;
@@ -117,7 +143,10 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
         e => e,
     })?;
     let (c, dc) = fit.get(s.names[1]).expect("singular point is a parameter");
-    if c - max < 3.0 * dc {
+    if let Some(why) = on_last_point(data.x, c) {
+        fit.warnings
+            .push(format!("{UNRELIABLE}{} = {c:.4}: {why}", s.names[1]));
+    } else if c - max < 3.0 * dc {
         fit.warnings.push(format!(
             "{} = {c} is within 3 sigma ({dc:.2e}) of max(phi) = {max}: the divergence is not \
              resolved by the data (add points further from it, or fix {})",
@@ -125,4 +154,40 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
         ));
     }
     Ok(fit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// tau = A (phi_c - phi)^-gamma sampled every 0.01 up to 0.78, with 2% errors.
+    fn fit_at(phi_c: f64) -> FitResult {
+        let phi: Vec<f64> = (0..9).map(|i| 0.70 + 0.01 * i as f64).collect();
+        let tau: Vec<f64> = phi.iter().map(|p| 0.4 * (phi_c - p).powf(-1.5)).collect();
+        let sig: Vec<f64> = tau.iter().map(|t| 0.02 * t).collect();
+        power_law_offset(Data::new(&phi, &tau, &sig), &[]).unwrap()
+    }
+
+    /// Fig. 4 at ci/small: a divergence closer to the last point than the data's
+    /// step is flagged unreliable (with why), one three steps beyond it is not.
+    #[test]
+    fn a_divergence_on_the_last_data_point_is_unreliable() {
+        let near = fit_at(0.785);
+        let w = near.warnings.join("; ");
+        assert!(
+            w.starts_with(UNRELIABLE) && w.contains("phi_c") && w.contains("last step"),
+            "{w}"
+        );
+        let far = fit_at(0.81);
+        assert!(
+            far.warnings.iter().all(|w| !w.contains("unreliable")),
+            "{:?}",
+            far.warnings
+        );
+        assert!((far.value("phi_c") - 0.81).abs() < 1e-3);
+        assert!(
+            on_last_point(&[0.78], 0.785).is_none(),
+            "one point has no step"
+        );
+    }
 }
