@@ -412,6 +412,7 @@ fn fit_group(
 /// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
 /// (phi) rescale as X = sqrt(x)/xi, Y = y xi^-g with xi = (phi_c - phi)^-gamma_xi;
 /// g = gamma_chi/gamma_xi and gamma_xi are fitted, phi_c is given or taken from a fit.
+/// With `xi: COLUMN` the measured xi of each curve is used and only g is fitted.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CollapseParams {
@@ -426,7 +427,11 @@ pub struct CollapseParams {
     pub phi_c: Option<f64>,
     #[serde(default)]
     pub phi_c_from: Option<FromQuantity>,
-    /// Search ranges of `g` and `gamma_xi`.
+    /// Column of the data holding a measured xi per curve (e.g. the OZ xi joined
+    /// in): then xi is not a power law of phi, and only `g` is fitted.
+    #[serde(default)]
+    pub xi: Option<String>,
+    /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`).
     pub bounds: BTreeMap<String, (f64, f64)>,
 }
 
@@ -448,18 +453,31 @@ impl StageKind for Collapse {
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CollapseParams = typed("collapse", params)?;
-        if p.phi_c.is_some() == p.phi_c_from.is_some() {
-            bail!(
-                "collapse: give exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
-            );
-        }
-        for k in ["g", "gamma_xi"] {
-            if !p.bounds.contains_key(k) {
+        let keys: &[&str] = if p.xi.is_some() {
+            if p.phi_c.is_some() || p.phi_c_from.is_some() {
+                bail!(
+                    "collapse: with a measured `xi` column, give neither `phi_c` nor `phi_c_from`"
+                );
+            }
+            &["g"]
+        } else {
+            if p.phi_c.is_some() == p.phi_c_from.is_some() {
+                bail!(
+                    "collapse: give exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
+                );
+            }
+            &["g", "gamma_xi"]
+        };
+        for k in keys {
+            if !p.bounds.contains_key(*k) {
                 bail!("collapse: `bounds` needs a search range for '{k}', e.g. {k}: [0.5, 3.0]");
             }
         }
-        if p.bounds.len() != 2 {
-            bail!("collapse: `bounds` takes exactly the keys g and gamma_xi");
+        if p.bounds.len() != keys.len() {
+            bail!(
+                "collapse: `bounds` takes exactly the keys {}",
+                keys.join(" and ")
+            );
         }
         Ok(())
     }
@@ -468,9 +486,21 @@ impl StageKind for Collapse {
         let phi_c = match (&p.phi_c, &p.phi_c_from) {
             (Some(v), _) => *v,
             (None, Some(f)) => f.get("collapse", inputs)?,
-            _ => unreachable!("validated: one of phi_c and phi_c_from"),
+            _ => f64::NAN, // validated: a measured xi column instead
         };
         let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+        // A measured xi per curve (its first row), when given.
+        let measured: Option<BTreeMap<u64, f64>> = match &p.xi {
+            Some(col) => {
+                let (v, b) = (c.col(col)?, c.col(&p.curve_by)?);
+                let mut m = BTreeMap::new();
+                for i in 0..c.rows {
+                    m.entry(b[i].to_bits()).or_insert(v[i]);
+                }
+                Some(m)
+            }
+            None => None,
+        };
         let rows = c.select(&p.filter)?;
         let (xc, yc, ec, bc) = (
             c.col(&p.x)?,
@@ -496,24 +526,52 @@ impl StageKind for Collapse {
             cv.y.push(yc[i]);
             cv.sigma.push(ec[i]);
         }
-        let mut curves: Vec<Curve> = by.into_values().filter(|c| c.x.len() >= 2).collect();
+        let has_xi = |c: &Curve| {
+            measured
+                .as_ref()
+                .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
+        };
+        let mut curves: Vec<Curve> = by
+            .into_values()
+            .filter(|c| c.x.len() >= 2 && has_xi(c))
+            .collect();
         curves.sort_by(|a, b| a.param.total_cmp(&b.param));
-        let bounds = [p.bounds["g"], p.bounds["gamma_xi"]];
+        let fitted: &[&str] = if measured.is_some() {
+            &["g"]
+        } else {
+            &["g", "gamma_xi"]
+        };
+        let bounds: Vec<(f64, f64)> = fitted.iter().map(|k| p.bounds[*k]).collect();
+        let by_xi = measured.clone();
         let rescale = move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
-            let l = xi(phi_c, cv.param, q[1]);
+            let l = match &by_xi {
+                Some(m) => m[&cv.param.to_bits()],
+                None => xi(phi_c, cv.param, q[1]),
+            };
             let f = l.powf(-q[0]);
             (x.sqrt() / l, y * f, s * f)
         };
-        let result = if curves.iter().any(|c| c.param >= phi_c) {
+        let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
             Err(anyhow::anyhow!(
                 "phi_c = {phi_c} is not above every {} of the data",
                 p.curve_by
             ))
         } else {
-            collapse::collapse(&curves, &["g", "gamma_xi"], &bounds, &rescale)
-                .map_err(anyhow::Error::from)
+            collapse::collapse(&curves, fitted, &bounds, &rescale).map_err(anyhow::Error::from)
         };
         let (rows, note, best) = match result {
+            Ok(r) if measured.is_some() => {
+                let (g, dg) = r.get("g").expect("named");
+                (
+                    vec![
+                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                        ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                        ("curves".to_string(), curves.len() as f64, 0.0),
+                    ],
+                    String::new(),
+                    Some([g, f64::NAN]),
+                )
+            }
             Ok(r) => {
                 let (g, dg) = r.get("g").expect("named");
                 let (gx, dgx) = r.get("gamma_xi").expect("named");
@@ -545,9 +603,14 @@ impl StageKind for Collapse {
                 ];
                 let mut rows: Vec<(String, f64, f64)> = names
                     .iter()
+                    .filter(|n| {
+                        measured.is_none() || !n.starts_with("gamma_x") && **n != "gamma_chi"
+                    })
                     .map(|n| (n.to_string(), f64::NAN, f64::NAN))
                     .collect();
-                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+                if measured.is_none() {
+                    rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+                }
                 (rows, msg, None)
             }
         };
