@@ -89,6 +89,24 @@ fn write_specs(root: &Path) {
     std::fs::write(root.join("pipelines/tinyfig.yaml"), PIPELINE).unwrap();
 }
 
+fn options() -> RunOptions {
+    RunOptions {
+        jobs: 2,
+        ..RunOptions::default()
+    }
+}
+
+/// The tiny experiment and pipeline `id` (`spec`) in `dir`, built at ci and checked.
+fn build(dir: &Path, id: &str, spec: &str) -> (Workspace, repro::pipeline::FigureRun) {
+    write_specs(dir);
+    std::fs::write(dir.join(format!("pipelines/{id}.yaml")), spec).unwrap();
+    let ws = Workspace::new(dir);
+    let reg = repro::stages::registry();
+    let run = run_figures(&ws, &reg, &[id.to_string()], "ci", &options()).unwrap();
+    run.check().unwrap();
+    (ws, run)
+}
+
 fn column(path: &Path, name: &str) -> Vec<f64> {
     use arrow_array::{Array, Float64Array};
     let (batches, _) = repro::table::read_parquet(path).unwrap();
@@ -297,16 +315,7 @@ stages:
 #[test]
 fn times_in_units_of_a_measured_tau_alpha() {
     let dir = tempfile::tempdir().unwrap();
-    write_specs(dir.path());
-    std::fs::write(dir.path().join("pipelines/atfig.yaml"), AT_PIPELINE).unwrap();
-    let ws = Workspace::new(dir.path());
-    let opts = RunOptions {
-        jobs: 2,
-        ..RunOptions::default()
-    };
-    let reg = repro::stages::registry();
-    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
-    run.check().unwrap();
+    let (ws, run) = build(dir.path(), "atfig", AT_PIPELINE);
     let table = ws.results.join("atfig/q_at_table.parquet");
     let (phi, x, q) = (
         column(&table, "phi"),
@@ -410,6 +419,7 @@ fn times_in_units_of_a_measured_tau_alpha() {
     );
     assert!((0..t.len()).all(|i| ta[i] > 0.0 && x[i] == t[i] / ta[i]));
     // A key missing from one table is an error naming it.
+    let (reg, opts) = (repro::stages::registry(), options());
     let missing = AT_PIPELINE.replace("on: [phi]", "on: [eps]");
     std::fs::write(dir.path().join("pipelines/atfig.yaml"), missing).unwrap();
     let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
@@ -483,16 +493,7 @@ stages:
 #[test]
 fn s4_q_zero_is_chi4_and_fit_tables_join_as_columns() {
     let dir = tempfile::tempdir().unwrap();
-    write_specs(dir.path());
-    std::fs::write(dir.path().join("pipelines/s4fig.yaml"), S4_PIPELINE).unwrap();
-    let ws = Workspace::new(dir.path());
-    let opts = RunOptions {
-        jobs: 2,
-        ..RunOptions::default()
-    };
-    let reg = repro::stages::registry();
-    let run = run_figures(&ws, &reg, &["s4fig".to_string()], "ci", &opts).unwrap();
-    run.check().unwrap();
+    let (ws, _) = build(dir.path(), "s4fig", S4_PIPELINE);
     let joined = ws.results.join("s4fig/s4_vs_chi4.parquet");
     let (phi, q, s4, chi4, n) = (
         column(&joined, "phi"),
