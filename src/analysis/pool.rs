@@ -102,7 +102,8 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
         {
             continue; // Recomputed next to its base column.
         }
-        let ints: Option<Vec<&Int64Array>> = cols.iter().map(|c| c.as_any().downcast_ref()).collect();
+        let ints: Option<Vec<&Int64Array>> =
+            cols.iter().map(|c| c.as_any().downcast_ref()).collect();
         if let (Some(ints), true, false) = (ints, is_count(name), same) {
             // Counts stay integers: summed over replicas.
             let sum: Vec<i64> = (0..first.num_rows())
@@ -165,7 +166,10 @@ mod tests {
         let (b, e) = seed_to_seed(&[rep(3, 0.4), rep(5, 0.6)]).unwrap();
         assert_eq!(e, Errors::SeedToSeed { replicas: 2 });
         let n = b.column_by_name("n_origins").unwrap();
-        let n = n.as_any().downcast_ref::<Int64Array>().expect("still Int64");
+        let n = n
+            .as_any()
+            .downcast_ref::<Int64Array>()
+            .expect("still Int64");
         assert_eq!(n.value(0), 8);
         let q = b.column_by_name("Q").unwrap();
         let q = q.as_any().downcast_ref::<Float64Array>().unwrap();
