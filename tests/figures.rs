@@ -429,12 +429,24 @@ fn times_in_units_of_a_measured_tau_alpha() {
         "{report}"
     );
 
+    // Past what the run-length rule records: refused when planning, located.
     let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [1000]");
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), bad).unwrap();
+    let e = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts)
+        .err()
+        .expect("refused at plan time");
+    let e = format!("{e:#}");
+    assert!(
+        e.contains("1000 tau_alpha") && e.contains("raise `lag_max_tau`"),
+        "{e}"
+    );
+    // Before the first recorded lag of the measured tau_alpha: refused when running.
+    let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [0.001]");
     std::fs::write(dir.path().join("pipelines/atfig.yaml"), bad).unwrap();
     let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
     let report = run.report.failure_report(&run.graph);
     assert!(
-        report.contains("1000 tau_alpha") && report.contains("refusing to extrapolate"),
+        report.contains("0.001 tau_alpha") && report.contains("refusing to extrapolate"),
         "{report}"
     );
 }

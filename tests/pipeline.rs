@@ -667,6 +667,109 @@ fn cli_list_why_and_dry_run_explain_the_cache() {
     );
 }
 
+/// An experiment with the run-length rule, lags up to 3 tau_guess.
+const SHORT_RUNS: &str = "description: short runs\nkind: simulate\nseed: 3\nparams:\n  eps: 0.9\n  tau_guess: {A: 0.76, B: 0.148, phi0: 0.83}\n  relax_tau: 5\n  origins: 2\n  spacing_tau: 2\n  lag_min: 0.05\n  lag_max_tau: 3\n  lags_per_decade: 4\nprofiles:\n  ci:\n    grid:\n      phi: [0.6, 0.7]\n    replicas: 1\n    params: {n: 100}\n";
+
+const AT_FIG: &str = "description: Q at multiples of tau_alpha\nstages:\n  - name: tau\n    kind: tau_alpha\n    gather: [short]\n    by: [phi]\n  - name: q_at\n    kind: overlap\n    gather: [short, tau]\n    by: [phi]\n    params:\n      time_unit: {from: tau}\n      at: [1, 8.5]\n";
+
+#[test]
+fn a_time_past_the_run_length_rule_is_refused_at_plan_time() {
+    let d = fixture();
+    std::fs::write(d.path().join("experiments/short.yaml"), SHORT_RUNS).unwrap();
+    std::fs::write(d.path().join("pipelines/atfig.yaml"), AT_FIG).unwrap();
+    let e = Workspace::new(d.path())
+        .plan(&reg(), &ids(&["atfig"]), "ci")
+        .expect_err("8.5 tau_alpha lies past lag_max_tau = 3");
+    let e = format!("{e:#}");
+    // Located at `at` in the pipeline, naming the experiment's file and the key to raise.
+    assert_located(
+        &e,
+        "atfig.yaml",
+        13,
+        &[
+            "8.5 tau_alpha",
+            "'short'",
+            "lag_max_tau = 3",
+            "experiments/short.yaml",
+            "raise `lag_max_tau`",
+        ],
+    );
+    // `--dry-run` plans, so it says the same before anything runs.
+    let o = Command::new(env!("CARGO_BIN_EXE_repro"))
+        .args(["figure", "atfig", "--profile", "ci", "--dry-run", "--root"])
+        .arg(d.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("raise `lag_max_tau`"),
+        "{err}"
+    );
+    // Within reach, the plan goes through.
+    edit(
+        d.path(),
+        "experiments/short.yaml",
+        "lag_max_tau: 3",
+        "lag_max_tau: 10",
+    );
+    Workspace::new(d.path())
+        .plan(&reg(), &ids(&["atfig"]), "ci")
+        .unwrap();
+}
+
+/// docs/spec.md lists every registered kind, every observable with each parameter
+/// its typed `Params` accepts, every fit form and every `fit` parameter.
+#[test]
+fn the_spec_documents_every_kind_parameter_and_form() {
+    use repro::pipeline::registry::param_keys;
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/spec.md"))
+        .unwrap();
+    let reg = repro::stages::registry();
+    for k in reg.names() {
+        assert!(
+            doc.contains(&format!("`{k}`")),
+            "docs/spec.md never names kind `{k}`"
+        );
+    }
+    for o in repro::analysis::observables::OBSERVABLES {
+        let keys = param_keys(o.validate);
+        assert!(!keys.is_empty(), "no parameters read for {}", o.name);
+        let name = format!("`{}`", o.name);
+        let row = doc
+            .lines()
+            .find(|l| l.starts_with("| ") && l.split('|').nth(1).is_some_and(|c| c.contains(&name)))
+            .unwrap_or_else(|| panic!("docs/spec.md has no parameter row for {name}"));
+        for k in keys {
+            assert!(
+                row.contains(&format!("`{k}`")),
+                "{name}: `{k}` missing from {row}"
+            );
+        }
+    }
+    for f in repro::fit::catalogue::FORMS {
+        assert!(
+            doc.contains(&format!("| `{}` |", f.name)),
+            "form {}",
+            f.name
+        );
+    }
+    let fit = doc
+        .split("### `fit`")
+        .nth(1)
+        .unwrap()
+        .split("\n### ")
+        .next()
+        .unwrap();
+    let keys = param_keys(|v| reg.get("fit").unwrap().validate(v));
+    assert!(keys.contains(&"ranges".to_string()), "{keys:?}");
+    for k in keys {
+        assert!(
+            fit.contains(&format!("`{k}")),
+            "fit parameter `{k}` undocumented"
+        );
+    }
+}
+
 // ---- store integrity, side records, publishing, params errors, progress ---------
 
 fn provenance(root: &Path, fig: &str) -> serde_json::Value {
@@ -916,6 +1019,7 @@ fn publishing_replaces_only_the_files_the_pipeline_owns() {
     assert_eq!(
         owned,
         vec![
+            "README.md",
             "chart.svg",
             "compare.parquet",
             "fit.parquet",
@@ -929,6 +1033,50 @@ fn publishing_replaces_only_the_files_the_pipeline_owns() {
         "figtoy",
     );
     assert_located(&e, "figtoy.yaml", 2, &["`stages` is empty"]);
+}
+
+#[test]
+fn the_results_readme_says_what_every_published_table_is() {
+    let d = fixture();
+    run(d.path(), &["figtoy"]);
+    let dir = d.path().join("results/figtoy");
+    let readme = std::fs::read_to_string(dir.join("README.md")).unwrap();
+    // Every published file has its section; the YAML's `describes:` names the
+    // paper's figure; the kind says what made it; columns carry unit and meaning.
+    for f in [
+        "overlap_table.parquet",
+        "compare.parquet",
+        "fit.parquet",
+        "figure.svg",
+    ] {
+        assert!(
+            readme.contains(&format!("## `{f}`")),
+            "{f} missing:\n{readme}"
+        );
+    }
+    assert!(
+        readme.contains("In the paper: toy paper, Fig. 1: the symbols."),
+        "{readme}"
+    );
+    assert!(
+        readme.contains("Stage `overlap_table` (kind `table`): concatenate"),
+        "{readme}"
+    );
+    assert!(
+        readme.contains("From `overlap` (kind `toy_analyse`)"),
+        "{readme}"
+    );
+    assert!(
+        readme.contains("| phi | Float64 | 1 | packing fraction (area fraction of the disks) |"),
+        "{readme}"
+    );
+    // Counts and indices are integers in published tables.
+    assert!(readme.contains("| replica | Int64 |"), "{readme}");
+    let (b, _) = repro::table::read_parquet(&dir.join("overlap_table.parquet")).unwrap();
+    let replica = b[0].column_by_name("replica").unwrap();
+    assert_eq!(replica.data_type(), &arrow_schema::DataType::Int64);
+    // The README is owned like the tables: listed in the manifest, rewritten only on change.
+    assert!(provenance(d.path(), "figtoy")["published"]["README.md"].is_string());
 }
 
 #[test]

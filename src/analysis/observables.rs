@@ -312,6 +312,8 @@ pub static OBSERVABLES: &[Observable] = &[
         validate: |v| params::<clusters::Params>("clusters", v).map(drop),
         compute: |t, v| {
             let b = concat("clusters", t, v, clusters::compute)?;
+            // Nc is a particle count here (a bin centre in `cluster_sizes`).
+            let b = crate::table::integer_columns(&b, |c| c == "Nc")?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
         },
     },

@@ -9,7 +9,7 @@
 use std::sync::Arc;
 
 use anyhow::{Result, bail};
-use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch};
+use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, RecordBatch};
 
 /// How a table's error columns (`X_err`) were estimated; written into its metadata.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,13 +59,11 @@ fn floats(c: &ArrayRef) -> Option<&Float64Array> {
     c.as_any().downcast_ref::<Float64Array>()
 }
 
-/// Whether a column counts something (summed over replicas, not averaged).
-fn is_count(name: &str) -> bool {
-    name.starts_with("n_")
-}
+use crate::table::columns::is_count;
 
 /// Pool per-replica tables of identical shape. A column equal in every replica is a
-/// key (t, species, bin centres, ...) and kept; a count column (`n_*`) is summed; any
+/// key (t, species, bin centres, ...) and kept; a count column (`n_*`, float or
+/// integer) is summed; any
 /// other float column X becomes its mean over replicas, followed by `X_err`, the
 /// standard error of that mean (the replicas' own `X_err` columns are replaced).
 /// One table is returned as it is.
@@ -104,6 +102,16 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
         {
             continue; // Recomputed next to its base column.
         }
+        let ints: Option<Vec<&Int64Array>> =
+            cols.iter().map(|c| c.as_any().downcast_ref()).collect();
+        if let (Some(ints), true, false) = (ints, is_count(name), same) {
+            // Counts stay integers: summed over replicas.
+            let sum: Vec<i64> = (0..first.num_rows())
+                .map(|j| ints.iter().map(|v| v.value(j)).sum())
+                .collect();
+            out.push((name.clone(), Arc::new(Int64Array::from(sum))));
+            continue;
+        }
         let vals: Option<Vec<&Float64Array>> = cols.iter().map(|c| floats(c)).collect();
         let (Some(vals), false) = (vals, same) else {
             if !same {
@@ -139,4 +147,32 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
             replicas: tables.len(),
         },
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_stay_integers_and_are_summed() {
+        let rep = |n: i64, q: f64| {
+            RecordBatch::try_from_iter([
+                ("t", Arc::new(Float64Array::from(vec![1.0])) as ArrayRef),
+                ("Q", Arc::new(Float64Array::from(vec![q])) as ArrayRef),
+                ("n_origins", Arc::new(Int64Array::from(vec![n])) as ArrayRef),
+            ])
+            .unwrap()
+        };
+        let (b, e) = seed_to_seed(&[rep(3, 0.4), rep(5, 0.6)]).unwrap();
+        assert_eq!(e, Errors::SeedToSeed { replicas: 2 });
+        let n = b.column_by_name("n_origins").unwrap();
+        let n = n
+            .as_any()
+            .downcast_ref::<Int64Array>()
+            .expect("still Int64");
+        assert_eq!(n.value(0), 8);
+        let q = b.column_by_name("Q").unwrap();
+        let q = q.as_any().downcast_ref::<Float64Array>().unwrap();
+        assert!((q.value(0) - 0.5).abs() < 1e-15);
+    }
 }

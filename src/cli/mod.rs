@@ -46,7 +46,15 @@ fn kinds() {
     for name in reg.names() {
         let k = reg.get(&name).expect("listed kind");
         println!("{name}\n    {}", k.describe());
-        for line in k.details().lines() {
+        let details = k.details();
+        // Kinds without their own listing: the keys their typed parameters accept.
+        if !details.starts_with("parameters:") {
+            let keys = crate::pipeline::registry::param_keys(|v| k.validate(v));
+            if !keys.is_empty() {
+                println!("    parameters: {}", keys.join(", "));
+            }
+        }
+        for line in details.lines() {
             println!("    {line}");
         }
         println!("    code: src/{}", k.modules().join(", src/"));

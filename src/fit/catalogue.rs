@@ -17,8 +17,9 @@ pub struct Form {
     pub log_x: bool,
     /// Fit to data with some parameters fixed.
     pub fit: fn(Data<'_>, Fixed<'_>) -> Result<FitResult, FitError>,
-    /// y at x for the fitted parameters (in `params` order).
-    pub model: fn(&[f64], f64) -> f64,
+    /// y at x for the fitted parameters (in `params` order) and the values held
+    /// fixed in the fit (the Gaussian's lag `t`): the fitted curve.
+    pub model: fn(&[f64], Fixed<'_>, f64) -> f64,
 }
 
 /// The value of `name` among `fixed`.
@@ -33,7 +34,7 @@ pub static FORMS: &[Form] = &[
         params: &["A", "phi_c", "gamma"],
         log_x: false,
         fit: forms::power_law_offset,
-        model: |p, x| p[0] * (p[1] - x).powf(-p[2]),
+        model: |p, _, x| p[0] * (p[1] - x).powf(-p[2]),
     },
     Form {
         name: "vft",
@@ -41,7 +42,7 @@ pub static FORMS: &[Form] = &[
         params: &["A", "phi_0", "B"],
         log_x: false,
         fit: forms::vft,
-        model: |p, x| p[0] * (p[2] / (p[1] - x)).exp(),
+        model: |p, _, x| p[0] * (p[2] / (p[1] - x)).exp(),
     },
     Form {
         name: "power_law",
@@ -49,7 +50,7 @@ pub static FORMS: &[Form] = &[
         params: &["A", "exponent"],
         log_x: true,
         fit: |d, _| forms::power_law(d),
-        model: |p, x| p[0] * x.powf(p[1]),
+        model: |p, _, x| p[0] * x.powf(p[1]),
     },
     Form {
         name: "line",
@@ -57,7 +58,7 @@ pub static FORMS: &[Form] = &[
         params: &["intercept", "slope"],
         log_x: false,
         fit: |d, _| linear::line(d),
-        model: |p, x| p[0] + p[1] * x,
+        model: |p, _, x| p[0] + p[1] * x,
     },
     Form {
         name: "proportional",
@@ -65,7 +66,7 @@ pub static FORMS: &[Form] = &[
         params: &["slope"],
         log_x: false,
         fit: |d, _| linear::proportional(d),
-        model: |p, x| p[0] * x,
+        model: |p, _, x| p[0] * x,
     },
     Form {
         name: "q_relaxation",
@@ -73,7 +74,7 @@ pub static FORMS: &[Form] = &[
         params: &["tau0", "beta"],
         log_x: true,
         fit: forms::q_relaxation,
-        model: |p, t| 1.0 / ((t / p[0]).powf(p[1]) + 1.0),
+        model: |p, _, t| 1.0 / ((t / p[0]).powf(p[1]) + 1.0),
     },
     Form {
         name: "oz",
@@ -81,7 +82,7 @@ pub static FORMS: &[Form] = &[
         params: &["chi0", "xi"],
         log_x: true,
         fit: forms::oz,
-        model: |p, q| p[0] / (1.0 + (q * p[1]).powi(2)),
+        model: |p, _, q| p[0] / (1.0 + (q * p[1]).powi(2)),
     },
     Form {
         name: "oz_quartic",
@@ -89,7 +90,7 @@ pub static FORMS: &[Form] = &[
         params: &["chi0", "xi", "A"],
         log_x: true,
         fit: forms::oz_quartic,
-        model: |p, q| {
+        model: |p, _, q| {
             let u = (q * p[1]).powi(2);
             p[0] / (1.0 + u + p[2] * p[2] * u * u)
         },
@@ -106,7 +107,10 @@ pub static FORMS: &[Form] = &[
                 what: "needs the lag t: give `fixed: {t: ...}` or group by a column `t`".into(),
             }),
         },
-        model: |_, _| f64::NAN,
+        model: |p, fixed, x| {
+            let w = 4.0 * p[0] * fixed_value(fixed, "t").unwrap_or(f64::NAN);
+            (-x * x / w).exp() / (std::f64::consts::PI * w).sqrt()
+        },
     },
     Form {
         name: "exponential_tail",
@@ -114,7 +118,7 @@ pub static FORMS: &[Form] = &[
         params: &["A", "x0"],
         log_x: false,
         fit: forms::exponential_tail,
-        model: |p, x| p[0] * (-x.abs() / p[1]).exp(),
+        model: |p, _, x| p[0] * (-x.abs() / p[1]).exp(),
     },
     Form {
         name: "log_normal",
@@ -122,7 +126,7 @@ pub static FORMS: &[Form] = &[
         params: &["P0", "N_sigma", "sigma"],
         log_x: true,
         fit: forms::log_normal,
-        model: |p, n| p[0] * (-(n / p[1]).ln().powi(2) / (2.0 * p[2] * p[2])).exp(),
+        model: |p, _, n| p[0] * (-(n / p[1]).ln().powi(2) / (2.0 * p[2] * p[2])).exp(),
     },
 ];
 
@@ -190,7 +194,7 @@ mod tests {
         for (name, truth, x) in cases {
             let f = find(name).unwrap();
             assert_eq!(f.params.len(), truth.len(), "{name}");
-            let y: Vec<f64> = x.iter().map(|&v| (f.model)(truth, v)).collect();
+            let y: Vec<f64> = x.iter().map(|&v| (f.model)(truth, &[], v)).collect();
             let s: Vec<f64> = y.iter().map(|v| 1e-3 * v.abs().max(1e-6)).collect();
             let r = (f.fit)(Data::new(x, &y, &s), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
             for (k, (p, t)) in r.params.iter().zip(truth.iter()).enumerate() {
@@ -206,8 +210,20 @@ mod tests {
                 "{name}"
             );
         }
-        let e =
-            (find("gaussian").unwrap().fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
+        // The Gaussian needs its lag t, in the fit and in the curve it draws.
+        let g = find("gaussian").unwrap();
+        let fixed: &[(&str, f64)] = &[("t", 2.5)];
+        let x: Vec<f64> = (0..41).map(|i| -4.0 + 0.2 * i as f64).collect();
+        let y: Vec<f64> = x.iter().map(|&v| (g.model)(&[0.3], fixed, v)).collect();
+        let s: Vec<f64> = y.iter().map(|v| 1e-3 * v.max(1e-6)).collect();
+        let r = (g.fit)(Data::new(&x, &y, &s), fixed).unwrap();
+        assert!((r.params[0] - 0.3).abs() < 1e-4, "D = {}", r.params[0]);
+        // Normalised: the curve integrates to one over dx.
+        let area: f64 = (0..4001)
+            .map(|i| 0.01 * (g.model)(&[0.3], fixed, -20.0 + 0.01 * i as f64))
+            .sum();
+        assert!((area - 1.0).abs() < 1e-6, "area {area}");
+        let e = (g.fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
         assert!(e.to_string().contains("lag t"), "{e}");
         assert!(find("gausian").err().unwrap().contains("log_normal"));
     }

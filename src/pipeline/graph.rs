@@ -85,6 +85,8 @@ pub struct FigurePlan {
     pub nodes: Vec<usize>,
     /// (stage name, node) copied into `results/ID/`.
     pub publish: Vec<(String, usize)>,
+    /// Stage name -> what it is in the paper (the stages' `describes:`).
+    pub describes: BTreeMap<String, String>,
 }
 
 /// The stage graph of one or more figures at one profile.
@@ -321,8 +323,12 @@ impl Planner<'_> {
         let order = topological(file, spec, &by_name, self.cat)?;
         let mut instances: HashMap<String, Vec<usize>> = HashMap::new();
         let mut publish = Vec::new();
+        let mut describes = BTreeMap::new();
         for s in order {
             let st = &s.value;
+            if let Some(d) = &st.describes {
+                describes.insert(st.name.clone(), d.clone());
+            }
             let sources: Vec<String> = match (&st.map, &st.gather) {
                 (Some(m), None) => vec![m.clone()],
                 (None, Some(g)) if !g.is_empty() => g.clone(),
@@ -456,7 +462,8 @@ impl Planner<'_> {
                     }
                     let mut p = params.clone();
                     p.extend(sw.clone());
-                    self.validate(&st.kind, &p).map_err(|e| {
+                    let profile = self.graph.profile.clone();
+                    let locate = |e: anyhow::Error| {
                         let i = spec
                             .stages
                             .iter()
@@ -468,14 +475,22 @@ impl Planner<'_> {
                             file,
                             &[
                                 at(&["stages", &i, "sweep"]),
-                                at(&["stages", &i, "profiles", &self.graph.profile]),
+                                at(&["stages", &i, "profiles", &profile]),
                                 at(&["stages", &i, "params"]),
                             ],
                             mark(s),
                             &format!("stage '{}' (kind {})", st.name, st.kind),
                             &e,
                         )
-                    })?;
+                    };
+                    self.validate(&st.kind, &p).map_err(locate)?;
+                    // What the stage asks of its planned inputs (lags long enough, ...).
+                    let upstream: Vec<&Node> =
+                        inputs.iter().map(|&n| &self.graph.nodes[n]).collect();
+                    self.reg
+                        .get(&st.kind)?
+                        .check_inputs(&Value::Object(p.clone()), &upstream)
+                        .map_err(locate)?;
                     let sid = StageId {
                         figure: Some(id.to_string()),
                         stage: st.name.clone(),
@@ -516,6 +531,7 @@ impl Planner<'_> {
             description: spec.description.clone(),
             nodes: (0..needed.len()).filter(|&i| needed[i]).collect(),
             publish,
+            describes,
         })
     }
 }

@@ -61,6 +61,91 @@ fn previous_manifest(dir: &Path) -> Vec<String> {
 }
 
 const PROVENANCE: &str = "provenance.json";
+const README: &str = "README.md";
+
+/// The top of `README.md`: the figure, how it was made, the units.
+fn readme_head(graph: &Graph, fig: &FigurePlan) -> String {
+    format!(
+        "# {id} ({profile} profile)\n\n{desc}\n\n\
+         Made by `repro figure {id} --profile {profile}` from `pipelines/{id}.yaml`; every \
+         stage's parameters, inputs, seed and code fingerprint are in `provenance.json`.\n\n\
+         Units: lengths in r1 (the small-disk radius), times in r1 sqrt(m1/T), wavenumbers \
+         in 1/r1, \"1\" dimensionless. A column `X_err` is the 1-sigma error of `X`. Paper H: \
+         dynamical heterogeneities of driven bidisperse inelastic hard disks; paper I: an \
+         intruder pulled through a dense granular fluid.\n",
+        id = fig.id,
+        profile = graph.profile,
+        desc = fig.description
+    )
+}
+
+/// The section of `README.md` for one published stage: what it is in the paper,
+/// what made it from what, and every Parquet file's columns with unit and meaning.
+fn readme_stage(
+    graph: &Graph,
+    fig: &FigurePlan,
+    reg: &Registry,
+    stage: &str,
+    node: usize,
+    files: &[(String, Vec<u8>)],
+) -> String {
+    let n = &graph.nodes[node];
+    let explain =
+        |kind: &str, params: &Value| reg.get(kind).map(|k| k.explain(params)).unwrap_or_default();
+    let names: Vec<String> = files.iter().map(|(f, _)| format!("`{f}`")).collect();
+    let mut s = format!("\n## {}\n\n", names.join(", "));
+    if let Some(d) = fig.describes.get(stage) {
+        s.push_str(&format!("In the paper: {d}.\n\n"));
+    }
+    s.push_str(&format!(
+        "Stage `{stage}` (kind `{}`): {}.\n",
+        n.kind,
+        explain(&n.kind, &n.params)
+    ));
+    // Each upstream stage once (a gather reads many instances of one stage).
+    let mut seen = std::collections::BTreeSet::new();
+    for &i in &n.inputs {
+        let up = &graph.nodes[i];
+        // A node shared between figures: its name in this figure's pipeline.
+        let name = up
+            .ids
+            .iter()
+            .find(|id| id.figure.as_deref() == Some(fig.id.as_str()))
+            .or(up.ids.first())
+            .map_or(up.label(), |id| id.stage.as_str());
+        if seen.insert(name.to_string()) {
+            s.push_str(&format!(
+                "From `{name}` (kind `{}`): {}.\n",
+                up.kind,
+                explain(&up.kind, &up.params)
+            ));
+        }
+    }
+    for (file, bytes) in files {
+        if !file.ends_with(".parquet") {
+            continue;
+        }
+        let Ok((batches, kv)) = crate::table::read_parquet_bytes(bytes.clone()) else {
+            continue;
+        };
+        s.push_str(&format!("\n`{file}`"));
+        if let Some((_, e)) = kv.iter().find(|(k, _)| k == "errors") {
+            s.push_str(&format!(" (errors: {e})"));
+        }
+        s.push_str(":\n\n| column | type | unit | meaning |\n|---|---|---|---|\n");
+        if let Some(b) = batches.first() {
+            for f in b.schema().fields() {
+                let (unit, what) = crate::table::columns::describe(f.name()).unwrap_or_default();
+                s.push_str(&format!(
+                    "| {} | {} | {unit} | {what} |\n",
+                    f.name(),
+                    f.data_type()
+                ));
+            }
+        }
+    }
+    s
+}
 
 /// Publish one figure whose stages all succeeded into `results_dir/ID/`: each
 /// published stage's files as `<stage>.<ext>` (checked against their hash on the
@@ -79,18 +164,26 @@ pub fn publish(
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let before = previous_manifest(&dir);
     let mut published: BTreeMap<String, String> = BTreeMap::new();
+    let mut readme = readme_head(graph, fig);
     for (stage, node) in &fig.publish {
         let e = report.results[node]
             .entry
             .as_ref()
             .context("published stage has no result")?;
+        let mut files = Vec::new();
         for (ext, hash) in &e.files {
             let name = format!("{stage}.{ext}");
             let label = graph.nodes[*node].label();
-            write_if_changed(&dir.join(&name), &store.read_verified(hash, label)?)?;
-            published.insert(name, hash.clone());
+            let bytes = store.read_verified(hash, label)?;
+            write_if_changed(&dir.join(&name), &bytes)?;
+            published.insert(name.clone(), hash.clone());
+            files.push((name, bytes));
         }
+        readme.push_str(&readme_stage(graph, fig, reg, stage, *node, &files));
     }
+    let readme = readme.into_bytes();
+    write_if_changed(&dir.join(README), &readme)?;
+    published.insert(README.into(), blake3::hash(&readme).to_hex().to_string());
     let stages: Vec<Value> = fig
         .nodes
         .iter()

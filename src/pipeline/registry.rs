@@ -14,7 +14,7 @@ use serde::de::DeserializeOwned;
 use serde_json::Value;
 
 use super::canon::{ParamError, Point, hash_fields};
-use super::graph::StageId;
+use super::graph::{Node, StageId};
 
 /// One kind of stage (simulate, chi4, table, fit, plot, ...).
 pub trait StageKind: Send + Sync {
@@ -24,6 +24,11 @@ pub trait StageKind: Send + Sync {
     fn describe(&self) -> &str {
         ""
     }
+    /// What one stage of this kind produces with these parameters, for
+    /// `results/ID/README.md` (a fit names its form and equation).
+    fn explain(&self, _params: &Value) -> String {
+        self.describe().to_string()
+    }
     /// More lines for `repro kinds`: parameters, forms, an example.
     fn details(&self) -> String {
         String::new()
@@ -32,6 +37,13 @@ pub trait StageKind: Send + Sync {
     fn modules(&self) -> &[&str];
     /// Check parameters before anything runs; the error says what is valid.
     fn validate(&self, params: &Value) -> Result<()>;
+    /// Check at plan time what these parameters ask of the planned inputs (their
+    /// kinds and parameters), e.g. that an experiment's lags reach a requested
+    /// time; before anything runs, so `--dry-run` reports it too. A
+    /// [`ParamError`] is located at its key in the stage's YAML.
+    fn check_inputs(&self, _params: &Value, _inputs: &[&Node]) -> Result<()> {
+        Ok(())
+    }
     /// Produce this stage's files from its parameters and inputs.
     fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output>;
 }
@@ -65,6 +77,28 @@ pub fn typed<T: DeserializeOwned>(kind: &str, params: &Value) -> Result<T> {
         }
         .into()
     })
+}
+
+/// The keys typed parameters accept, in declaration order, read from the
+/// validation itself: serde names every field when it refuses an unknown one
+/// (`#[serde(deny_unknown_fields)]`), so `repro kinds` and the docs test list what
+/// the code accepts rather than a hand-kept copy.
+pub fn param_keys(validate: impl Fn(&Value) -> Result<()>) -> Vec<String> {
+    let probe = serde_json::json!({ "__not_a_parameter__": 0 });
+    let Err(e) = validate(&probe) else {
+        return Vec::new();
+    };
+    let message = format!("{e:#}");
+    message
+        .split_once("expected ")
+        .map(|(_, rest)| {
+            rest.split('`')
+                .skip(1)
+                .step_by(2)
+                .map(str::to_string)
+                .collect()
+        })
+        .unwrap_or_default()
 }
 
 /// The files a stage produced, named by extension (`parquet`, `svg`, `png`, ...).

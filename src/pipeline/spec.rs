@@ -144,6 +144,10 @@ pub struct StageSpec {
     /// exactly one instance).
     #[serde(default)]
     pub publish: Option<bool>,
+    /// What the published table is in the paper (e.g. "paper H, Fig. 4: the
+    /// symbols"), for `results/ID/README.md`; not part of any cache key.
+    #[serde(default)]
+    pub describes: Option<String>,
 }
 
 /// Every spec under a root: experiments and pipelines by name, with their files.

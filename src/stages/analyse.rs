@@ -20,6 +20,8 @@ use serde_json::Value;
 use super::tables::{Columns, inputs_of, trajectories};
 use crate::analysis::lags;
 use crate::analysis::observables::{OBSERVABLES, Observable};
+use crate::pipeline::canon::param_error;
+use crate::pipeline::graph::Node;
 use crate::pipeline::{Artifact, Output, Registry, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
 use crate::traj::Trajectory;
@@ -128,6 +130,38 @@ fn with_scaled_t(b: RecordBatch, unit: f64, column: &str) -> Result<RecordBatch>
     Ok(RecordBatch::try_from_iter(cols)?)
 }
 
+/// Plan-time check of `at`: the largest requested multiple of the measured time
+/// must lie within the lags that each gathered simulation's run-length rule
+/// records, in units of its estimate tau_guess (the measured time is not known
+/// before the run; the run-time refusal against it stays the last guard).
+fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[&Node]) -> Result<()> {
+    let Some(want) = at.iter().copied().reduce(f64::max) else {
+        return Ok(());
+    };
+    let ruled = inputs
+        .iter()
+        .filter(|n| n.kind == "simulate" && n.params.get("lag_max_tau").is_some());
+    for n in ruled {
+        let (rule, cfg) = super::simulate::config(&n.params)?;
+        let reach = cfg.schedule.lags.last().copied().unwrap_or(0.0) / rule.tau_guess.at(cfg.phi);
+        if want > reach * (1.0 + 1e-9) {
+            let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());
+            let file = n.origin.0.display();
+            return Err(param_error(
+                &["at"],
+                format!(
+                    "`at` asks for {want} {col} (measured by stage '{from}'), but the lags of experiment '{experiment}' reach only {reach:.3} tau_guess at phi = {phi} (its run-length rule: lag_max_tau = {lmt}); raise `lag_max_tau` in {file} to at least {want}, or ask for less",
+                    col = u.column,
+                    from = u.from,
+                    phi = cfg.phi,
+                    lmt = rule.lag_max_tau,
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// What every analysis stage runs besides its observable's own modules.
 const COMMON: &[&str] = &[
     "analysis/observables",
@@ -153,6 +187,13 @@ impl Analyse {
     }
 }
 
+impl Analyse {
+    /// The observable's own parameters, from its typed parameters.
+    pub fn params(&self) -> Vec<String> {
+        crate::pipeline::registry::param_keys(self.obs.validate)
+    }
+}
+
 /// Register one analysis kind per observable.
 pub fn register(r: &mut Registry) {
     for o in OBSERVABLES {
@@ -169,10 +210,11 @@ impl StageKind for Analyse {
     }
     fn details(&self) -> String {
         format!(
-            "parameters: those of the observable (docs/analysis.md), plus\n  \
+            "parameters: {keys} (docs/analysis.md), and of every analysis\n  \
              time_unit: {{from: STAGE, column: tau_alpha}}  adds t_over_tau_alpha\n  \
              at: [0.01, 1, 8.5]  lags at these multiples of the measured time (at.parquet)\n\
              example: {{name: {n}, kind: {n}, gather: [eps09], by: [phi]}}",
+            keys = self.params().join(", "),
             n = self.obs.name
         )
     }
@@ -189,6 +231,13 @@ impl StageKind for Analyse {
                 .with_context(|| format!("`at` sets the lags of analysis `{}`", self.obs.name));
         }
         (self.obs.validate)(&obs)
+    }
+    fn check_inputs(&self, params: &Value, inputs: &[&Node]) -> Result<()> {
+        let s = split(self.obs.name, params)?;
+        let (Some(at), Some(u)) = (&s.at, &s.unit) else {
+            return Ok(());
+        };
+        covered_by_run_length(at, u, inputs)
     }
     fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let name = self.obs.name;

@@ -13,10 +13,11 @@ use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::tables::{Columns, Where, inputs_of, pick};
+use super::tables::{Columns, Where, inputs_of, pick, source_stages};
 use crate::fit::catalogue::{self, Form};
 use crate::fit::collapse::{self, Curve};
-use crate::fit::{Data, FitResult, linear};
+use crate::fit::ranges::range_scan;
+use crate::fit::{Data, FitError, FitResult, linear};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
@@ -65,8 +66,10 @@ pub struct FitParams {
     /// slope is reported as the relative change of y over the x range) or `value`
     /// (no fit: the mean of y over the selected rows, e.g. tau_alpha at one phi).
     pub form: String,
-    /// Stage whose table holds the data.
-    pub data: String,
+    /// Stage whose table holds the data; may be left out when every input comes
+    /// from one stage (`gather: [tau_table]`).
+    #[serde(default)]
+    pub data: Option<String>,
     /// Which of its files (default `parquet`).
     #[serde(default = "default_file")]
     pub file: String,
@@ -91,6 +94,11 @@ pub struct FitParams {
     /// lag of a `gaussian` fit.
     #[serde(default)]
     pub group_by: Vec<String>,
+    /// Range scan (paper H, Appendix, Fig. 25): the same fit again over each
+    /// window `[x_min, x_max]` of x; `ranges.parquet` holds every window's fit and
+    /// the main table gains `<parameter>_range_std`, its spread between windows.
+    #[serde(default)]
+    pub ranges: Vec<(f64, f64)>,
 }
 
 /// The named form of `p`, or None for `drift` (a line) and `value` (no fit).
@@ -109,8 +117,17 @@ fn fit_form(
     s: &[f64],
     fixed: &[(&str, f64)],
 ) -> Result<FitResult> {
-    let d = Data::new(x, y, s);
-    let f = match named_form(p)? {
+    Ok(fit_data(p, named_form(p)?, Data::new(x, y, s), fixed)?)
+}
+
+/// The fit of `form` (a line for `drift`), errors scaled to the scatter without `y_err`.
+fn fit_data(
+    p: &FitParams,
+    form: Option<&Form>,
+    d: Data<'_>,
+    fixed: &[(&str, f64)],
+) -> Result<FitResult, FitError> {
+    let f = match form {
         Some(form) => (form.fit)(d, fixed)?,
         None => linear::line(d)?,
     };
@@ -203,8 +220,12 @@ impl StageKind for Fit {
         "fit"
     }
     fn details(&self) -> String {
-        let mut s = String::from(
-            "parameters: form, data (stage), file, x, y, y_err, where, fixed, fixed_from, rename, curve, group_by\nforms:\n",
+        let keys =
+            crate::pipeline::registry::param_keys(|v| typed::<FitParams>("fit", v).map(drop));
+        let mut s = format!(
+            "parameters: {}\n  \
+             ranges: [[x_min, x_max], ...]  the same fit over each window (ranges.parquet) and <parameter>_range_std\nforms:\n",
+            keys.join(", ")
         );
         for f in catalogue::FORMS {
             s.push_str(&format!(
@@ -224,17 +245,65 @@ impl StageKind for Fit {
     fn describe(&self) -> &str {
         "fit a named form to two columns of a table, one fit per group; a failed fit is a row of NaN with its reason in `note`"
     }
+    fn explain(&self, params: &Value) -> String {
+        let Ok(p) = typed::<FitParams>("fit", params) else {
+            return self.describe().to_string();
+        };
+        let form = match named_form(&p) {
+            Ok(Some(f)) => format!("`{}`: {}", f.name, f.describe),
+            _ if p.form == "value" => "`value`: the mean of y over the selected rows".into(),
+            _ => "`drift`: relative change of y over the x range, from a line".into(),
+        };
+        let table = match &p.data {
+            Some(d) => format!("the table of stage `{d}`"),
+            None => "the gathered table".into(),
+        };
+        let mut s = format!(
+            "fit of {} against {} ({table}) to the form {form}; one row per fitted quantity (quantity, value, error, note; a failed fit has NaN values and its reason in note)",
+            p.y, p.x
+        );
+        if !p.group_by.is_empty() {
+            s.push_str(&format!(", one fit per {}", p.group_by.join(", ")));
+        }
+        if p.curve.is_some() {
+            s.push_str(&format!(
+                "; curve.parquet: the fitted curve, columns {} and {}",
+                p.x, p.y
+            ));
+        }
+        if !p.ranges.is_empty() {
+            s.push_str(&format!(
+                "; ranges.parquet: the same fit over each of the {} windows [x_min, x_max] of {} (paper H, Appendix), whose spread is <parameter>_range_std",
+                p.ranges.len(),
+                p.x
+            ));
+        }
+        s
+    }
     fn modules(&self) -> &[&str] {
         MODULES
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: FitParams = typed("fit", params)?;
-        named_form(&p).map_err(|e| anyhow::anyhow!("fit: {e}"))?;
+        let form = named_form(&p).map_err(|e| anyhow::anyhow!("fit: {e}"))?;
+        if !p.ranges.is_empty() && form.is_none() {
+            bail!(
+                "fit: `ranges` scans the fit of a named form; form `{}` fits none",
+                p.form
+            );
+        }
+        for (lo, hi) in &p.ranges {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                bail!(
+                    "fit: the range [{lo}, {hi}] of `ranges` is empty; give [x_min, x_max] with x_min < x_max"
+                );
+            }
+        }
         Ok(())
     }
     fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: FitParams = typed("fit", params)?;
-        let c = Columns::read_file(&inputs_of("fit", inputs, &p.data)?, &p.file)?;
+        let c = Columns::read_file(&data_inputs(&p, inputs)?, &p.file)?;
         let rows = c.select(&p.filter)?;
         let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();
         for (name, from) in &p.fixed_from {
@@ -250,7 +319,7 @@ impl StageKind for Fit {
         if groups.is_empty() {
             groups.insert(vec![], vec![]);
         }
-        let (mut tables, mut curves) = (Vec::new(), Vec::new());
+        let (mut tables, mut curves, mut scans) = (Vec::new(), Vec::new(), Vec::new());
         for (key, rows) in groups {
             let group: Vec<(String, f64)> = p
                 .group_by
@@ -260,16 +329,49 @@ impl StageKind for Fit {
                 .collect();
             let mut fixed = fixed.clone();
             fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
-            let (t, curve) = fit_group(ctx, &p, &c, &rows, &group, &fixed)?;
+            let (t, curve, scan) = fit_group(ctx, &p, &c, &rows, &group, &fixed)?;
             tables.push(t);
             curves.extend(curve);
+            scans.extend(scan);
         }
         let mut out = Output::single("parquet", to_parquet_bytes(&tables, &[])?);
         if p.curve.is_some() {
             out = out.with("curve.parquet", to_parquet_bytes(&curves, &[])?);
         }
+        if !scans.is_empty() {
+            out = out.with("ranges.parquet", to_parquet_bytes(&scans, &[])?);
+        }
         Ok(out)
     }
+}
+
+/// The inputs holding the data: from stage `data`, or every input when they all
+/// come from one stage and `data` is left out.
+fn data_inputs<'a>(p: &FitParams, inputs: &'a [Artifact]) -> Result<Vec<&'a Artifact>> {
+    if let Some(d) = &p.data {
+        return inputs_of("fit", inputs, d);
+    }
+    // One source stage: a name every input shares (a node shared between
+    // figures carries each figure's name for it).
+    let common = inputs
+        .iter()
+        .map(|a| {
+            a.ids
+                .iter()
+                .map(|id| id.stage.as_str())
+                .collect::<std::collections::BTreeSet<_>>()
+        })
+        .reduce(|a, b| &a & &b)
+        .unwrap_or_default();
+    if common.is_empty() {
+        let stages = source_stages(inputs);
+        bail!(
+            "fit: the inputs come from {} stages ({}); say which holds the data with `data: STAGE`",
+            stages.len(),
+            stages.join(", ")
+        );
+    }
+    Ok(inputs.iter().collect())
 }
 
 /// A float as a sortable key (groups of equal values, in ascending order).
@@ -282,8 +384,8 @@ fn unordered(k: u64) -> f64 {
     f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
 }
 
-/// One fit of `p` over `rows` of `c`: its quantity table and its curve (named
-/// after the fitted columns, with the group's values).
+/// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
+/// the fitted columns, with the group's values) and its range scan, if asked for.
 fn fit_group(
     ctx: &StageCtx,
     p: &FitParams,
@@ -291,7 +393,7 @@ fn fit_group(
     rows: &[usize],
     group: &[(String, f64)],
     fixed: &[(String, f64)],
-) -> Result<(RecordBatch, Option<RecordBatch>)> {
+) -> Result<(RecordBatch, Option<RecordBatch>, Vec<RecordBatch>)> {
     let x = pick(c.col(&p.x)?, rows);
     let y = pick(c.col(&p.y)?, rows);
     let s = match &p.y_err {
@@ -319,6 +421,7 @@ fn fit_group(
         return Ok((
             quantity_table(group, &[(name("value"), mean, err)], note)?,
             None,
+            Vec::new(),
         ));
     }
     let form = named_form(p)?;
@@ -360,7 +463,10 @@ fn fit_group(
                     })
                     .collect();
                 let ys: Vec<f64> = match form {
-                    Some(fm) => xs.iter().map(|&v| (fm.model)(&f.params, v)).collect(),
+                    Some(fm) => xs
+                        .iter()
+                        .map(|&v| (fm.model)(&f.params, &fixed_ref, v))
+                        .collect(),
                     None => xs.iter().map(|&v| f.params[0] + f.params[1] * v).collect(),
                 };
                 (xs, ys)
@@ -386,6 +492,19 @@ fn fit_group(
             )
         }
     };
+    let (mut rows, mut note) = (rows, note);
+    let scan = match form {
+        Some(fm) if !p.ranges.is_empty() => scan_ranges(
+            p,
+            fm,
+            Data::new(&x, &y, &s),
+            &fixed_ref,
+            group,
+            &mut rows,
+            &mut note,
+        )?,
+        _ => Vec::new(),
+    };
     let table = quantity_table(group, &rows, &note)?;
     let curve = match curve {
         Some((cx, cy)) => {
@@ -406,7 +525,73 @@ fn fit_group(
         }
         None => None,
     };
-    Ok((table, curve))
+    Ok((table, curve, scan))
+}
+
+/// The range scan of one group: every window's fit as rows of `ranges.parquet`
+/// (the group's values, x_min, x_max, n_points, then quantity, value, error,
+/// note), and each parameter's spread between windows appended to `rows` as
+/// `<parameter>_range_std` (NaN, with the reason in `note`, when no window fits).
+fn scan_ranges(
+    p: &FitParams,
+    form: &Form,
+    data: Data<'_>,
+    fixed: &[(&str, f64)],
+    group: &[(String, f64)],
+    rows: &mut Vec<(String, f64, f64)>,
+    note: &mut String,
+) -> Result<Vec<RecordBatch>> {
+    let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
+    let fit = |d: Data<'_>| fit_data(p, Some(form), d, fixed);
+    let scan = range_scan(data, &p.ranges, &fit);
+    let mut windows = Vec::new();
+    for (k, &(lo, hi)) in p.ranges.iter().enumerate() {
+        let (points, result) = match &scan {
+            Ok(s) => (s.fits[k].points, s.fits[k].result.clone()),
+            Err(_) => (data.window(lo, hi).0.len(), Err("no window fits".into())),
+        };
+        let mut key = group.to_vec();
+        key.extend([
+            ("x_min".to_string(), lo),
+            ("x_max".to_string(), hi),
+            ("n_points".to_string(), points as f64),
+        ]);
+        let (quantities, why) = match result {
+            Ok(f) => (
+                f.names
+                    .iter()
+                    .zip(f.params.iter().zip(&f.stderr))
+                    .map(|(n, (v, e))| (name(n), *v, *e))
+                    .collect::<Vec<_>>(),
+                f.warnings.join("; "),
+            ),
+            Err(e) => (
+                form.params
+                    .iter()
+                    .map(|n| (name(n), f64::NAN, f64::NAN))
+                    .collect(),
+                format!("fit failed: {e}"),
+            ),
+        };
+        windows.push(quantity_table(&key, &quantities, &why)?);
+    }
+    match &scan {
+        Ok(s) => rows.extend(
+            s.spread
+                .iter()
+                .map(|sp| (format!("{}_range_std", name(&sp.name)), sp.std, f64::NAN)),
+        ),
+        Err(e) => {
+            rows.extend(
+                form.params
+                    .iter()
+                    .map(|n| (format!("{}_range_std", name(n)), f64::NAN, f64::NAN)),
+            );
+            let sep = if note.is_empty() { "" } else { "; " };
+            note.push_str(&format!("{sep}range scan failed: {e}"));
+        }
+    }
+    Ok(windows)
 }
 
 /// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
@@ -638,5 +823,179 @@ impl StageKind for Collapse {
             to_parquet_bytes(&[quantity_table(&[], &rows, &note)?], &[])?,
         )
         .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::graph::StageId;
+    use arrow_array::Array;
+
+    /// A table artifact of stage `stage`, written under `dir`.
+    fn artifact(dir: &std::path::Path, stage: &str, b: RecordBatch) -> Artifact {
+        let path = dir.join(format!("{stage}.parquet"));
+        std::fs::write(&path, to_parquet_bytes(&[b], &[]).unwrap()).unwrap();
+        Artifact {
+            label: stage.into(),
+            ids: vec![StageId {
+                figure: Some("test".into()),
+                stage: stage.into(),
+                point: Default::default(),
+            }],
+            kind: "table".into(),
+            point: Default::default(),
+            params: Value::Null,
+            digest: String::new(),
+            files: [("parquet".to_string(), (String::new(), path))].into(),
+        }
+    }
+
+    fn yaml(s: &str) -> Value {
+        serde_saphyr::from_str(s).unwrap()
+    }
+
+    /// (quantity, value) pairs and notes of one table.
+    fn quantities(bytes: &[u8]) -> (Vec<(String, f64)>, Vec<String>) {
+        let (b, _) = crate::table::read_parquet_bytes(bytes.to_vec()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        let q = c.str["quantity"].clone();
+        let v = c.col("value").unwrap().to_vec();
+        (q.into_iter().zip(v).collect(), c.str["note"].clone())
+    }
+
+    /// The range scan from YAML: an exact power law gives the same exponent in
+    /// every window (spread ~ 0); a crossover from x^-1 to x^-2 at x = 10 gives
+    /// each window its own slope (spread ~ 0.5); a window too narrow to fit is a
+    /// row with its reason, not a failed stage.
+    #[test]
+    fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
+        let dir = tempfile::tempdir().unwrap();
+        let x: Vec<f64> = (0..41).map(|i| 10f64.powf(i as f64 / 20.0)).collect();
+        let exact: Vec<f64> = x.iter().map(|v| 3.0 * v.powf(-1.5)).collect();
+        let cross: Vec<f64> = x
+            .iter()
+            .map(|&v| if v <= 10.0 { 1.0 / v } else { 10.0 / (v * v) })
+            .collect();
+        let err: Vec<f64> = exact.iter().map(|y| 1e-3 * y).collect();
+        let b = f64_batch(&[
+            ("x", x.clone()),
+            ("exact", exact),
+            ("cross", cross.clone()),
+            ("cross_err", cross.iter().map(|y| 1e-3 * y).collect()),
+            ("exact_err", err),
+        ])
+        .unwrap();
+        let inputs = [artifact(dir.path(), "data", b)];
+        let ctx = StageCtx::new(0, "scan".into(), None);
+        let run = |y: &str| {
+            let params = yaml(&format!(
+                "{{form: power_law, data: data, x: x, y: {y}, y_err: {y}_err, \
+                 rename: {{exponent: slope}}, ranges: [[1, 10], [10, 100], [1, 100], [50, 50.5]]}}"
+            ));
+            Fit.validate(&params).unwrap();
+            Fit.run(&ctx, &params, &inputs).unwrap()
+        };
+        let std_of = |out: &Output| {
+            let (q, _) = quantities(&out.files["parquet"]);
+            q.iter().find(|(n, _)| n == "slope_range_std").unwrap().1
+        };
+        let exact = run("exact");
+        assert!(std_of(&exact) < 1e-6, "{}", std_of(&exact));
+        let cross = run("cross");
+        // Slopes -1, -2 and about -1.5 over the three windows that fit: std 0.5.
+        assert!((std_of(&cross) - 0.5).abs() < 0.05, "{}", std_of(&cross));
+        let (b, _) =
+            crate::table::read_parquet_bytes(cross.files["ranges.parquet"].clone()).unwrap();
+        let n = b[0].column_by_name("n_points").unwrap();
+        assert_eq!(n.data_type(), &arrow_schema::DataType::Int64);
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(c.rows, 4 * 2, "four windows, two parameters each");
+        let (lo, hi, np) = (
+            c.col("x_min").unwrap(),
+            c.col("x_max").unwrap(),
+            c.col("n_points").unwrap(),
+        );
+        let (q, v, note) = (&c.str["quantity"], c.col("value").unwrap(), &c.str["note"]);
+        let i = (0..c.rows)
+            .find(|&i| lo[i] == 1.0 && hi[i] == 10.0 && q[i] == "slope")
+            .unwrap();
+        assert!(
+            (v[i] + 1.0).abs() < 1e-6 && np[i] == 21.0,
+            "{} {}",
+            v[i],
+            np[i]
+        );
+        let narrow: Vec<usize> = (0..c.rows).filter(|&i| lo[i] == 50.0).collect();
+        assert_eq!(narrow.len(), 2);
+        for i in narrow {
+            assert!(v[i].is_nan() && np[i] == 1.0, "{} {}", v[i], np[i]);
+            assert!(note[i].starts_with("fit failed:"), "{}", note[i]);
+        }
+        // Bad windows and scans of no form are refused before anything runs.
+        let e = Fit
+            .validate(&yaml(
+                "{form: power_law, data: d, x: t, y: Q, ranges: [[2, 1]]}",
+            ))
+            .unwrap_err();
+        assert!(e.to_string().contains("[2, 1]"), "{e}");
+        let e = Fit
+            .validate(&yaml(
+                "{form: value, data: d, x: t, y: Q, ranges: [[1, 2]]}",
+            ))
+            .unwrap_err();
+        assert!(e.to_string().contains("`ranges`"), "{e}");
+        let e = Fit
+            .validate(&yaml(
+                "{form: power_law, data: d, x: t, y: Q, ranges: [1, 2]}",
+            ))
+            .unwrap_err();
+        // Located: the planner points at `ranges` in the YAML.
+        let at = &e
+            .downcast_ref::<crate::pipeline::canon::ParamError>()
+            .unwrap()
+            .path;
+        assert_eq!(at.first().map(String::as_str), Some("ranges"), "{e:#}");
+    }
+
+    /// The Gaussian draws its curve at its group's lag t, named after the columns.
+    #[test]
+    fn the_gaussian_draws_its_fitted_curve() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = 0.4;
+        let mut cols: [Vec<f64>; 3] = Default::default();
+        for t in [1.0, 4.0] {
+            for i in 0..61 {
+                let dx = -6.0 + 0.2 * i as f64;
+                let w = 4.0 * d * t;
+                cols[0].push(t);
+                cols[1].push(dx);
+                cols[2].push((-dx * dx / w).exp() / (std::f64::consts::PI * w).sqrt());
+            }
+        }
+        let [t, dx, p] = cols;
+        let b = f64_batch(&[("t", t), ("dx", dx), ("P", p)]).unwrap();
+        let inputs = [artifact(dir.path(), "vh", b)];
+        let ctx = StageCtx::new(0, "gauss".into(), None);
+        let params =
+            yaml("{form: gaussian, data: vh, x: dx, y: P, group_by: [t], curve: {points: 11}}");
+        let out = Fit.run(&ctx, &params, &inputs).unwrap();
+        let (c, _) = crate::table::read_parquet_bytes(out.files["curve.parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&c[0]).unwrap();
+        let (t, dx, p) = (
+            c.col("t").unwrap(),
+            c.col("dx").unwrap(),
+            c.col("P").unwrap(),
+        );
+        assert_eq!(p.len(), 22);
+        for i in 0..p.len() {
+            let w = 4.0 * d * t[i];
+            let truth = (-dx[i] * dx[i] / w).exp() / (std::f64::consts::PI * w).sqrt();
+            assert!(
+                (p[i] - truth).abs() < 1e-6 * truth.max(1e-3),
+                "{i}: {} vs {truth}",
+                p[i]
+            );
+        }
     }
 }

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Context, Result, bail};
-use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
+use arrow_array::{Array, Float64Array, Int64Array, RecordBatch, StringArray};
 use serde::Deserialize;
 
 use crate::pipeline::Artifact;
@@ -31,16 +31,22 @@ pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> 
         .collect()
 }
 
+/// The names of the stages the inputs come from, sorted, each once.
+pub fn source_stages(inputs: &[Artifact]) -> Vec<&str> {
+    let mut v: Vec<&str> = inputs
+        .iter()
+        .flat_map(|a| a.ids.iter().map(|id| id.stage.as_str()))
+        .collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
 /// The inputs produced by stage `name`.
 pub fn inputs_of<'a>(kind: &str, inputs: &'a [Artifact], name: &str) -> Result<Vec<&'a Artifact>> {
     let v: Vec<&Artifact> = inputs.iter().filter(|a| a.is_from(name)).collect();
     if v.is_empty() {
-        let mut known: Vec<&str> = inputs
-            .iter()
-            .flat_map(|a| a.ids.iter().map(|id| id.stage.as_str()))
-            .collect();
-        known.sort_unstable();
-        known.dedup();
+        let known = source_stages(inputs);
         bail!(
             "{kind}: no input comes from stage '{name}'; the inputs come from: {} (add it to `gather`)",
             known.join(", ")
@@ -49,7 +55,8 @@ pub fn inputs_of<'a>(kind: &str, inputs: &'a [Artifact], name: &str) -> Result<V
     Ok(v)
 }
 
-/// A table of float columns (string columns are kept separately).
+/// A table of numeric columns as floats (integer counts included; string columns
+/// are kept separately).
 #[derive(Clone, Debug, Default)]
 pub struct Columns {
     pub rows: usize,
@@ -118,6 +125,17 @@ impl Columns {
                 let v = self.f64.entry(f.name().clone()).or_default();
                 v.resize(self.rows, f64::NAN);
                 v.extend((0..x.len()).map(|i| if x.is_null(i) { f64::NAN } else { x.value(i) }));
+            } else if let Some(x) = col.as_any().downcast_ref::<Int64Array>() {
+                // Counts and indices: read as numbers like any other column.
+                let v = self.f64.entry(f.name().clone()).or_default();
+                v.resize(self.rows, f64::NAN);
+                v.extend((0..x.len()).map(|i| {
+                    if x.is_null(i) {
+                        f64::NAN
+                    } else {
+                        x.value(i) as f64
+                    }
+                }));
             } else if let Some(x) = col.as_any().downcast_ref::<StringArray>() {
                 let v = self.str.entry(f.name().clone()).or_default();
                 v.resize(self.rows, String::new());

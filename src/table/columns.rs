@@ -148,9 +148,29 @@ const COLUMNS: &[(&str, &str, &str)] = &[
         "agree, disagree, out_of_reach, unreliable or missing",
     ),
     ("reason", "", "why the verdict"),
+    (
+        "x_min",
+        "as the fitted x",
+        "lower end of the fit window of a range scan",
+    ),
+    (
+        "x_max",
+        "as the fitted x",
+        "upper end of the fit window of a range scan",
+    ),
+    ("n_points", "1", "number of data points in the fit window"),
     ("X", "1", "collapse abscissa sqrt(N)/xi (paper H, Fig. 19)"),
     ("Y", "1", "collapse ordinate chi4P xi^-g"),
 ];
+
+/// Whether column `name` counts something (origins, vectors, clusters, blocks,
+/// pairs, replicas): such columns are published as Int64 (see
+/// [`super::counts_as_integers`]) and summed, not averaged, when replicas are
+/// pooled. `Nc` is not among them by name: it is a count in cluster tables but a
+/// bin centre in size distributions, so the cluster observable types it itself.
+pub fn is_count(name: &str) -> bool {
+    name.starts_with("n_") || matches!(name, "replicas" | "replica" | "counts" | "count")
+}
 
 /// Unit and description of column `name`, if it is a known column (or `X_err` /
 /// `t_over_X` of one).

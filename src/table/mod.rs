@@ -32,9 +32,69 @@ pub fn writer_properties() -> Result<WriterPropertiesBuilder> {
         .set_created_by(format!("repro {}", env!("CARGO_PKG_VERSION"))))
 }
 
+/// `b` with the float columns `which` selects as Int64: every value must be a whole
+/// number (NaN becomes null), else an error naming the column and the value.
+pub fn integer_columns(b: &RecordBatch, which: impl Fn(&str) -> bool) -> Result<RecordBatch> {
+    use arrow_array::{Array, ArrayRef, Float64Array, Int64Array};
+    let mut changed = false;
+    let mut cols: Vec<(String, ArrayRef)> = Vec::with_capacity(b.num_columns());
+    for (f, c) in b.schema().fields().iter().zip(b.columns()) {
+        let name = f.name();
+        let col = match c.as_any().downcast_ref::<Float64Array>() {
+            Some(x) if which(name) => {
+                let mut v: Vec<Option<i64>> = Vec::with_capacity(x.len());
+                for i in 0..x.len() {
+                    let y = x.value(i);
+                    v.push(if x.is_null(i) || y.is_nan() {
+                        None
+                    } else if y.fract() == 0.0 && y.abs() < 9.0e15 {
+                        Some(y as i64)
+                    } else {
+                        anyhow::bail!(
+                            "column '{name}' counts something but row {i} holds {y}, not a whole number"
+                        )
+                    });
+                }
+                changed = true;
+                Arc::new(Int64Array::from(v)) as ArrayRef
+            }
+            _ => c.clone(),
+        };
+        cols.push((name.clone(), col));
+    }
+    if !changed {
+        return Ok(b.clone());
+    }
+    let schema = Arc::new(arrow_schema::Schema::new_with_metadata(
+        cols.iter()
+            .zip(b.schema().fields())
+            .map(|((n, c), f)| {
+                arrow_schema::Field::new(n, c.data_type().clone(), true)
+                    .with_metadata(f.metadata().clone())
+            })
+            .collect::<Vec<_>>(),
+        b.schema().metadata().clone(),
+    ));
+    Ok(RecordBatch::try_new(
+        schema,
+        cols.into_iter().map(|(_, c)| c).collect(),
+    )?)
+}
+
+/// `b` with its count columns ([`columns::is_count`]) as Int64.
+pub fn counts_as_integers(b: &RecordBatch) -> Result<RecordBatch> {
+    integer_columns(b, columns::is_count)
+}
+
 /// Serialise `batches` (all with the same schema) to Parquet bytes with zstd.
 /// Deterministic: the same batches give the same bytes (no timestamps written).
+/// Count columns ([`columns::is_count`]) are written as Int64.
 pub fn to_parquet_bytes(batches: &[RecordBatch], metadata: &[(&str, &str)]) -> Result<Vec<u8>> {
+    let batches = batches
+        .iter()
+        .map(counts_as_integers)
+        .collect::<Result<Vec<_>>>()?;
+    let batches = batches.as_slice();
     let first = batches.first().context("no record batch to write")?;
     let mut props = writer_properties()?;
     let kv: Vec<parquet::file::metadata::KeyValue> = metadata
@@ -195,6 +255,31 @@ mod tests {
             to_parquet_bytes(std::slice::from_ref(&b), &[]).unwrap(),
             to_parquet_bytes(&[b], &[]).unwrap()
         );
+    }
+
+    #[test]
+    fn counts_are_written_as_integers() {
+        use arrow_array::Int64Array;
+        let b = f64_batch(&[
+            ("t", vec![0.5, 1.0]),
+            ("n_origins", vec![12.0, f64::NAN]),
+            ("replicas", vec![3.0, 3.0]),
+        ])
+        .unwrap();
+        let (back, _) = read_parquet_bytes(to_parquet_bytes(&[b], &[]).unwrap()).unwrap();
+        let s = back[0].schema();
+        assert_eq!(s.field(0).data_type(), &arrow_schema::DataType::Float64);
+        let n = back[0]
+            .column(1)
+            .as_any()
+            .downcast_ref::<Int64Array>()
+            .expect("n_origins is Int64");
+        assert_eq!((n.value(0), n.is_null(1)), (12, true));
+        assert!(back[0].column(2).as_any().is::<Int64Array>());
+        // A count that is not a whole number is a bug upstream, not rounded away.
+        let bad = f64_batch(&[("n_vectors", vec![2.5])]).unwrap();
+        let e = format!("{:#}", to_parquet_bytes(&[bad], &[]).unwrap_err());
+        assert!(e.contains("n_vectors") && e.contains("2.5"), "{e}");
     }
 
     #[test]
