@@ -181,7 +181,7 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
     Ok(GoldenFile {
         profile: r.profile.to_string(),
         how: format!(
-            "`repro regress --record --profile {} --seeds {}`: the figures built with experiment '{}' at each master seed; \
+            "`repro regress --record --profile {} --seeds {}`: the figures built at each master seed (every experiment; parameters of '{}'); \
              band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|); not gated: {}",
             r.profile,
             r.seeds
