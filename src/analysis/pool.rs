@@ -140,3 +140,116 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
         },
     ))
 }
+
+/// Column `X_jkK` beside a column X: its value with replica K left out.
+pub fn jk_column(name: &str, k: usize) -> String {
+    format!("{name}_jk{k}")
+}
+
+/// Column naming the independent unit (the set of replicas) a row was computed
+/// from: rows of one analysis instance share it, rows of different state points
+/// do not. A jackknife over replicas leaves a replica out of one unit at a time.
+pub const JK_UNIT: &str = "jk_unit";
+
+/// At most this many replicas get leave-one-out columns (each costs one more
+/// analysis of the other replicas).
+pub const MAX_JK_REPLICAS: usize = 8;
+
+/// `full` with the replica jackknife columns: `jk_unit` = `unit`, and for every
+/// float column X that some sample changes (not keys such as t or N, not `X_err`,
+/// not counts `n_*`), `X_jk0 .. X_jk{R-1}` from `samples[k]`, the same table
+/// computed with replica k left out. None when a sample's shape differs from
+/// `full` (e.g. a replica realising other lags): then no fit can use them.
+pub fn with_replica_samples(
+    full: &RecordBatch,
+    samples: &[RecordBatch],
+    unit: f64,
+) -> Result<Option<RecordBatch>> {
+    let schema = full.schema();
+    if samples
+        .iter()
+        .any(|s| s.schema() != schema || s.num_rows() != full.num_rows())
+    {
+        return Ok(None);
+    }
+    let mut out: Vec<(String, ArrayRef)> = schema
+        .fields()
+        .iter()
+        .zip(full.columns())
+        .map(|(f, c)| (f.name().clone(), c.clone()))
+        .collect();
+    out.push((
+        JK_UNIT.into(),
+        Arc::new(Float64Array::from(vec![unit; full.num_rows()])),
+    ));
+    for (i, f) in schema.fields().iter().enumerate() {
+        let name = f.name();
+        if name.ends_with("_err") || is_count(name) || floats(full.column(i)).is_none() {
+            continue;
+        }
+        if samples
+            .iter()
+            .all(|s| s.column(i).to_data() == full.column(i).to_data())
+        {
+            continue; // A key: the same whatever replica is left out.
+        }
+        for (k, s) in samples.iter().enumerate() {
+            out.push((jk_column(name, k), s.column(i).clone()));
+        }
+    }
+    Ok(Some(RecordBatch::try_from_iter(out)?))
+}
+
+/// Delete-one jackknife over replicas of a number computed from rows of several
+/// independent units (state points): `fit(x, y)` is recomputed with the rows of
+/// one unit replaced by their values with one replica left out (`x_jk[k]`,
+/// `y_jk[k]`; x unchanged when `x_jk` is empty), and the variance is the sum over
+/// units of (R - 1)/R sum_k (theta_k - mean)^2. Returns the standard error of
+/// every component of `fit`'s result and the number of refits; None when a unit
+/// has fewer than two complete samples or a refit fails.
+pub fn replica_jackknife(
+    units: &[f64],
+    x: &[f64],
+    y: &[f64],
+    x_jk: &[Vec<f64>],
+    y_jk: &[Vec<f64>],
+    mut fit: impl FnMut(&[f64], &[f64]) -> Option<Vec<f64>>,
+) -> Option<(Vec<f64>, usize)> {
+    let mut distinct: Vec<f64> = units.to_vec();
+    distinct.sort_by(f64::total_cmp);
+    distinct.dedup();
+    let mut var: Vec<f64> = Vec::new();
+    let mut refits = 0;
+    for u in distinct {
+        let rows: Vec<usize> = (0..units.len()).filter(|&i| units[i] == u).collect();
+        let mut thetas: Vec<Vec<f64>> = Vec::new();
+        for k in 0..y_jk.len() {
+            let complete = rows.iter().all(|&i| {
+                y_jk[k][i].is_finite() && (x_jk.is_empty() || x_jk[k][i].is_finite())
+            });
+            if !complete {
+                continue;
+            }
+            let (mut xs, mut ys) = (x.to_vec(), y.to_vec());
+            for &i in &rows {
+                ys[i] = y_jk[k][i];
+                if !x_jk.is_empty() {
+                    xs[i] = x_jk[k][i];
+                }
+            }
+            thetas.push(fit(&xs, &ys)?);
+            refits += 1;
+        }
+        let r = thetas.len();
+        if r < 2 {
+            return None;
+        }
+        var.resize(thetas[0].len(), 0.0);
+        for (p, v) in var.iter_mut().enumerate() {
+            let mean = thetas.iter().map(|t| t[p]).sum::<f64>() / r as f64;
+            let ss: f64 = thetas.iter().map(|t| (t[p] - mean).powi(2)).sum();
+            *v += (r as f64 - 1.0) / r as f64 * ss;
+        }
+    }
+    Some((var.into_iter().map(f64::sqrt).collect(), refits))
+}
