@@ -224,9 +224,9 @@ pub fn replica_jackknife(
         let rows: Vec<usize> = (0..units.len()).filter(|&i| units[i] == u).collect();
         let mut thetas: Vec<Vec<f64>> = Vec::new();
         for k in 0..y_jk.len() {
-            let complete = rows.iter().all(|&i| {
-                y_jk[k][i].is_finite() && (x_jk.is_empty() || x_jk[k][i].is_finite())
-            });
+            let complete = rows
+                .iter()
+                .all(|&i| y_jk[k][i].is_finite() && (x_jk.is_empty() || x_jk[k][i].is_finite()));
             if !complete {
                 continue;
             }

@@ -176,7 +176,12 @@ fn replica_samples(
     for (file, b) in tables.extra.iter_mut() {
         let extra: Option<Vec<RecordBatch>> = samples
             .iter()
-            .map(|s| s.extra.iter().find(|(f, _)| f == file).map(|(_, t)| t.clone()))
+            .map(|s| {
+                s.extra
+                    .iter()
+                    .find(|(f, _)| f == file)
+                    .map(|(_, t)| t.clone())
+            })
             .collect();
         if let Some(extra) = extra
             && let Some(with) = pool::with_replica_samples(b, &extra, unit)?

@@ -14,9 +14,9 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of, pick};
+use crate::analysis::pool;
 use crate::fit::catalogue::{self, Form};
 use crate::fit::collapse::{self, Curve};
-use crate::analysis::pool;
 use crate::fit::{Data, FitResult, linear};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
@@ -371,7 +371,13 @@ fn fit_group(
                     let fill = s.iter().cloned().fold(0.0, f64::max);
                     let sk: Vec<f64> = keep
                         .iter()
-                        .map(|&i| if rs[i].is_finite() && rs[i] > 0.0 { rs[i] } else { fill })
+                        .map(|&i| {
+                            if rs[i].is_finite() && rs[i] > 0.0 {
+                                rs[i]
+                            } else {
+                                fill
+                            }
+                        })
                         .collect();
                     let g = fit_form(p, &xk, &yk, &sk, &fixed_ref).ok()?;
                     Some(reported(p, &xk, &yk, &g))
@@ -647,8 +653,12 @@ impl StageKind for Collapse {
                 if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
                     let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
                         let cv = collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all);
-                        let r = collapse::collapse(&cv, &["g", "gamma_xi"], &bounds, &rescale).ok()?;
-                        let (g, gx) = (r.get("g")?.0, r.get("gamma_xi")?.0);
+                        let b = collapse::best(&cv, &["g", "gamma_xi"], &bounds, &rescale)
+                            .map_err(|e| {
+                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                            })
+                            .ok()?;
+                        let (g, gx) = (b[0], b[1]);
                         Some(vec![g, gx, g * gx])
                     };
                     match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {

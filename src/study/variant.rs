@@ -137,11 +137,20 @@ mod tests {
         apply(&mut cat, "e", "ci", &v).unwrap();
         assert_eq!(cat.experiments["e"].1.seed, 11);
         assert_eq!(cat.experiments["f"].1.seed, 11);
-        assert_eq!(cat.experiments["e"].1.profiles["ci"].value.replicas.value, 4);
-        assert_eq!(cat.experiments["f"].1.profiles["ci"].value.replicas.value, 2);
+        assert_eq!(
+            cat.experiments["e"].1.profiles["ci"].value.replicas.value,
+            4
+        );
+        assert_eq!(
+            cat.experiments["f"].1.profiles["ci"].value.replicas.value,
+            2
+        );
         let mut cat = catalogue();
         apply(&mut cat, "e", "ci", &Variant::default()).unwrap();
-        assert_eq!(cat.experiments["f"].1.seed, 5, "no seed given: seeds untouched");
+        assert_eq!(
+            cat.experiments["f"].1.seed, 5,
+            "no seed given: seeds untouched"
+        );
     }
 
     #[test]
