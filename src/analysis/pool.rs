@@ -253,3 +253,65 @@ pub fn replica_jackknife(
     }
     Some((var.into_iter().map(f64::sqrt).collect(), refits))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The jackknife of a mean over replicas is the standard error of that
+    /// mean; a unit whose replicas agree adds nothing; a number made of two
+    /// units' values carries each unit's variance with its weight.
+    #[test]
+    fn replica_jackknife_of_a_mean_is_its_standard_error() {
+        // Rows: unit 1 (replica values 1, 2, 3: pooled 2), unit 2 (5, 5, 5).
+        let units = [1.0, 2.0];
+        let y = [2.0, 5.0];
+        let left_out = |v: [f64; 3]| -> Vec<f64> {
+            (0..3)
+                .map(|k| (v.iter().sum::<f64>() - v[k]) / 2.0)
+                .collect()
+        };
+        let (a, b) = (left_out([1.0, 2.0, 3.0]), left_out([5.0; 3]));
+        let y_jk: Vec<Vec<f64>> = (0..3).map(|k| vec![a[k], b[k]]).collect();
+        let mean = |_: &[f64], y: &[f64]| Some(vec![(y[0] + y[1]) / 2.0]);
+        let (err, refits) = replica_jackknife(&units, &[0.0, 0.0], &y, &[], &y_jk, mean).unwrap();
+        assert_eq!(refits, 6);
+        // Unit 1: s^2 / R = 1/3; halved in the mean of two rows: var 1/12.
+        assert!((err[0] - (1.0f64 / 12.0).sqrt()).abs() < 1e-12, "{err:?}");
+        // A failed refit gives no error at all (never a partial one).
+        let fails = |_: &[f64], y: &[f64]| (y[0] < 2.4).then_some(vec![y[0]]);
+        assert!(replica_jackknife(&units, &[0.0, 0.0], &y, &[], &y_jk, fails).is_none());
+    }
+
+    #[test]
+    fn replica_columns_skip_keys_errors_and_counts() {
+        let t = |q: f64| {
+            crate::table::f64_batch(&[
+                ("t", vec![1.0, 2.0]),
+                ("Q", vec![q, q / 2.0]),
+                ("Q_err", vec![0.1, 0.1]),
+                ("n_origins", vec![4.0, 4.0]),
+            ])
+            .unwrap()
+        };
+        let b = with_replica_samples(&t(0.8), &[t(0.7), t(0.9)], 7.0)
+            .unwrap()
+            .unwrap();
+        let names: Vec<String> = b
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(
+            names,
+            ["t", "Q", "Q_err", "n_origins", JK_UNIT, "Q_jk0", "Q_jk1"]
+        );
+        let short = crate::table::f64_batch(&[("t", vec![1.0])]).unwrap();
+        assert!(
+            with_replica_samples(&t(0.8), &[short.clone(), short], 7.0)
+                .unwrap()
+                .is_none()
+        );
+    }
+}
