@@ -149,6 +149,119 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
     ))
 }
 
+/// Column `X_jkK` beside a column X: its value with replica K left out.
+pub fn jk_column(name: &str, k: usize) -> String {
+    format!("{name}_jk{k}")
+}
+
+/// Column naming the independent unit (the set of replicas) a row was computed
+/// from: rows of one analysis instance share it, rows of different state points
+/// do not. A jackknife over replicas leaves a replica out of one unit at a time.
+pub const JK_UNIT: &str = "jk_unit";
+
+/// At most this many replicas get leave-one-out columns (each costs one more
+/// analysis of the other replicas).
+pub const MAX_JK_REPLICAS: usize = 8;
+
+/// `full` with the replica jackknife columns: `jk_unit` = `unit`, and for every
+/// float column X that some sample changes (not keys such as t or N, not `X_err`,
+/// not counts `n_*`), `X_jk0 .. X_jk{R-1}` from `samples[k]`, the same table
+/// computed with replica k left out. None when a sample's shape differs from
+/// `full` (e.g. a replica realising other lags): then no fit can use them.
+pub fn with_replica_samples(
+    full: &RecordBatch,
+    samples: &[RecordBatch],
+    unit: f64,
+) -> Result<Option<RecordBatch>> {
+    let schema = full.schema();
+    if samples
+        .iter()
+        .any(|s| s.schema() != schema || s.num_rows() != full.num_rows())
+    {
+        return Ok(None);
+    }
+    let mut out: Vec<(String, ArrayRef)> = schema
+        .fields()
+        .iter()
+        .zip(full.columns())
+        .map(|(f, c)| (f.name().clone(), c.clone()))
+        .collect();
+    out.push((
+        JK_UNIT.into(),
+        Arc::new(Float64Array::from(vec![unit; full.num_rows()])),
+    ));
+    for (i, f) in schema.fields().iter().enumerate() {
+        let name = f.name();
+        if name.ends_with("_err") || is_count(name) || floats(full.column(i)).is_none() {
+            continue;
+        }
+        if samples
+            .iter()
+            .all(|s| s.column(i).to_data() == full.column(i).to_data())
+        {
+            continue; // A key: the same whatever replica is left out.
+        }
+        for (k, s) in samples.iter().enumerate() {
+            out.push((jk_column(name, k), s.column(i).clone()));
+        }
+    }
+    Ok(Some(RecordBatch::try_from_iter(out)?))
+}
+
+/// Delete-one jackknife over replicas of a number computed from rows of several
+/// independent units (state points): `fit(x, y)` is recomputed with the rows of
+/// one unit replaced by their values with one replica left out (`x_jk[k]`,
+/// `y_jk[k]`; x unchanged when `x_jk` is empty), and the variance is the sum over
+/// units of (R - 1)/R sum_k (theta_k - mean)^2. Returns the standard error of
+/// every component of `fit`'s result and the number of refits; None when a unit
+/// has fewer than two complete samples or a refit fails.
+pub fn replica_jackknife(
+    units: &[f64],
+    x: &[f64],
+    y: &[f64],
+    x_jk: &[Vec<f64>],
+    y_jk: &[Vec<f64>],
+    mut fit: impl FnMut(&[f64], &[f64]) -> Option<Vec<f64>>,
+) -> Option<(Vec<f64>, usize)> {
+    let mut distinct: Vec<f64> = units.to_vec();
+    distinct.sort_by(f64::total_cmp);
+    distinct.dedup();
+    let mut var: Vec<f64> = Vec::new();
+    let mut refits = 0;
+    for u in distinct {
+        let rows: Vec<usize> = (0..units.len()).filter(|&i| units[i] == u).collect();
+        let mut thetas: Vec<Vec<f64>> = Vec::new();
+        for k in 0..y_jk.len() {
+            let complete = rows
+                .iter()
+                .all(|&i| y_jk[k][i].is_finite() && (x_jk.is_empty() || x_jk[k][i].is_finite()));
+            if !complete {
+                continue;
+            }
+            let (mut xs, mut ys) = (x.to_vec(), y.to_vec());
+            for &i in &rows {
+                ys[i] = y_jk[k][i];
+                if !x_jk.is_empty() {
+                    xs[i] = x_jk[k][i];
+                }
+            }
+            thetas.push(fit(&xs, &ys)?);
+            refits += 1;
+        }
+        let r = thetas.len();
+        if r < 2 {
+            return None;
+        }
+        var.resize(thetas[0].len(), 0.0);
+        for (p, v) in var.iter_mut().enumerate() {
+            let mean = thetas.iter().map(|t| t[p]).sum::<f64>() / r as f64;
+            let ss: f64 = thetas.iter().map(|t| (t[p] - mean).powi(2)).sum();
+            *v += (r as f64 - 1.0) / r as f64 * ss;
+        }
+    }
+    Some((var.into_iter().map(f64::sqrt).collect(), refits))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,5 +287,62 @@ mod tests {
         let q = b.column_by_name("Q").unwrap();
         let q = q.as_any().downcast_ref::<Float64Array>().unwrap();
         assert!((q.value(0) - 0.5).abs() < 1e-15);
+    }
+
+    /// The jackknife of a mean over replicas is the standard error of that
+    /// mean; a unit whose replicas agree adds nothing; a number made of two
+    /// units' values carries each unit's variance with its weight.
+    #[test]
+    fn replica_jackknife_of_a_mean_is_its_standard_error() {
+        // Rows: unit 1 (replica values 1, 2, 3: pooled 2), unit 2 (5, 5, 5).
+        let units = [1.0, 2.0];
+        let y = [2.0, 5.0];
+        let left_out = |v: [f64; 3]| -> Vec<f64> {
+            (0..3)
+                .map(|k| (v.iter().sum::<f64>() - v[k]) / 2.0)
+                .collect()
+        };
+        let (a, b) = (left_out([1.0, 2.0, 3.0]), left_out([5.0; 3]));
+        let y_jk: Vec<Vec<f64>> = (0..3).map(|k| vec![a[k], b[k]]).collect();
+        let mean = |_: &[f64], y: &[f64]| Some(vec![(y[0] + y[1]) / 2.0]);
+        let (err, refits) = replica_jackknife(&units, &[0.0, 0.0], &y, &[], &y_jk, mean).unwrap();
+        assert_eq!(refits, 6);
+        // Unit 1: s^2 / R = 1/3; halved in the mean of two rows: var 1/12.
+        assert!((err[0] - (1.0f64 / 12.0).sqrt()).abs() < 1e-12, "{err:?}");
+        // A failed refit gives no error at all (never a partial one).
+        let fails = |_: &[f64], y: &[f64]| (y[0] < 2.4).then_some(vec![y[0]]);
+        assert!(replica_jackknife(&units, &[0.0, 0.0], &y, &[], &y_jk, fails).is_none());
+    }
+
+    #[test]
+    fn replica_columns_skip_keys_errors_and_counts() {
+        let t = |q: f64| {
+            crate::table::f64_batch(&[
+                ("t", vec![1.0, 2.0]),
+                ("Q", vec![q, q / 2.0]),
+                ("Q_err", vec![0.1, 0.1]),
+                ("n_origins", vec![4.0, 4.0]),
+            ])
+            .unwrap()
+        };
+        let b = with_replica_samples(&t(0.8), &[t(0.7), t(0.9)], 7.0)
+            .unwrap()
+            .unwrap();
+        let names: Vec<String> = b
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(
+            names,
+            ["t", "Q", "Q_err", "n_origins", JK_UNIT, "Q_jk0", "Q_jk1"]
+        );
+        let short = crate::table::f64_batch(&[("t", vec![1.0])]).unwrap();
+        assert!(
+            with_replica_samples(&t(0.8), &[short.clone(), short], 7.0)
+                .unwrap()
+                .is_none()
+        );
     }
 }

@@ -109,7 +109,8 @@ pub struct VariantArgs {
     /// regress then checks that variant, built in a temporary directory.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
-    /// The experiment whose seed or parameters the variants change.
+    /// The experiment whose parameters (--set, N, replicas) the variants change;
+    /// a master seed applies to every experiment.
     #[arg(long, default_value = "eps09")]
     pub experiment: String,
     #[arg(long)]

@@ -206,6 +206,65 @@ pub fn collapse(
     bounds: &[(f64, f64)],
     rescale: Rescale<'_>,
 ) -> Result<CollapseResult, FitError> {
+    let (u, q) = minimise(curves, names, bounds, rescale)?;
+    let n = names.len();
+    let p = unit_to_params(&u, bounds);
+    let s_at = |u: &[f64]| -> f64 {
+        if u.iter().any(|v| !(0.0..=1.0).contains(v)) {
+            return f64::INFINITY;
+        }
+        quality(curves, rescale, &unit_to_params(u, bounds)).map_or(f64::INFINITY, |q| q.s)
+    };
+    // chi2 about the master curve, with the overlap count frozen at the minimum.
+    let chi2_at = |v: &[f64]| s_at(v) * q.expected;
+    let hess = hessian(&u, q.chi2, &chi2_at);
+    let inv = spd_inverse(&hess).map_err(|j| FitError::IllConditioned {
+        form: FORM.into(),
+        parameter: names[j].into(),
+        hint: "the collapse quality does not change with this parameter (or a combination); fix it"
+            .into(),
+    })?;
+    let scale = 2.0 * q.s.max(1.0);
+    let w: Vec<f64> = bounds.iter().map(|(lo, hi)| hi - lo).collect();
+    let covariance: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| scale * inv[i][j] * w[i] * w[j]).collect())
+        .collect();
+    Ok(CollapseResult {
+        names: names.iter().map(|s| s.to_string()).collect(),
+        stderr: (0..n).map(|j| covariance[j][j].sqrt()).collect(),
+        params: p,
+        covariance,
+        quality: q,
+    })
+}
+
+fn unit_to_params(u: &[f64], bounds: &[(f64, f64)]) -> Vec<f64> {
+    u.iter()
+        .zip(bounds)
+        .map(|(u, (lo, hi))| lo + u * (hi - lo))
+        .collect()
+}
+
+/// The best parameters of a collapse without their covariance (a jackknife
+/// refit needs only the minimum, even where the quality is flat around it).
+pub fn best(
+    curves: &[Curve],
+    names: &[&str],
+    bounds: &[(f64, f64)],
+    rescale: Rescale<'_>,
+) -> Result<Vec<f64>, FitError> {
+    let (u, _) = minimise(curves, names, bounds, rescale)?;
+    Ok(unit_to_params(&u, bounds))
+}
+
+/// The minimum of S in unit coordinates (inside the bounds, with enough overlap)
+/// and its quality.
+fn minimise(
+    curves: &[Curve],
+    names: &[&str],
+    bounds: &[(f64, f64)],
+    rescale: Rescale<'_>,
+) -> Result<(Vec<f64>, Quality), FitError> {
     let n = names.len();
     if n == 0 || bounds.len() != n {
         return Err(FitError::invalid(
@@ -228,12 +287,7 @@ pub fn collapse(
         ));
     }
     // Work in unit coordinates u in [0, 1]^n.
-    let to_p = |u: &[f64]| -> Vec<f64> {
-        u.iter()
-            .zip(bounds)
-            .map(|(u, (lo, hi))| lo + u * (hi - lo))
-            .collect()
-    };
+    let to_p = |u: &[f64]| unit_to_params(u, bounds);
     let s_at = |u: &[f64]| -> f64 {
         if u.iter().any(|v| !(0.0..=1.0).contains(v)) {
             return f64::INFINITY;
@@ -266,27 +320,7 @@ pub fn collapse(
             });
         }
     }
-    // chi2 about the master curve, with the overlap count frozen at the minimum.
-    let chi2_at = |v: &[f64]| s_at(v) * q.expected;
-    let hess = hessian(&u, q.chi2, &chi2_at);
-    let inv = spd_inverse(&hess).map_err(|j| FitError::IllConditioned {
-        form: FORM.into(),
-        parameter: names[j].into(),
-        hint: "the collapse quality does not change with this parameter (or a combination); fix it"
-            .into(),
-    })?;
-    let scale = 2.0 * q.s.max(1.0);
-    let w: Vec<f64> = bounds.iter().map(|(lo, hi)| hi - lo).collect();
-    let covariance: Vec<Vec<f64>> = (0..n)
-        .map(|i| (0..n).map(|j| scale * inv[i][j] * w[i] * w[j]).collect())
-        .collect();
-    Ok(CollapseResult {
-        names: names.iter().map(|s| s.to_string()).collect(),
-        stderr: (0..n).map(|j| covariance[j][j].sqrt()).collect(),
-        params: p,
-        covariance,
-        quality: q,
-    })
+    Ok((u, q))
 }
 
 /// Best point of a regular grid over the unit cube (1-3 parameters), else the centre.

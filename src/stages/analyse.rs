@@ -162,6 +162,70 @@ fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[&Node]) -> Result<(
     Ok(())
 }
 
+/// The replica jackknife columns (`X_jk0`, ..., `jk_unit`; `pool::with_replica_samples`)
+/// of an observable pooled over 2 to `MAX_JK_REPLICAS` replicas: the same
+/// observable with each replica left out, so that a fit downstream can refit
+/// without it (`pool::replica_jackknife`). The unit is named by the gathered
+/// trajectories' digests: every analysis of the same runs shares it.
+fn replica_samples(
+    ctx: &StageCtx,
+    obs: &Observable,
+    refs: &[&Trajectory],
+    params: &Value,
+    inputs: &[Artifact],
+    tables: &mut crate::analysis::observables::Tables,
+) -> Result<()> {
+    use crate::analysis::pool::{self, Errors};
+    let pooled = matches!(
+        tables.errors,
+        Errors::Jackknife { .. } | Errors::SeedToSeed { .. }
+    );
+    if !pooled || refs.len() < 2 || refs.len() > pool::MAX_JK_REPLICAS {
+        return Ok(());
+    }
+    let mut digests: Vec<&str> = inputs
+        .iter()
+        .filter(|a| a.kind == "simulate")
+        .map(|a| a.digest.as_str())
+        .collect();
+    digests.sort_unstable();
+    let h = blake3::hash(digests.concat().as_bytes());
+    let unit = (u64::from_le_bytes(h.as_bytes()[..8].try_into().expect("8 bytes")) >> 16) as f64;
+    let mut samples = Vec::with_capacity(refs.len());
+    for k in 0..refs.len() {
+        let others: Vec<&Trajectory> = (0..refs.len())
+            .filter(|&j| j != k)
+            .map(|j| refs[j])
+            .collect();
+        samples.push((obs.compute)(&others, params)?);
+    }
+    let mains: Vec<RecordBatch> = samples.iter().map(|s| s.main.clone()).collect();
+    match pool::with_replica_samples(&tables.main, &mains, unit)? {
+        Some(b) => tables.main = b,
+        None => ctx.log(format!(
+            "{}: a replica left out changes the table's shape: no replica jackknife columns",
+            obs.name
+        )),
+    }
+    for (file, b) in tables.extra.iter_mut() {
+        let extra: Option<Vec<RecordBatch>> = samples
+            .iter()
+            .map(|s| {
+                s.extra
+                    .iter()
+                    .find(|(f, _)| f == file)
+                    .map(|(_, t)| t.clone())
+            })
+            .collect();
+        if let Some(extra) = extra
+            && let Some(with) = pool::with_replica_samples(b, &extra, unit)?
+        {
+            *b = with;
+        }
+    }
+    Ok(())
+}
+
 /// What every analysis stage runs besides its observable's own modules.
 const COMMON: &[&str] = &[
     "analysis/observables",
@@ -282,6 +346,7 @@ impl StageKind for Analyse {
             ])?);
         }
         let mut tables = (self.obs.compute)(&refs, &obs)?;
+        replica_samples(ctx, self.obs, &refs, &obs, inputs, &mut tables)?;
         if let Some((unit, u)) = unit {
             tables.main = with_scaled_t(tables.main, unit, &u.column)?;
         }

@@ -14,6 +14,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of, pick, source_stages};
+use crate::analysis::pool;
 use crate::fit::catalogue::{self, Form};
 use crate::fit::collapse::{self, Curve};
 use crate::fit::ranges::range_scan;
@@ -22,7 +23,13 @@ use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
 
-const MODULES: &[&str] = &["fit", "table", "stages/fits", "stages/tables"];
+const MODULES: &[&str] = &[
+    "fit",
+    "table",
+    "stages/fits",
+    "stages/tables",
+    "analysis/pool",
+];
 
 /// A number taken from another fit table of the same stage's inputs.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -319,7 +326,8 @@ impl StageKind for Fit {
         if groups.is_empty() {
             groups.insert(vec![], vec![]);
         }
-        let (mut tables, mut curves, mut scans) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut tables, mut curves, mut scans, mut methods) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (key, rows) in groups {
             let group: Vec<(String, f64)> = p
                 .group_by
@@ -329,12 +337,19 @@ impl StageKind for Fit {
                 .collect();
             let mut fixed = fixed.clone();
             fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
-            let (t, curve, scan) = fit_group(ctx, &p, &c, &rows, &group, &fixed)?;
+            let (t, curve, scan, method) = fit_group(ctx, &p, &c, &rows, &group, &fixed)?;
             tables.push(t);
             curves.extend(curve);
             scans.extend(scan);
+            if !methods.contains(&method) {
+                methods.push(method);
+            }
         }
-        let mut out = Output::single("parquet", to_parquet_bytes(&tables, &[])?);
+        let method = methods.join("; ");
+        let mut out = Output::single(
+            "parquet",
+            to_parquet_bytes(&tables, &[(ERROR_METHOD, method.as_str())])?,
+        );
         if p.curve.is_some() {
             out = out.with("curve.parquet", to_parquet_bytes(&curves, &[])?);
         }
@@ -393,13 +408,15 @@ fn fit_group(
     rows: &[usize],
     group: &[(String, f64)],
     fixed: &[(String, f64)],
-) -> Result<(RecordBatch, Option<RecordBatch>, Vec<RecordBatch>)> {
+) -> Result<(RecordBatch, Option<RecordBatch>, Vec<RecordBatch>, String)> {
     let x = pick(c.col(&p.x)?, rows);
     let y = pick(c.col(&p.y)?, rows);
     let s = match &p.y_err {
         Some(e) => pick(c.col(e)?, rows),
         None => vec![1.0; rows.len()],
     };
+    let jk = replica_columns(c, rows, &p.x, &p.y);
+    let raw = (x.clone(), y.clone(), s.clone());
     let (x, y, s) = clean(ctx, x, y, s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
@@ -418,12 +435,18 @@ fn fit_group(
         } else {
             ""
         };
+        let method = match &p.y_err {
+            Some(e) => format!("the per-point errors {e}, combined"),
+            None => "none (no y_err)".to_string(),
+        };
         return Ok((
             quantity_table(group, &[(name("value"), mean, err)], note)?,
             None,
             Vec::new(),
+            method,
         ));
     }
+    let mut method = covariance_method(p);
     let form = named_form(p)?;
     let (rows, note, curve) = match fit_form(p, &x, &y, &s, &fixed_ref) {
         Ok(f) => {
@@ -441,6 +464,40 @@ fn fit_group(
                     .map(|(n, (v, e))| (name(n), *v, *e))
                     .collect()
             };
+            // Errors from independent replicas where the rows span several units.
+            if let Some((units, x_jk, y_jk)) = &jk {
+                let (rx, ry, rs) = &raw;
+                let refit = |xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    let keep: Vec<usize> = (0..xs.len())
+                        .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
+                        .collect();
+                    let (xk, yk) = (pick(xs, &keep), pick(ys, &keep));
+                    let fill = s.iter().cloned().fold(0.0, f64::max);
+                    let sk: Vec<f64> = keep
+                        .iter()
+                        .map(|&i| {
+                            if rs[i].is_finite() && rs[i] > 0.0 {
+                                rs[i]
+                            } else {
+                                fill
+                            }
+                        })
+                        .collect();
+                    let g = fit_form(p, &xk, &yk, &sk, &fixed_ref).ok()?;
+                    Some(reported(p, &xk, &yk, &g))
+                };
+                match pool::replica_jackknife(units, rx, ry, x_jk, y_jk, refit) {
+                    Some((errs, refits)) => {
+                        for (row, e) in rows.iter_mut().zip(errs) {
+                            row.2 = e;
+                        }
+                        method = jackknife_method(refits, !p.fixed_from.is_empty());
+                    }
+                    None => {
+                        method.push_str(JK_IMPOSSIBLE);
+                    }
+                }
+            }
             rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
             rows.push((name("points"), x.len() as f64, 0.0));
             let curve = p.curve.as_ref().map(|cs| {
@@ -525,7 +582,7 @@ fn fit_group(
         }
         None => None,
     };
-    Ok((table, curve, scan))
+    Ok((table, curve, scan, method))
 }
 
 /// The range scan of one group: every window's fit as rows of `ranges.parquet`
@@ -594,6 +651,70 @@ fn scan_ranges(
     Ok(windows)
 }
 
+/// Appended to the error method when the replica jackknife could not be done.
+const JK_IMPOSSIBLE: &str =
+    " (the replica jackknife was not possible: a refit failed or a state point has fewer than two complete replica samples)";
+
+/// Parquet metadata key of a fit table: how its errors were estimated.
+pub const ERROR_METHOD: &str = "error_method";
+
+fn covariance_method(p: &FitParams) -> String {
+    match &p.y_err {
+        Some(e) => format!("fit covariance with the per-point errors {e}"),
+        None => "fit covariance scaled to the scatter of the points".to_string(),
+    }
+}
+
+fn jackknife_method(refits: usize, fixed_from: bool) -> String {
+    format!(
+        "delete-one jackknife over replicas: refit with each replica of each state point left out ({refits} refits){}",
+        if fixed_from {
+            "; numbers taken from other fits held at their values"
+        } else {
+            ""
+        }
+    )
+}
+
+/// The numbers a fit reports, in the order of its quantity rows (`drift`: the
+/// relative change of y across the x range).
+fn reported(p: &FitParams, x: &[f64], y: &[f64], f: &FitResult) -> Vec<f64> {
+    if p.form == "drift" {
+        let span = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+            - x.iter().cloned().fold(f64::INFINITY, f64::min);
+        let mean = y.iter().sum::<f64>() / y.len() as f64;
+        vec![f.params[1] * span / mean]
+    } else {
+        f.params.clone()
+    }
+}
+
+/// The replica jackknife inputs of `rows` (`pool::with_replica_samples`): unit
+/// per row, and the leave-one-out columns of x (empty when x is a key such as
+/// phi) and y. None unless y has them and the rows span at least two units: on
+/// one state point a few replicas give one or two degrees of freedom, fewer than
+/// the per-point errors have.
+type Replicas = (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>);
+fn replica_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<Replicas> {
+    let units = pick(c.col(pool::JK_UNIT).ok()?, rows);
+    let mut distinct = units.clone();
+    distinct.sort_by(f64::total_cmp);
+    distinct.dedup();
+    if distinct.len() < 2 || distinct.iter().any(|u| !u.is_finite()) {
+        return None;
+    }
+    let samples = |name: &str| -> Vec<Vec<f64>> {
+        (0..pool::MAX_JK_REPLICAS)
+            .map_while(|k| c.col(&pool::jk_column(name, k)).ok().map(|v| pick(v, rows)))
+            .collect()
+    };
+    let (x_jk, y_jk) = (samples(x), samples(y));
+    if y_jk.len() < 2 || !(x_jk.is_empty() || x_jk.len() == y_jk.len()) {
+        return None;
+    }
+    Some((units, x_jk, y_jk))
+}
+
 /// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
 /// (phi) rescale as X = sqrt(x)/xi, Y = y xi^-g with xi = (phi_c - phi)^-gamma_xi;
 /// g = gamma_chi/gamma_xi and gamma_xi are fitted, phi_c is given or taken from a fit.
@@ -621,6 +742,31 @@ pub struct CollapseParams {
 }
 
 pub struct Collapse;
+
+/// The curves of a collapse, one per value of `by` with at least two points of
+/// positive x, y and error, in ascending order of that value.
+fn collapse_curves(by_name: &str, x: &[f64], y: &[f64], e: &[f64], by: &[f64]) -> Vec<Curve> {
+    let mut m: BTreeMap<u64, Curve> = BTreeMap::new();
+    for i in 0..x.len() {
+        let ok = x[i] > 0.0 && y[i] > 0.0 && e[i] > 0.0 && y[i].is_finite() && e[i].is_finite();
+        if !ok {
+            continue;
+        }
+        let cv = m.entry(by[i].to_bits()).or_insert_with(|| Curve {
+            label: format!("{by_name}={}", by[i]),
+            param: by[i],
+            x: vec![],
+            y: vec![],
+            sigma: vec![],
+        });
+        cv.x.push(x[i]);
+        cv.y.push(y[i]);
+        cv.sigma.push(e[i]);
+    }
+    let mut curves: Vec<Curve> = m.into_values().filter(|c| c.x.len() >= 2).collect();
+    curves.sort_by(|a, b| a.param.total_cmp(&b.param));
+    curves
+}
 
 fn xi(phi_c: f64, phi: f64, gamma_xi: f64) -> f64 {
     (phi_c - phi).powf(-gamma_xi)
@@ -687,40 +833,29 @@ impl StageKind for Collapse {
             None => None,
         };
         let rows = c.select(&p.filter)?;
+        let rows_in = rows.clone();
         let (xc, yc, ec, bc) = (
             c.col(&p.x)?,
             c.col(&p.y)?,
             c.col(&p.y_err)?,
             c.col(&p.curve_by)?,
         );
-        let mut by: BTreeMap<u64, Curve> = BTreeMap::new();
-        for &i in &rows {
-            let ok =
-                xc[i] > 0.0 && yc[i] > 0.0 && ec[i] > 0.0 && yc[i].is_finite() && ec[i].is_finite();
-            if !ok {
-                continue;
-            }
-            let cv = by.entry(bc[i].to_bits()).or_insert_with(|| Curve {
-                label: format!("{}={}", p.curve_by, bc[i]),
-                param: bc[i],
-                x: vec![],
-                y: vec![],
-                sigma: vec![],
-            });
-            cv.x.push(xc[i]);
-            cv.y.push(yc[i]);
-            cv.sigma.push(ec[i]);
-        }
+        let x_all = pick(xc, &rows);
+        let y_all = pick(yc, &rows);
+        let (e_all, b_all) = (pick(ec, &rows), pick(bc, &rows));
+        // Curves without a usable measured xi are left out.
         let has_xi = |c: &Curve| {
             measured
                 .as_ref()
                 .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
         };
-        let mut curves: Vec<Curve> = by
-            .into_values()
-            .filter(|c| c.x.len() >= 2 && has_xi(c))
-            .collect();
-        curves.sort_by(|a, b| a.param.total_cmp(&b.param));
+        let curves_of = |ys: &[f64]| -> Vec<Curve> {
+            collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all)
+                .into_iter()
+                .filter(|c| has_xi(c))
+                .collect()
+        };
+        let curves = curves_of(&y_all);
         let fitted: &[&str] = if measured.is_some() {
             &["g"]
         } else {
@@ -744,9 +879,29 @@ impl StageKind for Collapse {
         } else {
             collapse::collapse(&curves, fitted, &bounds, &rescale).map_err(anyhow::Error::from)
         };
+        let mut method = "fit covariance of the collapse".to_string();
         let (rows, note, best) = match result {
             Ok(r) if measured.is_some() => {
-                let (g, dg) = r.get("g").expect("named");
+                let (g, mut dg) = r.get("g").expect("named");
+                // Errors from refits with one replica of one phi left out; the
+                // measured xi is held at its value.
+                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+                    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                        collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
+                            .map_err(|e| {
+                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                            })
+                            .ok()
+                            .map(|b| vec![b[0]])
+                    };
+                    match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
+                        Some((e, refits)) => {
+                            dg = e[0];
+                            method = jackknife_method(refits, true);
+                        }
+                        None => method.push_str(JK_IMPOSSIBLE),
+                    }
+                }
                 (
                     vec![
                         ("gamma_chi_over_gamma_xi".to_string(), g, dg),
@@ -758,12 +913,32 @@ impl StageKind for Collapse {
                 )
             }
             Ok(r) => {
-                let (g, dg) = r.get("g").expect("named");
-                let (gx, dgx) = r.get("gamma_xi").expect("named");
+                let (g, mut dg) = r.get("g").expect("named");
+                let (gx, mut dgx) = r.get("gamma_xi").expect("named");
                 let cov = r.covariance[0][1];
-                let dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
+                let mut dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
                     .max(0.0)
                     .sqrt();
+                // The sub-box sizes of one phi come from the same runs: errors
+                // from refits with one replica of one phi left out.
+                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+                    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                        let b = collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
+                            .map_err(|e| {
+                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                            })
+                            .ok()?;
+                        let (g, gx) = (b[0], b[1]);
+                        Some(vec![g, gx, g * gx])
+                    };
+                    match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
+                        Some((e, refits)) => {
+                            (dg, dgx, dgc) = (e[0], e[1], e[2]);
+                            method = jackknife_method(refits, true);
+                        }
+                        None => method.push_str(JK_IMPOSSIBLE),
+                    }
+                }
                 (
                     vec![
                         ("gamma_chi_over_gamma_xi".to_string(), g, dg),
@@ -820,7 +995,10 @@ impl StageKind for Collapse {
         ])?;
         Ok(Output::single(
             "parquet",
-            to_parquet_bytes(&[quantity_table(&[], &rows, &note)?], &[])?,
+            to_parquet_bytes(
+                &[quantity_table(&[], &rows, &note)?],
+                &[(ERROR_METHOD, method.as_str())],
+            )?,
         )
         .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
     }

@@ -23,6 +23,11 @@ pub struct Golden {
     /// Per seed; a seed whose fit gave no number is NaN, written as `null`.
     #[serde(with = "super::results::nan_as_null")]
     pub values: Vec<f64>,
+    /// The 1-sigma error each seed's figure quoted for its value (what the
+    /// coverage test checks against the seed-to-seed scatter); empty in goldens
+    /// recorded without them.
+    #[serde(default, with = "super::results::nan_as_null")]
+    pub errors: Vec<f64>,
     pub mean: f64,
     pub std: f64,
     pub band: [f64; 2],
@@ -69,6 +74,7 @@ pub fn golden(
         quantity: quantity.into(),
         seeds: seeds.to_vec(),
         values: values.to_vec(),
+        errors: Vec::new(),
         mean,
         std,
         band: [mean - half, mean + half],
@@ -92,6 +98,7 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
             bail!("the golden file has no quantity of figure '{id}'");
         }
     }
+    let mut checked: Vec<(&Golden, f64)> = Vec::new();
     for (fig, qs) in by_fig {
         let dir = results.join(fig);
         let prov = provenance(&dir).with_context(|| {
@@ -113,6 +120,7 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
         let got = key_numbers(&dir)?;
         for q in qs {
             let v = got.get(&q.quantity).copied().unwrap_or(f64::NAN);
+            checked.push((q, v));
             let inside = v >= q.band[0] && v <= q.band[1];
             lines.push(format!(
                 "{fig} {}: {v:.5} {} band [{:.5}, {:.5}] (golden mean {:.5}, seed-to-seed std {:.5})",
@@ -131,7 +139,122 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
             }
         }
     }
+    let j = joint(&checked);
+    let pass = j.chi2 <= j.threshold;
+    lines.push(format!(
+        "joint: sum of z^2 = {:.1} over {} independent key numbers, threshold {:.1} (false alarm {JOINT_FALSE_ALARM}) {}",
+        j.chi2,
+        j.terms,
+        j.threshold,
+        if pass { "inside" } else { "OUTSIDE" }
+    ));
+    if !pass {
+        failures.push(format!(
+            "regression of the key numbers jointly: sum of z^2 = {:.1} over {} numbers exceeds {:.1}              (z = (value - golden mean) / seed-to-seed std; no single number need leave its band)",
+            j.chi2, j.terms, j.threshold
+        ));
+    }
     Ok((lines, failures))
+}
+
+/// Nominal false-alarm probability of the joint test.
+pub const JOINT_FALSE_ALARM: f64 = 0.001;
+
+/// The joint test: sum over the checked key numbers of z^2, z = (value - mean)/std
+/// with the golden's seed-to-seed mean and std. A change of the physics (eps, the
+/// radius ratio) moves many numbers by a fraction of their band each; their
+/// squares add up. Numbers identical to one already counted in every seed (phi_c
+/// of the one tau_alpha fit, published by three figures) count once;
+/// goodness-of-fit numbers not at all.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    pub chi2: f64,
+    pub terms: usize,
+    pub threshold: f64,
+}
+
+pub fn joint(checked: &[(&Golden, f64)]) -> Joint {
+    let mut seen: Vec<&[f64]> = Vec::new();
+    let (mut chi2, mut terms, mut n_seeds) = (0.0, 0usize, usize::MAX);
+    for (q, v) in checked {
+        let dup = seen.iter().any(|s| {
+            s.len() == q.values.len()
+                && s.iter()
+                    .zip(&q.values)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+        });
+        if dup || goodness_of_fit(&q.quantity) || !(q.std.is_finite() && q.std > 0.0) {
+            continue;
+        }
+        seen.push(&q.values);
+        let n = q.values.iter().filter(|x| x.is_finite()).count();
+        n_seeds = n_seeds.min(n);
+        // A NaN value fails its band already; here it counts as far out.
+        let z = if v.is_finite() {
+            (v - q.mean) / q.std
+        } else {
+            10.0
+        };
+        chi2 += z * z;
+        terms += 1;
+    }
+    Joint {
+        chi2,
+        terms,
+        threshold: joint_threshold(terms, n_seeds, JOINT_FALSE_ALARM),
+    }
+}
+
+/// Goodness-of-fit numbers (reduced chi-square, collapse quality, point and
+/// curve counts) keep their bands but stay out of the joint test: their seed
+/// to seed distribution has tails far heavier than Gaussian.
+fn goodness_of_fit(quantity: &str) -> bool {
+    quantity.starts_with("reduced_chi2")
+        || quantity.starts_with("points")
+        || matches!(quantity, "curves" | "collapse_S")
+}
+
+/// Threshold of the sum of `k` squared z's whose mean and std come from `n`
+/// seeds: each term is (1 + 1/n) F(1, n - 1) under no change (a heavier tail
+/// than chi-square), matched in mean and variance by a scaled chi-square
+/// c chi2(d) (Satterthwaite), whose upper quantile is taken by the
+/// Wilson-Hilferty approximation.
+pub fn joint_threshold(k: usize, n: usize, alpha: f64) -> f64 {
+    if k == 0 || n < 6 {
+        return f64::INFINITY;
+    }
+    let nu = (n - 1) as f64;
+    let scale = 1.0 + 1.0 / n as f64;
+    let mean = scale * nu / (nu - 2.0);
+    let var = scale * scale * 2.0 * nu * nu * (nu - 1.0) / ((nu - 2.0).powi(2) * (nu - 4.0));
+    let (m, v) = (k as f64 * mean, k as f64 * var);
+    let c = v / (2.0 * m);
+    let d = m / c;
+    let z = normal_upper_quantile(alpha);
+    let h = 2.0 / (9.0 * d);
+    c * d * (1.0 - h + z * h.sqrt()).powi(3)
+}
+
+/// z with P(Z > z) = alpha for a standard normal (Acklam's rational
+/// approximation of the tail, |error| < 1e-8 for alpha < 0.02).
+fn normal_upper_quantile(alpha: f64) -> f64 {
+    let q = (-2.0 * alpha.ln()).sqrt();
+    let c = [
+        -7.784_894_002_430_293e-3,
+        -3.223_964_580_411_365e-1,
+        -2.400_758_277_161_838,
+        -2.549_732_539_343_734,
+        4.374_664_141_464_968,
+        2.938_163_982_698_783,
+    ];
+    let d = [
+        7.784_695_709_041_462e-3,
+        3.224_671_290_700_398e-1,
+        2.445_134_137_142_996,
+        3.754_408_661_907_416,
+    ];
+    -(((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5])
+        / ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0)
 }
 
 /// The band rule's constants.
@@ -152,7 +275,7 @@ pub struct Recording<'a> {
 /// Build the figures at every master seed (in-memory variants of the catalogue)
 /// and derive the golden file.
 pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
-    let values: BTreeMap<(String, String), Vec<f64>> = seed_numbers(
+    let numbers = seed_numbers(
         r.root,
         r.experiment,
         r.profile,
@@ -160,16 +283,19 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
         r.seeds,
         &Variant::default(),
         opts,
-    )?
-    .into_iter()
-    .map(|(k, v)| (k, v.iter().map(|f| f.value).collect()))
-    .collect();
+    )?;
     // A number no seed produced (a fit failing at this profile) has no band.
-    let quantities = values
+    let quantities = numbers
         .iter()
-        .filter(|(_, v)| v.iter().filter(|x| x.is_finite()).count() >= 2)
+        .filter(|(_, v)| v.iter().filter(|x| x.value.is_finite()).count() >= 2)
         .filter(|((f, q), _)| !r.ungated.contains(&format!("{f}:{q}")))
-        .map(|((f, q), v)| golden(f, q, r.seeds, v, SIGMAS, FLOOR))
+        .map(|((f, q), v)| {
+            let values: Vec<f64> = v.iter().map(|x| x.value).collect();
+            Golden {
+                errors: v.iter().map(|x| x.error).collect(),
+                ..golden(f, q, r.seeds, &values, SIGMAS, FLOOR)
+            }
+        })
         .collect();
     let list = |v: &[String]| {
         if v.is_empty() {
@@ -181,7 +307,7 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
     Ok(GoldenFile {
         profile: r.profile.to_string(),
         how: format!(
-            "`repro regress --record --profile {} --seeds {}`: the figures built with experiment '{}' at each master seed; \
+            "`repro regress --record --profile {} --seeds {}`: the figures built at each master seed (every experiment; parameters of '{}'); \
              band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|); not gated: {}",
             r.profile,
             r.seeds
@@ -251,6 +377,42 @@ mod tests {
             (flat.band[1] - 0.808).abs() < 1e-12,
             "floor applies when seeds agree"
         );
+    }
+
+    #[test]
+    fn the_normal_quantile_and_the_joint_threshold_are_right() {
+        assert!((normal_upper_quantile(0.001) - 3.090_232).abs() < 1e-5);
+        assert!((normal_upper_quantile(0.01) - 2.326_348).abs() < 1e-5);
+        // With many seeds each term tends to chi-square(1): the threshold of 20
+        // terms tends to the chi-square quantile 45.31 (0.1%).
+        let t = joint_threshold(20, 100_000, 0.001);
+        assert!((t - 45.31).abs() < 0.3, "{t}");
+        // Ten seeds: heavier tails, a higher threshold.
+        assert!(joint_threshold(20, 10, 0.001) > 1.5 * t);
+    }
+
+    /// Many numbers each 2.2 sigma off fail jointly though all are inside 4
+    /// sigma; a number published by two figures counts once.
+    #[test]
+    fn small_shifts_of_many_numbers_fail_jointly() {
+        let seeds: Vec<u64> = (1..=10).collect();
+        let gs: Vec<Golden> = (0..20)
+            .map(|k| {
+                let v: Vec<f64> = (0..10)
+                    .map(|s| (s as f64 - 4.5) + 0.01 * k as f64)
+                    .collect();
+                golden("f", &format!("q{k}"), &seeds, &v, 4.0, 0.01)
+            })
+            .collect();
+        let off = |z: f64| -> Vec<(&Golden, f64)> {
+            gs.iter().map(|g| (g, g.mean + z * g.std)).collect()
+        };
+        let j = joint(&off(2.2));
+        assert_eq!(j.terms, 20);
+        assert!(j.chi2 > j.threshold, "{j:?}");
+        assert!(joint(&off(0.5)).chi2 < j.threshold);
+        let twice: Vec<(&Golden, f64)> = vec![(&gs[0], gs[0].mean), (&gs[0], gs[0].mean)];
+        assert_eq!(joint(&twice).terms, 1);
     }
 
     /// A seed whose fit failed (NaN) is left out of the band, written as

@@ -1,6 +1,6 @@
-//! Figures built from a variant of the spec catalogue: one experiment's master
-//! seed, N, replicas or any other profile parameter changed in memory (the YAML
-//! files are read once, never copied or rewritten). Results go to a temporary
+//! Figures built from a variant of the spec catalogue: the master seed (of every
+//! experiment), one experiment's N, replicas or any other profile parameter
+//! changed in memory (the YAML files are read once, never copied or rewritten). Results go to a temporary
 //! directory; the cache store is the project's, so a variant already computed is
 //! not recomputed.
 
@@ -12,9 +12,11 @@ use serde_json::Value;
 
 use crate::pipeline::{self, Catalogue, RunOptions, Workspace};
 
-/// Changes to one experiment at one profile.
+/// Changes to the catalogue at one profile.
 #[derive(Clone, Debug, Default)]
 pub struct Variant {
+    /// Master seed of every experiment: a figure gathering several experiments
+    /// (eps = 0.7, 0.8, 0.9, ...) then scatters in all of them from seed to seed.
     pub seed: Option<u64>,
     pub n: Option<usize>,
     pub replicas: Option<u64>,
@@ -32,18 +34,24 @@ impl Variant {
     }
 }
 
-/// Apply `v` to experiment `experiment` at `profile` of a loaded catalogue.
+/// Apply `v` at `profile` of a loaded catalogue: the seed to every experiment,
+/// the rest to experiment `experiment`.
 pub fn apply(cat: &mut Catalogue, experiment: &str, profile: &str, v: &Variant) -> Result<()> {
     let known: Vec<String> = cat.experiments.keys().cloned().collect();
+    if let Some(s) = v.seed {
+        // Every experiment gets the master seed itself (not one derived from
+        // it): the committed seeds' trajectories of the named experiment stay
+        // cached, and experiments differ by their physics and grid anyway.
+        for (_, spec) in cat.experiments.values_mut() {
+            spec.seed = s;
+        }
+    }
     let (_, spec) = cat.experiments.get_mut(experiment).with_context(|| {
         format!(
             "no experiment '{experiment}' (experiments/{experiment}.yaml); known: {}",
             known.join(", ")
         )
     })?;
-    if let Some(s) = v.seed {
-        spec.seed = s;
-    }
     let prof = &mut spec
         .profiles
         .get_mut(profile)
@@ -114,7 +122,35 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir_all(dir.path().join("experiments")).unwrap();
         std::fs::write(dir.path().join("experiments/e.yaml"), EXP).unwrap();
+        let other = EXP.replace("seed: 3", "seed: 5").replace("0.9", "0.8");
+        std::fs::write(dir.path().join("experiments/f.yaml"), other).unwrap();
         Catalogue::load(dir.path()).unwrap()
+    }
+
+    /// A figure gathering two experiments scatters in both from seed to seed:
+    /// the master seed reaches every experiment, the other changes only the named one.
+    #[test]
+    fn the_master_seed_reaches_every_experiment() {
+        let mut cat = catalogue();
+        let mut v = Variant::seed(11);
+        v.replicas = Some(4);
+        apply(&mut cat, "e", "ci", &v).unwrap();
+        assert_eq!(cat.experiments["e"].1.seed, 11);
+        assert_eq!(cat.experiments["f"].1.seed, 11);
+        assert_eq!(
+            cat.experiments["e"].1.profiles["ci"].value.replicas.value,
+            4
+        );
+        assert_eq!(
+            cat.experiments["f"].1.profiles["ci"].value.replicas.value,
+            2
+        );
+        let mut cat = catalogue();
+        apply(&mut cat, "e", "ci", &Variant::default()).unwrap();
+        assert_eq!(
+            cat.experiments["f"].1.seed, 5,
+            "no seed given: seeds untouched"
+        );
     }
 
     #[test]

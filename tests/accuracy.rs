@@ -1,0 +1,61 @@
+//! Do the quoted errors of the committed goldens mean what they say? Over the
+//! recorded master seeds (tests/golden/ci.json, `repro regress --record`), the
+//! quoted 1-sigma interval of each seed must cover the all-seed mean in roughly
+//! 68% of seeds: errors several times too small (fit covariances over
+//! correlated points) cover far fewer, errors far too large cover all.
+
+use std::path::Path;
+
+use repro::study::coverage::coverage;
+use repro::study::golden::GoldenFile;
+use repro::study::results::Fitted;
+
+/// Coverage bounds: with ten seeds an honest error covers 7 +- 1.5 of them.
+const RANGE: (f64, f64) = (0.40, 0.95);
+
+fn ci() -> GoldenFile {
+    GoldenFile::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/ci.json")).unwrap()
+}
+
+fn covered(g: &GoldenFile, figure: &str, quantity: &str) -> (f64, f64) {
+    let q = g
+        .quantities
+        .iter()
+        .find(|q| q.figure == figure && q.quantity == quantity)
+        .unwrap_or_else(|| panic!("tests/golden/ci.json has no {figure} {quantity}"));
+    assert_eq!(
+        q.errors.len(),
+        q.values.len(),
+        "{figure} {quantity}: the golden file records no per-seed quoted errors; \
+         re-record with `repro regress --record --profile ci --seeds 1,...,10`"
+    );
+    let per_seed: Vec<Fitted> = q
+        .values
+        .iter()
+        .zip(&q.errors)
+        .map(|(&value, &error)| Fitted { value, error })
+        .collect();
+    let c = coverage(figure, quantity, &per_seed)
+        .unwrap_or_else(|| panic!("{figure} {quantity}: fewer than two seeds quote an error"));
+    assert!(c.seeds >= 8, "{figure} {quantity}: only {} seeds", c.seeds);
+    (c.coverage, c.ratio)
+}
+
+#[test]
+fn quoted_errors_cover_the_seed_to_seed_scatter() {
+    let g = ci();
+    for (figure, quantity) in [
+        ("fig4", "tau_alpha_070"),
+        ("fig4", "tau_alpha_076"),
+        ("fig4", "tau_alpha_078"),
+        ("fig15", "tau4_exponent"),
+    ] {
+        let (cov, ratio) = covered(&g, figure, quantity);
+        assert!(
+            (RANGE.0..=RANGE.1).contains(&cov),
+            "{figure} {quantity}: the quoted 1-sigma errors cover the ten-seed mean in {:.0}% of seeds \
+             (quoted / seed-to-seed spread = {ratio:.2}); honest errors cover about 68%",
+            100.0 * cov
+        );
+    }
+}
