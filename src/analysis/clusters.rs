@@ -249,8 +249,10 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     ])
 }
 
-/// Table `t, kind, Nc, P, n_clusters`: the log-binned cluster size distribution of
-/// slow (kind 0) and fast (kind 1) clusters at each lag, pooled over time origins.
+/// Table `t, kind, Nc, P, n_clusters, n_spanning, largest_spanning`: the log-binned
+/// size distribution of the slow (kind 0) and fast (kind 1) clusters that do not
+/// span the box, at each lag, pooled over time origins; beside it the number of
+/// spanning clusters left out and the largest of them (0 if none).
 pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     sizes_table(&compute(traj, p)?, p)
 }
@@ -264,30 +266,46 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
             .map(|a| a.values().to_vec())
             .expect("column written by compute")
     };
-    let (t, kind, nc) = (col("t"), col("kind"), col("Nc"));
-    let mut cols: [Vec<f64>; 5] = Default::default();
+    let (t, kind, nc, spans) = (col("t"), col("kind"), col("Nc"), col("spans"));
+    let mut cols: [Vec<f64>; 7] = Default::default();
     for &lag in &p.lags {
         for k in [0.0, 1.0] {
-            let sizes: Vec<usize> = (0..t.len())
+            let here: Vec<usize> = (0..t.len())
                 .filter(|&i| kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
-                .map(|i| nc[i] as usize)
                 .collect();
+            // A cluster that wraps around the box has no finite size: the box, not
+            // phi, cuts it off. It is left out of P(Nc) and counted beside it.
+            let sizes: Vec<usize> = here
+                .iter()
+                .filter(|&&i| spans[i] == 0.0)
+                .map(|&i| nc[i] as usize)
+                .collect();
+            let spanning = here.iter().filter(|&&i| spans[i] != 0.0).count() as f64;
+            let largest = here
+                .iter()
+                .filter(|&&i| spans[i] != 0.0)
+                .map(|&i| nc[i])
+                .fold(0.0, f64::max);
             for (centre, prob, count) in size_distribution(&sizes, p.per_decade)? {
                 cols[0].push(lag);
                 cols[1].push(k);
                 cols[2].push(centre);
                 cols[3].push(prob);
                 cols[4].push(count as f64);
+                cols[5].push(spanning);
+                cols[6].push(largest);
             }
         }
     }
-    let [t, k, n, pr, c] = cols;
+    let [t, k, n, pr, c, sp, big] = cols;
     f64_batch(&[
         ("t", t),
         ("kind", k),
         ("Nc", n),
         ("P", pr),
         ("n_clusters", c),
+        ("n_spanning", sp),
+        ("largest_spanning", big),
     ])
 }
 
