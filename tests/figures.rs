@@ -506,7 +506,7 @@ fn diffusion_levels_and_claims_on_a_tiny_sweep() {
     }
     // Claims: below another quantity agrees, the opposite claim disagrees, and the
     // paper column shows the quantity compared with.
-    let rows = read_compare(&ws.results.join("dispfig/compare.parquet")).unwrap();
+    let rows = read_compare(&ws.results.join("dispfig")).unwrap();
     let verdicts: Vec<&str> = rows.iter().map(|r| r.verdict.as_str()).collect();
     assert_eq!(verdicts, ["agree", "disagree", "agree"], "{verdicts:?}");
     assert_eq!(rows[0].paper, dd[0]);

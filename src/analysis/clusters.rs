@@ -341,3 +341,57 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A spanning cluster has no finite size: it is counted beside P(Nc), not in it.
+    #[test]
+    fn spanning_clusters_are_left_out_of_the_size_distribution() {
+        let rows = f64_batch(&[
+            ("t", vec![1.0; 5]),
+            ("t0", vec![0.0; 5]),
+            ("kind", vec![0.0, 0.0, 0.0, 0.0, 1.0]),
+            ("Nc", vec![1.0, 1.0, 2.0, 400.0, 3.0]),
+            ("Rg", vec![0.0, 0.0, 0.5, 9.0, 0.8]),
+            ("spans", vec![0.0, 0.0, 0.0, 1.0, 0.0]),
+        ])
+        .unwrap();
+        let p = Params {
+            a: 0.6,
+            fast_factor: 3.0,
+            lags: vec![1.0],
+            cutoffs: None,
+            rel_tol: 1e-6,
+            per_decade: 10,
+        };
+        let b = sizes_table(&rows, &p).unwrap();
+        let col = |n: &str| -> Vec<f64> {
+            b.column_by_name(n)
+                .unwrap()
+                .as_any()
+                .downcast_ref::<arrow_array::Float64Array>()
+                .unwrap()
+                .values()
+                .to_vec()
+        };
+        let (kind, nc, pr, sp, big) = (
+            col("kind"),
+            col("Nc"),
+            col("P"),
+            col("n_spanning"),
+            col("largest_spanning"),
+        );
+        let slow: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 0.0).collect();
+        // Slow: sizes 1, 1, 2 only (the 400 spans); P normalised over those three.
+        assert_eq!(
+            slow.iter().map(|&i| nc[i]).collect::<Vec<_>>(),
+            vec![1.0, 2.0]
+        );
+        assert!((pr[slow[0]] - 2.0 / 3.0).abs() < 1e-12 && (pr[slow[1]] - 1.0 / 3.0).abs() < 1e-12);
+        assert!(slow.iter().all(|&i| sp[i] == 1.0 && big[i] == 400.0));
+        let fast: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 1.0).collect();
+        assert!(fast.iter().all(|&i| sp[i] == 0.0 && big[i] == 0.0));
+    }
+}
