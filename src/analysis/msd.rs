@@ -240,9 +240,7 @@ pub fn diffusion(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBat
     let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
     let msd: Vec<f64> = totals.iter().map(|s| s[1] / s[0]).collect();
     let d = slope(&t, &msd) / 4.0;
-    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
-    keys.sort_unstable();
-    keys.dedup();
+    let keys = super::overlap::block_keys(&blocks);
     let loo: Vec<f64> = keys
         .iter()
         .map(|k| {

@@ -99,6 +99,14 @@ pub fn moments(
     })
 }
 
+/// Every (replica, origin) block that any lag saw, sorted: the jackknife's units.
+pub(crate) fn block_keys(blocks: &[Blocks]) -> Vec<(usize, usize)> {
+    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys
+}
+
 /// Q = mean of Q_r from the sums [sum Q, sum Q^2, boxes].
 pub(crate) fn q_of(s: &[f64]) -> f64 {
     s[0] / s[2]
@@ -141,9 +149,7 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
             q.last().copied().unwrap_or(f64::NAN)
         );
     };
-    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
-    keys.sort_unstable();
-    keys.dedup();
+    let keys = block_keys(blocks);
     let loo: Vec<f64> = keys
         .iter()
         .map(|k| {
@@ -196,9 +202,7 @@ pub fn q_levels(trajs: &[&Trajectory], p: &LevelParams) -> Result<RecordBatch> {
     let blocks = &m.blocks[0];
     let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
     let q: Vec<f64> = totals.iter().map(|s| q_of(s)).collect();
-    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
-    keys.sort_unstable();
-    keys.dedup();
+    let keys = block_keys(blocks);
     let loo_q: Vec<Vec<f64>> = keys
         .iter()
         .map(|k| {
