@@ -553,3 +553,97 @@ fn s4_q_zero_is_chi4_and_fit_tables_join_as_columns() {
         c[0].reason
     );
 }
+
+const DISPLACEMENT_PIPELINE: &str = r#"
+description: tiny figs 5 and 9, with qualitative claims in compare
+stages:
+  - name: diffusion
+    kind: diffusion
+    gather: [tiny]
+    by: [phi]
+    params: {fit_min_tau: 1.0}
+  - name: d_table
+    kind: table
+    gather: [diffusion]
+  - name: levels
+    kind: q_levels
+    gather: [tiny]
+    by: [phi]
+    params: {levels: [0.6, 0.5]}
+  - name: levels_table
+    kind: table
+    gather: [levels]
+  - name: d_low
+    kind: fit
+    gather: [d_table]
+    params: {form: value, data: d_table, x: phi, y: D, y_err: D_err, where: {phi: 0.55}, rename: {value: D_055}}
+  - name: d_high
+    kind: fit
+    gather: [d_table]
+    params: {form: value, data: d_table, x: phi, y: D, y_err: D_err, where: {phi: 0.72}, rename: {value: D_072}}
+  - name: compare
+    kind: compare
+    gather: [d_low, d_high]
+    params:
+      paper:
+        - {quantity: D_072, value: 0, tolerance: 0, claim: below, than: D_055}
+        - {quantity: D_072, value: 0, tolerance: 0, claim: above, than: D_055}
+        - {quantity: D_055, value: 0, tolerance: 0, claim: above}
+"#;
+
+#[test]
+fn diffusion_levels_and_claims_on_a_tiny_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    write_specs(dir.path());
+    std::fs::write(
+        dir.path().join("pipelines/dispfig.yaml"),
+        DISPLACEMENT_PIPELINE,
+    )
+    .unwrap();
+    let ws = Workspace::new(dir.path());
+    let opts = RunOptions {
+        jobs: 2,
+        ..RunOptions::default()
+    };
+    let reg = repro::stages::registry();
+    let run = run_figures(&ws, &reg, &["dispfig".to_string()], "ci", &opts).unwrap();
+    run.check().unwrap();
+    // D falls and tau_alpha grows with phi; the fit starts at tau_alpha.
+    let d = ws.results.join("dispfig/d_table.parquet");
+    let (dd, tau, t0) = (
+        column(&d, "D"),
+        column(&d, "tau_alpha"),
+        column(&d, "t_fit_min"),
+    );
+    assert_eq!(dd.len(), 4);
+    assert!(dd.windows(2).all(|w| w[0] > w[1]), "D {dd:?}");
+    assert!(tau.windows(2).all(|w| w[0] < w[1]), "tau {tau:?}");
+    assert!(
+        (0..4).all(|i| t0[i] >= tau[i] * (1.0 - 1e-9)),
+        "{t0:?} {tau:?}"
+    );
+    // Q crosses 0.6 before 0.5, both before 1/e: ratios in (0, 1) ordered by level.
+    let l = ws.results.join("dispfig/levels_table.parquet");
+    let (lev, r) = (column(&l, "level"), column(&l, "t_over_tau_alpha"));
+    assert_eq!(lev.len(), 8);
+    for i in (0..8).step_by(2) {
+        assert!(0.0 < r[i] && r[i] < r[i + 1] && r[i + 1] < 1.0, "{r:?}");
+    }
+    // Claims: below another quantity agrees, the opposite claim disagrees, and the
+    // paper column shows the quantity compared with.
+    let rows = read_compare(&ws.results.join("dispfig")).unwrap();
+    let verdicts: Vec<&str> = rows.iter().map(|r| r.verdict.as_str()).collect();
+    assert_eq!(verdicts, ["agree", "disagree", "agree"], "{verdicts:?}");
+    assert_eq!(rows[0].paper, dd[0]);
+    // `than` without `claim` is refused before anything runs.
+    let bad = DISPLACEMENT_PIPELINE.replace(
+        "{quantity: D_055, value: 0, tolerance: 0, claim: above}",
+        "{quantity: D_055, value: 0, tolerance: 0, than: D_072}",
+    );
+    std::fs::write(dir.path().join("pipelines/dispfig.yaml"), bad).unwrap();
+    let e = run_figures(&ws, &reg, &["dispfig".to_string()], "ci", &opts)
+        .err()
+        .map(|e| format!("{e:#}"))
+        .unwrap_or_default();
+    assert!(e.contains("`than` without a `claim`"), "{e}");
+}

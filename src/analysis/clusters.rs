@@ -249,8 +249,10 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     ])
 }
 
-/// Table `t, kind, Nc, P, n_clusters`: the log-binned cluster size distribution of
-/// slow (kind 0) and fast (kind 1) clusters at each lag, pooled over time origins.
+/// Table `t, kind, Nc, P, n_clusters, n_spanning, largest_spanning`: the log-binned
+/// size distribution of the slow (kind 0) and fast (kind 1) clusters that do not
+/// span the box, at each lag, pooled over time origins; beside it the number of
+/// spanning clusters left out and the largest of them (0 if none).
 pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     sizes_table(&compute(traj, p)?, p)
 }
@@ -264,30 +266,46 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
             .map(|a| a.values().to_vec())
             .expect("column written by compute")
     };
-    let (t, kind, nc) = (col("t"), col("kind"), col("Nc"));
-    let mut cols: [Vec<f64>; 5] = Default::default();
+    let (t, kind, nc, spans) = (col("t"), col("kind"), col("Nc"), col("spans"));
+    let mut cols: [Vec<f64>; 7] = Default::default();
     for &lag in &p.lags {
         for k in [0.0, 1.0] {
-            let sizes: Vec<usize> = (0..t.len())
+            let here: Vec<usize> = (0..t.len())
                 .filter(|&i| kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
-                .map(|i| nc[i] as usize)
                 .collect();
+            // A cluster that wraps around the box has no finite size: the box, not
+            // phi, cuts it off. It is left out of P(Nc) and counted beside it.
+            let sizes: Vec<usize> = here
+                .iter()
+                .filter(|&&i| spans[i] == 0.0)
+                .map(|&i| nc[i] as usize)
+                .collect();
+            let spanning = here.iter().filter(|&&i| spans[i] != 0.0).count() as f64;
+            let largest = here
+                .iter()
+                .filter(|&&i| spans[i] != 0.0)
+                .map(|&i| nc[i])
+                .fold(0.0, f64::max);
             for (centre, prob, count) in size_distribution(&sizes, p.per_decade)? {
                 cols[0].push(lag);
                 cols[1].push(k);
                 cols[2].push(centre);
                 cols[3].push(prob);
                 cols[4].push(count as f64);
+                cols[5].push(spanning);
+                cols[6].push(largest);
             }
         }
     }
-    let [t, k, n, pr, c] = cols;
+    let [t, k, n, pr, c, sp, big] = cols;
     f64_batch(&[
         ("t", t),
         ("kind", k),
         ("Nc", n),
         ("P", pr),
         ("n_clusters", c),
+        ("n_spanning", sp),
+        ("largest_spanning", big),
     ])
 }
 
@@ -322,4 +340,58 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
         k += 1;
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A spanning cluster has no finite size: it is counted beside P(Nc), not in it.
+    #[test]
+    fn spanning_clusters_are_left_out_of_the_size_distribution() {
+        let rows = f64_batch(&[
+            ("t", vec![1.0; 5]),
+            ("t0", vec![0.0; 5]),
+            ("kind", vec![0.0, 0.0, 0.0, 0.0, 1.0]),
+            ("Nc", vec![1.0, 1.0, 2.0, 400.0, 3.0]),
+            ("Rg", vec![0.0, 0.0, 0.5, 9.0, 0.8]),
+            ("spans", vec![0.0, 0.0, 0.0, 1.0, 0.0]),
+        ])
+        .unwrap();
+        let p = Params {
+            a: 0.6,
+            fast_factor: 3.0,
+            lags: vec![1.0],
+            cutoffs: None,
+            rel_tol: 1e-6,
+            per_decade: 10,
+        };
+        let b = sizes_table(&rows, &p).unwrap();
+        let col = |n: &str| -> Vec<f64> {
+            b.column_by_name(n)
+                .unwrap()
+                .as_any()
+                .downcast_ref::<arrow_array::Float64Array>()
+                .unwrap()
+                .values()
+                .to_vec()
+        };
+        let (kind, nc, pr, sp, big) = (
+            col("kind"),
+            col("Nc"),
+            col("P"),
+            col("n_spanning"),
+            col("largest_spanning"),
+        );
+        let slow: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 0.0).collect();
+        // Slow: sizes 1, 1, 2 only (the 400 spans); P normalised over those three.
+        assert_eq!(
+            slow.iter().map(|&i| nc[i]).collect::<Vec<_>>(),
+            vec![1.0, 2.0]
+        );
+        assert!((pr[slow[0]] - 2.0 / 3.0).abs() < 1e-12 && (pr[slow[1]] - 1.0 / 3.0).abs() < 1e-12);
+        assert!(slow.iter().all(|&i| sp[i] == 1.0 && big[i] == 400.0));
+        let fast: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 1.0).collect();
+        assert!(fast.iter().all(|&i| sp[i] == 0.0 && big[i] == 0.0));
+    }
 }

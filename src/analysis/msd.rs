@@ -145,3 +145,199 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
         ("n_origins", no),
     ])
 }
+
+fn default_fit_min_tau() -> f64 {
+    1.0
+}
+
+/// Parameters of [`diffusion`].
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DiffusionParams {
+    /// Mobility cut-off a of the overlap that defines tau_alpha (units r1).
+    #[serde(default = "super::default_a")]
+    pub a: f64,
+    /// The fit range starts at this multiple of tau_alpha.
+    #[serde(default = "default_fit_min_tau")]
+    pub fit_min_tau: f64,
+    /// The fit range ends at this multiple of tau_alpha; the longest lag if absent.
+    #[serde(default)]
+    pub fit_max_tau: Option<f64>,
+    /// Only this species; every particle if absent.
+    #[serde(default)]
+    pub species: Option<u8>,
+    /// Lags t; every lag the trajectory realises if absent.
+    #[serde(default)]
+    pub lags: Option<Vec<f64>>,
+    /// Relative tolerance matching a lag to frame time differences.
+    #[serde(default = "default_rel_tol")]
+    pub rel_tol: f64,
+}
+
+/// Slope of the least-squares line through (t, y).
+fn slope(t: &[f64], y: &[f64]) -> f64 {
+    let n = t.len() as f64;
+    let (mt, my) = (t.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxy: f64 = t.iter().zip(y).map(|(a, b)| (a - mt) * (b - my)).sum();
+    let sxx: f64 = t.iter().map(|a| (a - mt) * (a - mt)).sum();
+    sxy / sxx
+}
+
+/// Diffusion coefficient from the long-time MSD (Fig. 9): D = slope / 4 of the
+/// line through Delta(t) over lags in [fit_min_tau, fit_max_tau] x tau_alpha (2D:
+/// Delta = 4 D t + const at long times; the intercept absorbs the cage plateau),
+/// replicas pooled, with a jackknife error over (replica, time origin) blocks.
+/// Table (one row) `D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points`.
+pub fn diffusion(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBatch> {
+    let lag_list = lags::every_origin(trajs, p.lags.clone(), p.rel_tol)?;
+    let op = super::overlap::Params {
+        a: p.a,
+        n: None,
+        lags: lag_list.clone(),
+        rel_tol: p.rel_tol,
+    };
+    let tau = super::overlap::tau_alpha(trajs, &op)?;
+    let lo = p.fit_min_tau * tau.value;
+    let hi = p.fit_max_tau.map_or(f64::INFINITY, |m| m * tau.value);
+    let all = lags::select(trajs, lag_list.as_deref(), p.rel_tol)?;
+    let longest = all.last().map_or(f64::NAN, |l| l.t);
+    let used: Vec<&lags::Lag> = all
+        .iter()
+        .filter(|l| l.t >= lo * (1.0 - 1e-9) && l.t <= hi * (1.0 + 1e-9))
+        .collect();
+    if used.len() < 2 {
+        bail!(
+            "D needs at least two lags in [{lo:.4}, {hi:.4}] ({} to {:?} x tau_alpha = {:.4}); \
+             the trajectory has {} there (longest lag {longest:.4}): record longer lags or lower `fit_min_tau`",
+            p.fit_min_tau,
+            p.fit_max_tau,
+            tau.value,
+            used.len()
+        );
+    }
+    let mut blocks = vec![Blocks::default(); used.len()];
+    for (lag, b) in used.iter().zip(&mut blocks) {
+        for pair in &lag.pairs {
+            let tr = trajs[pair.0];
+            let d2 = squared_displacements(&tr.frames[pair.1], &tr.frames[pair.2]);
+            let (mut s, mut k) = (0.0, 0.0);
+            for (d, sp) in d2.iter().zip(&tr.species) {
+                if p.species.is_none_or(|want| want == *sp) {
+                    s += d;
+                    k += 1.0;
+                }
+            }
+            if k == 0.0 {
+                bail!(
+                    "parameter `species` = {:?}: no particle of that species",
+                    p.species
+                );
+            }
+            b.add(lags::Lag::block(pair), &[1.0, s / k]);
+        }
+    }
+    let t: Vec<f64> = used.iter().map(|l| l.t).collect();
+    let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
+    let msd: Vec<f64> = totals.iter().map(|s| s[1] / s[0]).collect();
+    let d = slope(&t, &msd) / 4.0;
+    let keys = super::overlap::block_keys(&blocks);
+    let loo: Vec<f64> = keys
+        .iter()
+        .map(|k| {
+            let m: Vec<f64> = blocks
+                .iter()
+                .zip(&totals)
+                .map(|(b, tot)| {
+                    let s = b.total_without(tot, k);
+                    s[1] / s[0]
+                })
+                .collect();
+            slope(&t, &m) / 4.0
+        })
+        .collect();
+    f64_batch(&[
+        ("D", vec![d]),
+        ("D_err", vec![super::stats::jackknife_err(loo)]),
+        ("tau_alpha", vec![tau.value]),
+        ("tau_alpha_err", vec![tau.err]),
+        ("t_fit_min", vec![t[0]]),
+        ("t_fit_max", vec![t[t.len() - 1]]),
+        ("points", vec![t.len() as f64]),
+    ])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::synthetic::random_walk;
+    use crate::traj::Schedule;
+
+    fn times() -> Vec<f64> {
+        Schedule {
+            start: 0.0,
+            origins: 12,
+            origin_spacing: 60.0,
+            lags: Schedule::log_lags(0.1, 60.0, 8),
+        }
+        .times()
+    }
+
+    #[test]
+    fn diffusion_of_a_random_walk_is_its_d() {
+        for d in [0.02, 0.1] {
+            let traj = random_walk(2000, [60.0, 60.0], &times(), d, 9);
+            let p = DiffusionParams {
+                a: 0.6,
+                fit_min_tau: 1.0,
+                fit_max_tau: None,
+                species: None,
+                lags: Some(Schedule::log_lags(0.1, 60.0, 8)),
+                rel_tol: 1e-6,
+            };
+            let b = diffusion(&[&traj], &p).unwrap();
+            let get = |n: &str| {
+                b.column_by_name(n)
+                    .unwrap()
+                    .as_any()
+                    .downcast_ref::<arrow_array::Float64Array>()
+                    .unwrap()
+                    .value(0)
+            };
+            let (dd, err, tau) = (get("D"), get("D_err"), get("tau_alpha"));
+            // Q = 1 - exp(-a^2 / 4 D t) = 1/e: tau_alpha = a^2 / (4 D ln(e / (e - 1))).
+            let exact_tau =
+                0.36 / (4.0 * d * (std::f64::consts::E / (std::f64::consts::E - 1.0)).ln());
+            assert!(
+                (tau - exact_tau).abs() < 0.05 * exact_tau,
+                "tau {tau} vs {exact_tau}"
+            );
+            assert!(
+                get("t_fit_min") >= tau * (1.0 - 1e-9),
+                "fit starts at tau_alpha"
+            );
+            assert!(err > 0.0 && err < 0.05 * d, "D_err {err}");
+            assert!(
+                (dd - d).abs() < 4.0 * err.max(0.01 * d),
+                "D {dd} +- {err} vs {d}"
+            );
+        }
+    }
+
+    #[test]
+    fn diffusion_without_lags_in_the_fit_range_names_the_numbers() {
+        let traj = random_walk(200, [30.0, 30.0], &times(), 0.05, 3);
+        let p = DiffusionParams {
+            a: 0.6,
+            fit_min_tau: 1000.0,
+            fit_max_tau: None,
+            species: None,
+            lags: None,
+            rel_tol: 1e-6,
+        };
+        let e = format!("{:#}", diffusion(&[&traj], &p).unwrap_err());
+        assert!(
+            e.contains("at least two lags") && e.contains("longest lag"),
+            "{e}"
+        );
+    }
+}

@@ -225,6 +225,17 @@ pub static OBSERVABLES: &[Observable] = &[
         },
     },
     Observable {
+        name: "q_levels",
+        describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
+        modules: OVERLAP,
+        validate: |v| params::<overlap::LevelParams>("q_levels", v).map(drop),
+        compute: |t, v| {
+            let mut p: overlap::LevelParams = params("q_levels", v)?;
+            p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
+            Ok(Tables::one(overlap::q_levels(t, &p)?, jackknife(t)))
+        },
+    },
+    Observable {
         name: "aging",
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha",
         modules: OVERLAP,
@@ -284,6 +295,22 @@ pub static OBSERVABLES: &[Observable] = &[
                 .collect::<Result<Vec<_>>>()?;
             let (main, errors) = pool::seed_to_seed(&tables)?;
             Ok(Tables::one(main, errors))
+        },
+    },
+    Observable {
+        name: "diffusion",
+        describe: "D from the long-time MSD slope over [fit_min_tau, fit_max_tau] x tau_alpha (Fig. 9), one jackknife: D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points",
+        modules: &[
+            "analysis/msd",
+            "analysis/overlap",
+            "analysis/lags",
+            "analysis/stats",
+            "analysis/subbox",
+        ],
+        validate: |v| params::<msd::DiffusionParams>("diffusion", v).map(drop),
+        compute: |t, v| {
+            let p: msd::DiffusionParams = params("diffusion", v)?;
+            Ok(Tables::one(msd::diffusion(t, &p)?, jackknife(t)))
         },
     },
     Observable {

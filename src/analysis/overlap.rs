@@ -99,6 +99,14 @@ pub fn moments(
     })
 }
 
+/// Every (replica, origin) block that any lag saw, sorted: the jackknife's units.
+pub(crate) fn block_keys(blocks: &[Blocks]) -> Vec<(usize, usize)> {
+    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys
+}
+
 /// Q = mean of Q_r from the sums [sum Q, sum Q^2, boxes].
 pub(crate) fn q_of(s: &[f64]) -> f64 {
     s[0] / s[2]
@@ -141,9 +149,7 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
             q.last().copied().unwrap_or(f64::NAN)
         );
     };
-    let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
-    keys.sort_unstable();
-    keys.dedup();
+    let keys = block_keys(blocks);
     let loo: Vec<f64> = keys
         .iter()
         .map(|k| {
@@ -159,6 +165,87 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
         value,
         err: super::stats::jackknife_err(loo),
     })
+}
+
+/// Parameters of [`q_levels`]: the overlap's, plus the levels Q crosses.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LevelParams {
+    /// Mobility cut-off a (units r1): slow means |dr| < a.
+    #[serde(default = "default_a")]
+    pub a: f64,
+    /// Levels of Q (in (0, 1)) whose crossing times are measured.
+    pub levels: Vec<f64>,
+    /// Lags t to evaluate; every lag the trajectory realises if absent.
+    #[serde(default)]
+    pub lags: Option<Vec<f64>>,
+    /// Relative tolerance matching a lag to frame time differences.
+    #[serde(default = "default_rel_tol")]
+    pub rel_tol: f64,
+}
+
+/// Time-density superposition test (Fig. 5): for each level q, the time t_q where
+/// Q(t_q) = q and its ratio to tau_alpha (Q = 1/e). Superposition means t_q / tau_alpha
+/// is the same at every phi. Both come from one jackknife over (replica, origin)
+/// blocks, so the ratio's error accounts for their correlation.
+/// Table `level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err`.
+pub fn q_levels(trajs: &[&Trajectory], p: &LevelParams) -> Result<RecordBatch> {
+    if let Some(l) = p.levels.iter().find(|l| !(**l > 0.0 && **l < 1.0)) {
+        bail!("parameter `levels` must hold values in (0, 1), got {l}");
+    }
+    if p.levels.is_empty() {
+        bail!("parameter `levels` is empty: give at least one level, e.g. levels: [0.6]");
+    }
+    let m = moments(trajs, p.a, &[None], p.lags.as_deref(), p.rel_tol)?;
+    let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
+    let alpha = (-1f64).exp();
+    let blocks = &m.blocks[0];
+    let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
+    let q: Vec<f64> = totals.iter().map(|s| q_of(s)).collect();
+    let keys = block_keys(blocks);
+    let loo_q: Vec<Vec<f64>> = keys
+        .iter()
+        .map(|k| {
+            blocks
+                .iter()
+                .zip(&totals)
+                .map(|(b, tot)| q_of(&b.total_without(tot, k)))
+                .collect()
+        })
+        .collect();
+    let cross = |q: &[f64], level: f64| crossing_time(&t, q, level).unwrap_or(f64::NAN);
+    let tau = cross(&q, alpha);
+    if !tau.is_finite() {
+        bail!(
+            "Q(t) never falls to 1/e over the lags analysed (last lag {}): record longer lags",
+            t.last().copied().unwrap_or(f64::NAN)
+        );
+    }
+    let mut cols: [Vec<f64>; 6] = Default::default();
+    for &level in &p.levels {
+        let tq = cross(&q, level);
+        let loo_t: Vec<f64> = loo_q.iter().map(|qk| cross(qk, level)).collect();
+        let loo_r: Vec<f64> = loo_q
+            .iter()
+            .zip(&loo_t)
+            .map(|(qk, tk)| tk / cross(qk, alpha))
+            .collect();
+        cols[0].push(level);
+        cols[1].push(tq);
+        cols[2].push(super::stats::jackknife_err(loo_t));
+        cols[3].push(tau);
+        cols[4].push(tq / tau);
+        cols[5].push(super::stats::jackknife_err(loo_r));
+    }
+    let [level, tq, tq_err, tau, r, r_err] = cols;
+    f64_batch(&[
+        ("level", level),
+        ("t", tq),
+        ("t_err", tq_err),
+        ("tau_alpha", tau),
+        ("t_over_tau_alpha", r),
+        ("t_over_tau_alpha_err", r_err),
+    ])
 }
 
 /// (t0, lags, Q) of one time origin.
@@ -239,4 +326,59 @@ pub fn aging(trajs: &[&Trajectory], p: &Params) -> Result<(RecordBatch, RecordBa
         f64_batch(&[("t0", t0), ("t", t), ("Q", q)])?,
         f64_batch(&[("t0", t0s), ("tau_alpha", taus)])?,
     ))
+}
+
+#[cfg(test)]
+mod level_tests {
+    use super::*;
+    use crate::analysis::synthetic::random_walk;
+    use crate::traj::Schedule;
+
+    /// A random walk obeys superposition exactly: Q = 1 - exp(-a^2 / 4 D t), so
+    /// t_q / tau_alpha = ln(e / (e - 1)) / ln(1 / (1 - q)) whatever D is.
+    #[test]
+    fn random_walks_obey_time_superposition_at_every_d() {
+        let lags = Schedule::log_lags(0.05, 40.0, 10);
+        let times = Schedule {
+            start: 0.0,
+            origins: 12,
+            origin_spacing: 40.0,
+            lags: lags.clone(),
+        }
+        .times();
+        let exact = (std::f64::consts::E / (std::f64::consts::E - 1.0)).ln() / (1.0f64 / 0.4).ln();
+        for d in [0.02, 0.2] {
+            let traj = random_walk(3000, [60.0, 60.0], &times, d, 11);
+            let p = LevelParams {
+                a: 0.6,
+                levels: vec![0.6],
+                lags: Some(lags.clone()),
+                rel_tol: 1e-6,
+            };
+            let b = q_levels(&[&traj], &p).unwrap();
+            let get = |n: &str| {
+                b.column_by_name(n)
+                    .unwrap()
+                    .as_any()
+                    .downcast_ref::<arrow_array::Float64Array>()
+                    .unwrap()
+                    .value(0)
+            };
+            let (r, err) = (get("t_over_tau_alpha"), get("t_over_tau_alpha_err"));
+            assert!(err > 0.0 && err < 0.05 * exact, "error {err}");
+            assert!(
+                (r - exact).abs() < 0.03 * exact,
+                "D = {d}: ratio {r} +- {err}, exact {exact}"
+            );
+        }
+        let bad = LevelParams {
+            a: 0.6,
+            levels: vec![1.2],
+            lags: None,
+            rel_tol: 1e-6,
+        };
+        let traj = random_walk(10, [10.0, 10.0], &times, 0.1, 1);
+        let e = format!("{:#}", q_levels(&[&traj], &bad).unwrap_err());
+        assert!(e.contains("levels") && e.contains("1.2"), "{e}");
+    }
 }

@@ -664,6 +664,8 @@ fn every_kind_runs_from_json_parameters() {
     let cases = [
         ("overlap", json!({"lags": [0.1, 1.0]}), "Q"),
         ("tau_alpha", json!({"a": 0.6}), "tau_alpha"),
+        ("q_levels", json!({"levels": [0.6]}), "t_over_tau_alpha"),
+        ("diffusion", json!({"fit_min_tau": 1.0}), "D"),
         ("aging", json!({"lags": [0.1, 1.0]}), "t0"),
         ("chi4", json!({"n": [50, 100], "lags": [1.0]}), "chi4"),
         ("chi4_peaks", json!({"n": [50]}), "tau4"),

@@ -114,6 +114,21 @@ struct PaperValue {
     value: f64,
     /// Largest accepted |ours - paper|.
     tolerance: f64,
+    /// A qualitative claim instead of a number: `above` (the paper states the
+    /// quantity exceeds `value`; agree when ours > value + tolerance) or `below`.
+    #[serde(default)]
+    claim: Option<Claim>,
+    /// With `claim`: compare with this other quantity of ours instead of `value`
+    /// (e.g. a tail length that grows with phi: x0 at 0.78 above x0 at 0.60).
+    #[serde(default)]
+    than: Option<String>,
+}
+
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum Claim {
+    Above,
+    Below,
 }
 
 #[derive(Deserialize)]
@@ -159,6 +174,12 @@ impl StageKind for Compare {
             }
         }
         for v in &p.paper {
+            if v.than.is_some() && v.claim.is_none() {
+                bail!(
+                    "compare: '{}' names `than` without a `claim` (above or below)",
+                    v.quantity
+                );
+            }
             if !(v.tolerance >= 0.0 && v.tolerance.is_finite()) {
                 bail!(
                     "compare: tolerance of '{}' must be a finite number >= 0, got {}",
@@ -208,7 +229,28 @@ impl StageKind for Compare {
                 }
                 Some(&(_, v, e, _)) => {
                     let d = (v - pval.value).abs();
-                    if d <= pval.tolerance {
+                    if let Some(c) = pval.claim {
+                        let (bound, name) = match &pval.than {
+                            Some(q) => (
+                                ours.iter().find(|o| &o.0 == q).map_or(f64::NAN, |o| o.1),
+                                q.clone(),
+                            ),
+                            None => (pval.value, pval.value.to_string()),
+                        };
+                        let (ok, op) = match c {
+                            Claim::Above => (v > bound + pval.tolerance, ">"),
+                            Claim::Below => (v < bound - pval.tolerance, "<"),
+                        };
+                        let why = format!(
+                            "paper states {op} {name} (margin {}); ours {v} against {bound}",
+                            pval.tolerance
+                        );
+                        match (ok, p.out_of_reach.get(&pval.quantity)) {
+                            (true, _) => (v, e, "agree", why),
+                            (false, Some(r)) => (v, e, "out_of_reach", format!("{r}; {why}")),
+                            (false, None) => (v, e, "disagree", why),
+                        }
+                    } else if d <= pval.tolerance {
                         (
                             v,
                             e,
@@ -227,7 +269,9 @@ impl StageKind for Compare {
             q.push(pval.quantity.clone());
             o.push(v);
             oe.push(e);
-            pv.push(pval.value);
+            // A claim against another quantity shows that quantity as the paper's bound.
+            let other = pval.than.as_ref().map(|q| ours.iter().find(|o| &o.0 == q));
+            pv.push(other.map_or(pval.value, |o| o.map_or(f64::NAN, |o| o.1)));
             tol.push(pval.tolerance);
             verdict.push(ver.to_string());
             reason.push(why);

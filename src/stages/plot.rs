@@ -14,6 +14,19 @@ use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::plot::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style};
 
+/// A group value as a legend shows it: three decimals tell phi (0.785) or t0 apart,
+/// and values below 10 keep two (0.60, 0.65) so a column of phi reads evenly.
+fn legend_number(v: f64) -> String {
+    let r = (v * 1e3).round() / 1e3;
+    if r.abs() >= 10.0 || r == 0.0 {
+        format!("{r}")
+    } else if ((r * 1e2).round() / 1e2 - r).abs() < 1e-12 {
+        format!("{r:.2}")
+    } else {
+        format!("{r:.3}")
+    }
+}
+
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Layer {
@@ -105,8 +118,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     for (key, mut idx) in groups {
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match &layer.group {
-            // Three decimals are enough to tell phi (0.785) or t0 apart in a legend.
-            Some(_) => format!("{}{}", layer.label, (key * 1e3).round() / 1e3),
+            Some(_) => format!("{}{}", layer.label, legend_number(key)),
             None => layer.label.clone(),
         };
         out.push(Series {
