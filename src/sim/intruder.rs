@@ -15,6 +15,8 @@
 //! finder gives up with a time before which no contact can happen, at which
 //! the caller schedules a re-prediction.
 
+use super::friction::Clock;
+
 /// Contact is accepted at a gap of at most this fraction of sigma.
 pub const GAP_TOL: f64 = 1e-10;
 /// Steps after which the root finder gives up (the caller re-predicts then).
@@ -44,11 +46,11 @@ impl Pull {
     /// velocity under friction alone (Eq. 8); tau at gamma = 0.
     #[inline]
     pub fn e(&self, tau: f64) -> f64 {
-        if self.gamma == 0.0 {
-            tau
-        } else {
-            -(-self.gamma * tau).exp_m1() / self.gamma
+        Clock {
+            gamma: self.gamma,
+            t0: 0.0,
         }
+        .s(tau)
     }
 
     /// G(tau) = (tau - E(tau)) / gamma: the distance per unit F/m0 from rest;
