@@ -1,14 +1,14 @@
 # repro: regenerate the figures of the driven-granular-fluid papers.
 #   make all-figures            every figure (profile: small)
 #   make figure FIG=fig19       one figure; PROFILE=ci|small|paper, JOBS=N
-#   make test / bench / ci
+#   make test / bench / ci / report
 CARGO ?= cargo
 PROFILE ?= small
 JOBS ?=
 REPRO ?= $(CARGO) run --release --locked --quiet --
 JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: build test bench ci ci-figures all-figures figure status gc
+.PHONY: build test bench ci ci-figures all-figures figure status gc report
 
 build:
 	$(CARGO) build --release --locked
@@ -22,12 +22,19 @@ test:
 	$(CARGO) test --release --locked
 	$(REPRO) figure $(CI_FIGURES) --profile ci $(JOBS_FLAG)
 	$(REPRO) regress --profile ci
+	$(REPRO) report --profile ci
 
 bench:
 	$(CARGO) bench --locked
 
 all-figures:
 	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)
+	$(REPRO) report --profile $(PROFILE)
+
+# The gallery and key-number table of the built figures: results/REPORT.md
+# (docs/report-PROFILE.md too with DOCS=1).
+report:
+	$(REPRO) report --profile $(PROFILE) $(if $(DOCS),--docs,)
 
 figure:
 	@test -n "$(FIG)" || { echo "usage: make figure FIG=fig19 [PROFILE=ci|small|paper] [JOBS=N]"; exit 2; }

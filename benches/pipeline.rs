@@ -14,7 +14,7 @@ fn main() {
 }
 
 fn reg() -> Registry {
-    let mut r = Registry::builtin();
+    let mut r = Registry::framework();
     toy::register(&mut r);
     r
 }

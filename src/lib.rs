@@ -13,6 +13,7 @@ pub mod pipeline;
 pub mod plot;
 pub mod sim;
 pub mod stages;
+pub mod study;
 pub mod table;
 pub mod traj;
 

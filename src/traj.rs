@@ -101,6 +101,26 @@ impl Schedule {
         t
     }
 
+    /// The same recorded window (first origin to last frame, so the same
+    /// simulated time) with origins every `spacing` instead of `origin_spacing`:
+    /// blocks of the same lags that overlap when `spacing` is shorter than the
+    /// longest lag, so every lag is realised by more time origins at the same cost
+    /// (and more stored frames).
+    pub fn overlapping(&self, spacing: f64) -> Schedule {
+        assert!(spacing > 0.0 && spacing.is_finite());
+        let span = self.origins.saturating_sub(1) as f64 * self.origin_spacing;
+        Schedule {
+            origins: if self.origins == 0 {
+                0
+            } else {
+                // The slack keeps a last origin that lands exactly on the span.
+                (span / spacing + 1e-9).floor() as usize + 1
+            },
+            origin_spacing: spacing,
+            ..self.clone()
+        }
+    }
+
     /// Time of the last frame.
     pub fn end(&self) -> f64 {
         self.times().last().copied().unwrap_or(self.start)
@@ -128,15 +148,9 @@ impl Trajectory {
 mod tests {
     use super::*;
 
-    #[test]
-    fn schedule_pairs_cover_every_origin() {
-        let s = Schedule {
-            start: 10.0,
-            origins: 4,
-            origin_spacing: 50.0,
-            lags: Schedule::log_lags(0.1, 10.0, 5),
-        };
-        let traj = Trajectory {
+    /// One disk at rest, recorded at every time of `s`.
+    fn at_rest(s: &Schedule) -> Trajectory {
+        Trajectory {
             box_size: [1.0, 1.0],
             periodic: [true, true],
             species: vec![0],
@@ -153,11 +167,56 @@ mod tests {
                     vy: vec![],
                 })
                 .collect(),
+        }
+    }
+
+    #[test]
+    fn schedule_pairs_cover_every_origin() {
+        let s = Schedule {
+            start: 10.0,
+            origins: 4,
+            origin_spacing: 50.0,
+            lags: Schedule::log_lags(0.1, 10.0, 5),
         };
+        let traj = at_rest(&s);
         assert_eq!(s.lags.len(), 11);
         for &lag in &s.lags {
             assert_eq!(traj.pairs_at_lag(lag, 1e-6).len(), 4, "lag {lag}");
         }
         assert!(traj.pairs_at_lag(0.37, 1e-6).is_empty());
+    }
+
+    /// Overlapping origins: same last frame (same simulated time), four times the
+    /// origins, and every lag realised by at least every origin.
+    #[test]
+    fn overlapping_origins_keep_the_window_and_multiply_the_pairs() {
+        let s = Schedule {
+            start: 5.0,
+            origins: 4,
+            origin_spacing: 20.0,
+            lags: Schedule::log_lags(0.1, 50.0, 4),
+        };
+        let o = s.overlapping(5.0);
+        assert_eq!(o.origins, 13);
+        assert!(
+            (o.end() - s.end()).abs() < 1e-9,
+            "{} vs {}",
+            o.end(),
+            s.end()
+        );
+        assert!(o.times().len() > 3 * s.times().len());
+        let (a, b) = (at_rest(&s), at_rest(&o));
+        for &lag in &s.lags {
+            let (na, nb) = (
+                a.pairs_at_lag(lag, 1e-9).len(),
+                b.pairs_at_lag(lag, 1e-9).len(),
+            );
+            assert!(na >= 4 && nb >= 13, "lag {lag}: {na} and {nb} origins");
+        }
+        assert_eq!(
+            s.overlapping(20.0),
+            s,
+            "the same spacing is the same schedule"
+        );
     }
 }

@@ -5,8 +5,9 @@
 
 use std::path::Path;
 
-use repro::cli::figs::{GoldenFile, check, golden, read_compare};
-use repro::pipeline::{Registry, RunOptions, Workspace, run_figures};
+use repro::pipeline::{RunOptions, Workspace, run_figures};
+use repro::study::golden::{GoldenFile, check, golden};
+use repro::study::results::read_compare;
 
 const EXPERIMENT: &str = r#"
 description: tiny eps = 0.9 sweep for tests
@@ -74,7 +75,7 @@ stages:
           y: {label: "τ_α", log: true}
           layers:
             - {from: tau_table, x: phi, y: tau_alpha, y_err: tau_alpha_err, style: points}
-            - {from: exponential, file: curve.parquet, x: x, y: y}
+            - {from: exponential, file: curve.parquet, x: phi, y: tau_alpha}
         - x: {label: "N", log: true}
           y: {label: "χ₄ᴾ", log: true}
           layers:
@@ -113,7 +114,7 @@ fn tiny_figure_end_to_end_then_regression_check() {
         ..RunOptions::default()
     };
     let ids = vec!["tinyfig".to_string()];
-    let run = run_figures(&ws, &Registry::builtin(), &ids, "ci", &opts).unwrap();
+    let run = run_figures(&ws, &repro::stages::registry(), &ids, "ci", &opts).unwrap();
     run.check().unwrap();
     let out = ws.results.join("tinyfig");
     for f in [
@@ -147,11 +148,28 @@ fn tiny_figure_end_to_end_then_regression_check() {
             .all(|&c| c > 0.0)
     );
 
+    // Every published column says its unit and what it is (Parquet field metadata).
+    for e in std::fs::read_dir(&out).unwrap().flatten() {
+        let p = e.path();
+        if p.extension().is_some_and(|x| x == "parquet") {
+            let (batches, _) = repro::table::read_parquet(&p).unwrap();
+            for f in batches[0].schema().fields() {
+                let m = f.metadata();
+                assert!(
+                    m.contains_key("unit") && m.get("description").is_some_and(|d| !d.is_empty()),
+                    "{}: column {} has no unit/description",
+                    p.display(),
+                    f.name()
+                );
+            }
+        }
+    }
+
     // Rerunning is all cached and bit-identical.
     let before = std::fs::read(out.join("tau_table.parquet")).unwrap();
     let again = run_figures(
         &ws,
-        &Registry::builtin(),
+        &repro::stages::registry(),
         &ids,
         "ci",
         &RunOptions { jobs: 1, ..opts },
@@ -218,5 +236,195 @@ fn tiny_figure_end_to_end_then_regression_check() {
     assert!(
         e.contains("profile 'ci'") && e.contains("repro figure tinyfig --profile small"),
         "{e}"
+    );
+
+    // The report quotes the compare stage's number with its error and verdict.
+    let c = ours.iter().find(|c| c.quantity == "phi_0").unwrap();
+    repro::study::report::write(dir.path(), &ws.results, Some("ci"), false).unwrap();
+    let md = std::fs::read_to_string(ws.results.join("REPORT.md")).unwrap();
+    let row = format!(
+        "| tinyfig | phi_0 | {} |",
+        repro::study::report::number(c.ours, c.ours_err)
+    );
+    assert!(md.contains(&row) && md.contains(&c.verdict), "{row}\n{md}");
+    assert!(md.contains("![tinyfig](tinyfig/figure.png)"), "{md}");
+}
+
+const AT_PIPELINE: &str = r#"
+description: Q at multiples of the measured tau_alpha
+stages:
+  - name: tau
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+  - name: q_at
+    kind: overlap
+    gather: [tiny, tau]
+    by: [phi]
+    params:
+      time_unit: {from: tau}
+      at: [0.1, 1, 2]
+  - name: q_at_table
+    kind: table
+    gather: [q_at]
+  - name: q
+    kind: overlap
+    gather: [tiny]
+    by: [phi]
+  - name: q_table
+    kind: table
+    gather: [q]
+  - name: relax              # Eq. 8 of paper H, one fit per phi
+    kind: fit
+    gather: [q_table]
+    params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {points: 20}}
+  - name: tau_table
+    kind: table
+    gather: [tau]
+  - name: q_scaled           # Q(t) with t/tau_alpha, joined by phi
+    kind: join
+    gather: [q_table, tau_table]
+    params: {left: q_table, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}
+  - name: too_short          # two points for two parameters: a failed fit, not a crash
+    kind: fit
+    gather: [q_table]
+    params: {form: q_relaxation, data: q_table, x: t, y: Q, where: {t: {max: 0.1}}, group_by: [phi]}
+"#;
+
+/// "At 1 tau_alpha" from YAML: the lag used is the recorded one nearest to the
+/// request, the table says how far, Q there is near 1/e, the errors are labelled,
+/// and a request past the last recorded lag fails the stage with its reason.
+#[test]
+fn times_in_units_of_a_measured_tau_alpha() {
+    let dir = tempfile::tempdir().unwrap();
+    write_specs(dir.path());
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), AT_PIPELINE).unwrap();
+    let ws = Workspace::new(dir.path());
+    let opts = RunOptions {
+        jobs: 2,
+        ..RunOptions::default()
+    };
+    let reg = repro::stages::registry();
+    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
+    run.check().unwrap();
+    let table = ws.results.join("atfig/q_at_table.parquet");
+    let (phi, x, q) = (
+        column(&table, "phi"),
+        column(&table, "t_over_tau_alpha"),
+        column(&table, "Q"),
+    );
+    for p in [0.55, 0.62, 0.68, 0.72] {
+        let rows: Vec<usize> = (0..phi.len()).filter(|&i| phi[i] == p).collect();
+        assert!(!rows.is_empty() && rows.len() <= 3, "phi {p}: {rows:?}");
+        // The row nearest 1 tau_alpha: within one lag step (6 per decade) and Q ~ 1/e.
+        let i = *rows
+            .iter()
+            .min_by(|&&a, &&b| x[a].ln().abs().total_cmp(&x[b].ln().abs()))
+            .unwrap();
+        assert!((x[i].ln()).abs() < 0.5, "phi {p}: t/tau_alpha = {}", x[i]);
+        assert!((q[i] - (-1f64).exp()).abs() < 0.15, "phi {p}: Q = {}", q[i]);
+    }
+    // How the errors were estimated is in the analysis table's metadata.
+    let node = run
+        .graph
+        .nodes
+        .iter()
+        .position(|n| n.kind == "overlap")
+        .unwrap();
+    let entry = run.report.results[&node].entry.as_ref().unwrap();
+    let store = repro::pipeline::Store::open(&ws.store).unwrap();
+    let (_, meta) =
+        repro::table::read_parquet(&store.object_path(&entry.files["parquet"])).unwrap();
+    assert!(
+        meta.iter()
+            .any(|(k, v)| k == "errors" && v.contains("jackknife") && v.contains("2 replica")),
+        "{meta:?}"
+    );
+    // The lags used and their distance from the requests: at.parquet.
+    let (at, _) =
+        repro::table::read_parquet(&store.object_path(&entry.files["at.parquet"])).unwrap();
+    assert_eq!(at[0].num_rows(), 3);
+    // Grouped fits: one row group per phi, the relaxation slowing down with phi;
+    // the curve is named after the fitted columns.
+    let relax = ws.results.join("atfig/relax.parquet");
+    let (batches, _) = repro::table::read_parquet(&relax).unwrap();
+    let (mut phis, mut tau0) = (Vec::new(), Vec::new());
+    for b in &batches {
+        use arrow_array::{Array, Float64Array, StringArray};
+        let q = b
+            .column_by_name("quantity")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .unwrap();
+        let v = b
+            .column_by_name("value")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<Float64Array>()
+            .unwrap();
+        let p = b
+            .column_by_name("phi")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<Float64Array>()
+            .unwrap();
+        for i in 0..b.num_rows() {
+            if q.value(i) == "tau0" {
+                phis.push(p.value(i));
+                tau0.push(v.value(i));
+            }
+        }
+    }
+    assert_eq!(phis, vec![0.55, 0.62, 0.68, 0.72]);
+    assert!(tau0.windows(2).all(|w| w[0] < w[1]), "{tau0:?}");
+    let curve = ws.results.join("atfig/relax.curve.parquet");
+    assert_eq!(column(&curve, "phi").len(), 80);
+    assert!(column(&curve, "Q").iter().all(|q| (0.0..=1.0).contains(q)));
+    let failed = ws.results.join("atfig/too_short.parquet");
+    assert!(column(&failed, "value").iter().all(|v| v.is_nan()));
+    let (b, _) = repro::table::read_parquet(&failed).unwrap();
+    let note = b[0]
+        .column_by_name("note")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<arrow_array::StringArray>()
+        .unwrap()
+        .value(0)
+        .to_string();
+    assert!(
+        note.starts_with("fit failed:") && note.contains("q_relaxation"),
+        "{note}"
+    );
+
+    // The join: every Q row got its phi's tau_alpha and t / tau_alpha.
+    let scaled = ws.results.join("atfig/q_scaled.parquet");
+    let (t, ta, x) = (
+        column(&scaled, "t"),
+        column(&scaled, "tau_alpha"),
+        column(&scaled, "t_over_tau"),
+    );
+    assert_eq!(
+        t.len(),
+        column(&ws.results.join("atfig/q_table.parquet"), "t").len()
+    );
+    assert!((0..t.len()).all(|i| ta[i] > 0.0 && x[i] == t[i] / ta[i]));
+    // A key missing from one table is an error naming it.
+    let missing = AT_PIPELINE.replace("on: [phi]", "on: [eps]");
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), missing).unwrap();
+    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
+    let report = run.report.failure_report(&run.graph);
+    assert!(
+        report.contains("key 'eps' is not a column of stage 'q_table'"),
+        "{report}"
+    );
+
+    let bad = AT_PIPELINE.replace("at: [0.1, 1, 2]", "at: [1000]");
+    std::fs::write(dir.path().join("pipelines/atfig.yaml"), bad).unwrap();
+    let run = run_figures(&ws, &reg, &["atfig".to_string()], "ci", &opts).unwrap();
+    let report = run.report.failure_report(&run.graph);
+    assert!(
+        report.contains("1000 tau_alpha") && report.contains("refusing to extrapolate"),
+        "{report}"
     );
 }

@@ -18,8 +18,9 @@ fn fixture() -> tempfile::TempDir {
     dir
 }
 
+/// The library's kinds and the toy kinds (the `toy-kinds` feature, on for tests).
 fn reg() -> Registry {
-    let mut r = Registry::builtin();
+    let mut r = repro::stages::registry();
     toy::register(&mut r);
     r
 }
@@ -477,8 +478,7 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
 
 fn repro(root: &Path) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_repro"));
-    c.env("REPRO_TEST_KINDS", "1")
-        .arg("figure")
+    c.arg("figure")
         .arg("--all")
         .arg("--profile")
         .arg("ci")
@@ -626,7 +626,6 @@ fn cli_list_why_and_dry_run_explain_the_cache() {
     let d = fixture();
     let cli = |args: &[&str]| {
         let o = Command::new(env!("CARGO_BIN_EXE_repro"))
-            .env("REPRO_TEST_KINDS", "1")
             .args(args)
             .arg("--root")
             .arg(d.path())
@@ -772,7 +771,6 @@ fn repro_verify_and_status_report_damage() {
     run(d.path(), &["figtoy"]);
     let cli = |args: &[&str]| {
         Command::new(env!("CARGO_BIN_EXE_repro"))
-            .env("REPRO_TEST_KINDS", "1")
             .args(args)
             .arg("--root")
             .arg(d.path())
@@ -850,7 +848,7 @@ fn forcing_real_simulations_reruns_them_and_nothing_downstream() {
     std::fs::create_dir_all(d.path().join("pipelines")).unwrap();
     std::fs::write(d.path().join("experiments/tiny.yaml"), SIM_EXP).unwrap();
     std::fs::write(d.path().join("pipelines/simfig.yaml"), SIM_PIPE).unwrap();
-    let r = Registry::builtin();
+    let r = repro::stages::registry();
     assert_eq!(run_with(d.path(), &r, &["simfig"], &opts(2)).len(), 4);
     let forced = RunOptions {
         force: vec!["simulate".into()],

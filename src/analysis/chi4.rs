@@ -6,7 +6,7 @@ use arrow_array::RecordBatch;
 use serde::Deserialize;
 
 use super::overlap::{Moments, moments};
-use super::stats::{Blocks, Estimate, jackknife_err, peak_log_t};
+use super::stats::{Blocks, Estimate, interp_log_t, jackknife_err, peak_log_t};
 use super::{default_a, default_rel_tol};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
@@ -41,12 +41,14 @@ fn run(trajs: &[&Trajectory], p: &Params) -> Result<Moments> {
     moments(trajs, p.a, &sizes, p.lags.as_deref(), p.rel_tol)
 }
 
-/// Table `N, t, Q, chi4, chi4_err, n_origins` (errors: jackknife over time origins).
+/// Table `N, t, Q, chi4, chi4_err, n_origins` of one trajectory (errors: jackknife
+/// over time origins).
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     compute_pooled(&[traj], p)
 }
 
-/// As [`compute`], pooling the time origins of several replicas.
+/// As [`compute`], pooling the time origins of several replicas (jackknife over
+/// every (replica, origin) block).
 pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
     let m = run(trajs, p)?;
     let mut cols: [Vec<f64>; 6] = Default::default();
@@ -121,14 +123,61 @@ pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
     Ok(out)
 }
 
-/// Table `N, tau4, tau4_err, chi4P, chi4P_err`, one row per sub-box size.
-pub fn compute_peaks(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let pk = peaks(&[traj], p)?;
+/// Sub-box sizes that fit in a system of `n_particles`: a request above it becomes
+/// the whole system (so one spec serves every profile's N).
+pub fn clamp_sizes(p: &mut Params, n_particles: usize) {
+    for n in &mut p.n {
+        *n = n.min(n_particles as f64);
+    }
+    p.n.dedup();
+}
+
+/// Per sub-box size N (Fig. 15 inset, Fig. 19): the peak (tau4, chi4P) with
+/// jackknife errors, tau_alpha of the whole system (Q = 1/e) and chi4 at tau_alpha,
+/// interpolated in ln t between the two bracketing lags. Table `N, tau4, tau4_err,
+/// chi4P, chi4P_err, tau_alpha, tau_alpha_err, chi4_tau_alpha, chi4_tau_alpha_err`;
+/// tau_alpha and chi4(tau_alpha) are NaN when Q never reaches 1/e over the lags (a
+/// short run), never extrapolated.
+pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
+    let peaks = peaks(trajs, p)?;
+    let op = super::overlap::Params {
+        a: p.a,
+        n: None,
+        lags: p.lags.clone(),
+        rel_tol: p.rel_tol,
+    };
+    let tau = super::overlap::tau_alpha(trajs, &op).ok();
+    let ta = tau.map(|x| x.value).unwrap_or(f64::NAN);
+    let table = compute_pooled(trajs, p)?;
+    let col = |name: &str| -> Vec<f64> {
+        table
+            .column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
+            .map(|a| a.values().to_vec())
+            .expect("column written by compute_pooled")
+    };
+    let (n_col, t_col, c_col, e_col) = (col("N"), col("t"), col("chi4"), col("chi4_err"));
+    let (mut at_tau, mut at_tau_err) = (Vec::new(), Vec::new());
+    for pk in &peaks {
+        let rows: Vec<usize> = (0..n_col.len()).filter(|&i| n_col[i] == pk.n).collect();
+        let pick = |v: &[f64]| -> Vec<f64> { rows.iter().map(|&i| v[i]).collect() };
+        let t = pick(&t_col);
+        at_tau.push(interp_log_t(&t, &pick(&c_col), ta).unwrap_or(f64::NAN));
+        at_tau_err.push(interp_log_t(&t, &pick(&e_col), ta).unwrap_or(f64::NAN));
+    }
+    let k = peaks.len();
     f64_batch(&[
-        ("N", pk.iter().map(|x| x.n).collect()),
-        ("tau4", pk.iter().map(|x| x.tau4.value).collect()),
-        ("tau4_err", pk.iter().map(|x| x.tau4.err).collect()),
-        ("chi4P", pk.iter().map(|x| x.chi4p.value).collect()),
-        ("chi4P_err", pk.iter().map(|x| x.chi4p.err).collect()),
+        ("N", peaks.iter().map(|x| x.n).collect()),
+        ("tau4", peaks.iter().map(|x| x.tau4.value).collect()),
+        ("tau4_err", peaks.iter().map(|x| x.tau4.err).collect()),
+        ("chi4P", peaks.iter().map(|x| x.chi4p.value).collect()),
+        ("chi4P_err", peaks.iter().map(|x| x.chi4p.err).collect()),
+        ("tau_alpha", vec![ta; k]),
+        (
+            "tau_alpha_err",
+            vec![tau.map(|x| x.err).unwrap_or(f64::NAN); k],
+        ),
+        ("chi4_tau_alpha", at_tau),
+        ("chi4_tau_alpha_err", at_tau_err),
     ])
 }

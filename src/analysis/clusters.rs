@@ -252,7 +252,12 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 /// Table `t, kind, Nc, P, n_clusters`: the log-binned cluster size distribution of
 /// slow (kind 0) and fast (kind 1) clusters at each lag, pooled over time origins.
 pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let rows = compute(traj, p)?;
+    sizes_table(&compute(traj, p)?, p)
+}
+
+/// [`compute_sizes`] from cluster rows of [`compute`] (of one replica, or of several
+/// concatenated: the distribution of all their clusters).
+pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
     let col = |name: &str| -> Vec<f64> {
         rows.column_by_name(name)
             .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())

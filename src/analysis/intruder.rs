@@ -109,13 +109,13 @@ pub fn stationary_velocity(trajs: &[&Trajectory], p: &VelocityParams) -> Result<
     })
 }
 
-/// Table `v, v_err, n_blocks`.
-pub fn compute_velocity(traj: &Trajectory, p: &VelocityParams) -> Result<RecordBatch> {
-    let e = stationary_velocity(&[traj], p)?;
+/// Table `v, v_err, n_blocks` from the time blocks of every replica.
+pub fn velocity_table(trajs: &[&Trajectory], p: &VelocityParams) -> Result<RecordBatch> {
+    let e = stationary_velocity(trajs, p)?;
     f64_batch(&[
         ("v", vec![e.value]),
         ("v_err", vec![e.err]),
-        ("n_blocks", vec![p.blocks as f64]),
+        ("n_blocks", vec![(p.blocks * trajs.len()) as f64]),
     ])
 }
 

@@ -82,3 +82,83 @@ pub fn select(trajs: &[&Trajectory], requested: Option<&[f64]>, rel_tol: f64) ->
     }
     Ok(out)
 }
+
+/// The lags every time origin of every replica realises: `requested` if given, else
+/// the schedule's own lags (the shortest lag sets the count of origins; a lag with
+/// fewer pairs comes only from differences between frames of different origins,
+/// and mixing those in makes curves jagged).
+pub fn every_origin(
+    trajs: &[&Trajectory],
+    requested: Option<Vec<f64>>,
+    rel_tol: f64,
+) -> Result<Option<Vec<f64>>> {
+    if requested.is_some() {
+        return Ok(requested);
+    }
+    let lags = select(trajs, None, rel_tol)?;
+    // The shortest lag is realised once per origin and replica, and only then.
+    let every = lags.first().map(|l| l.pairs.len()).unwrap_or(0);
+    Ok(Some(
+        lags.iter()
+            .filter(|l| l.pairs.len() >= every)
+            .map(|l| l.t)
+            .collect(),
+    ))
+}
+
+/// A time asked for in units of a measured time (`multiple` x tau_alpha), and the
+/// recorded lag that answers it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InUnits {
+    /// The request, in units of the measured time (8.5 for "8.5 tau_alpha").
+    pub multiple: f64,
+    /// The request as a time: multiple x unit.
+    pub requested: f64,
+    /// The recorded lag used: the nearest in ln t.
+    pub lag: f64,
+    /// How far it is from the request: lag / requested - 1.
+    pub rel_diff: f64,
+}
+
+/// The recorded lag nearest (in ln t) to each `multiple x unit`. A request past the
+/// last recorded lag or before the first (beyond `rel_tol`) is refused, never
+/// extrapolated: the error names the request, the measured time and the range.
+pub fn in_units(
+    lags: &[f64],
+    unit: f64,
+    unit_name: &str,
+    multiples: &[f64],
+    rel_tol: f64,
+) -> Result<Vec<InUnits>> {
+    if !(unit.is_finite() && unit > 0.0) {
+        bail!("{unit_name} = {unit} is not a positive time: cannot express lags in its units");
+    }
+    let (Some(&first), Some(&last)) = (lags.first(), lags.last()) else {
+        bail!("no recorded lag to answer a time in units of {unit_name}");
+    };
+    let mut out = Vec::with_capacity(multiples.len());
+    for &m in multiples {
+        if !(m.is_finite() && m > 0.0) {
+            bail!("`at` must hold multiples > 0 of {unit_name}, got {m}");
+        }
+        let t = m * unit;
+        if t > last * (1.0 + rel_tol) || t < first * (1.0 - rel_tol) {
+            bail!(
+                "{m} {unit_name} = {t:.6} lies outside the recorded lags [{first:.6}, {last:.6}] \
+                 ({unit_name} = {unit:.6}); refusing to extrapolate: record longer (or shorter) lags"
+            );
+        }
+        let lag = lags
+            .iter()
+            .copied()
+            .min_by(|a, b| (a / t).ln().abs().total_cmp(&(b / t).ln().abs()))
+            .expect("lags not empty");
+        out.push(InUnits {
+            multiple: m,
+            requested: t,
+            lag,
+            rel_diff: lag / t - 1.0,
+        });
+    }
+    Ok(out)
+}

@@ -16,7 +16,9 @@ pub mod intruder;
 pub mod lags;
 pub mod msd;
 pub mod neighbours;
+pub mod observables;
 pub mod overlap;
+pub mod pool;
 pub mod s4;
 pub mod stats;
 pub mod subbox;
@@ -28,53 +30,12 @@ use arrow_array::RecordBatch;
 
 use crate::traj::{Frame, Trajectory};
 
-/// Every stage kind [`run`] knows, with the function it calls.
-pub const KINDS: &[&str] = &[
-    "overlap",
-    "tau_alpha",
-    "aging",
-    "aging_tau_alpha",
-    "chi4",
-    "chi4_peaks",
-    "s4",
-    "msd",
-    "van_hove",
-    "gr",
-    "clusters",
-    "cluster_sizes",
-    "intruder_velocity",
-    "intruder_path",
-    "momentum_profile",
-];
-
-/// Run the observable `kind` (one of [`KINDS`]) with its parameters given as a
-/// JSON/YAML value (unknown keys and wrong types are errors naming the kind).
+/// Run the observable `kind` (one of [`observables::OBSERVABLES`]) on one trajectory,
+/// with its parameters given as a JSON/YAML value (unknown keys and wrong types are
+/// errors naming the kind). The same function a pipeline's analysis stage calls on
+/// the replicas it gathers; this returns the main table.
 pub fn run(kind: &str, params: serde_json::Value, traj: &Trajectory) -> Result<RecordBatch> {
-    fn p<T: serde::de::DeserializeOwned>(kind: &str, v: serde_json::Value) -> Result<T> {
-        serde_json::from_value(v)
-            .map_err(|e| anyhow::anyhow!("parameters of analysis `{kind}`: {e}"))
-    }
-    match kind {
-        "overlap" => overlap::compute(traj, &p(kind, params)?),
-        "tau_alpha" => overlap::compute_tau_alpha(traj, &p(kind, params)?),
-        "aging" => overlap::aging(traj, &p(kind, params)?),
-        "aging_tau_alpha" => overlap::aging_tau_alpha(traj, &p(kind, params)?),
-        "chi4" => chi4::compute(traj, &p(kind, params)?),
-        "chi4_peaks" => chi4::compute_peaks(traj, &p(kind, params)?),
-        "s4" => s4::compute(traj, &p(kind, params)?),
-        "msd" => msd::compute(traj, &p(kind, params)?),
-        "van_hove" => van_hove::compute(traj, &p(kind, params)?),
-        "gr" => gr::compute(traj, &p(kind, params)?),
-        "clusters" => clusters::compute(traj, &p(kind, params)?),
-        "cluster_sizes" => clusters::compute_sizes(traj, &p(kind, params)?),
-        "intruder_velocity" => intruder::compute_velocity(traj, &p(kind, params)?),
-        "intruder_path" => intruder::compute_path(traj, &p(kind, params)?),
-        "momentum_profile" => intruder::compute_profile(traj, &p(kind, params)?),
-        other => bail!(
-            "unknown analysis kind `{other}`; known kinds: {}",
-            KINDS.join(", ")
-        ),
-    }
+    Ok((observables::find(kind)?.compute)(&[traj], &params)?.main)
 }
 
 /// Default relative tolerance when matching a requested lag to frame time differences.

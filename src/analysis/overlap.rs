@@ -161,12 +161,6 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
     })
 }
 
-/// Table `tau_alpha, tau_alpha_err` (one row).
-pub fn compute_tau_alpha(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let e = tau_alpha(&[traj], p)?;
-    f64_batch(&[("tau_alpha", vec![e.value]), ("tau_alpha_err", vec![e.err])])
-}
-
 /// (t0, lags, Q) of one time origin.
 pub type OriginCurve = (f64, Vec<f64>, Vec<f64>);
 
@@ -189,31 +183,60 @@ pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<OriginCurve>> {
         .collect())
 }
 
-/// Aging check (Fig. 2): table `t0, t, Q` of Q(t; t0) per time origin.
-pub fn aging(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let curves = per_origin(traj, p)?;
+/// One waiting time t0 with its lags and Q(t; t0).
+pub type AgingCurve = (f64, Vec<f64>, Vec<f64>);
+
+/// Aging check (Fig. 2): Q(t; t0) per waiting time t0, averaged over replicas that
+/// share one schedule. Only true time origins count: the frames from which the
+/// shortest lag is realised (the schedule's lags are log-spaced, so no frame inside
+/// a block is that close to another); frames pairing only with other origins'
+/// frames are not waiting times.
+pub fn aging_curves(trajs: &[&Trajectory], p: &Params) -> Result<Vec<AgingCurve>> {
+    let mut acc: std::collections::BTreeMap<u64, (f64, Vec<f64>, Vec<f64>, usize)> =
+        Default::default();
+    for tr in trajs {
+        for (t0, t, q) in per_origin(tr, p)? {
+            // Waiting times agree across replicas up to rounding: key them on 1e-9.
+            let key = (t0 * 1e9).round() as u64;
+            let e = acc
+                .entry(key)
+                .or_insert_with(|| (t0, t.clone(), vec![0.0; q.len()], 0));
+            if e.1 == t {
+                e.2.iter_mut().zip(&q).for_each(|(s, v)| *s += v);
+                e.3 += 1;
+            }
+        }
+    }
+    let shortest = acc
+        .values()
+        .filter_map(|e| e.1.first().copied())
+        .fold(f64::INFINITY, f64::min);
+    Ok(acc
+        .into_values()
+        .filter(|e| {
+            e.1.first()
+                .is_some_and(|&t| (t - shortest).abs() <= 1e-9 * shortest)
+        })
+        .map(|(t0, t, s, k)| (t0, t, s.into_iter().map(|v| v / k as f64).collect()))
+        .collect())
+}
+
+/// The aging tables: `t0, t, Q` (Q(t; t0), Fig. 2) and `t0, tau_alpha` (Fig. 2 inset,
+/// NaN where Q(t; t0) never reaches 1/e), from [`aging_curves`].
+pub fn aging(trajs: &[&Trajectory], p: &Params) -> Result<(RecordBatch, RecordBatch)> {
+    let level = (-1f64).exp();
     let mut cols: [Vec<f64>; 3] = Default::default();
-    for (t0, t, q) in curves {
+    let (mut t0s, mut taus) = (Vec::new(), Vec::new());
+    for (t0, t, q) in aging_curves(trajs, p)? {
+        t0s.push(t0);
+        taus.push(crossing_time(&t, &q, level).unwrap_or(f64::NAN));
         cols[0].extend(std::iter::repeat_n(t0, t.len()));
         cols[1].extend(t);
         cols[2].extend(q);
     }
     let [t0, t, q] = cols;
-    f64_batch(&[("t0", t0), ("t", t), ("Q", q)])
-}
-
-/// Inset of Fig. 2: table `t0, tau_alpha` (NaN where Q(t; t0) never reaches 1/e).
-pub fn aging_tau_alpha(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
-    let curves = per_origin(traj, p)?;
-    let level = (-1f64).exp();
-    f64_batch(&[
-        ("t0", curves.iter().map(|c| c.0).collect()),
-        (
-            "tau_alpha",
-            curves
-                .iter()
-                .map(|(_, t, q)| crossing_time(t, q, level).unwrap_or(f64::NAN))
-                .collect(),
-        ),
-    ])
+    Ok((
+        f64_batch(&[("t0", t0), ("t", t), ("Q", q)])?,
+        f64_batch(&[("t0", t0s), ("tau_alpha", taus)])?,
+    ))
 }

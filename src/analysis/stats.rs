@@ -99,6 +99,21 @@ pub fn jackknife_err(estimates: Vec<f64>) -> f64 {
     ((n - 1.0) / n * x.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt()
 }
 
+/// Mean and sample standard deviation (n - 1) of the finite values: the
+/// seed-to-seed spread of independent runs. NaN mean without a finite value, NaN
+/// deviation with fewer than two.
+pub fn mean_std(values: &[f64]) -> (f64, f64) {
+    let x: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    let std = if x.len() > 1 {
+        (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        f64::NAN
+    };
+    (mean, std)
+}
+
 /// First time at which a decaying curve `y(t)` crosses `level`, by linear
 /// interpolation in ln t between the two bracketing samples (t ascending, t > 0).
 /// None if it never crosses.
@@ -117,6 +132,22 @@ pub fn crossing_time(t: &[f64], y: &[f64], level: f64) -> Option<f64> {
         }
     }
     None
+}
+
+/// Linear interpolation of y in ln t at `t0` (t ascending); None outside the samples
+/// (never an extrapolation).
+pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
+    if t0.is_nan() || t0 <= 0.0 || t.len() < 2 || t0 < t[0] || t0 > t[t.len() - 1] {
+        return None;
+    }
+    let k = t.partition_point(|&x| x <= t0).clamp(1, t.len() - 1);
+    let (la, lb) = (t[k - 1].ln(), t[k].ln());
+    let s = if lb > la {
+        (t0.ln() - la) / (lb - la)
+    } else {
+        0.0
+    };
+    Some(y[k - 1] + s * (y[k] - y[k - 1]))
 }
 
 /// Peak (t_peak, y_peak) of a curve sampled at ascending t > 0: the maximum sample,

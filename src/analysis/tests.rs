@@ -356,7 +356,7 @@ fn tau_alpha_matches_the_random_walk_overlap() {
     assert!((tau.value - exact).abs() < 0.03 * exact);
 
     // Aging check: every origin gives its own curve; the stationary walk shows none.
-    let ag = overlap::aging_tau_alpha(&traj, &p).unwrap();
+    let (_, ag) = overlap::aging(&[&traj], &p).unwrap();
     let per_origin = col(&ag, "tau_alpha");
     let finite: Vec<f64> = per_origin
         .iter()
@@ -420,7 +420,7 @@ fn bad_parameters_are_clear_errors() {
     let e = err_text(run("chi5", serde_json::json!({}), &traj));
     assert!(e.contains("chi5") && e.contains("chi4_peaks"), "{e}");
     // Every kind is dispatched (a missing arm would report an unknown kind).
-    for kind in KINDS {
+    for kind in observables::OBSERVABLES.iter().map(|o| o.name) {
         let e = format!(
             "{:#}",
             run(kind, serde_json::json!({"bogus": 1}), &traj).unwrap_err()
@@ -665,7 +665,6 @@ fn every_kind_runs_from_json_parameters() {
         ("overlap", json!({"lags": [0.1, 1.0]}), "Q"),
         ("tau_alpha", json!({"a": 0.6}), "tau_alpha"),
         ("aging", json!({"lags": [0.1, 1.0]}), "t0"),
-        ("aging_tau_alpha", json!({}), "tau_alpha"),
         ("chi4", json!({"n": [50, 100], "lags": [1.0]}), "chi4"),
         ("chi4_peaks", json!({"n": [50]}), "tau4"),
         ("s4", json!({"lags": [1.0], "q_max": 1.0}), "S4"),
@@ -678,7 +677,7 @@ fn every_kind_runs_from_json_parameters() {
         ("intruder_path", json!({}), "x"),
         ("momentum_profile", json!({"times": [1.0], "bins": 6}), "Px"),
     ];
-    assert_eq!(cases.len(), KINDS.len());
+    assert_eq!(cases.len(), observables::OBSERVABLES.len());
     for (kind, params, column) in cases {
         let b = run(kind, params, &traj).unwrap_or_else(|e| panic!("{kind}: {e:#}"));
         assert!(b.num_rows() > 0, "{kind}: empty table");
@@ -687,4 +686,109 @@ fn every_kind_runs_from_json_parameters() {
             "{kind}: no finite {column}"
         );
     }
+}
+
+#[test]
+fn log_interpolation_is_exact_for_log_linear_data_and_never_extrapolates() {
+    let t = [1.0, 10.0, 100.0];
+    let y = [0.0, 1.0, 2.0];
+    assert!((stats::interp_log_t(&t, &y, 10f64.sqrt()).unwrap() - 0.5).abs() < 1e-12);
+    assert_eq!(stats::interp_log_t(&t, &y, 1000.0), None);
+    assert_eq!(stats::interp_log_t(&t, &y, 0.5), None);
+}
+
+#[test]
+fn aging_of_identical_replicas_is_the_single_replica_curve() {
+    // Averaging a replica with itself changes nothing; only true origins are kept.
+    let times = schedule_times(5, 40.0, 0.1, 30.0);
+    let traj = random_walk(500, [30.0, 30.0], &times, 0.05, 3);
+    let p = overlap::Params::default();
+    let one = overlap::aging_curves(&[&traj], &p).unwrap();
+    let two = overlap::aging_curves(&[&traj, &traj], &p).unwrap();
+    assert_eq!(one.len(), 5, "one curve per time origin");
+    for (a, b) in one.iter().zip(&two) {
+        assert_eq!(a.0, b.0);
+        assert_eq!(a.1, b.1);
+        for (x, y) in a.2.iter().zip(&b.2) {
+            assert!((x - y).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn every_origin_lags_keep_only_lags_each_origin_realises() {
+    let times = schedule_times(4, 40.0, 0.1, 30.0);
+    let traj = random_walk(50, [30.0, 30.0], &times, 0.05, 3);
+    let lags = lags::every_origin(&[&traj], None, 1e-6).unwrap().unwrap();
+    let all = lags::select(&[&traj], None, 1e-6).unwrap();
+    assert!(!lags.is_empty() && lags.len() < all.len());
+    // Kept: lags with at least one pair per origin; dropped: the rest.
+    for l in &all {
+        let kept = lags.contains(&l.t);
+        assert_eq!(
+            l.pairs.len() >= 4,
+            kept,
+            "lag {} with {} pairs",
+            l.t,
+            l.pairs.len()
+        );
+    }
+    // A request is kept as given.
+    assert_eq!(
+        lags::every_origin(&[&traj], Some(vec![1.0]), 1e-6).unwrap(),
+        Some(vec![1.0])
+    );
+}
+
+#[test]
+fn chi4_peaks_table_reports_chi4_at_tau_alpha_inside_the_lags() {
+    let times = schedule_times(10, 60.0, 0.1, 50.0);
+    let traj = random_walk(800, [40.0, 40.0], &times, 0.05, 5);
+    let mut p = chi4::Params {
+        a: 0.6,
+        n: vec![100.0, 5000.0],
+        lags: None,
+        rel_tol: 1e-6,
+    };
+    chi4::clamp_sizes(&mut p, traj.n());
+    assert_eq!(p.n, vec![100.0, 800.0]);
+    p.lags = lags::every_origin(&[&traj], None, 1e-6).unwrap();
+    let b = chi4::peaks_table(&[&traj], &p).unwrap();
+    let ta = col(&b, "tau_alpha");
+    assert!(ta[0].is_finite() && ta[0] > 0.0);
+    let c = chi4::compute_pooled(&[&traj], &p).unwrap();
+    let (n, t, chi) = (col(&c, "N"), col(&c, "t"), col(&c, "chi4"));
+    let rows: Vec<usize> = (0..n.len()).filter(|&i| n[i] == 100.0).collect();
+    let ts: Vec<f64> = rows.iter().map(|&i| t[i]).collect();
+    let cs: Vec<f64> = rows.iter().map(|&i| chi[i]).collect();
+    let k = ts.partition_point(|&x| x <= ta[0]);
+    let (lo, hi) = (cs[k - 1].min(cs[k]), cs[k - 1].max(cs[k]));
+    let at = col(&b, "chi4_tau_alpha")[0];
+    assert!(
+        at >= lo - 1e-12 && at <= hi + 1e-12,
+        "{at} not in [{lo}, {hi}]"
+    );
+}
+
+#[test]
+fn times_in_units_of_tau_alpha_pick_the_nearest_lag_and_never_extrapolate() {
+    let lags = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0];
+    let tau = 1.1;
+    let r = lags::in_units(&lags, tau, "tau_alpha", &[1.0, 0.1, 8.5], 1e-6).unwrap();
+    assert_eq!(r[0].lag, 1.0);
+    assert!((r[0].rel_diff - (1.0 / 1.1 - 1.0)).abs() < 1e-12);
+    assert_eq!(r[1].lag, 0.1);
+    assert!((r[1].requested - 0.11).abs() < 1e-12);
+    // 8.5 x 1.1 = 9.35: nearest in ln t is 10.
+    assert_eq!(r[2].lag, 10.0);
+    // 10 tau_alpha = 11 > 10: refused, with the numbers.
+    let e = err_text(lags::in_units(&lags, tau, "tau_alpha", &[10.0], 1e-6));
+    assert!(
+        e.contains("10 tau_alpha") && e.contains("extrapolate"),
+        "{e}"
+    );
+    let e = err_text(lags::in_units(&lags, tau, "tau_alpha", &[0.05], 1e-6));
+    assert!(e.contains("outside the recorded lags"), "{e}");
+    let e = err_text(lags::in_units(&lags, f64::NAN, "tau_alpha", &[1.0], 1e-6));
+    assert!(e.contains("not a positive time"), "{e}");
 }

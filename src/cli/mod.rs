@@ -3,6 +3,8 @@
 
 use clap::{Parser, Subcommand};
 
+use crate::pipeline::Registry;
+
 pub mod figs;
 pub mod pipeline;
 pub mod sim;
@@ -23,6 +25,32 @@ pub enum Command {
     Pipeline(pipeline::Commands),
     #[command(flatten)]
     Figs(figs::Commands),
+    /// List the stage kinds a pipeline can use, with what each does.
+    Kinds,
+}
+
+/// The registry the command line runs with: every kind of the library
+/// (`stages::registry()`), and the framework's toy kinds in test builds only
+/// (the `toy-kinds` feature, which the shipped binary does not have).
+pub fn registry() -> Registry {
+    #[allow(unused_mut)]
+    let mut r = crate::stages::registry();
+    #[cfg(feature = "toy-kinds")]
+    crate::pipeline::toy::register(&mut r);
+    r
+}
+
+/// `repro kinds`: one paragraph per registered kind, from the registry itself.
+fn kinds() {
+    let reg = registry();
+    for name in reg.names() {
+        let k = reg.get(&name).expect("listed kind");
+        println!("{name}\n    {}", k.describe());
+        for line in k.details().lines() {
+            println!("    {line}");
+        }
+        println!("    code: src/{}", k.modules().join(", src/"));
+    }
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -30,5 +58,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sim(c) => sim::run(c),
         Command::Pipeline(c) => pipeline::run(c),
         Command::Figs(c) => figs::run(c),
+        Command::Kinds => {
+            kinds();
+            Ok(())
+        }
     }
 }

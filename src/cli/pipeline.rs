@@ -152,7 +152,7 @@ fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
 }
 
 pub fn run(c: Commands) -> Result<()> {
-    let reg = Registry::builtin();
+    let reg = super::registry();
     match c {
         Commands::Figure {
             ids,

@@ -13,6 +13,7 @@
 //! Every fit returns a [`FitResult`] or a [`FitError`] that names the form, the
 //! problem and what to try; never NaN.
 
+pub mod catalogue;
 pub mod collapse;
 mod error;
 pub mod forms;

@@ -272,6 +272,7 @@ fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
 fn artifact(store: &Store, node: &Node, e: &Entry) -> Artifact {
     Artifact {
         label: node.label().to_string(),
+        ids: node.ids.clone(),
         kind: node.kind.clone(),
         point: node.point.clone(),
         params: node.params.clone(),

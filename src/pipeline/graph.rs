@@ -19,11 +19,42 @@ use super::registry::Registry;
 use super::spec;
 use super::spec::{Catalogue, ExperimentSpec, PROFILES, PipelineSpec, SpecError, StageSpec};
 
+/// Which declared stage an instance is: a stage of a figure's pipeline at one
+/// point of its sweep, or one simulation of an experiment. Code that needs "the
+/// stage called `tau`" matches on these fields, never on the label text.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StageId {
+    /// The figure whose pipeline declares the stage (`fig4`); `None` for an
+    /// experiment's simulations.
+    pub figure: Option<String>,
+    /// The stage's name in its pipeline (`tau`), or the experiment's name (`eps09`).
+    pub stage: String,
+    /// Grid and sweep values of the instance (empty for a single instance).
+    pub point: Point,
+}
+
+impl std::fmt::Display for StageId {
+    /// The readable label: `fig4/tau[phi=0.6]`, `fig4/taufit`, `eps09[phi=0.6,replica=0]`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(fig) = &self.figure {
+            write!(f, "{fig}/")?;
+        }
+        write!(f, "{}", self.stage)?;
+        if !self.point.is_empty() {
+            write!(f, "[{}]", point_label(&self.point))?;
+        }
+        Ok(())
+    }
+}
+
 /// One stage instance.
 #[derive(Debug, Clone)]
 pub struct Node {
     pub kind: String,
-    /// Readable labels (the first is shown; a node shared by figures has several).
+    /// Which declared stages this instance is (a node shared by figures has several;
+    /// the first is shown).
+    pub ids: Vec<StageId>,
+    /// Their readable labels, in the same order (keys of the store's history).
     pub labels: Vec<String>,
     /// Canonical parameters (a JSON object with sorted keys).
     pub params: Value,
@@ -136,7 +167,7 @@ impl Planner<'_> {
     fn add(
         &mut self,
         kind: &str,
-        label: String,
+        id: StageId,
         params: serde_json::Map<String, Value>,
         point: Point,
         inputs: Vec<usize>,
@@ -153,10 +184,12 @@ impl Planner<'_> {
         fields.extend(input_recipes.iter().map(|r| r.as_bytes()));
         let recipe = hash_fields("repro-recipe-v1", &fields);
         let recipe_hex = recipe.to_hex().to_string();
+        let label = id.to_string();
         if let Some(&i) = self.graph.by_recipe.get(&recipe_hex) {
             let node = &mut self.graph.nodes[i];
             if !node.labels.contains(&label) {
                 node.labels.push(label);
+                node.ids.push(id);
             }
             return i;
         }
@@ -164,6 +197,7 @@ impl Planner<'_> {
             seed.unwrap_or_else(|| u64::from_le_bytes(recipe.as_bytes()[..8].try_into().unwrap()));
         self.graph.nodes.push(Node {
             kind: kind.to_string(),
+            ids: vec![id],
             labels: vec![label],
             params,
             point,
@@ -240,10 +274,14 @@ impl Planner<'_> {
                 })?;
                 let mut pt = point.clone();
                 pt.insert("replica".into(), Value::from(replica));
-                let label = format!("{name}[{}]", point_label(&pt));
+                let id = StageId {
+                    figure: None,
+                    stage: name.to_string(),
+                    point: pt.clone(),
+                };
                 nodes.push(self.add(
                     &kind,
-                    label,
+                    id,
                     params,
                     pt,
                     vec![],
@@ -438,13 +476,13 @@ impl Planner<'_> {
                             &e,
                         )
                     })?;
-                    let label = if point.is_empty() {
-                        format!("{id}/{}", st.name)
-                    } else {
-                        format!("{id}/{}[{}]", st.name, point_label(&point))
+                    let sid = StageId {
+                        figure: Some(id.to_string()),
+                        stage: st.name.clone(),
+                        point: point.clone(),
                     };
                     let origin = (file.to_path_buf(), s.referenced.line());
-                    mine.push(self.add(&st.kind, label, p, point, inputs.clone(), None, origin));
+                    mine.push(self.add(&st.kind, sid, p, point, inputs.clone(), None, origin));
                 }
             }
             let single = mine.len() == 1;
@@ -594,9 +632,54 @@ mod tests {
     }
 
     fn registry() -> Registry {
-        let mut r = Registry::builtin();
+        let mut r = Registry::framework();
         crate::pipeline::toy::register(&mut r);
         r
+    }
+
+    #[test]
+    fn stage_ids_are_typed_and_render_as_labels() {
+        let pt = |v: &[(&str, Value)]| -> Point {
+            v.iter().map(|(k, x)| (k.to_string(), x.clone())).collect()
+        };
+        let tau = StageId {
+            figure: Some("fig4".into()),
+            stage: "tau".into(),
+            point: pt(&[("phi", Value::from(0.6))]),
+        };
+        assert_eq!(tau.to_string(), "fig4/tau[phi=0.6]");
+        let fit = StageId {
+            figure: Some("fig4".into()),
+            stage: "taufit".into(),
+            point: Point::new(),
+        };
+        assert_eq!(fit.to_string(), "fig4/taufit");
+        let sim = StageId {
+            figure: None,
+            stage: "eps09".into(),
+            point: pt(&[("phi", Value::from(0.6)), ("replica", Value::from(0))]),
+        };
+        assert_eq!(sim.to_string(), "eps09[phi=0.6,replica=0]");
+        // A planned node carries its id: the stage is found by name, not by label text.
+        let g = plan(
+            &catalogue(&[(
+                "p",
+                "description: p\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    params: {a: 1.0}\n",
+            )]),
+            &["p".to_string()],
+            "ci",
+            &registry(),
+        )
+        .unwrap();
+        let n = g.nodes.iter().find(|n| n.kind == "toy_analyse").unwrap();
+        assert_eq!(n.ids[0].figure.as_deref(), Some("p"));
+        assert_eq!(n.ids[0].stage, "s");
+        assert_eq!(n.label(), n.ids[0].to_string());
+        let sim = &g.nodes[n.inputs[0]];
+        assert_eq!(
+            (sim.ids[0].figure.as_ref(), sim.ids[0].stage.as_str()),
+            (None, "e")
+        );
     }
 
     #[test]

@@ -3,8 +3,10 @@
 //! - [`spec`]: the typed YAML specs (experiments, pipelines) and located errors.
 //! - [`graph`]: expansion of specs into one DAG of stage instances, shared nodes merged.
 //! - [`registry`]: the [`StageKind`] trait and the registry of kinds with their code
-//!   fingerprints; [`kinds`] the framework's own kinds (`table`, `compare`); [`toy`]
-//!   test-only kinds.
+//!   fingerprints; [`kinds`] the framework's own kinds (`table`, `compare`); `toy`
+//!   test-only kinds (unit tests and the `toy-kinds` feature). The library's kinds
+//!   are registered by whoever assembles the registry (`stages::registry()`): this
+//!   module imports nothing from `stages`.
 //! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
 //!   early cut-off, `status`/`why`; [`progress`]: bars, plain lines and the run
 //!   log; [`publish`]: `results/ID/` and provenance.
@@ -13,6 +15,7 @@
 
 pub mod canon;
 pub mod exec;
+pub mod fingerprint;
 pub mod graph;
 pub mod kinds;
 pub mod progress;
@@ -20,6 +23,7 @@ pub mod publish;
 pub mod registry;
 pub mod spec;
 pub mod store;
+#[cfg(any(test, feature = "toy-kinds"))]
 pub mod toy;
 
 use std::collections::{HashMap, HashSet};
@@ -111,7 +115,17 @@ pub fn run_figures(
     profile: &str,
     opts: &RunOptions,
 ) -> Result<FigureRun> {
-    let graph = ws.plan(reg, ids, profile)?;
+    run_planned(ws, reg, ws.plan(reg, ids, profile)?, opts)
+}
+
+/// [`run_figures`] for a graph already planned (e.g. from a catalogue changed in
+/// memory): results go to `ws.results`, the cache is `ws.store`.
+pub fn run_planned(
+    ws: &Workspace,
+    reg: &Registry,
+    graph: Graph,
+    opts: &RunOptions,
+) -> Result<FigureRun> {
     let store = Store::open(&ws.store)?;
     let nodes = needed_nodes(&graph);
     let report = exec::execute(&graph, &nodes, reg, &store, opts)?;

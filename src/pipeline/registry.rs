@@ -14,6 +14,7 @@ use serde::de::DeserializeOwned;
 use serde_json::Value;
 
 use super::canon::{ParamError, Point, hash_fields};
+use super::graph::StageId;
 
 /// One kind of stage (simulate, chi4, table, fit, plot, ...).
 pub trait StageKind: Send + Sync {
@@ -22,6 +23,10 @@ pub trait StageKind: Send + Sync {
     /// One line for `--help`-like listings.
     fn describe(&self) -> &str {
         ""
+    }
+    /// More lines for `repro kinds`: parameters, forms, an example.
+    fn details(&self) -> String {
+        String::new()
     }
     /// The source modules implementing this kind (folders or files under `src/`).
     fn modules(&self) -> &[&str];
@@ -91,8 +96,10 @@ impl Output {
 /// An upstream stage's result as seen by a downstream stage.
 #[derive(Debug, Clone)]
 pub struct Artifact {
-    /// Readable label of the producing stage (`eps09/sim[phi=0.78,replica=0]`).
+    /// Readable label of the producing stage (`eps09[phi=0.78,replica=0]`).
     pub label: String,
+    /// Which declared stages produced it (several when figures share the stage).
+    pub ids: Vec<StageId>,
     /// Kind of the producing stage.
     pub kind: String,
     /// Grid and sweep values of the producing stage (become table columns).
@@ -106,6 +113,12 @@ pub struct Artifact {
 }
 
 impl Artifact {
+    /// Whether this input was produced by a stage named `stage` (a pipeline stage's
+    /// name or an experiment's name).
+    pub fn is_from(&self, stage: &str) -> bool {
+        self.ids.iter().any(|id| id.stage == stage)
+    }
+
     /// Bytes of the file with extension `ext`.
     pub fn read(&self, ext: &str) -> Result<Vec<u8>> {
         let (_, path) = self.files.get(ext).with_context(|| {
@@ -171,21 +184,36 @@ pub struct Registry {
 }
 
 /// Fingerprint of a kind: hash of its name and its modules' build-time fingerprints.
-pub fn code_fingerprint(name: &str, modules: &[&str]) -> String {
+/// An unknown module name is an error: a misspelt or renamed module must not
+/// silently key every stage of the kind on a constant.
+pub fn code_fingerprint(name: &str, modules: &[&str]) -> Result<String> {
+    code_fingerprint_in(name, modules, crate::fingerprints::of)
+}
+
+/// [`code_fingerprint`] over any table of module fingerprints (tests use one
+/// computed from an edited copy of the sources).
+pub fn code_fingerprint_in<'a>(
+    name: &str,
+    modules: &[&str],
+    of: impl Fn(&str) -> Option<&'a str>,
+) -> Result<String> {
+    if modules.is_empty() {
+        bail!("stage kind '{name}' names no source module");
+    }
     let mut mods: Vec<&str> = modules.to_vec();
     mods.sort();
     let mut fields: Vec<Vec<u8>> = vec![name.as_bytes().to_vec()];
     for m in mods {
+        let Some(fp) = of(m) else {
+            bail!(
+                "stage kind '{name}' names source module '{m}', which is not a folder or .rs file under src/"
+            );
+        };
         fields.push(m.as_bytes().to_vec());
-        fields.push(
-            crate::fingerprints::of(m)
-                .unwrap_or("missing")
-                .as_bytes()
-                .to_vec(),
-        );
+        fields.push(fp.as_bytes().to_vec());
     }
     let refs: Vec<&[u8]> = fields.iter().map(|f| f.as_slice()).collect();
-    hash_fields("repro-code-v1", &refs).to_hex().to_string()
+    Ok(hash_fields("repro-code-v1", &refs).to_hex().to_string())
 }
 
 impl Registry {
@@ -194,22 +222,23 @@ impl Registry {
         Registry::default()
     }
 
-    /// The framework's own kinds (`table`, `compare`), plus the toy kinds when the
-    /// environment variable `REPRO_TEST_KINDS=1` is set (test-only).
-    pub fn builtin() -> Self {
+    /// The framework's own kinds (`table`, `compare`). The kinds of the library
+    /// (simulate, analyses, fits, plots) are added by whoever assembles the
+    /// registry (`stages::registry()`): the framework does not know them.
+    pub fn framework() -> Self {
         let mut r = Registry::new();
         r.register(super::kinds::Table);
         r.register(super::kinds::Compare);
-        crate::stages::register(&mut r);
-        if std::env::var("REPRO_TEST_KINDS").is_ok_and(|v| v == "1") {
-            super::toy::register(&mut r);
-        }
         r
     }
 
-    /// Add a kind; its fingerprint comes from its modules. Replaces a kind of the same name.
+    /// Add a kind; its fingerprint comes from its modules. Replaces a kind of the
+    /// same name. Panics when the kind names a module that does not exist under
+    /// `src/` (a programming error every test that builds the registry catches).
     pub fn register(&mut self, kind: impl StageKind + 'static) {
-        let fingerprint = code_fingerprint(kind.name(), kind.modules());
+        let fingerprint = code_fingerprint(kind.name(), kind.modules()).unwrap_or_else(|e| {
+            panic!("{e}");
+        });
         self.kinds.insert(
             kind.name().to_string(),
             Registered {
@@ -251,5 +280,42 @@ impl Registry {
     /// Names of all registered kinds.
     pub fn names(&self) -> Vec<String> {
         self.kinds.keys().cloned().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_module_is_an_error_not_a_constant() {
+        let e = code_fingerprint("chi4", &["analysis", "stages/chi_4"]).unwrap_err();
+        assert!(
+            e.to_string().contains("'stages/chi_4'") && e.to_string().contains("chi4"),
+            "{e}"
+        );
+        assert!(code_fingerprint("chi4", &[]).is_err());
+        assert!(code_fingerprint("table", &["pipeline", "table"]).is_ok());
+    }
+
+    #[test]
+    #[should_panic(expected = "names source module 'no_such_module'")]
+    fn registering_a_kind_with_a_misspelt_module_panics() {
+        struct Bad;
+        impl StageKind for Bad {
+            fn name(&self) -> &str {
+                "bad"
+            }
+            fn modules(&self) -> &[&str] {
+                &["no_such_module"]
+            }
+            fn validate(&self, _: &Value) -> Result<()> {
+                Ok(())
+            }
+            fn run(&self, _: &StageCtx, _: &Value, _: &[Artifact]) -> Result<Output> {
+                Ok(Output::default())
+            }
+        }
+        Registry::new().register(Bad);
     }
 }

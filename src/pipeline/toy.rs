@@ -1,5 +1,5 @@
-//! Toy stage kinds, for testing the framework only (registered when
-//! `REPRO_TEST_KINDS=1`, or by tests directly). They are small but honest pure
+//! Toy stage kinds, for testing the framework only: compiled for unit tests and
+//! under the test-only `toy-kinds` feature (never in the shipped binary). They are small but honest pure
 //! functions of their parameters, inputs and seed, so the cache, seeding and
 //! parallelism are exercised exactly as the real kinds will be.
 

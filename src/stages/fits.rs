@@ -14,8 +14,9 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of, pick};
+use crate::fit::catalogue::{self, Form};
 use crate::fit::collapse::{self, Curve};
-use crate::fit::{Data, FitResult, forms, linear};
+use crate::fit::{Data, FitResult, linear};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
@@ -85,25 +86,18 @@ pub struct FitParams {
     pub rename: BTreeMap<String, String>,
     #[serde(default)]
     pub curve: Option<CurveSpec>,
+    /// One fit per distinct value of these columns (e.g. `[phi]`), each a row
+    /// group of the output with these columns; a column `t` among them is also the
+    /// lag of a `gaussian` fit.
+    #[serde(default)]
+    pub group_by: Vec<String>,
 }
 
-const FORMS: &[&str] = &[
-    "power_law_offset",
-    "vft",
-    "power_law",
-    "line",
-    "drift",
-    "value",
-];
-
-/// The fitted model at x.
-fn model(form: &str, f: &FitResult, x: f64) -> f64 {
-    let v = |n: &str| f.value(n);
-    match form {
-        "power_law_offset" => v("A") * (v("phi_c") - x).powf(-v("gamma")),
-        "vft" => v("A") * (v("B") / (v("phi_0") - x)).exp(),
-        "power_law" => v("A") * x.powf(v("exponent")),
-        _ => v("intercept") + v("slope") * x,
+/// The named form of `p`, or None for `drift` (a line) and `value` (no fit).
+fn named_form(p: &FitParams) -> Result<Option<&'static Form>> {
+    match p.form.as_str() {
+        "drift" | "value" => Ok(None),
+        f => catalogue::find(f).map(Some).map_err(anyhow::Error::msg),
     }
 }
 
@@ -116,11 +110,9 @@ fn fit_form(
     fixed: &[(&str, f64)],
 ) -> Result<FitResult> {
     let d = Data::new(x, y, s);
-    let f = match p.form.as_str() {
-        "power_law_offset" => forms::power_law_offset(d, fixed)?,
-        "vft" => forms::vft(d, fixed)?,
-        "power_law" => forms::power_law(d)?,
-        _ => linear::line(d)?,
+    let f = match named_form(p)? {
+        Some(form) => (form.fit)(d, fixed)?,
+        None => linear::line(d)?,
     };
     Ok(if p.y_err.is_none() {
         linear::scale_errors(f)
@@ -129,9 +121,22 @@ fn fit_form(
     })
 }
 
-/// Table quantity, value, error, note.
-fn quantity_table(rows: &[(String, f64, f64)], note: &str) -> Result<RecordBatch> {
-    Ok(RecordBatch::try_from_iter([
+/// Table quantity, value, error, note, with the group's values as leading columns.
+fn quantity_table(
+    group: &[(String, f64)],
+    rows: &[(String, f64, f64)],
+    note: &str,
+) -> Result<RecordBatch> {
+    let mut cols: Vec<(String, ArrayRef)> = group
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                Arc::new(Float64Array::from(vec![*v; rows.len()])) as ArrayRef,
+            )
+        })
+        .collect();
+    let rest = RecordBatch::try_from_iter([
         (
             "quantity",
             Arc::new(StringArray::from(
@@ -151,7 +156,11 @@ fn quantity_table(rows: &[(String, f64, f64)], note: &str) -> Result<RecordBatch
             )),
         ),
         ("note", Arc::new(StringArray::from(vec![note; rows.len()]))),
-    ])?)
+    ])?;
+    for (f, c) in rest.schema().fields().iter().zip(rest.columns()) {
+        cols.push((f.name().clone(), c.clone()));
+    }
+    Ok(RecordBatch::try_from_iter(cols)?)
 }
 
 /// Finite points only; missing or non-positive errors replaced by the largest
@@ -193,133 +202,211 @@ impl StageKind for Fit {
     fn name(&self) -> &str {
         "fit"
     }
+    fn details(&self) -> String {
+        let mut s = String::from(
+            "parameters: form, data (stage), file, x, y, y_err, where, fixed, fixed_from, rename, curve, group_by\nforms:\n",
+        );
+        for f in catalogue::FORMS {
+            s.push_str(&format!(
+                "  {:<17} {} [{}]\n",
+                f.name,
+                f.describe,
+                f.params.join(", ")
+            ));
+        }
+        s.push_str(
+            "  drift             relative change of y over the x range, from a line [drift]\n",
+        );
+        s.push_str("  value             no fit: the mean of y over the selected rows [value]\n");
+        s.push_str("example: {name: relax, kind: fit, gather: [q_table], params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {}}}");
+        s
+    }
     fn describe(&self) -> &str {
-        "fit a form (power_law_offset, vft, power_law, line, drift) to two columns of a table"
+        "fit a named form to two columns of a table, one fit per group; a failed fit is a row of NaN with its reason in `note`"
     }
     fn modules(&self) -> &[&str] {
         MODULES
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: FitParams = typed("fit", params)?;
-        if !FORMS.contains(&p.form.as_str()) {
-            bail!(
-                "fit: unknown form '{}'; valid forms: {}",
-                p.form,
-                FORMS.join(", ")
-            );
-        }
+        named_form(&p).map_err(|e| anyhow::anyhow!("fit: {e}"))?;
         Ok(())
     }
     fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: FitParams = typed("fit", params)?;
         let c = Columns::read_file(&inputs_of("fit", inputs, &p.data)?, &p.file)?;
         let rows = c.select(&p.filter)?;
-        let x = pick(c.col(&p.x)?, &rows);
-        let y = pick(c.col(&p.y)?, &rows);
-        let s = match &p.y_err {
-            Some(e) => pick(c.col(e)?, &rows),
-            None => vec![1.0; rows.len()],
-        };
-        let (x, y, s) = clean(ctx, x, y, s);
         let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();
         for (name, from) in &p.fixed_from {
             fixed.push((name.clone(), from.get("fit", inputs)?));
         }
-        let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
-        if p.form == "value" {
-            let k = y.len() as f64;
-            let (mean, err) = if y.is_empty() {
-                (f64::NAN, f64::NAN)
-            } else {
-                (
-                    y.iter().sum::<f64>() / k,
-                    s.iter().map(|e| e * e).sum::<f64>().sqrt() / k,
-                )
-            };
-            let note = if y.is_empty() {
-                "no row passes `where`"
-            } else {
-                ""
-            };
-            let t = quantity_table(&[(name("value"), mean, err)], note)?;
-            return Ok(Output::single("parquet", to_parquet_bytes(&[t], &[])?));
+        // Rows per group, groups in ascending order of their values.
+        let keys: Vec<&[f64]> = p.group_by.iter().map(|k| c.col(k)).collect::<Result<_>>()?;
+        let mut groups: BTreeMap<Vec<u64>, Vec<usize>> = BTreeMap::new();
+        for &i in &rows {
+            let key = keys.iter().map(|k| ordered(k[i])).collect();
+            groups.entry(key).or_default().push(i);
         }
-        let (rows, note, curve) = match fit_form(&p, &x, &y, &s, &fixed_ref) {
-            Ok(f) => {
-                let mut rows: Vec<(String, f64, f64)> = if p.form == "drift" {
-                    // Relative change of y across the x range, from the slope.
-                    let span = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
-                        - x.iter().cloned().fold(f64::INFINITY, f64::min);
-                    let mean = y.iter().sum::<f64>() / y.len() as f64;
-                    let (b, db) = f.expect("slope");
-                    vec![(name("drift"), b * span / mean, db * span / mean.abs())]
-                } else {
-                    f.names
-                        .iter()
-                        .zip(f.params.iter().zip(&f.stderr))
-                        .map(|(n, (v, e))| (name(n), *v, *e))
-                        .collect()
-                };
-                rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
-                rows.push((name("points"), x.len() as f64, 0.0));
-                let curve = p.curve.as_ref().map(|cs| {
-                    let lo = cs
-                        .x_min
-                        .unwrap_or_else(|| x.iter().cloned().fold(f64::INFINITY, f64::min));
-                    let hi = cs
-                        .x_max
-                        .unwrap_or_else(|| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
-                    let n = cs.points.max(2);
-                    let log = p.form == "power_law" && lo > 0.0;
-                    let xs: Vec<f64> = (0..n)
-                        .map(|i| {
-                            let u = i as f64 / (n - 1) as f64;
-                            if log {
-                                lo * (hi / lo).powf(u)
-                            } else {
-                                lo + u * (hi - lo)
-                            }
-                        })
-                        .collect();
-                    let ys: Vec<f64> = xs.iter().map(|&v| model(&p.form, &f, v)).collect();
-                    (xs, ys)
-                });
-                (rows, f.warnings.join("; "), curve)
-            }
-            Err(e) => {
-                let msg = format!("{e:#}");
-                ctx.log(format!("fit failed: {msg}"));
-                let names: &[&str] = match p.form.as_str() {
-                    "power_law_offset" => &["A", "phi_c", "gamma"],
-                    "vft" => &["A", "phi_0", "B"],
-                    "power_law" => &["A", "exponent"],
-                    "drift" => &["drift"],
-                    _ => &["intercept", "slope"],
-                };
-                let rows = names
-                    .iter()
-                    .map(|n| (name(n), f64::NAN, f64::NAN))
-                    .collect();
-                (
-                    rows,
-                    format!("fit failed: {msg}"),
-                    p.curve.as_ref().map(|_| (vec![], vec![])),
-                )
-            }
-        };
-        let mut out = Output::single(
-            "parquet",
-            to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?,
-        );
-        if let Some((cx, cy)) = curve {
-            out = out.with(
-                "curve.parquet",
-                to_parquet_bytes(&[f64_batch(&[("x", cx), ("y", cy)])?], &[])?,
-            );
+        if groups.is_empty() {
+            groups.insert(vec![], vec![]);
+        }
+        let (mut tables, mut curves) = (Vec::new(), Vec::new());
+        for (key, rows) in groups {
+            let group: Vec<(String, f64)> = p
+                .group_by
+                .iter()
+                .zip(&key)
+                .map(|(k, &v)| (k.clone(), unordered(v)))
+                .collect();
+            let mut fixed = fixed.clone();
+            fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
+            let (t, curve) = fit_group(ctx, &p, &c, &rows, &group, &fixed)?;
+            tables.push(t);
+            curves.extend(curve);
+        }
+        let mut out = Output::single("parquet", to_parquet_bytes(&tables, &[])?);
+        if p.curve.is_some() {
+            out = out.with("curve.parquet", to_parquet_bytes(&curves, &[])?);
         }
         Ok(out)
     }
+}
+
+/// A float as a sortable key (groups of equal values, in ascending order).
+fn ordered(v: f64) -> u64 {
+    let b = v.to_bits();
+    if b >> 63 == 1 { !b } else { b | (1 << 63) }
+}
+
+fn unordered(k: u64) -> f64 {
+    f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
+}
+
+/// One fit of `p` over `rows` of `c`: its quantity table and its curve (named
+/// after the fitted columns, with the group's values).
+fn fit_group(
+    ctx: &StageCtx,
+    p: &FitParams,
+    c: &Columns,
+    rows: &[usize],
+    group: &[(String, f64)],
+    fixed: &[(String, f64)],
+) -> Result<(RecordBatch, Option<RecordBatch>)> {
+    let x = pick(c.col(&p.x)?, rows);
+    let y = pick(c.col(&p.y)?, rows);
+    let s = match &p.y_err {
+        Some(e) => pick(c.col(e)?, rows),
+        None => vec![1.0; rows.len()],
+    };
+    let (x, y, s) = clean(ctx, x, y, s);
+    let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
+    if p.form == "value" {
+        let k = y.len() as f64;
+        let (mean, err) = if y.is_empty() {
+            (f64::NAN, f64::NAN)
+        } else {
+            (
+                y.iter().sum::<f64>() / k,
+                s.iter().map(|e| e * e).sum::<f64>().sqrt() / k,
+            )
+        };
+        let note = if y.is_empty() {
+            "no row passes `where`"
+        } else {
+            ""
+        };
+        return Ok((
+            quantity_table(group, &[(name("value"), mean, err)], note)?,
+            None,
+        ));
+    }
+    let form = named_form(p)?;
+    let (rows, note, curve) = match fit_form(p, &x, &y, &s, &fixed_ref) {
+        Ok(f) => {
+            let mut rows: Vec<(String, f64, f64)> = if p.form == "drift" {
+                // Relative change of y across the x range, from the slope.
+                let span = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                    - x.iter().cloned().fold(f64::INFINITY, f64::min);
+                let mean = y.iter().sum::<f64>() / y.len() as f64;
+                let (b, db) = f.expect("slope");
+                vec![(name("drift"), b * span / mean, db * span / mean.abs())]
+            } else {
+                f.names
+                    .iter()
+                    .zip(f.params.iter().zip(&f.stderr))
+                    .map(|(n, (v, e))| (name(n), *v, *e))
+                    .collect()
+            };
+            rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
+            rows.push((name("points"), x.len() as f64, 0.0));
+            let curve = p.curve.as_ref().map(|cs| {
+                let lo = cs
+                    .x_min
+                    .unwrap_or_else(|| x.iter().cloned().fold(f64::INFINITY, f64::min));
+                let hi = cs
+                    .x_max
+                    .unwrap_or_else(|| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+                let n = cs.points.max(2);
+                let log = form.is_some_and(|f| f.log_x) && lo > 0.0;
+                let xs: Vec<f64> = (0..n)
+                    .map(|i| {
+                        let u = i as f64 / (n - 1) as f64;
+                        if log {
+                            lo * (hi / lo).powf(u)
+                        } else {
+                            lo + u * (hi - lo)
+                        }
+                    })
+                    .collect();
+                let ys: Vec<f64> = match form {
+                    Some(fm) => xs.iter().map(|&v| (fm.model)(&f.params, v)).collect(),
+                    None => xs.iter().map(|&v| f.params[0] + f.params[1] * v).collect(),
+                };
+                (xs, ys)
+            });
+            (rows, f.warnings.join("; "), curve)
+        }
+        Err(e) => {
+            let msg = format!("{e:#}");
+            ctx.log(format!("fit failed: {msg}"));
+            let names: &[&str] = match (form, p.form.as_str()) {
+                (Some(f), _) => f.params,
+                (None, "drift") => &["drift"],
+                (None, _) => &["intercept", "slope"],
+            };
+            let rows = names
+                .iter()
+                .map(|n| (name(n), f64::NAN, f64::NAN))
+                .collect();
+            (
+                rows,
+                format!("fit failed: {msg}"),
+                p.curve.as_ref().map(|_| (vec![], vec![])),
+            )
+        }
+    };
+    let table = quantity_table(group, &rows, &note)?;
+    let curve = match curve {
+        Some((cx, cy)) => {
+            let n = cx.len();
+            let mut cols: Vec<(String, ArrayRef)> = group
+                .iter()
+                .filter(|(k, _)| *k != p.x && *k != p.y)
+                .map(|(k, v)| {
+                    (
+                        k.clone(),
+                        Arc::new(Float64Array::from(vec![*v; n])) as ArrayRef,
+                    )
+                })
+                .collect();
+            cols.push((p.x.clone(), Arc::new(Float64Array::from(cx))));
+            cols.push((p.y.clone(), Arc::new(Float64Array::from(cy))));
+            Some(RecordBatch::try_from_iter(cols)?)
+        }
+        None => None,
+    };
+    Ok((table, curve))
 }
 
 /// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
@@ -485,7 +572,7 @@ impl StageKind for Collapse {
         ])?;
         Ok(Output::single(
             "parquet",
-            to_parquet_bytes(&[quantity_table(&rows, &note)?], &[])?,
+            to_parquet_bytes(&[quantity_table(&[], &rows, &note)?], &[])?,
         )
         .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
     }

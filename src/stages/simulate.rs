@@ -9,7 +9,10 @@
 //! - relaxation `relax_tau` x tau_guess (at least `relax_min`);
 //! - `origins` time origins spaced by `spacing_tau` x tau_guess;
 //! - after each origin, `lags_per_decade` log-spaced lags from `lag_min` to
-//!   `lag_max_tau` x tau_guess.
+//!   `lag_max_tau` x tau_guess;
+//! - optional `overlap_spacing_tau`: the same window with origins every
+//!   `overlap_spacing_tau` x tau_guess (overlapping blocks: more origins for the
+//!   same simulated time, more stored frames; [`Schedule::overlapping`]).
 //!
 //! Every other parameter is a [`SimConfig`] field (n, phi, eps, seed, ...).
 
@@ -53,6 +56,8 @@ pub struct RunLength {
     pub lag_min: f64,
     pub lag_max_tau: f64,
     pub lags_per_decade: usize,
+    #[serde(default)]
+    pub overlap_spacing_tau: Option<f64>,
 }
 
 const RULE_KEYS: &[&str] = &[
@@ -64,6 +69,7 @@ const RULE_KEYS: &[&str] = &[
     "lag_min",
     "lag_max_tau",
     "lags_per_decade",
+    "overlap_spacing_tau",
 ];
 
 impl RunLength {
@@ -71,13 +77,17 @@ impl RunLength {
     pub fn schedule(&self, phi: f64) -> (f64, Schedule) {
         let tau = self.tau_guess.at(phi);
         let lag_max = (self.lag_max_tau * tau).max(self.lag_min * 10.0);
+        let s = Schedule {
+            start: 0.0,
+            origins: self.origins,
+            origin_spacing: self.spacing_tau * tau,
+            lags: Schedule::log_lags(self.lag_min, lag_max, self.lags_per_decade),
+        };
         (
             (self.relax_tau * tau).max(self.relax_min),
-            Schedule {
-                start: 0.0,
-                origins: self.origins,
-                origin_spacing: self.spacing_tau * tau,
-                lags: Schedule::log_lags(self.lag_min, lag_max, self.lags_per_decade),
+            match self.overlap_spacing_tau {
+                Some(o) => s.overlapping(o * tau),
+                None => s,
             },
         )
     }
@@ -90,6 +100,10 @@ impl RunLength {
             ("spacing_tau", self.spacing_tau),
             ("lag_min", self.lag_min),
             ("lag_max_tau", self.lag_max_tau),
+            (
+                "overlap_spacing_tau",
+                self.overlap_spacing_tau.unwrap_or(1.0),
+            ),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 let path: Vec<&str> = name.split('.').collect();
@@ -130,6 +144,24 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
         .clone()
         .into_iter()
         .partition(|(k, _)| RULE_KEYS.contains(&k.as_str()));
+    // The rule sets these: a value given beside it would be silently overwritten.
+    for (key, set_by) in [
+        (
+            "relax_time",
+            "relax_tau x tau_guess(phi), at least relax_min",
+        ),
+        (
+            "schedule",
+            "origins, spacing_tau, lag_min, lag_max_tau and lags_per_decade",
+        ),
+    ] {
+        if rest.contains_key(key) {
+            bail!(
+                "simulate: `{key}` cannot be given with the run-length rule, which sets it from {set_by}; \
+                 remove `{key}` or change those keys"
+            );
+        }
+    }
     let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
     rule.check()?;
     let mut cfg: SimConfig =
@@ -249,6 +281,14 @@ mod tests {
         let last = *cfg.schedule.lags.last().unwrap();
         assert!((last - 10.0 * tau).abs() < 1e-9 * last);
         assert_eq!(rule.origins, cfg.schedule.origins);
+
+        // Overlapping origins: the same last frame, origins every 0.5 tau.
+        let mut p = params();
+        p["overlap_spacing_tau"] = serde_json::json!(0.5);
+        let (_, o) = config(&p).unwrap();
+        assert_eq!(o.schedule.origins, 9);
+        assert!((o.schedule.end() - cfg.schedule.end()).abs() < 1e-9 * last);
+        assert_eq!(o.relax_time, cfg.relax_time);
     }
 
     #[test]
@@ -263,5 +303,12 @@ mod tests {
         let mut p = params();
         p["relax_tau"] = serde_json::json!(-1.0);
         assert!(format!("{:#}", config(&p).unwrap_err()).contains("relax_tau"));
+        // A relax_time or schedule beside the rule is refused, not overwritten.
+        for key in ["relax_time", "schedule"] {
+            let mut p = params();
+            p[key] = serde_json::json!(100.0);
+            let e = format!("{:#}", config(&p).unwrap_err());
+            assert!(e.contains(key) && e.contains("run-length rule"), "{e}");
+        }
     }
 }

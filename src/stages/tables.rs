@@ -10,36 +10,6 @@ use serde::Deserialize;
 use crate::pipeline::Artifact;
 use crate::traj::Trajectory;
 
-/// The lags every time origin of every replica realises: the schedule's own
-/// log-spaced lags. Differences between frames of different origins also match
-/// some lags, but with fewer samples; mixing them in makes curves jagged.
-pub fn every_origin_lags(
-    trajs: &[Trajectory],
-    requested: Option<Vec<f64>>,
-    rel_tol: f64,
-) -> Result<Option<Vec<f64>>> {
-    if requested.is_some() {
-        return Ok(requested);
-    }
-    let refs: Vec<&Trajectory> = trajs.iter().collect();
-    let lags = crate::analysis::lags::select(&refs, None, rel_tol)?;
-    // The shortest lag is realised once per origin and replica, and only then.
-    let every = lags.first().map(|l| l.pairs.len()).unwrap_or(0);
-    Ok(Some(
-        lags.iter()
-            .filter(|l| l.pairs.len() >= every)
-            .map(|l| l.t)
-            .collect(),
-    ))
-}
-
-/// The stage name in an artifact label: `fig4/tau[phi=0.6]` -> `tau`,
-/// `eps09[phi=0.6,replica=0]` -> `eps09` (an experiment).
-pub fn stage_of(label: &str) -> &str {
-    let head = label.split('[').next().unwrap_or(label);
-    head.rsplit('/').next().unwrap_or(head)
-}
-
 /// Every input that is a simulated trajectory, decoded.
 pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> {
     let sims: Vec<&Artifact> = inputs.iter().filter(|a| a.kind == "simulate").collect();
@@ -63,12 +33,13 @@ pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> 
 
 /// The inputs produced by stage `name`.
 pub fn inputs_of<'a>(kind: &str, inputs: &'a [Artifact], name: &str) -> Result<Vec<&'a Artifact>> {
-    let v: Vec<&Artifact> = inputs
-        .iter()
-        .filter(|a| stage_of(&a.label) == name)
-        .collect();
+    let v: Vec<&Artifact> = inputs.iter().filter(|a| a.is_from(name)).collect();
     if v.is_empty() {
-        let mut known: Vec<&str> = inputs.iter().map(|a| stage_of(&a.label)).collect();
+        let mut known: Vec<&str> = inputs
+            .iter()
+            .flat_map(|a| a.ids.iter().map(|id| id.stage.as_str()))
+            .collect();
+        known.sort_unstable();
         known.dedup();
         bail!(
             "{kind}: no input comes from stage '{name}'; the inputs come from: {} (add it to `gather`)",
@@ -234,31 +205,9 @@ pub fn pick(v: &[f64], rows: &[usize]) -> Vec<f64> {
     rows.iter().map(|&i| v[i]).collect()
 }
 
-/// Linear interpolation of y in ln t at `t0` (t ascending); None outside the samples.
-pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
-    if t0.is_nan() || t0 <= 0.0 || t.len() < 2 || t0 < t[0] || t0 > t[t.len() - 1] {
-        return None;
-    }
-    let k = t.partition_point(|&x| x <= t0).clamp(1, t.len() - 1);
-    let (la, lb) = (t[k - 1].ln(), t[k].ln());
-    let s = if lb > la {
-        (t0.ln() - la) / (lb - la)
-    } else {
-        0.0
-    };
-    Some(y[k - 1] + s * (y[k] - y[k - 1]))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn stage_names_from_labels() {
-        assert_eq!(stage_of("fig4/tau[phi=0.6]"), "tau");
-        assert_eq!(stage_of("fig4/taufit"), "taufit");
-        assert_eq!(stage_of("eps09[phi=0.6,replica=0]"), "eps09");
-    }
 
     #[test]
     fn conditions_select_rows() {
@@ -270,13 +219,5 @@ mod tests {
         };
         assert!(r.accepts(0.80) && !r.accepts(0.805));
         assert!(Cond::OneOf(vec![0.6, 0.7]).accepts(0.7));
-    }
-
-    #[test]
-    fn log_interpolation_is_exact_for_log_linear_data() {
-        let t = [1.0, 10.0, 100.0];
-        let y = [0.0, 1.0, 2.0];
-        assert!((interp_log_t(&t, &y, 10f64.sqrt()).unwrap() - 0.5).abs() < 1e-12);
-        assert_eq!(interp_log_t(&t, &y, 1000.0), None);
     }
 }

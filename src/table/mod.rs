@@ -5,6 +5,7 @@
 //! leaves a truncated file under the final name (write to a temporary file in the
 //! same directory, fsync, rename).
 
+pub mod columns;
 pub mod trajectory;
 
 use std::fs::File;
@@ -43,10 +44,32 @@ pub fn to_parquet_bytes(batches: &[RecordBatch], metadata: &[(&str, &str)]) -> R
     if !kv.is_empty() {
         props = props.set_key_value_metadata(Some(kv));
     }
+    // Every known column carries its unit and meaning in the field metadata.
+    let schema = Arc::new(arrow_schema::Schema::new_with_metadata(
+        first
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| match columns::describe(f.name()) {
+                Some((unit, description)) => f.as_ref().clone().with_metadata(
+                    [
+                        ("unit".to_string(), unit),
+                        ("description".to_string(), description),
+                    ]
+                    .into_iter()
+                    .collect::<std::collections::HashMap<String, String>>(),
+                ),
+                None => f.as_ref().clone(),
+            })
+            .collect::<Vec<_>>(),
+        first.schema().metadata().clone(),
+    ));
     let mut buf = Vec::new();
-    let mut w = ArrowWriter::try_new(&mut buf, first.schema(), Some(props.build()))?;
+    let mut w = ArrowWriter::try_new(&mut buf, schema.clone(), Some(props.build()))?;
     for b in batches {
-        w.write(b).context("writing record batch")?;
+        let b = RecordBatch::try_new(schema.clone(), b.columns().to_vec())
+            .context("record batches of one table must share their columns")?;
+        w.write(&b).context("writing record batch")?;
     }
     w.close()?;
     Ok(buf)
@@ -146,7 +169,13 @@ mod tests {
         let p = dir.path().join("x.parquet");
         write_parquet(&p, std::slice::from_ref(&b), &[("phi", "0.78")]).unwrap();
         let (back, kv) = read_parquet(&p).unwrap();
-        assert_eq!(back, vec![b.clone()]);
+        assert_eq!(back.len(), 1);
+        assert_eq!(back[0].columns(), b.columns());
+        // Known columns gain their unit and meaning; the data are unchanged.
+        let f = back[0].schema().field(0).clone();
+        assert_eq!(f.name(), "t");
+        assert_eq!(f.metadata()["unit"], "r1 sqrt(m1/T)");
+        assert!(f.metadata()["description"].contains("lag"));
         assert_eq!(kv, vec![("phi".to_string(), "0.78".to_string())]);
         let q = back[0]
             .column(1)

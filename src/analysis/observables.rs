@@ -1,0 +1,373 @@
+//! The observables a pipeline can ask for, by name: one line each in [`OBSERVABLES`]
+//! (name, what it computes, its source modules, its function). The generic
+//! analysis stage (`stages::analyse`) turns every line into a stage kind, and
+//! [`super::run`] calls the same line on one trajectory: a name means one thing.
+//!
+//! Each function gets every trajectory gathered into the stage (replicas of one
+//! state point) and pools them: observables built on blocks pool (replica, time
+//! origin) blocks in one jackknife; the others are computed per replica and pooled
+//! seed to seed ([`pool::seed_to_seed`]); lists of objects (clusters, paths) are
+//! concatenated with a `replica` column. The table's metadata says which.
+
+use std::sync::Arc;
+
+use anyhow::{Result, bail};
+use arrow_array::{ArrayRef, Int64Array, RecordBatch};
+use serde::de::DeserializeOwned;
+use serde_json::Value;
+
+use super::pool::{self, Errors};
+use super::{chi4, clusters, gr, intruder, lags, msd, overlap, s4, van_hove};
+use crate::table::f64_batch;
+use crate::traj::Trajectory;
+
+/// What an observable returns: its main table, further tables by file name (e.g.
+/// `tau.parquet`), and how its errors were estimated.
+pub struct Tables {
+    pub main: RecordBatch,
+    pub extra: Vec<(&'static str, RecordBatch)>,
+    pub errors: Errors,
+}
+
+impl Tables {
+    fn one(main: RecordBatch, errors: Errors) -> Self {
+        Tables {
+            main,
+            extra: Vec::new(),
+            errors,
+        }
+    }
+}
+
+/// One observable reachable from a pipeline.
+pub struct Observable {
+    /// Its name in specs (`kind: chi4`).
+    pub name: &'static str,
+    /// One line: what it computes and its columns.
+    pub describe: &'static str,
+    /// Source modules under `src/` computing it (its stage's code fingerprint).
+    pub modules: &'static [&'static str],
+    /// Check parameters (typed; unknown keys and wrong types are errors).
+    pub validate: fn(&Value) -> Result<()>,
+    /// Compute it from the gathered trajectories.
+    pub compute: fn(&[&Trajectory], &Value) -> Result<Tables>,
+}
+
+/// Typed parameters of observable `name`: unknown keys and wrong types name it.
+pub fn params<T: DeserializeOwned>(name: &str, v: &Value) -> Result<T> {
+    serde_json::from_value(v.clone())
+        .map_err(|e| anyhow::anyhow!("parameters of analysis `{name}`: {e}"))
+}
+
+/// The lags realised by every time origin when none are requested.
+fn overlap_params(name: &str, trajs: &[&Trajectory], v: &Value) -> Result<overlap::Params> {
+    let mut p: overlap::Params = params(name, v)?;
+    p.lags = lags::every_origin(trajs, p.lags.take(), p.rel_tol)?;
+    Ok(p)
+}
+
+fn chi4_params(name: &str, v: &Value) -> Result<chi4::Params> {
+    let p: chi4::Params = params(name, v)?;
+    if p.n.is_empty() {
+        bail!(
+            "parameters of analysis `{name}`: `n` (sub-box particle numbers) is empty; give at least one, e.g. n: [100, 400]"
+        );
+    }
+    Ok(p)
+}
+
+fn chi4_pooled(name: &str, trajs: &[&Trajectory], v: &Value) -> Result<chi4::Params> {
+    let mut p = chi4_params(name, v)?;
+    chi4::clamp_sizes(&mut p, trajs.first().map_or(0, |t| t.n()));
+    p.lags = lags::every_origin(trajs, p.lags.take(), p.rel_tol)?;
+    Ok(p)
+}
+
+fn jackknife(trajs: &[&Trajectory]) -> Errors {
+    Errors::Jackknife {
+        replicas: trajs.len(),
+    }
+}
+
+/// Per replica, then pooled seed to seed.
+fn per_replica<P: DeserializeOwned>(
+    name: &str,
+    trajs: &[&Trajectory],
+    v: &Value,
+    f: fn(&Trajectory, &P) -> Result<RecordBatch>,
+) -> Result<Tables> {
+    let p: P = params(name, v)?;
+    let tables = trajs.iter().map(|t| f(t, &p)).collect::<Result<Vec<_>>>()?;
+    let (main, errors) = pool::seed_to_seed(&tables)?;
+    Ok(Tables::one(main, errors))
+}
+
+/// Per replica, rows concatenated with a `replica` column first.
+fn concat<P: DeserializeOwned>(
+    name: &str,
+    trajs: &[&Trajectory],
+    v: &Value,
+    f: fn(&Trajectory, &P) -> Result<RecordBatch>,
+) -> Result<RecordBatch> {
+    let p: P = params(name, v)?;
+    let mut out = Vec::new();
+    for (r, t) in trajs.iter().enumerate() {
+        let b = f(t, &p)?;
+        let mut cols: Vec<(String, ArrayRef)> = vec![(
+            "replica".into(),
+            Arc::new(Int64Array::from(vec![r as i64; b.num_rows()])),
+        )];
+        for (fd, c) in b.schema().fields().iter().zip(b.columns()) {
+            cols.push((fd.name().clone(), c.clone()));
+        }
+        out.push(RecordBatch::try_from_iter(cols)?);
+    }
+    let Some(first) = out.first() else {
+        bail!("analysis `{name}`: no trajectory");
+    };
+    arrow_select_concat(&first.schema(), &out)
+}
+
+fn arrow_select_concat(
+    schema: &arrow_schema::SchemaRef,
+    batches: &[RecordBatch],
+) -> Result<RecordBatch> {
+    let mut cols: Vec<ArrayRef> = Vec::new();
+    for i in 0..schema.fields().len() {
+        let parts: Vec<&dyn arrow_array::Array> =
+            batches.iter().map(|b| b.column(i).as_ref()).collect();
+        cols.push(concat_arrays(&parts)?);
+    }
+    Ok(RecordBatch::try_new(schema.clone(), cols)?)
+}
+
+/// Concatenate float, integer or boolean arrays of one type.
+fn concat_arrays(parts: &[&dyn arrow_array::Array]) -> Result<ArrayRef> {
+    use arrow_array::{Array, BooleanArray, Float64Array};
+    fn any<'a>(p: &&'a dyn Array) -> &'a dyn std::any::Any {
+        p.as_any()
+    }
+    if parts.iter().all(|p| any(p).is::<Float64Array>()) {
+        let v: Vec<Option<f64>> = parts
+            .iter()
+            .flat_map(|p| any(p).downcast_ref::<Float64Array>().unwrap().iter())
+            .collect();
+        return Ok(Arc::new(Float64Array::from(v)));
+    }
+    if parts.iter().all(|p| any(p).is::<Int64Array>()) {
+        let v: Vec<Option<i64>> = parts
+            .iter()
+            .flat_map(|p| any(p).downcast_ref::<Int64Array>().unwrap().iter())
+            .collect();
+        return Ok(Arc::new(Int64Array::from(v)));
+    }
+    if parts.iter().all(|p| any(p).is::<BooleanArray>()) {
+        let v: Vec<Option<bool>> = parts
+            .iter()
+            .flat_map(|p| any(p).downcast_ref::<BooleanArray>().unwrap().iter())
+            .collect();
+        return Ok(Arc::new(BooleanArray::from(v)));
+    }
+    bail!(
+        "cannot concatenate columns of type {:?}",
+        parts[0].data_type()
+    )
+}
+
+const OVERLAP: &[&str] = &[
+    "analysis/overlap",
+    "analysis/lags",
+    "analysis/stats",
+    "analysis/subbox",
+];
+const CHI4: &[&str] = &[
+    "analysis/chi4",
+    "analysis/overlap",
+    "analysis/lags",
+    "analysis/stats",
+    "analysis/subbox",
+];
+
+/// Every observable, one line each. A new observable is one function in its module
+/// of `src/analysis` and one line here.
+pub static OBSERVABLES: &[Observable] = &[
+    Observable {
+        name: "overlap",
+        describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
+        modules: OVERLAP,
+        validate: |v| params::<overlap::Params>("overlap", v).map(drop),
+        compute: |t, v| {
+            let p = overlap_params("overlap", t, v)?;
+            let (lag, q, n) = overlap::q_curve(t, &p)?;
+            let b = f64_batch(&[
+                ("t", lag),
+                ("Q", q.iter().map(|e| e.value).collect()),
+                ("Q_err", q.iter().map(|e| e.err).collect()),
+                ("n_origins", n.iter().map(|&k| k as f64).collect()),
+            ])?;
+            Ok(Tables::one(b, jackknife(t)))
+        },
+    },
+    Observable {
+        name: "tau_alpha",
+        describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
+        modules: OVERLAP,
+        validate: |v| params::<overlap::Params>("tau_alpha", v).map(drop),
+        compute: |t, v| {
+            let p = overlap_params("tau_alpha", t, v)?;
+            let tau = overlap::tau_alpha(t, &p)?;
+            let b = f64_batch(&[
+                ("tau_alpha", vec![tau.value]),
+                ("tau_alpha_err", vec![tau.err]),
+                ("replicas", vec![t.len() as f64]),
+            ])?;
+            Ok(Tables::one(b, jackknife(t)))
+        },
+    },
+    Observable {
+        name: "aging",
+        describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha",
+        modules: OVERLAP,
+        validate: |v| params::<overlap::Params>("aging", v).map(drop),
+        compute: |t, v| {
+            let p = overlap_params("aging", t, v)?;
+            let (main, tau) = overlap::aging(t, &p)?;
+            Ok(Tables {
+                main,
+                extra: vec![("tau.parquet", tau)],
+                errors: Errors::Mean { replicas: t.len() },
+            })
+        },
+    },
+    Observable {
+        name: "chi4",
+        describe: "chi4(t) (paper H, Eq. 14) per sub-box size N, pooled replicas: N, t, Q, chi4, chi4_err, n_origins",
+        modules: CHI4,
+        validate: |v| chi4_params("chi4", v).map(drop),
+        compute: |t, v| {
+            let p = chi4_pooled("chi4", t, v)?;
+            Ok(Tables::one(chi4::compute_pooled(t, &p)?, jackknife(t)))
+        },
+    },
+    Observable {
+        name: "chi4_peaks",
+        describe: "chi4 peak per sub-box size with tau_alpha and chi4(tau_alpha): N, tau4, chi4P, tau_alpha, chi4_tau_alpha (+ _err)",
+        modules: CHI4,
+        validate: |v| chi4_params("chi4_peaks", v).map(drop),
+        compute: |t, v| {
+            let p = chi4_pooled("chi4_peaks", t, v)?;
+            Ok(Tables::one(chi4::peaks_table(t, &p)?, jackknife(t)))
+        },
+    },
+    Observable {
+        name: "s4",
+        describe: "four-point structure factor S4(q, t) per shell: t, q, q2, S4, S4_err, n_vectors",
+        modules: &["analysis/s4", "analysis/lags", "analysis/stats"],
+        validate: |v| params::<s4::Params>("s4", v).map(drop),
+        compute: |t, v| per_replica("s4", t, v, s4::compute),
+    },
+    Observable {
+        name: "msd",
+        describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
+        modules: &["analysis/msd", "analysis/lags", "analysis/stats"],
+        validate: |v| params::<msd::Params>("msd", v).map(drop),
+        compute: |t, v| {
+            let mut p: msd::Params = params("msd", v)?;
+            p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
+            let tables = t
+                .iter()
+                .map(|x| msd::compute(x, &p))
+                .collect::<Result<Vec<_>>>()?;
+            let (main, errors) = pool::seed_to_seed(&tables)?;
+            Ok(Tables::one(main, errors))
+        },
+    },
+    Observable {
+        name: "van_hove",
+        describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
+        modules: &["analysis/van_hove", "analysis/lags", "analysis/stats"],
+        validate: |v| params::<van_hove::Params>("van_hove", v).map(drop),
+        compute: |t, v| per_replica("van_hove", t, v, van_hove::compute),
+    },
+    Observable {
+        name: "gr",
+        describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
+        modules: &["analysis/gr", "analysis/neighbours"],
+        validate: |v| params::<gr::Params>("gr", v).map(drop),
+        compute: |t, v| per_replica("gr", t, v, gr::compute),
+    },
+    Observable {
+        name: "clusters",
+        describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
+        modules: &[
+            "analysis/clusters",
+            "analysis/gr",
+            "analysis/neighbours",
+            "analysis/lags",
+        ],
+        validate: |v| params::<clusters::Params>("clusters", v).map(drop),
+        compute: |t, v| {
+            let b = concat("clusters", t, v, clusters::compute)?;
+            Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+        },
+    },
+    Observable {
+        name: "cluster_sizes",
+        describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, n_clusters",
+        modules: &[
+            "analysis/clusters",
+            "analysis/gr",
+            "analysis/neighbours",
+            "analysis/lags",
+        ],
+        validate: |v| params::<clusters::Params>("cluster_sizes", v).map(drop),
+        compute: |t, v| {
+            let p: clusters::Params = params("cluster_sizes", v)?;
+            let rows = concat("cluster_sizes", t, v, clusters::compute)?;
+            let b = clusters::sizes_table(&rows, &p)?;
+            Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+        },
+    },
+    Observable {
+        name: "intruder_velocity",
+        describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, n_blocks",
+        modules: &["analysis/intruder"],
+        validate: |v| params::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
+        compute: |t, v| {
+            let p: intruder::VelocityParams = params("intruder_velocity", v)?;
+            let b = intruder::velocity_table(t, &p)?;
+            Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
+        },
+    },
+    Observable {
+        name: "intruder_path",
+        describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
+        modules: &["analysis/intruder"],
+        validate: |v| params::<intruder::VelocityParams>("intruder_path", v).map(drop),
+        compute: |t, v| {
+            let b = concat("intruder_path", t, v, intruder::compute_path)?;
+            Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+        },
+    },
+    Observable {
+        name: "momentum_profile",
+        describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
+        modules: &["analysis/intruder"],
+        validate: |v| params::<intruder::ProfileParams>("momentum_profile", v).map(drop),
+        compute: |t, v| per_replica("momentum_profile", t, v, intruder::compute_profile),
+    },
+];
+
+/// The observable called `name`, or an error listing them all.
+pub fn find(name: &str) -> Result<&'static Observable> {
+    OBSERVABLES.iter().find(|o| o.name == name).ok_or_else(|| {
+        anyhow::anyhow!(
+            "unknown analysis kind `{name}`; known kinds: {}",
+            OBSERVABLES
+                .iter()
+                .map(|o| o.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+}

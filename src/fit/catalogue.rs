@@ -1,0 +1,214 @@
+//! Every named fit form reachable from a pipeline, one line each: its parameter
+//! names, the fit and the model (to draw the fitted curve). The `fit` stage looks
+//! forms up here; a new form is one function in `forms` and one line here.
+
+use super::forms::{self, Fixed};
+use super::{Data, FitError, FitResult, linear};
+
+/// One named form.
+pub struct Form {
+    /// Its name in specs (`form: oz`).
+    pub name: &'static str,
+    /// The model, as in the paper.
+    pub describe: &'static str,
+    /// Parameter names, in the order of the fit result.
+    pub params: &'static [&'static str],
+    /// Whether the curve is drawn on log-spaced x.
+    pub log_x: bool,
+    /// Fit to data with some parameters fixed.
+    pub fit: fn(Data<'_>, Fixed<'_>) -> Result<FitResult, FitError>,
+    /// y at x for the fitted parameters (in `params` order).
+    pub model: fn(&[f64], f64) -> f64,
+}
+
+/// The value of `name` among `fixed`.
+fn fixed_value(fixed: Fixed<'_>, name: &str) -> Option<f64> {
+    fixed.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
+}
+
+pub static FORMS: &[Form] = &[
+    Form {
+        name: "power_law_offset",
+        describe: "y = A (phi_c - x)^-gamma (paper H, Fig. 4 dashed line)",
+        params: &["A", "phi_c", "gamma"],
+        log_x: false,
+        fit: forms::power_law_offset,
+        model: |p, x| p[0] * (p[1] - x).powf(-p[2]),
+    },
+    Form {
+        name: "vft",
+        describe: "y = A exp[B / (phi_0 - x)] (Vogel-Fulcher-Tammann; paper H, Fig. 4 solid line)",
+        params: &["A", "phi_0", "B"],
+        log_x: false,
+        fit: forms::vft,
+        model: |p, x| p[0] * (p[2] / (p[1] - x)).exp(),
+    },
+    Form {
+        name: "power_law",
+        describe: "y = A x^exponent (a straight line in log-log)",
+        params: &["A", "exponent"],
+        log_x: true,
+        fit: |d, _| forms::power_law(d),
+        model: |p, x| p[0] * x.powf(p[1]),
+    },
+    Form {
+        name: "line",
+        describe: "y = intercept + slope x",
+        params: &["intercept", "slope"],
+        log_x: false,
+        fit: |d, _| linear::line(d),
+        model: |p, x| p[0] + p[1] * x,
+    },
+    Form {
+        name: "proportional",
+        describe: "y = slope x (a line through the origin)",
+        params: &["slope"],
+        log_x: false,
+        fit: |d, _| linear::proportional(d),
+        model: |p, x| p[0] * x,
+    },
+    Form {
+        name: "q_relaxation",
+        describe: "Q(t) = 1 / ((t/tau0)^beta + 1) (Eq. 8 of paper H)",
+        params: &["tau0", "beta"],
+        log_x: true,
+        fit: forms::q_relaxation,
+        model: |p, t| 1.0 / ((t / p[0]).powf(p[1]) + 1.0),
+    },
+    Form {
+        name: "oz",
+        describe: "S4(q) = chi0 / (1 + (q xi)^2) (Ornstein-Zernike, Eq. 18 of paper H)",
+        params: &["chi0", "xi"],
+        log_x: true,
+        fit: forms::oz,
+        model: |p, q| p[0] / (1.0 + (q * p[1]).powi(2)),
+    },
+    Form {
+        name: "oz_quartic",
+        describe: "S4(q) = chi0 / (1 + (q xi)^2 + A^2 (q xi)^4) (Eq. 20 of paper H)",
+        params: &["chi0", "xi", "A"],
+        log_x: true,
+        fit: forms::oz_quartic,
+        model: |p, q| {
+            let u = (q * p[1]).powi(2);
+            p[0] / (1.0 + u + p[2] * p[2] * u * u)
+        },
+    },
+    Form {
+        name: "gaussian",
+        describe: "P(dx) = exp(-dx^2 / (4 D t)) / sqrt(4 pi D t): the Gaussian van Hove function at lag t (give t in `fixed` or group by t)",
+        params: &["D"],
+        log_x: false,
+        fit: |d, fixed| match fixed_value(fixed, "t") {
+            Some(t) => forms::gaussian_van_hove(d, t),
+            None => Err(FitError::InvalidInput {
+                form: "gaussian".into(),
+                what: "needs the lag t: give `fixed: {t: ...}` or group by a column `t`".into(),
+            }),
+        },
+        model: |_, _| f64::NAN,
+    },
+    Form {
+        name: "exponential_tail",
+        describe: "P(dx) = A exp(-|dx| / x0) (pass the tail points only)",
+        params: &["A", "x0"],
+        log_x: false,
+        fit: forms::exponential_tail,
+        model: |p, x| p[0] * (-x.abs() / p[1]).exp(),
+    },
+    Form {
+        name: "log_normal",
+        describe: "P(Nc) = P0 exp(-[ln(Nc / N_sigma)]^2 / (2 sigma^2)) (Eq. 12-13 of paper H)",
+        params: &["P0", "N_sigma", "sigma"],
+        log_x: true,
+        fit: forms::log_normal,
+        model: |p, n| p[0] * (-(n / p[1]).ln().powi(2) / (2.0 * p[2] * p[2])).exp(),
+    },
+];
+
+/// The form called `name`, or an error listing every form.
+pub fn find(name: &str) -> Result<&'static Form, String> {
+    FORMS.iter().find(|f| f.name == name).ok_or_else(|| {
+        format!(
+            "unknown form '{name}'; valid forms: {}, drift, value",
+            FORMS.iter().map(|f| f.name).collect::<Vec<_>>().join(", ")
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each form recovers the parameters of data drawn from its own model.
+    #[test]
+    fn every_form_fits_its_own_model() {
+        let cases: &[(&str, &[f64], Vec<f64>)] = &[
+            (
+                "power_law_offset",
+                &[2.0, 0.8, 1.5],
+                (0..12).map(|i| 0.6 + 0.015 * i as f64).collect(),
+            ),
+            (
+                "vft",
+                &[0.7, 0.85, 0.15],
+                (0..12).map(|i| 0.6 + 0.015 * i as f64).collect(),
+            ),
+            (
+                "power_law",
+                &[3.0, -1.5],
+                (1..20).map(|i| i as f64).collect(),
+            ),
+            ("line", &[1.0, 2.0], (0..10).map(|i| i as f64).collect()),
+            ("proportional", &[2.5], (1..10).map(|i| i as f64).collect()),
+            (
+                "q_relaxation",
+                &[5.0, 0.8],
+                (0..30).map(|i| 0.05 * 1.3f64.powi(i)).collect(),
+            ),
+            (
+                "oz",
+                &[20.0, 4.0],
+                (1..30).map(|i| 0.05 * i as f64).collect(),
+            ),
+            (
+                "oz_quartic",
+                &[20.0, 4.0, 0.5],
+                (1..30).map(|i| 0.05 * i as f64).collect(),
+            ),
+            (
+                "exponential_tail",
+                &[0.3, 0.7],
+                (0..15).map(|i| 1.0 + 0.3 * i as f64).collect(),
+            ),
+            (
+                "log_normal",
+                &[0.2, 5.0, 1.2],
+                (0..20).map(|i| 1.5f64.powi(i)).collect(),
+            ),
+        ];
+        for (name, truth, x) in cases {
+            let f = find(name).unwrap();
+            assert_eq!(f.params.len(), truth.len(), "{name}");
+            let y: Vec<f64> = x.iter().map(|&v| (f.model)(truth, v)).collect();
+            let s: Vec<f64> = y.iter().map(|v| 1e-3 * v.abs().max(1e-6)).collect();
+            let r = (f.fit)(Data::new(x, &y, &s), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+            for (k, (p, t)) in r.params.iter().zip(truth.iter()).enumerate() {
+                assert!(
+                    (p - t).abs() <= 1e-3 * t.abs().max(1.0),
+                    "{name} parameter {} = {p}, truth {t}",
+                    f.params[k]
+                );
+            }
+            assert_eq!(
+                r.names,
+                f.params.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+                "{name}"
+            );
+        }
+        let e =
+            (find("gaussian").unwrap().fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
+        assert!(e.to_string().contains("lag t"), "{e}");
+        assert!(find("gausian").err().unwrap().contains("log_normal"));
+    }
+}

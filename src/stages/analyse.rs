@@ -1,0 +1,252 @@
+//! The analysis stage: every observable of `src/analysis` ([`OBSERVABLES`]) as a
+//! stage kind of the same name. It decodes the gathered trajectories (replicas of
+//! one state point, typically `gather: [experiment]` with `by: [phi]`), calls the
+//! observable and writes its tables, with how the errors were estimated in the
+//! Parquet metadata (`errors`, `replicas`).
+//!
+//! Times in units of a measured time: `time_unit: {from: tau}` names the stage
+//! (gathered too) whose table holds it (column `tau_alpha` unless `column` says
+//! otherwise); the main table then gets `t_over_tau_alpha`, and `at: [0.01, 1, 8.5]`
+//! sets the lags to the recorded lags nearest to those multiples, listed with their
+//! distance from the request in `at.parquet` (a request past the last lag fails).
+
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::tables::{Columns, inputs_of, trajectories};
+use crate::analysis::lags;
+use crate::analysis::observables::{OBSERVABLES, Observable};
+use crate::pipeline::{Artifact, Output, Registry, StageCtx, StageKind};
+use crate::table::{f64_batch, to_parquet_bytes};
+use crate::traj::Trajectory;
+
+/// The measured time that `at` and `t_over_*` are in units of.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TimeUnit {
+    /// The stage that measured it (listed in `gather` too).
+    from: String,
+    /// Its column in that stage's table.
+    #[serde(default = "tau_alpha")]
+    column: String,
+}
+
+fn tau_alpha() -> String {
+    "tau_alpha".into()
+}
+
+/// The stage's own parameters, split from the observable's.
+struct Split {
+    observable: Value,
+    unit: Option<TimeUnit>,
+    at: Option<Vec<f64>>,
+}
+
+fn split(name: &str, params: &Value) -> Result<Split> {
+    let mut obs = params.clone();
+    let map = obs
+        .as_object_mut()
+        .with_context(|| format!("parameters of analysis `{name}` must be a mapping"))?;
+    let unit: Option<TimeUnit> = map
+        .remove("time_unit")
+        .map(serde_json::from_value)
+        .transpose()
+        .with_context(|| format!("parameters of analysis `{name}`: `time_unit` wants {{from: STAGE, column: tau_alpha}}"))?;
+    let at: Option<Vec<f64>> = map
+        .remove("at")
+        .map(serde_json::from_value)
+        .transpose()
+        .with_context(|| format!("parameters of analysis `{name}`: `at` wants a list of multiples, e.g. [0.01, 1, 8.5]"))?;
+    if at.is_some() {
+        if unit.is_none() {
+            bail!(
+                "parameters of analysis `{name}`: `at` needs `time_unit: {{from: STAGE}}`, the stage that measured the time it is in units of"
+            );
+        }
+        if map.contains_key("lags") {
+            bail!(
+                "parameters of analysis `{name}`: give `at` or `lags`, not both (`at` sets the lags)"
+            );
+        }
+    }
+    Ok(Split {
+        observable: obs,
+        unit,
+        at,
+    })
+}
+
+/// The measured time from the input of stage `u.from`: one finite value.
+fn measured(name: &str, u: &TimeUnit, inputs: &[Artifact]) -> Result<f64> {
+    let arts = inputs_of(name, inputs, &u.from)?;
+    let cols = Columns::read(&arts)?;
+    let v = cols.col(&u.column)?;
+    let first = *v
+        .first()
+        .with_context(|| format!("{name}: the table of stage '{}' is empty", u.from))?;
+    if v.iter().any(|x| x.to_bits() != first.to_bits()) {
+        bail!(
+            "{name}: stage '{}' gives {} different values of {} to this instance; gather it `by` the same keys so one value applies",
+            u.from,
+            v.len(),
+            u.column
+        );
+    }
+    if !(first.is_finite() && first > 0.0) {
+        bail!(
+            "{name}: {} from stage '{}' is {first} (not measured at this point?): cannot express times in its units",
+            u.column,
+            u.from
+        );
+    }
+    Ok(first)
+}
+
+/// `b` with `t / unit` appended as `t_over_<column>` when it has a float column `t`.
+fn with_scaled_t(b: RecordBatch, unit: f64, column: &str) -> Result<RecordBatch> {
+    let Some(t) = b
+        .column_by_name("t")
+        .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+    else {
+        return Ok(b);
+    };
+    let scaled: ArrayRef = Arc::new(Float64Array::from_iter(
+        t.iter().map(|x| x.map(|x| x / unit)),
+    ));
+    let mut cols: Vec<(String, ArrayRef)> = b
+        .schema()
+        .fields()
+        .iter()
+        .zip(b.columns())
+        .map(|(f, c)| (f.name().clone(), c.clone()))
+        .collect();
+    cols.push((format!("t_over_{column}"), scaled));
+    Ok(RecordBatch::try_from_iter(cols)?)
+}
+
+/// What every analysis stage runs besides its observable's own modules.
+const COMMON: &[&str] = &[
+    "analysis/observables",
+    "analysis/pool",
+    "analysis/mod",
+    "traj",
+    "table",
+    "stages/analyse",
+    "stages/tables",
+];
+
+/// One observable as a stage kind.
+pub struct Analyse {
+    obs: &'static Observable,
+    modules: Vec<&'static str>,
+}
+
+impl Analyse {
+    pub fn new(obs: &'static Observable) -> Self {
+        let mut modules: Vec<&'static str> = obs.modules.to_vec();
+        modules.extend(COMMON.iter().filter(|m| !obs.modules.contains(m)));
+        Analyse { obs, modules }
+    }
+}
+
+/// Register one analysis kind per observable.
+pub fn register(r: &mut Registry) {
+    for o in OBSERVABLES {
+        r.register(Analyse::new(o));
+    }
+}
+
+impl StageKind for Analyse {
+    fn name(&self) -> &str {
+        self.obs.name
+    }
+    fn describe(&self) -> &str {
+        self.obs.describe
+    }
+    fn details(&self) -> String {
+        format!(
+            "parameters: those of the observable (docs/analysis.md), plus\n  \
+             time_unit: {{from: STAGE, column: tau_alpha}}  adds t_over_tau_alpha\n  \
+             at: [0.01, 1, 8.5]  lags at these multiples of the measured time (at.parquet)\n\
+             example: {{name: {n}, kind: {n}, gather: [eps09], by: [phi]}}",
+            n = self.obs.name
+        )
+    }
+    fn modules(&self) -> &[&str] {
+        &self.modules
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let s = split(self.obs.name, params)?;
+        let mut obs = s.observable;
+        if s.at.is_some() {
+            // The lags come from `at`; check the rest with a placeholder.
+            obs["lags"] = Value::from(vec![1.0]);
+            return (self.obs.validate)(&obs)
+                .with_context(|| format!("`at` sets the lags of analysis `{}`", self.obs.name));
+        }
+        (self.obs.validate)(&obs)
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let name = self.obs.name;
+        let s = split(name, params)?;
+        let trajs = trajectories(name, inputs)?;
+        let refs: Vec<&Trajectory> = trajs.iter().collect();
+        let unit = s
+            .unit
+            .as_ref()
+            .map(|u| measured(name, u, inputs).map(|v| (v, u)))
+            .transpose()?;
+        let mut obs = s.observable;
+        let mut at_table = None;
+        if let (Some(at), Some((unit, u))) = (&s.at, unit) {
+            let rel_tol = obs
+                .get("rel_tol")
+                .and_then(Value::as_f64)
+                .unwrap_or(crate::analysis::DEFAULT_REL_TOL);
+            let recorded = lags::every_origin(&refs, None, rel_tol)?.unwrap_or_default();
+            let r = lags::in_units(&recorded, unit, &u.column, at, rel_tol)
+                .with_context(|| format!("{name}: `at`"))?;
+            for x in &r {
+                ctx.log(format!(
+                    "{} {} = {:.6} -> recorded lag {:.6} ({:+.2}%)",
+                    x.multiple,
+                    u.column,
+                    x.requested,
+                    x.lag,
+                    100.0 * x.rel_diff
+                ));
+            }
+            let mut chosen: Vec<f64> = r.iter().map(|x| x.lag).collect();
+            chosen.sort_by(f64::total_cmp);
+            chosen.dedup();
+            obs["lags"] = Value::from(chosen);
+            at_table = Some(f64_batch(&[
+                ("multiple", r.iter().map(|x| x.multiple).collect()),
+                ("requested", r.iter().map(|x| x.requested).collect()),
+                ("lag", r.iter().map(|x| x.lag).collect()),
+                ("rel_diff", r.iter().map(|x| x.rel_diff).collect()),
+                (u.column.as_str(), vec![unit; r.len()]),
+            ])?);
+        }
+        let mut tables = (self.obs.compute)(&refs, &obs)?;
+        if let Some((unit, u)) = unit {
+            tables.main = with_scaled_t(tables.main, unit, &u.column)?;
+        }
+        if let Some(b) = at_table {
+            tables.extra.push(("at.parquet", b));
+        }
+        let errors = tables.errors.describe();
+        let replicas = refs.len().to_string();
+        let meta = [("errors", errors.as_str()), ("replicas", replicas.as_str())];
+        ctx.log(format!("{}: errors {errors}", self.obs.name));
+        let mut out = Output::single("parquet", to_parquet_bytes(&[tables.main], &meta)?);
+        for (file, b) in tables.extra {
+            out = out.with(file, to_parquet_bytes(&[b], &meta)?);
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,153 @@
+//! `join`: the rows of one table with the matching row of another by key columns
+//! (phi, eps, a, N, ...), and derived columns (D vs tau_alpha, chi4 vs xi,
+//! t/tau_alpha, sqrt(N)/xi) built from the joined columns.
+
+use std::sync::Arc;
+
+use anyhow::{Result, bail};
+use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::tables::{Columns, inputs_of};
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::table::to_parquet_bytes;
+
+/// A column computed from two others of the joined row.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Derived {
+    pub name: String,
+    /// `divide` (a / b), `multiply` (a b) or `sqrt_divide` (sqrt(a) / b).
+    pub op: String,
+    pub a: String,
+    pub b: String,
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct JoinParams {
+    /// Stage whose rows are kept (one output row each).
+    pub left: String,
+    /// Stage whose matching row adds its columns.
+    pub right: String,
+    /// Key columns; a left row matches the right row with equal values (1e-9 relative).
+    pub on: Vec<String>,
+    #[serde(default)]
+    pub derive: Vec<Derived>,
+}
+
+const OPS: &[&str] = &["divide", "multiply", "sqrt_divide"];
+
+pub struct Join;
+
+fn same(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-300)
+}
+
+impl StageKind for Join {
+    fn name(&self) -> &str {
+        "join"
+    }
+    fn describe(&self) -> &str {
+        "rows of `left` with the matching row of `right` by key columns `on`, plus derived columns"
+    }
+    fn details(&self) -> String {
+        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide, a, b}]\n\
+         example: {name: d_vs_tau, kind: join, gather: [msd_fit, tau_table], params: {left: msd_fit, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}}"
+            .into()
+    }
+    fn modules(&self) -> &[&str] {
+        &["table", "stages/join", "stages/tables"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: JoinParams = typed("join", params)?;
+        if p.on.is_empty() {
+            bail!("join: `on` is empty; give the key columns, e.g. on: [phi]");
+        }
+        for d in &p.derive {
+            if !OPS.contains(&d.op.as_str()) {
+                bail!(
+                    "join: derived column '{}' has op '{}'; valid: {}",
+                    d.name,
+                    d.op,
+                    OPS.join(", ")
+                );
+            }
+        }
+        Ok(())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: JoinParams = typed("join", params)?;
+        let l = Columns::read(&inputs_of("join", inputs, &p.left)?)?;
+        let r = Columns::read(&inputs_of("join", inputs, &p.right)?)?;
+        for (side, c) in [(&p.left, &l), (&p.right, &r)] {
+            for k in &p.on {
+                if !c.f64.contains_key(k) {
+                    bail!(
+                        "join: key '{k}' is not a column of stage '{side}' (its columns: {})",
+                        c.f64
+                            .keys()
+                            .chain(c.str.keys())
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    );
+                }
+            }
+        }
+        let mut matched = Vec::with_capacity(l.rows);
+        for i in 0..l.rows {
+            let j = (0..r.rows).find(|&j| p.on.iter().all(|k| same(l.f64[k][i], r.f64[k][j])));
+            let Some(j) = j else {
+                let key: Vec<String> =
+                    p.on.iter()
+                        .map(|k| format!("{k} = {}", l.f64[k][i]))
+                        .collect();
+                bail!("join: no row of stage '{}' has {}", p.right, key.join(", "));
+            };
+            matched.push(j);
+        }
+        let mut cols: Vec<(String, ArrayRef)> = Vec::new();
+        let mut f64s: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+        for (k, v) in &l.f64 {
+            f64s.insert(k.clone(), v.clone());
+        }
+        for (k, v) in &r.f64 {
+            if !f64s.contains_key(k) {
+                f64s.insert(k.clone(), matched.iter().map(|&j| v[j]).collect());
+            }
+        }
+        for d in &p.derive {
+            let get = |n: &str| {
+                f64s.get(n).cloned().ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "join: derived column '{}' reads '{n}', which neither table has (columns: {})",
+                        d.name,
+                        f64s.keys().cloned().collect::<Vec<_>>().join(", ")
+                    )
+                })
+            };
+            let (a, b) = (get(&d.a)?, get(&d.b)?);
+            let v = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| match d.op.as_str() {
+                    "divide" => x / y,
+                    "multiply" => x * y,
+                    _ => x.sqrt() / y,
+                })
+                .collect();
+            f64s.insert(d.name.clone(), v);
+        }
+        for (k, v) in f64s {
+            cols.push((k, Arc::new(Float64Array::from(v))));
+        }
+        for (k, v) in &l.str {
+            cols.push((k.clone(), Arc::new(StringArray::from(v.clone()))));
+        }
+        let b = RecordBatch::try_from_iter(cols)?;
+        Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}

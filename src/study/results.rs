@@ -1,0 +1,192 @@
+//! Reading a built figure: `results/ID/compare.parquet`, its fit tables and
+//! `provenance.json`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use arrow_array::{Array, Float64Array, StringArray};
+use serde_json::Value;
+
+/// One key number as the `compare` stage reported it.
+#[derive(Clone, Debug)]
+pub struct Compared {
+    pub quantity: String,
+    pub ours: f64,
+    /// Our quoted 1-sigma error (NaN when the fit gave none).
+    pub ours_err: f64,
+    pub paper: f64,
+    pub tolerance: f64,
+    /// `agree`, `disagree`, `out_of_reach` or `missing`.
+    pub verdict: String,
+    pub reason: String,
+}
+
+fn opt(a: &Float64Array, i: usize) -> f64 {
+    if a.is_null(i) { f64::NAN } else { a.value(i) }
+}
+
+/// Read `DIR/compare.parquet`.
+pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
+    let path = dir.join("compare.parquet");
+    let (batches, _) = crate::table::read_parquet(&path)?;
+    let mut out = Vec::new();
+    for b in batches {
+        let s = |n: &str| -> Result<&StringArray> {
+            b.column_by_name(n)
+                .and_then(|c| c.as_any().downcast_ref::<StringArray>())
+                .with_context(|| format!("{}: no string column '{n}'", path.display()))
+        };
+        let f = |n: &str| -> Result<&Float64Array> {
+            b.column_by_name(n)
+                .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+                .with_context(|| format!("{}: no float column '{n}'", path.display()))
+        };
+        let (q, o, oe, p, t) = (
+            s("quantity")?,
+            f("ours")?,
+            f("ours_err")?,
+            f("paper")?,
+            f("tolerance")?,
+        );
+        let (ver, why) = (s("verdict")?, s("reason")?);
+        for i in 0..b.num_rows() {
+            out.push(Compared {
+                quantity: q.value(i).to_string(),
+                ours: opt(o, i),
+                ours_err: opt(oe, i),
+                paper: p.value(i),
+                tolerance: t.value(i),
+                verdict: ver.value(i).to_string(),
+                reason: why.value(i).to_string(),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// A fitted number with its quoted error, from a published fit table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fitted {
+    pub value: f64,
+    pub error: f64,
+}
+
+/// Every published fit table's rows (quantity, value, error) of a built figure,
+/// by name; compare.parquet is not one of them.
+pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
+    let mut out = BTreeMap::new();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.extension().is_some_and(|x| x == "parquet") && !p.ends_with("compare.parquet")
+        })
+        .collect();
+    files.sort();
+    for f in files {
+        let (batches, _) = crate::table::read_parquet(&f)?;
+        for b in batches {
+            let col = |n: &str| {
+                b.column_by_name(n)
+                    .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+            };
+            let q = b
+                .column_by_name("quantity")
+                .and_then(|c| c.as_any().downcast_ref::<StringArray>());
+            if let (Some(q), Some(v)) = (q, col("value")) {
+                let e = col("error");
+                for i in 0..b.num_rows() {
+                    out.insert(
+                        q.value(i).to_string(),
+                        Fitted {
+                            value: opt(v, i),
+                            error: e.map_or(f64::NAN, |e| opt(e, i)),
+                        },
+                    );
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Every key number of a built figure with its quoted error: every published fit
+/// table's rows and the `ours`, `ours_err` columns of compare.parquet, by name.
+pub fn key_numbers_with_errors(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
+    let mut out = fitted(dir)?;
+    if dir.join("compare.parquet").exists() {
+        for c in read_compare(dir)? {
+            out.insert(
+                c.quantity,
+                Fitted {
+                    value: c.ours,
+                    error: c.ours_err,
+                },
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// Every key number of a built figure (see [`key_numbers_with_errors`]).
+pub fn key_numbers(dir: &Path) -> Result<BTreeMap<String, f64>> {
+    Ok(key_numbers_with_errors(dir)?
+        .into_iter()
+        .map(|(q, f)| (q, f.value))
+        .collect())
+}
+
+/// What `provenance.json` says about a built figure.
+#[derive(Clone, Debug)]
+pub struct Provenance {
+    pub profile: String,
+    pub description: String,
+    /// The git commit of the checkout that built it, if any.
+    pub commit: Option<String>,
+    /// CPU seconds of all its stages (as first computed, cached or not).
+    pub cpu_s: f64,
+    /// When it was published (the file's modification time).
+    pub written: std::time::SystemTime,
+}
+
+/// Read `DIR/provenance.json`.
+pub fn provenance(dir: &Path) -> Result<Provenance> {
+    let path = dir.join("provenance.json");
+    let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+    let v: Value =
+        serde_json::from_slice(&bytes).with_context(|| format!("parsing {}", path.display()))?;
+    let cpu_s = v["stages"]
+        .as_array()
+        .map(|s| s.iter().filter_map(|x| x["cpu_s"].as_f64()).sum())
+        .unwrap_or(f64::NAN);
+    Ok(Provenance {
+        profile: v["profile"].as_str().unwrap_or("").to_string(),
+        description: v["description"].as_str().unwrap_or("").to_string(),
+        commit: v["git_commit"].as_str().map(String::from),
+        cpu_s,
+        written: std::fs::metadata(&path)?.modified()?,
+    })
+}
+
+/// JSON has no NaN: serde_json writes it as `null`, which must read back as NaN
+/// (a seed whose fit gave no number).
+pub mod nan_as_null {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        let o: Vec<Option<f64>> = v.iter().map(|x| x.is_finite().then_some(*x)).collect();
+        o.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        let o = Vec::<Option<f64>>::deserialize(d)?;
+        Ok(o.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+    }
+
+    /// One number: `null` reads back as NaN.
+    pub fn one<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
+}

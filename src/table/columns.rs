@@ -1,0 +1,170 @@
+//! What every column the project publishes means: its unit and a one-line
+//! description, written into each Parquet field's metadata (`unit`,
+//! `description`; pandas and pyarrow show them) by [`super::to_parquet_bytes`].
+//!
+//! Units: lengths in r1 (small-disk radius), times in r1 sqrt(m1/T), wavenumbers
+//! in 1/r1; "1" is dimensionless. A suffix `_err` is the 1-sigma error of its base
+//! column, `t_over_X` is t in units of the measured time X.
+
+/// (column, unit, description), one line each.
+const COLUMNS: &[(&str, &str, &str)] = &[
+    ("phi", "1", "packing fraction (area fraction of the disks)"),
+    ("eps", "1", "coefficient of normal restitution"),
+    (
+        "replica",
+        "1",
+        "replica index (independent seed at one state point)",
+    ),
+    ("replicas", "1", "number of replicas pooled"),
+    (
+        "N",
+        "1",
+        "mean number of particles in a sub-box (the whole system when it equals the particle number)",
+    ),
+    ("N_sub", "1", "mean number of particles in a sub-box"),
+    (
+        "a",
+        "r1",
+        "mobility cut-off of the overlap (paper H, Eq. 5); in g_ab tables: species of the first particle",
+    ),
+    ("t", "r1 sqrt(m1/T)", "lag time between the two frames"),
+    (
+        "t0",
+        "r1 sqrt(m1/T)",
+        "waiting time: the time origin, measured from the first frame",
+    ),
+    (
+        "Q",
+        "1",
+        "overlap: fraction of particles that moved less than a (paper H, Eq. 5-7)",
+    ),
+    (
+        "n_origins",
+        "1",
+        "number of (replica, time origin) pairs averaged at this lag",
+    ),
+    (
+        "tau_alpha",
+        "r1 sqrt(m1/T)",
+        "structural relaxation time: Q(tau_alpha) = 1/e",
+    ),
+    (
+        "chi4",
+        "1",
+        "dynamic susceptibility N [<Q_r^2> - <Q_r>^2] (paper H, Eq. 14)",
+    ),
+    ("tau4", "r1 sqrt(m1/T)", "time of the chi4(t) peak"),
+    ("chi4P", "1", "height of the chi4(t) peak"),
+    (
+        "chi4_tau_alpha",
+        "1",
+        "chi4 at t = tau_alpha, interpolated in ln t",
+    ),
+    ("q", "1/r1", "wavenumber: shell mean of |q|"),
+    (
+        "q2",
+        "1/r1^2",
+        "shell mean of q^2 (the abscissa of OZ fits)",
+    ),
+    (
+        "S4",
+        "1",
+        "four-point structure factor S4(q, t) (paper H, Eq. 16)",
+    ),
+    ("n_vectors", "1", "number of wave vectors in the shell"),
+    (
+        "species",
+        "1",
+        "species (0 small, 1 large, 2 intruder; -1 all particles)",
+    ),
+    (
+        "select",
+        "1",
+        "subset: 0 every particle of the group, +1 fastest, -1 slowest fraction",
+    ),
+    (
+        "fraction",
+        "1",
+        "fraction of the group selected (1 when select = 0)",
+    ),
+    (
+        "msd",
+        "r1^2",
+        "mean squared displacement Delta(t) (paper H, Eq. 9)",
+    ),
+    ("dx", "r1", "displacement along one axis"),
+    (
+        "P",
+        "1",
+        "probability density (van Hove: per unit dx, 1/r1) or fraction of clusters of size Nc",
+    ),
+    ("b", "1", "species of the second particle"),
+    ("r", "r1", "distance between particle centres"),
+    ("g", "1", "partial pair correlation g_ab(r)"),
+    (
+        "r_min",
+        "r1",
+        "first minimum of g_ab(r) after its main peak",
+    ),
+    ("kind", "1", "cluster kind: 0 slow, 1 fast"),
+    ("Nc", "1", "number of particles in a cluster"),
+    ("Rg", "r1", "radius of gyration of a cluster"),
+    ("spans", "1", "whether the cluster spans the periodic box"),
+    ("n_clusters", "1", "number of clusters in the bin"),
+    ("v", "sqrt(T/m1)", "intruder velocity along x"),
+    ("n_blocks", "1", "number of time blocks averaged"),
+    ("x", "r1", "position along x"),
+    ("Px", "sqrt(m1 T)/r1^2", "momentum density along x"),
+    (
+        "multiple",
+        "1",
+        "requested time in units of the measured time",
+    ),
+    (
+        "requested",
+        "r1 sqrt(m1/T)",
+        "requested time: multiple x the measured time",
+    ),
+    (
+        "lag",
+        "r1 sqrt(m1/T)",
+        "recorded lag used for the request (nearest in ln t)",
+    ),
+    ("rel_diff", "1", "lag / requested - 1"),
+    ("quantity", "", "name of a fitted or measured number"),
+    ("value", "as the quantity", "its value"),
+    ("error", "as the quantity", "its 1-sigma error"),
+    ("note", "", "fit warnings, or `fit failed: ` and why"),
+    ("ours", "as the quantity", "our value"),
+    ("paper", "as the quantity", "the paper's value"),
+    (
+        "tolerance",
+        "as the quantity",
+        "largest accepted |ours - paper|",
+    ),
+    ("verdict", "", "agree, disagree, out_of_reach or missing"),
+    ("reason", "", "why the verdict"),
+    ("X", "1", "collapse abscissa sqrt(N)/xi (paper H, Fig. 19)"),
+    ("Y", "1", "collapse ordinate chi4P xi^-g"),
+];
+
+/// Unit and description of column `name`, if it is a known column (or `X_err` /
+/// `t_over_X` of one).
+pub fn describe(name: &str) -> Option<(String, String)> {
+    let find = |n: &str| COLUMNS.iter().find(|c| c.0 == n);
+    if let Some(c) = find(name) {
+        return Some((c.1.to_string(), c.2.to_string()));
+    }
+    if let Some(base) = name.strip_suffix("_err")
+        && let Some(c) = find(base)
+    {
+        return Some((c.1.to_string(), format!("1-sigma error of {base}")));
+    }
+    if let Some(unit) = name.strip_prefix("t_over_") {
+        return Some((
+            "1".into(),
+            format!("lag time t in units of the measured {unit}"),
+        ));
+    }
+    None
+}
