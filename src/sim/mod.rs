@@ -40,6 +40,8 @@ mod tests;
 #[cfg(test)]
 mod tests_friction;
 #[cfg(test)]
+mod tests_intruder;
+#[cfg(test)]
 mod tests_walls;
 
 pub use config::{Drive, KickRate, Masses, SimConfig};
