@@ -184,7 +184,7 @@ impl Engine {
             let b = self.d[j];
             // Skip beyond j's own event: j predicts anew then and finds the intruder.
             let hj = best.min(self.real_interval(self.now, b.te));
-            if !(hj > 0.0) {
+            if hj <= 0.0 {
                 continue;
             }
             let dt = self.now - b.t;
@@ -221,7 +221,7 @@ impl Engine {
     pub(super) fn earlier_intruder(&mut self, a: &Disk, best: &mut f64, partner: &mut u32) {
         let k = self.pulled;
         let s_h = (self.now + *best).min(self.intruder_te);
-        if !(s_h > self.now) {
+        if s_h <= self.now {
             return;
         }
         let h = self.real_interval(self.now, s_h);
