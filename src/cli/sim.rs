@@ -55,6 +55,10 @@ pub struct SimArgs {
     /// a channel with walls at y = 0 and Ly).
     #[arg(long, default_value = "periodic,periodic", value_parser = parse_walls)]
     pub walls: [bool; 2],
+    /// Pull an intruder (paper I: R_0 = 2, m_0 = 4, placed first) with this
+    /// force along +x, from the start of the relaxation on.
+    #[arg(long)]
+    pub intruder_force: Option<f64>,
     /// Measured (production) time after relaxation.
     #[arg(long, default_value_t = 10.0)]
     pub time: f64,
@@ -165,6 +169,7 @@ impl SimArgs {
             temperature: self.temperature,
             aspect: self.aspect,
             walls: self.walls,
+            intruder: self.intruder_force.map(sim::config::Intruder::paper),
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
@@ -289,6 +294,21 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     s.energy_friction,
                     s.energy_balance_error
                 );
+                if let Some(i) = &s.intruder {
+                    println!(
+                        "intruder (F = {}): mean velocity {:.4} / {:.4} (terminal F/(gamma m0) = {:.4}); bath drift {:.4} / {:.4} (F/(gamma M) = {:.4}); work of F {:.6e}; root finder {:.1} steps per call, {} re-predictions",
+                        i.force,
+                        i.velocity[0],
+                        i.velocity[1],
+                        i.terminal_velocity,
+                        i.bath_drift[0],
+                        i.bath_drift[1],
+                        i.predicted_drift,
+                        i.energy_work,
+                        i.root_steps_per_call,
+                        i.repredicts
+                    );
+                }
                 println!(
                     "{:.3e} collisions/s, {:.1} CPU s, {:.1} MB peak RSS",
                     s.collisions_per_second,
@@ -318,6 +338,7 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     temperature: 1.0,
                     aspect: 1.0,
                     walls: [false, false],
+                    intruder_force: None,
                     time: b.time,
                     relax: b.relax,
                     compression_rate: b.compression_rate,

@@ -48,13 +48,38 @@ pub enum KickRate {
     PerParticle(f64),
 }
 
-/// An intruder pulled through the fluid (paper I). Not simulated yet.
+/// An intruder pulled through the fluid (paper I): a third species, one
+/// particle (index 0), pulled along +x by a constant force from the start of
+/// the relaxation on (during compression it is a passive disk).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Intruder {
+    /// R_0 (small disks: 1). Paper I: 2.
+    #[serde(default = "Intruder::default_radius")]
     pub radius: f64,
+    /// m_0 (small disks: 1). Paper I: 4.
+    #[serde(default = "Intruder::default_mass")]
     pub mass: f64,
+    /// The constant force F along +x (Eqs. 3-4 of paper I), >= 0.
     pub force: f64,
+}
+
+impl Intruder {
+    fn default_radius() -> f64 {
+        2.0
+    }
+    fn default_mass() -> f64 {
+        4.0
+    }
+
+    /// Paper I's intruder (R_0 = 2, m_0 = 4) pulled by `force`.
+    pub fn paper(force: f64) -> Intruder {
+        Intruder {
+            radius: Self::default_radius(),
+            mass: Self::default_mass(),
+            force,
+        }
+    }
 }
 
 /// One simulation. Default: paper H at phi = 0.78, eps = 0.9.
@@ -98,7 +123,7 @@ pub struct SimConfig {
     /// Hard walls at 0 and L instead of periodic boundaries, per axis [x, y]
     /// (elastic reflection).
     pub walls: [bool; 2],
-    /// An intruder (paper I). Not supported yet.
+    /// An intruder (paper I), counted in the packing fraction but not in `n`.
     pub intruder: Option<Intruder>,
 }
 
@@ -303,24 +328,68 @@ impl SimConfig {
                 }
             }
         }
-        if self.intruder.is_some() {
-            bail!("intruder is not supported yet (paper I); remove the key");
+        if let Some(intr) = &self.intruder {
+            finite_in(
+                "intruder.radius",
+                intr.radius,
+                0.1,
+                100.0,
+                "R_0 must be in [0.1, 100] small-disk radii",
+            )?;
+            finite_in(
+                "intruder.mass",
+                intr.mass,
+                1e-3,
+                1e6,
+                "m_0 must be in [1e-3, 1e6] small-disk masses",
+            )?;
+            finite_in(
+                "intruder.force",
+                intr.force,
+                0.0,
+                1e12,
+                "the force pulls along +x: F must be in [0, 1e12]",
+            )?;
+            // The engine needs 5 x 5 cells of the largest contact range (its
+            // neighbour lists) to follow the intruder.
+            let box_size = self.box_size();
+            let need = 5.0 * 2.0 * intr.radius.max(self.radius_ratio);
+            if box_size[0] < need || box_size[1] < need {
+                bail!(
+                    "intruder.radius = {} is too large for the box ({:.3} x {:.3} at n = {}, phi = {}): each side must hold five intruder diameters ({need:.3}); use more disks or a smaller intruder",
+                    intr.radius,
+                    box_size[0],
+                    box_size[1],
+                    self.n,
+                    self.phi
+                );
+            }
+            if intr.force > 0.0 && self.walls[0] {
+                bail!(
+                    "intruder.force = {} with walls in x is not supported: the force pulls along x and would press the intruder on the x wall; use walls: [false, true] (periodic in x, paper I figs 3-6)",
+                    intr.force
+                );
+            }
         }
         Ok(())
     }
 
-    /// Radius of each species (small = 1).
+    /// Radius of each species (small = 1; the intruder, if any, is species 2).
     pub fn radii(&self) -> Vec<f64> {
-        vec![1.0, self.radius_ratio]
+        let mut r = vec![1.0, self.radius_ratio];
+        r.extend(self.intruder.as_ref().map(|i| i.radius));
+        r
     }
 
-    /// Mass of each species (small = 1).
+    /// Mass of each species (small = 1; the intruder, if any, is species 2).
     pub fn species_masses(&self) -> Vec<f64> {
         let m2 = match self.masses {
             Masses::ConstantDensity => self.radius_ratio * self.radius_ratio,
             Masses::Ratio(m) => m,
         };
-        vec![1.0, m2]
+        let mut m = vec![1.0, m2];
+        m.extend(self.intruder.as_ref().map(|i| i.mass));
+        m
     }
 
     /// Number of large disks.
@@ -328,10 +397,12 @@ impl SimConfig {
         (self.fraction_large * self.n as f64).round() as usize
     }
 
-    /// Box [Lx, Ly] giving packing fraction phi for the disks.
+    /// Box [Lx, Ly] giving packing fraction phi for the disks (the intruder included).
     pub fn box_size(&self) -> [f64; 2] {
         let nl = self.n_large() as f64;
-        let area = std::f64::consts::PI * ((self.n as f64 - nl) + nl * self.radius_ratio.powi(2));
+        let intruder = self.intruder.as_ref().map_or(0.0, |i| i.radius.powi(2));
+        let area = std::f64::consts::PI
+            * ((self.n as f64 - nl) + nl * self.radius_ratio.powi(2) + intruder);
         let lx = (area / self.phi / self.aspect).sqrt();
         [lx, lx * self.aspect]
     }

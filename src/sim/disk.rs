@@ -7,6 +7,9 @@ pub(crate) const NONE: u32 = u32::MAX;
 pub(crate) const CROSS: u32 = u32::MAX - 8;
 /// Partner codes of "hit the wall" of axis `code - WALL` (0: x, 1: y).
 pub(crate) const WALL: u32 = CROSS + 5;
+/// Partner code of "predict anew" (the intruder's root finder gave up, or
+/// nothing happened within its horizon).
+pub(crate) const REPREDICT: u32 = CROSS + 7;
 /// Partner code of "leave the neighbour-list shell".
 pub(crate) const SHELL: u32 = CROSS + 4;
 

@@ -132,7 +132,12 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     let radii = cfg.radii();
     let masses = cfg.species_masses();
     let nl = cfg.n_large();
-    let species: Vec<u8> = (0..cfg.n).map(|i| u8::from(i < nl)).collect();
+    // The intruder, if any, is particle 0 (species 2), placed first.
+    let first = usize::from(cfg.intruder.is_some());
+    let species: Vec<u8> = (0..first)
+        .map(|_| 2)
+        .chain((0..cfg.n).map(|i| u8::from(i < nl)))
+        .collect();
     let box_size = cfg.box_size();
     let phi0 = cfg.phi.min(START_PHI);
     let s0 = (phi0 / cfg.phi).sqrt();
@@ -151,6 +156,9 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
         vy,
     };
     let mut e = Engine::new(setup, 1.0, 0.0, rng)?;
+    if first == 1 {
+        e.set_intruder(0);
+    }
     if s0 < 1.0 {
         compress(&mut e, cfg, s0, progress)?;
     }

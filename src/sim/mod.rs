@@ -6,6 +6,7 @@
 //! - [`restitution`]: the collision rule and the collapse guard (Eq. 1).
 //! - [`friction`]: the friction clock (Eqs. 8-9 of paper I).
 //! - [`kicks`]: single and pair kicks, the amplitude of Eq. (7) of paper I.
+//! - [`intruder`]: the intruder's path under force and friction, its root finder.
 //! - [`walls`]: hard walls per axis (wall times, reflection, padding).
 //! - [`tree`]: a tournament tree over the event times (the reference queue
 //!   in tests and benchmarks) and branch-free selects.
@@ -23,6 +24,7 @@ pub mod engine;
 pub mod enskog;
 pub mod friction;
 pub mod init;
+pub mod intruder;
 pub mod kicks;
 mod prefetch;
 pub mod progress;
@@ -37,6 +39,8 @@ pub mod walls;
 mod tests;
 #[cfg(test)]
 mod tests_friction;
+#[cfg(test)]
+mod tests_intruder;
 #[cfg(test)]
 mod tests_walls;
 

@@ -93,6 +93,35 @@ pub struct RunSummary {
     pub bytes_per_particle: f64,
     /// Temperature and pressure over relaxation and production.
     pub series: Vec<Sample>,
+    /// The intruder's motion and the bath's response (paper I), if there is one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intruder: Option<IntruderSummary>,
+}
+
+/// What the intruder did over production. The force is on from the start of
+/// the relaxation, so the relaxation holds the transient and production is
+/// the stationary part.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IntruderSummary {
+    pub force: f64,
+    pub radius: f64,
+    pub mass: f64,
+    /// Mean velocity over production: its exact displacement over the production time.
+    pub velocity: [f64; 2],
+    /// F / (gamma m_0), the terminal velocity of a lone intruder (infinite at gamma = 0).
+    pub terminal_velocity: f64,
+    /// F / (gamma M), M the total mass: the centre-of-mass velocity Eq. (11) of
+    /// paper I tends to (infinite at gamma = 0).
+    pub predicted_drift: f64,
+    /// Time-averaged centre-of-mass velocity of the bath alone (without the intruder).
+    pub bath_drift: [f64; 2],
+    /// Work of the force over production (in the energy ledger).
+    pub energy_work: f64,
+    /// Calls of the intruder's root finder over production and its mean steps per call.
+    pub root_calls: u64,
+    pub root_steps_per_call: f64,
+    /// Re-predictions (the root finder gave up, or its horizon passed) over production.
+    pub repredicts: u64,
 }
 
 /// Takes samples of T and P at regular times while the engine advances.
@@ -109,12 +138,23 @@ struct Sampler {
     species: Vec<Vec<f64>>,
     /// Centre-of-mass velocity at each sample.
     drift: Vec<[f64; 2]>,
+    /// The bath's centre-of-mass velocity (without the intruder) at each
+    /// sample; empty without an intruder.
+    bath_drift: Vec<[f64; 2]>,
+}
+
+/// Kinetic energy per bath particle (the intruder, if any, left out).
+fn bath_temperature(e: &Engine) -> f64 {
+    match e.intruder() {
+        None => e.kinetic_energy() / e.n() as f64,
+        Some(k) => (e.kinetic_energy() - e.particle_kinetic_energy(k)) / (e.n() - 1) as f64,
+    }
 }
 
 impl Sampler {
     fn take(&mut self, e: &Engine) {
-        let n = e.n() as f64;
-        let t = e.kinetic_energy() / n;
+        let t = bath_temperature(e);
+        let n = e.n() as f64 - if e.intruder().is_some() { 1.0 } else { 0.0 };
         let now = e.time();
         let dt = now - self.last_time;
         let tm = 0.5 * (t + self.last_t);
@@ -130,6 +170,12 @@ impl Sampler {
         let p = e.momentum();
         let m = e.total_mass();
         self.drift.push([p[0] / m, p[1] / m]);
+        if let Some(k) = e.intruder() {
+            let (_, v) = e.particle(k);
+            let m0 = e.masses[e.species[k] as usize];
+            self.bath_drift
+                .push([0, 1].map(|a| (p[a] - m0 * v[a]) / (m - m0)));
+        }
         self.last_time = now;
         self.last_virial = e.stats.virial;
         self.last_t = t;
@@ -205,10 +251,16 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let compress_time = e.time();
     let n = e.n();
     let nf = n as f64;
-    let fractions = [1.0 - cfg.n_large() as f64 / nf, cfg.n_large() as f64 / nf];
+    let n_bath = cfg.n as f64;
+    let fractions = [
+        1.0 - cfg.n_large() as f64 / n_bath,
+        cfg.n_large() as f64 / n_bath,
+    ];
     let radii = cfg.radii();
     let masses = cfg.species_masses();
-    let enskog_rate = |t: f64| enskog::collision_frequency(cfg.phi, &radii, &masses, &fractions, t);
+    // The bath's Enskog rate (the intruder, species 2, is left out).
+    let enskog_rate =
+        |t: f64| enskog::collision_frequency(cfg.phi, &radii[..2], &masses[..2], &fractions, t);
 
     e.eps = cfg.eps;
     e.tc = cfg.collapse_tc;
@@ -220,6 +272,10 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     }
     let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     e.set_kicks(kicks, rate, p_dr);
+    if let Some(intr) = &cfg.intruder {
+        // The force is on from here: the relaxation holds the intruder's transient.
+        e.set_force(intr.force)?;
+    }
 
     let prod = cfg.schedule.end();
     let total = cfg.relax_time + prod;
@@ -232,11 +288,12 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         t0,
         last_time: e.time(),
         last_virial: e.stats.virial,
-        last_t: e.kinetic_energy() / nf,
+        last_t: bath_temperature(&e),
         area: cfg.box_size()[0] * cfg.box_size()[1],
         samples: Vec::with_capacity(cfg.samples + 1),
         species: Vec::with_capacity(cfg.samples + 1),
         drift: Vec::with_capacity(cfg.samples + 1),
+        bath_drift: Vec::new(),
     };
 
     // Relaxation. With the balanced rule, the first 80% is cut in windows after
@@ -262,7 +319,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
                     progress,
                 );
                 if m > sub / 2 {
-                    tsum += e.kinetic_energy() / nf;
+                    tsum += bath_temperature(&e);
                 }
             }
             let tmean = tsum / (sub / 2) as f64;
@@ -279,6 +336,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     }
     let before = e.stats;
     let ke0 = e.kinetic_energy();
+    let intruder0 = e.intruder().map(|k| e.particle(k).0);
     let cpu_prod0 = resources::thread_cpu_seconds();
     let n_relax_samples = s.samples.len();
 
@@ -335,6 +393,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let injected = st.injected - before.injected;
     let dissipated = st.dissipated - before.dissipated;
     let friction = st.friction - before.friction;
+    let work = st.work - before.work;
     let species_prod = &s.species[n_relax_samples..];
     let species_temperature = (0..masses.len())
         .map(|k| mean(&species_prod.iter().map(|v| v[k]).collect::<Vec<_>>()))
@@ -342,6 +401,29 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let drift_prod = &s.drift[n_relax_samples..];
     let drift = [0, 1].map(|k| mean(&drift_prod.iter().map(|v| v[k]).collect::<Vec<_>>()));
     let bytes = e.bytes() as f64;
+    let intruder = match (&cfg.intruder, e.intruder(), intruder0) {
+        (Some(intr), Some(k), Some(x0)) => {
+            let x1 = e.particle(k).0;
+            let bath_prod = &s.bath_drift[n_relax_samples..];
+            let calls = st.root_calls - before.root_calls;
+            Some(IntruderSummary {
+                force: intr.force,
+                radius: intr.radius,
+                mass: intr.mass,
+                velocity: [0, 1].map(|a| (x1[a] - x0[a]) / prod),
+                terminal_velocity: intr.force / (cfg.gamma * intr.mass),
+                predicted_drift: intr.force / (cfg.gamma * e.total_mass()),
+                bath_drift: [0, 1]
+                    .map(|a| mean(&bath_prod.iter().map(|v| v[a]).collect::<Vec<_>>())),
+                energy_work: work,
+                root_calls: calls,
+                root_steps_per_call: (st.root_steps - before.root_steps) as f64
+                    / calls.max(1) as f64,
+                repredicts: st.repredicts - before.repredicts,
+            })
+        }
+        _ => None,
+    };
     let summary = RunSummary {
         n,
         phi: cfg.phi,
@@ -371,7 +453,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         energy_injected: injected,
         energy_dissipated: dissipated,
         energy_friction: friction,
-        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction)).abs() / ke1,
+        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction + work)).abs() / ke1,
         gamma: cfg.gamma,
         kick_amplitude: p_dr,
         species_temperature,
@@ -391,6 +473,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         peak_rss_bytes: resources::peak_rss_bytes(),
         bytes_per_particle: bytes / nf,
         series: s.samples,
+        intruder,
     };
     let traj = Trajectory {
         box_size: [lx, ly],

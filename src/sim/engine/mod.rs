@@ -18,10 +18,12 @@
 mod ahead;
 mod driving;
 mod lists;
+mod pulled;
 
 use super::calendar::EventCalendar;
-use super::disk::{CROSS, Disk, NONE, SHELL, WALL};
+use super::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
 use super::friction::Clock;
+use super::intruder::Pull;
 pub use super::kicks::Kicks;
 use super::resources::{big_vec, big_vec_from};
 use super::restitution;
@@ -93,6 +95,14 @@ pub struct Stats {
     pub wall_impulse: [f64; 2],
     /// Virial of the wall forces, sum of r . dp at each wall collision.
     pub wall_virial: f64,
+    /// Work done by the force pulling the intruder (exact, per advance).
+    pub work: f64,
+    /// Calls of the intruder's root finder and the steps they took.
+    pub root_calls: u64,
+    pub root_steps: u64,
+    /// Re-prediction events (the root finder gave up, or nothing happened
+    /// within the intruder's horizon).
+    pub repredicts: u64,
 }
 
 /// A disk's pending event partner and its neighbour-list bookkeeping.
@@ -206,6 +216,16 @@ pub struct Engine {
     prefetch_min_bytes: usize,
     /// Kick amplitude p_dr.
     p_dr: f64,
+    /// The intruder's index ([`pulled::NO_INTRUDER`] if none), and the same
+    /// while a force pulls it (its events then come from the root finder).
+    intruder: usize,
+    pulled: usize,
+    /// The force on the intruder and its motion law.
+    force: f64,
+    pull: Pull,
+    /// The pulled intruder's pending event (its `Disk::te` reads minus
+    /// infinity so that the bath's pair scan skips it).
+    intruder_te: f64,
     rng: ChaCha8Rng,
     pub stats: Stats,
 }
@@ -342,6 +362,14 @@ impl Engine {
             ahead: false,
             prefetch_min_bytes: PREFETCH_MIN_BYTES,
             p_dr: 0.0,
+            intruder: pulled::NO_INTRUDER,
+            pulled: pulled::NO_INTRUDER,
+            force: 0.0,
+            pull: Pull {
+                gamma: 0.0,
+                accel: 0.0,
+            },
+            intruder_te: f64::INFINITY,
             rng,
             stats: Stats::default(),
         };
@@ -378,7 +406,13 @@ impl Engine {
     pub fn sort_by_cell(&mut self) {
         self.sync_all();
         let mut order: Vec<u32> = (0..self.n() as u32).collect();
-        order.sort_by_key(|&i| self.cell[i as usize]);
+        if self.intruder == pulled::NO_INTRUDER {
+            order.sort_by_key(|&i| self.cell[i as usize]);
+        } else {
+            // The intruder keeps its index (the first).
+            order.sort_by_key(|&i| (i as usize != self.intruder, self.cell[i as usize]));
+            assert_eq!(self.intruder, 0, "the intruder is placed first");
+        }
         // In place, array by array: a copy of the disks would be the peak memory
         // of a 4 x 10^6 disk run.
         let mut done = vec![false; self.n()];
@@ -482,6 +516,7 @@ impl Engine {
         }
         self.kick_momentum_u = self.kick_momentum_u.map(|p| p * lam);
         self.clock = Clock { gamma, t0: t };
+        self.pull.gamma = gamma;
         self.now = 0.0;
         self.time = t;
         self.next_kick = self.clock.s(t_kick);
@@ -511,6 +546,25 @@ impl Engine {
     fn kinetic_energy_of(&self, i: usize) -> f64 {
         let d = &self.d[i];
         0.5 * self.mass(i) * (d.vx * d.vx + d.vy * d.vy)
+    }
+
+    /// Kinetic energy of particle `i`.
+    pub fn particle_kinetic_energy(&self, i: usize) -> f64 {
+        let lam = self.lambda();
+        self.kinetic_energy_of(i) * (lam * lam)
+    }
+
+    /// Unwrapped position and velocity of particle `i` now.
+    pub fn particle(&self, i: usize) -> ([f64; 2], [f64; 2]) {
+        let (d, lam) = (&self.d[i], self.lambda());
+        let dt = self.now - d.t;
+        (
+            [
+                d.x + d.vx * dt + self.imx[i] as f64 * self.lx,
+                d.y + d.vy * dt + self.imy[i] as f64 * self.ly,
+            ],
+            [d.vx * lam, d.vy * lam],
+        )
     }
 
     /// Total momentum.
@@ -596,7 +650,13 @@ impl Engine {
             if p == SHELL {
                 self.shell_exit(i);
             } else if p >= WALL {
-                self.hit_wall(i, (p - WALL) as usize);
+                if p == REPREDICT {
+                    self.stats.repredicts += 1;
+                    self.advance(i);
+                    self.predict(i);
+                } else {
+                    self.hit_wall(i, (p - WALL) as usize);
+                }
             } else if p >= CROSS {
                 self.cross(i, p - CROSS);
             } else if self.d[p as usize].count != self.bk[i].ev_c {
@@ -608,6 +668,7 @@ impl Engine {
             }
         }
         self.time = self.clock.t(self.now);
+        self.sync_pulled();
         self.account_friction();
         false
     }
@@ -623,11 +684,25 @@ impl Engine {
     fn stop_at(&mut self, s: f64, t: f64) {
         self.now = s;
         self.time = t;
+        self.sync_pulled();
         self.account_friction();
+    }
+
+    /// Bring the pulled intruder to now (its state and the work and friction
+    /// ledgers are then current for the readers).
+    #[inline]
+    fn sync_pulled(&mut self) {
+        if self.pulled != pulled::NO_INTRUDER {
+            self.advance_pulled();
+        }
     }
 
     #[inline]
     fn advance(&mut self, i: usize) {
+        if i == self.pulled {
+            self.advance_pulled();
+            return;
+        }
         let now = self.now;
         let d = &mut self.d[i];
         let dt = now - d.t;
@@ -672,7 +747,7 @@ impl Engine {
         }
         for i in 0..self.n() {
             let t = self.find_event(i);
-            self.d[i].te = t;
+            self.set_te(i, t);
             self.calendar.set_lazy(i, t);
         }
         self.calendar.rebuild();
@@ -839,12 +914,18 @@ impl Engine {
     /// earliest collision with a listed disk.
     #[inline]
     fn find_event_listed(&mut self, i: usize) -> f64 {
+        if i == self.pulled {
+            return self.find_pulled_event(i);
+        }
         let a = self.d[i];
         let shell = self.shell_time(i, &a);
         let base = i * self.cap;
         let list = &self.nb[base..base + self.bk[i].nn as usize];
         let (mut best, mut partner) =
             earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
+        if self.pulled != pulled::NO_INTRUDER && list.contains(&(self.pulled as u32)) {
+            self.earlier_intruder(&a, &mut best, &mut partner);
+        }
         if self.has_walls {
             self.earlier_wall(&a, 1.0, &mut best, &mut partner);
         }
@@ -865,8 +946,19 @@ impl Engine {
     #[inline]
     fn predict(&mut self, i: usize) {
         let t = self.find_event(i);
-        self.d[i].te = t;
+        self.set_te(i, t);
         self.calendar.update(i, t);
+    }
+
+    /// Record disk `i`'s pending event time `t` where its neighbours' scans read it.
+    #[inline]
+    fn set_te(&mut self, i: usize, t: f64) {
+        if i == self.pulled {
+            self.intruder_te = t;
+            self.d[i].te = f64::NEG_INFINITY;
+        } else {
+            self.d[i].te = t;
+        }
     }
 
     fn cross(&mut self, i: usize, dir: u32) {

@@ -1,0 +1,246 @@
+//! The intruder in the event loop (paper I, Eqs. 3-4): one particle pulled
+//! along +x by a constant force F. Its path is not straight in any clock, so
+//! every pair involving it is timed by the root finder of
+//! [`crate::sim::intruder`]; bath-bath pairs keep the straight-line scan.
+//!
+//! - The intruder's `Disk` holds its position and its velocity in clock units
+//!   (u = v / lambda, like every disk) at its own time `t`; [`Engine::advance`]
+//!   moves it along the exact path, and adds the work of F and its exact
+//!   friction loss to the ledgers.
+//! - Its `te` reads minus infinity, so the bath's pair scan (which skips a
+//!   partner whose own event is earlier) never pairs a disk with it; a disk
+//!   that lists the intruder calls the root finder instead, with the horizon
+//!   cut at the intruder's pending event (Smallenburg's rule, kept here in
+//!   `intruder_te`): the intruder re-predicts then and finds the pair itself.
+//! - The intruder predicts from its own neighbour list, with the horizon cut
+//!   at each disk's pending event. When the root finder gives up, or nothing
+//!   happens within the horizon, the event is a re-prediction ([`REPREDICT`]).
+
+use super::super::disk::{Disk, REPREDICT, SHELL, WALL};
+use super::super::intruder::{Pull, Root};
+use super::super::scan::nearest_image;
+use super::super::walls;
+use super::Engine;
+
+/// No intruder (or one the force does not pull): its index.
+pub(super) const NO_INTRUDER: usize = usize::MAX;
+
+/// The intruder's prediction horizon, in shells of motion at its speed bound:
+/// long enough that it usually leaves its shell first, short enough that
+/// the root finder's speed bound stays tight.
+const HORIZON_SHELLS: f64 = 4.0;
+
+impl Engine {
+    /// Particle `i` is the intruder: kept first when disks are renumbered.
+    pub fn set_intruder(&mut self, i: usize) {
+        self.intruder = i;
+    }
+
+    /// The intruder's index, if there is one.
+    pub fn intruder(&self) -> Option<usize> {
+        (self.intruder != NO_INTRUDER).then_some(self.intruder)
+    }
+
+    /// Pull the intruder with force `force` along +x from now on (0: a
+    /// passive disk). Needs the neighbour lists (radii fixed, 5 x 5 cells) and
+    /// no walls in x.
+    pub fn set_force(&mut self, force: f64) -> anyhow::Result<()> {
+        anyhow::ensure!(self.intruder != NO_INTRUDER, "no intruder to pull");
+        anyhow::ensure!(
+            force.is_finite() && force >= 0.0,
+            "intruder force {force} is invalid: F must be finite and >= 0"
+        );
+        anyhow::ensure!(
+            force == 0.0 || !self.wall_len[0].is_finite(),
+            "the intruder cannot be pulled along x between walls in x"
+        );
+        anyhow::ensure!(
+            force == 0.0 || (!self.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0),
+            "the pulled intruder needs neighbour lists: radii fixed (compression over) and a box of 5 x 5 cells of {:.3}; use more disks",
+            2.0 * self.rmax
+        );
+        self.sync_all();
+        self.force = force;
+        self.pulled = if force > 0.0 {
+            self.intruder
+        } else {
+            NO_INTRUDER
+        };
+        self.pull = Pull {
+            gamma: self.clock.gamma,
+            accel: force / self.mass(self.intruder),
+        };
+        self.reschedule_all();
+        Ok(())
+    }
+
+    /// The force on the intruder.
+    pub fn force(&self) -> f64 {
+        self.force
+    }
+
+    /// Real time from clock reading `s0` to `s1` (the inverse of Eq. 9 between two readings).
+    #[inline]
+    fn real_interval(&self, s0: f64, s1: f64) -> f64 {
+        let g = self.clock.gamma;
+        if g == 0.0 {
+            return s1 - s0;
+        }
+        let x = g * (s1 - s0) / self.clock.lambda(s0);
+        if x >= 1.0 {
+            f64::INFINITY
+        } else {
+            -(-x).ln_1p() / g
+        }
+    }
+
+    /// Clock interval from now to real time `tau` later (Eq. 8's factor).
+    #[inline]
+    fn clock_interval(&self, tau: f64) -> f64 {
+        self.lambda() * self.pull.e(tau)
+    }
+
+    /// The pulled intruder's position (in the frame of its stored one) and
+    /// real velocity now, without moving it.
+    fn intruder_now(&self) -> ([f64; 2], [f64; 2]) {
+        let d = &self.d[self.pulled];
+        let lam0 = self.clock.lambda(d.t);
+        let tau = self.real_interval(d.t, self.now);
+        let v0 = [d.vx * lam0, d.vy * lam0];
+        let dx = self.pull.displacement(v0, tau);
+        ([d.x + dx[0], d.y + dx[1]], self.pull.velocity(v0, tau))
+    }
+
+    /// Move the pulled intruder to now along its exact path; the work of F
+    /// and the friction it suffered go to the ledgers.
+    pub(super) fn advance_pulled(&mut self) {
+        let k = self.pulled;
+        let d = self.d[k];
+        if d.t == self.now {
+            return;
+        }
+        let (lam0, lam1) = (self.clock.lambda(d.t), self.lambda());
+        let tau = self.real_interval(d.t, self.now);
+        let ([x, y], v) = self.intruder_now();
+        let m = self.mass(k);
+        self.stats.work += self.force * (x - d.x);
+        let u1 = [v[0] / lam1, v[1] / lam1];
+        if self.clock.gamma > 0.0 {
+            // The kinetic energy in u holds the intruder's at its last update,
+            // and the friction ledger charged it as if u had stayed constant:
+            // replace that charge by the exact friction loss.
+            self.account_friction();
+            let u0sq = d.vx * d.vx + d.vy * d.vy;
+            let charged = 0.5 * m * u0sq * (lam0 * lam0 - lam1 * lam1);
+            self.stats.friction +=
+                self.intruder_friction(m, [d.vx * lam0, d.vy * lam0], tau) - charged;
+            self.ke_u += 0.5 * m * (u1[0] * u1[0] + u1[1] * u1[1] - u0sq);
+        }
+        let dm = &mut self.d[k];
+        (dm.x, dm.y, dm.vx, dm.vy, dm.t) = (x, y, u1[0], u1[1], self.now);
+    }
+
+    /// The energy friction -gamma m v takes from the intruder over tau from
+    /// velocity v0: gamma m times the integral of |v|^2, with
+    /// v_x = V + (v0_x - V) exp(-gamma t), V = F / (gamma m), v_y = v0_y exp(-gamma t).
+    fn intruder_friction(&self, m: f64, v0: [f64; 2], tau: f64) -> f64 {
+        let g = self.clock.gamma;
+        let vt = self.pull.accel / g;
+        let c = v0[0] - vt;
+        let e1 = self.pull.e(tau);
+        let e2 = Pull {
+            gamma: 2.0 * g,
+            accel: 0.0,
+        }
+        .e(tau);
+        g * m * (vt * vt * tau + 2.0 * vt * c * e1 + (c * c + v0[1] * v0[1]) * e2)
+    }
+
+    /// The pulled intruder's next event (it is at the current time): its shell
+    /// exit, a contact with a listed disk, a wall in y, or a re-prediction.
+    /// Sets its partner and returns the event's clock reading.
+    pub(super) fn find_pulled_event(&mut self, i: usize) -> f64 {
+        let a = self.d[i];
+        let lam = self.lambda();
+        let v = [a.vx * lam, a.vy * lam];
+        let p = self.pull;
+        // Horizon: the bound |v| + |F/m0| h allows HORIZON_SHELLS shells of
+        // motion. (Not cut at the clock's re-anchoring: an event past it
+        // re-anchors the clock, which predicts everything anew.)
+        let (wn, acc, reach) = (v[0].hypot(v[1]), p.accel.abs(), HORIZON_SHELLS * self.shell);
+        let h = 2.0 * reach / (wn + (wn * wn + 4.0 * acc * reach).sqrt());
+        let centre = [a.x - self.bk[i].ox, a.y - self.bk[i].oy];
+        let (root, steps) = p.exit_time(centre, v, self.shell, h);
+        self.stats.root_calls += 1;
+        self.stats.root_steps += u64::from(steps);
+        let (mut best, mut partner) = match root {
+            Root::At(t) => (t, SHELL),
+            Root::Never => (h, REPREDICT),
+            Root::GaveUp(t) => (t, REPREDICT),
+        };
+        let base = i * self.cap;
+        for k in 0..self.bk[i].nn as usize {
+            let j = self.nb[base + k] as usize;
+            let b = self.d[j];
+            // Skip beyond j's own event: j predicts anew then and finds the intruder.
+            let hj = best.min(self.real_interval(self.now, b.te));
+            if hj <= 0.0 {
+                continue;
+            }
+            let dt = self.now - b.t;
+            let sep = [
+                nearest_image(a.x - (b.x + b.vx * dt), self.lx),
+                nearest_image(a.y - (b.y + b.vy * dt), self.ly),
+            ];
+            let w = [v[0] - b.vx * lam, v[1] - b.vy * lam];
+            let (root, steps) = p.contact_time(sep, w, a.radius + b.radius, hj);
+            self.stats.root_calls += 1;
+            self.stats.root_steps += u64::from(steps);
+            match root {
+                Root::At(t) if t < best => (best, partner) = (t, j as u32),
+                Root::GaveUp(t) if t < best => (best, partner) = (t, REPREDICT),
+                _ => {}
+            }
+        }
+        let mut ds = self.clock_interval(best);
+        // Across y the intruder moves as any disk: straight in the clock.
+        let l = self.wall_len[1];
+        if l.is_finite() {
+            let (t, _) = walls::wall_time(a.y, a.vy, a.radius, 1.0, 0.0, l);
+            if t < ds {
+                (ds, partner) = (t, WALL + 1);
+            }
+        }
+        self.set_partner(i, partner);
+        self.now + ds
+    }
+
+    /// Replace the event (`best`, from now, and `partner`) of disk `a` (which
+    /// lists the pulled intruder) by its contact with the intruder if that
+    /// comes first and before the intruder's own event.
+    pub(super) fn earlier_intruder(&mut self, a: &Disk, best: &mut f64, partner: &mut u32) {
+        let k = self.pulled;
+        let s_h = (self.now + *best).min(self.intruder_te);
+        if s_h <= self.now {
+            return;
+        }
+        let h = self.real_interval(self.now, s_h);
+        let (pos, v) = self.intruder_now();
+        let lam = self.lambda();
+        let sep = [
+            nearest_image(pos[0] - a.x, self.lx),
+            nearest_image(pos[1] - a.y, self.ly),
+        ];
+        let w = [v[0] - a.vx * lam, v[1] - a.vy * lam];
+        let (root, steps) = self
+            .pull
+            .contact_time(sep, w, a.radius + self.d[k].radius, h);
+        self.stats.root_calls += 1;
+        self.stats.root_steps += u64::from(steps);
+        match root {
+            Root::At(t) => (*best, *partner) = (self.clock_interval(t), k as u32),
+            Root::GaveUp(t) => (*best, *partner) = (self.clock_interval(t), REPREDICT),
+            Root::Never => {}
+        }
+    }
+}
