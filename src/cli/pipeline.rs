@@ -342,7 +342,7 @@ pub fn run(c: Commands) -> Result<()> {
 
 /// Planned work of a `simulate` stage, for Slurm's resource requests: N, the
 /// frames it keeps, and its collisions: N x (collision rate per disk) x (relaxation
-/// + production time) + the compression (~100 collisions per disk, docs/sim.md).
+/// + production time) / 2 + the compression (~100 collisions per disk, docs/sim.md).
 /// The rate per disk is the Enskog frequency at T = 1 times the measured ratio of
 /// the real rate to it (docs/sim.md: 1.01 at phi = 0.60 up to 1.46 at 0.805).
 fn planned_work(node: &pipeline::graph::Node) -> Option<Work> {
@@ -360,8 +360,9 @@ fn planned_work(node: &pipeline::graph::Node) -> Option<Work> {
         1.0,
     );
     let frames = cfg.schedule.times().len() as u64;
+    // omega counts collisions per disk; each collision involves two disks.
     let collisions =
-        nf * (omega * enskog_ratio(cfg.phi) * (cfg.relax_time + cfg.schedule.end()) + 100.0);
+        nf * (omega / 2.0 * enskog_ratio(cfg.phi) * (cfg.relax_time + cfg.schedule.end()) + 100.0);
     Some(Work {
         n: cfg.n as u64,
         collisions,

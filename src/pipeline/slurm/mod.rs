@@ -634,10 +634,14 @@ pub fn dry_run(
             let work = w.map_or(String::new(), |w| {
                 format!("N = {}, {:.3e} collisions, ", w.n, w.collisions)
             });
+            let cpu = if r.expected_s < 3600.0 {
+                format!("{:.1} CPU s", r.expected_s)
+            } else {
+                format!("{:.2} core-h", r.expected_s / 3600.0)
+            };
             out += &format!(
-                "    {}  ({work}expected {:.2} core-h, asks {} MiB, {})\n",
+                "    {}  ({work}expected {cpu}, asks {} MiB, {})\n",
                 graph.nodes[*i].label(),
-                r.expected_s / 3600.0,
                 r.mem_mib,
                 plan::time_limit(r.time_min)
             );

@@ -160,11 +160,13 @@ pub struct Resources {
     pub expected_s: f64,
 }
 
-/// Analyses, fits and plots: memory and time from the bytes they read. Their
-/// planned work is not modelled; these bounds come from the ci and small
-/// profiles (every such stage read < 25 MB/s... see docs/slurm.md).
-pub const ANALYSIS_BYTES_PER_SECOND: f64 = 5e6;
-/// Analyses hold their inputs decoded (Parquet zstd: ~2-4x) plus their tables.
+/// Analyses, fits and plots: time and memory from the bytes they read (their
+/// work is not modelled per kind). Measured on the ci profile (2026-11-24,
+/// docs/measurements.md): the slowest per input byte was `chi4_peaks` at 4.4 MB/s
+/// (tau_alpha 23-69 MB/s); `aging` peaked at 25 MB of RSS for 2.5 MB of input
+/// over an 11 MB process baseline (5.6 bytes per input byte). Half the slowest
+/// speed, and 6 bytes per input byte over the baseline [`BASE_MIB`].
+pub const ANALYSIS_BYTES_PER_SECOND: f64 = 2e6;
 pub const ANALYSIS_MEM_PER_INPUT_BYTE: f64 = 6.0;
 
 /// Resources of a stage with planned `work` (simulations) or reading
