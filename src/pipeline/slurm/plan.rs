@@ -207,6 +207,45 @@ pub fn time_limit(minutes: u64) -> String {
 mod tests {
     use super::*;
 
+    use crate::pipeline::spec::{ExperimentSpec, parse};
+
+    const EXP: &str = "description: e\nkind: simulate\nseed: 1\nprofiles:\n  paper:\n    replicas: 1\n    slurm:\n";
+
+    fn slurm_of(block: &str) -> Result<Settings, String> {
+        let file = Path::new("experiments/e.yaml");
+        let spec: ExperimentSpec =
+            parse(file, &format!("{EXP}{block}")).map_err(|e| e.to_string())?;
+        let s = spec.profiles["paper"]
+            .value
+            .slurm
+            .clone()
+            .expect("slurm block");
+        Settings::from_spec(file, &s.value).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn slurm_keys_are_read_and_bad_ones_located() {
+        let s = slurm_of("      partition: p\n      account: a\n      qos: q\n      extra: [\"--x=1\"]\n      mem_margin: 2\n")
+            .unwrap();
+        assert_eq!(
+            s.sbatch_args(),
+            ["--partition=p", "--account=a", "--qos=q", "--x=1"]
+        );
+        assert_eq!((s.mem_margin, s.time_margin), (2.0, DEFAULT_TIME_MARGIN));
+        // An unknown key: file, line and column of the key.
+        let e = slurm_of("      partition: p\n      memory: 4G\n").unwrap_err();
+        assert!(
+            e.starts_with("experiments/e.yaml:9:") && e.contains("memory"),
+            "{e}"
+        );
+        // A margin below 1: at its value.
+        let e = slurm_of("      time_margin: 0.5\n").unwrap_err();
+        assert!(
+            e.starts_with("experiments/e.yaml:8:20") && e.contains("time_margin"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn speed_interpolates_between_measured_sizes() {
         assert_eq!(collisions_per_second(1000.0), 1.0e6);
@@ -228,7 +267,7 @@ mod tests {
         // One hour of work at 0.46e6 collisions/s, times the margin 3.
         assert!((r.expected_s - 3600.0).abs() < 1e-6);
         assert_eq!(r.time_min, 180);
-        let mib = (64.0 + 1e6 * (198.0 + 100.0 * 32.0) / 1048576.0) * 1.5;
+        let mib: f64 = (64.0 + 1e6 * (198.0 + 100.0 * 32.0) / 1048576.0) * 1.5;
         assert_eq!(r.mem_mib, mib.ceil() as u64);
         assert_eq!(r.cpus, 1);
         let tight = Settings {
