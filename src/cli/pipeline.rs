@@ -341,8 +341,9 @@ pub fn run(c: Commands) -> Result<()> {
 }
 
 /// Planned work of a `simulate` stage, for Slurm's resource requests: N, the
-/// frames it keeps, and its collisions: N x (collision rate per disk) x (relaxation
-/// + production time) / 2 + the compression (~100 collisions per disk, docs/sim.md).
+/// frames it keeps, and its collisions: N x (collision rate per disk) / 2 x (the
+/// relaxation and production time), plus ~100 per disk for the compression
+/// (docs/sim.md).
 /// The rate per disk is the Enskog frequency at T = 1 times the measured ratio of
 /// the real rate to it (docs/sim.md: 1.01 at phi = 0.60 up to 1.46 at 0.805).
 fn planned_work(node: &pipeline::graph::Node) -> Option<Work> {
