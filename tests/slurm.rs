@@ -252,6 +252,19 @@ fn wait_running(root: &Path, n: usize, child: &mut Child) -> Vec<(String, String
     }
 }
 
+/// A submitter of the slow figure (sleeping `sleep_ms` per simulation), once both
+/// simulations run on Slurm; with the (job id, key) of each.
+fn start_slow(root: &Path, sleep_ms: u64) -> (Child, Vec<(String, String)>) {
+    slow_catalogue(root, sleep_ms, "");
+    let mut child = slurm_figure(root)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let recs = wait_running(root, 2, &mut child);
+    (child, recs)
+}
+
 fn entry_exists(root: &Path, key: &str) -> bool {
     root.join(".repro/store/entries")
         .join(&key[..2])
@@ -267,13 +280,7 @@ fn a_job_killed_by_scancel_is_reported_and_only_it_is_resubmitted() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path();
-    slow_catalogue(root, 6000, "");
-    let mut child = slurm_figure(root)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let recs = wait_running(root, 2, &mut child);
+    let (child, recs) = start_slow(root, 6000);
     let (victim, victim_key) = recs[0].clone();
     assert!(
         Command::new("scancel")
@@ -349,13 +356,7 @@ fn a_killed_submitter_is_resumed_without_resubmitting_running_jobs() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path();
-    slow_catalogue(root, 8000, "");
-    let mut child = slurm_figure(root)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let recs = wait_running(root, 2, &mut child);
+    let (mut child, recs) = start_slow(root, 8000);
     child.kill().unwrap();
     child.wait().unwrap();
     // While the jobs run, status names them.

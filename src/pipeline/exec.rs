@@ -433,19 +433,29 @@ fn find_or_repair(sh: &Shared, key: &str) -> Option<Entry> {
         Found::Hit(e) => Some(e),
         Found::Miss => None,
         Found::Damaged { problems, .. } => {
-            for d in problems {
-                let moved = match sh.store.quarantine(&d.hash) {
-                    Ok(Some(to)) => format!("; moved to {}", to.display()),
-                    Ok(None) => String::new(),
-                    Err(e) => format!("; could not be moved aside: {e:#}"),
-                };
-                let msg = format!("{d}{moved}; recomputing it");
+            for msg in quarantine(sh.store, &problems) {
                 sh.progress.line(&msg);
                 sh.damaged.lock().unwrap().push(msg);
             }
             None
         }
     }
+}
+
+/// Move damaged objects to the quarantine; one message per object (what, where
+/// it went) for the run's report. Both executors recompute the stage afterwards.
+pub(crate) fn quarantine(store: &Store, problems: &[super::store::Damage]) -> Vec<String> {
+    problems
+        .iter()
+        .map(|d| {
+            let moved = match store.quarantine(&d.hash) {
+                Ok(Some(to)) => format!("; moved to {}", to.display()),
+                Ok(None) => String::new(),
+                Err(e) => format!("; could not be moved aside: {e:#}"),
+            };
+            format!("{d}{moved}; recomputing it")
+        })
+        .collect()
 }
 
 /// Cache state of one stage, without running anything.

@@ -242,13 +242,7 @@ impl Driver<'_> {
                             continue;
                         }
                         Found::Damaged { problems, .. } => {
-                            for d in problems {
-                                let moved = match self.store.quarantine(&d.hash) {
-                                    Ok(Some(to)) => format!("; moved to {}", to.display()),
-                                    Ok(None) => String::new(),
-                                    Err(e) => format!("; could not be moved aside: {e:#}"),
-                                };
-                                let msg = format!("{d}{moved}; recomputing it");
+                            for msg in exec::quarantine(self.store, &problems) {
                                 progress.line(&msg);
                                 damaged.push(msg);
                             }
