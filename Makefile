@@ -1,14 +1,14 @@
 # repro: regenerate the figures of the driven-granular-fluid papers.
 #   make all-figures            every figure (profile: small)
 #   make figure FIG=fig19       one figure; PROFILE=ci|small|paper, JOBS=N
-#   make test / bench / ci / report
+#   make test / test-slurm / bench / ci / report
 CARGO ?= cargo
 PROFILE ?= small
 JOBS ?=
 REPRO ?= $(CARGO) run --release --locked --quiet --
 JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: build test bench ci ci-figures all-figures figure status gc report
+.PHONY: build test test-slurm bench ci ci-figures all-figures figure status gc report
 
 build:
 	$(CARGO) build --release --locked
@@ -23,6 +23,11 @@ test:
 	$(REPRO) figure $(CI_FIGURES) --profile ci $(JOBS_FLAG)
 	$(REPRO) regress --profile ci
 	$(REPRO) report --profile ci
+
+# The Slurm executor against a local single-node Slurm (started if needed; root).
+test-slurm:
+	scripts/slurm-local.sh start
+	REPRO_REQUIRE_SLURM=1 $(CARGO) test --release --locked --test slurm
 
 bench:
 	$(CARGO) bench --locked

@@ -5,6 +5,9 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 
+use std::collections::BTreeMap;
+
+use crate::pipeline::slurm::{self, plan::Work};
 use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
 
 /// Where the specs and the cache are.
@@ -15,6 +18,10 @@ pub struct RootArgs {
     /// the current directory.
     #[arg(long, value_name = "DIR")]
     pub root: Option<PathBuf>,
+    /// The cache directory (default: ROOT/.repro/store). With `--executor slurm`
+    /// it must be on a filesystem the compute nodes share.
+    #[arg(long, value_name = "PATH")]
+    pub store: Option<PathBuf>,
 }
 
 impl RootArgs {
@@ -24,7 +31,11 @@ impl RootArgs {
             .clone()
             .or_else(|| std::env::var_os("REPRO_ROOT").map(PathBuf::from))
             .unwrap_or_else(|| PathBuf::from("."));
-        Workspace::new(&root)
+        let mut ws = Workspace::new(&root);
+        if let Some(s) = &self.store {
+            ws.store = s.clone();
+        }
+        ws
     }
 }
 
@@ -38,6 +49,13 @@ pub struct OneFigure {
     pub profile: String,
     #[command(flatten)]
     pub root: RootArgs,
+}
+
+/// Where `repro figure` runs its stages.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq)]
+pub enum Executor {
+    Local,
+    Slurm,
 }
 
 #[derive(Subcommand, Debug)]
@@ -68,6 +86,11 @@ pub enum Commands {
         /// repeatable. Dependents rerun only if the output bytes change.
         #[arg(long, value_name = "STAGE-KIND")]
         force: Vec<String>,
+        /// Where stages run: `local` (threads of this process) or `slurm` (one
+        /// job per ready stage, a job array per sweep; docs/slurm.md). With
+        /// `--dry-run`, `slurm` prints the jobs, their resources and core-hours.
+        #[arg(long, value_enum, default_value_t = Executor::Local)]
+        executor: Executor,
         #[command(flatten)]
         root: RootArgs,
     },
@@ -90,6 +113,16 @@ pub enum Commands {
         #[command(flatten)]
         root: RootArgs,
     },
+    /// Compute one stage submitted by `--executor slurm` (what its Slurm job runs).
+    #[command(hide = true)]
+    Worker {
+        /// The store holding the stage's job record (jobs/KEY.json).
+        #[arg(long, value_name = "PATH")]
+        store: PathBuf,
+        /// The stage's cache key.
+        #[arg(long, value_name = "KEY")]
+        key: String,
+    },
     /// Free cache entries and artifacts that no current spec (at any profile) reaches.
     Gc {
         /// Only report what would be freed.
@@ -100,7 +133,12 @@ pub enum Commands {
     },
 }
 
-fn print_status(graph: &pipeline::Graph, st: &[(usize, State)], only_stale: bool) {
+fn print_status(
+    graph: &pipeline::Graph,
+    st: &[(usize, State)],
+    only_stale: bool,
+    jobs: &BTreeMap<usize, String>,
+) {
     for (i, s) in st {
         let n = &graph.nodes[*i];
         match s {
@@ -117,6 +155,9 @@ fn print_status(graph: &pipeline::Graph, st: &[(usize, State)], only_stale: bool
             }
             State::Stale { reasons } => {
                 println!("stale   {}  ({})", n.label(), n.kind);
+                if let Some(j) = jobs.get(i) {
+                    println!("          - Slurm: {j}");
+                }
                 for r in reasons {
                     println!("          - {r}");
                 }
@@ -147,7 +188,9 @@ fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
     let ws = f.root.workspace();
     let (graph, st) =
         pipeline::figure_status(&ws, reg, std::slice::from_ref(&f.id), &f.profile, &[])?;
-    print_status(&graph, &st, only_stale);
+    let store = pipeline::Store::open(&ws.store)?;
+    let jobs = slurm::job_states(&graph, &st, reg, &store);
+    print_status(&graph, &st, only_stale, &jobs);
     Ok(())
 }
 
@@ -161,6 +204,7 @@ pub fn run(c: Commands) -> Result<()> {
             jobs,
             dry_run,
             force,
+            executor,
             root,
         } => {
             let ws = root.workspace();
@@ -168,17 +212,37 @@ pub fn run(c: Commands) -> Result<()> {
             for k in &force {
                 reg.get(k)?;
             }
-            if dry_run {
-                let (graph, st) = pipeline::figure_status(&ws, &reg, &ids, &profile, &force)?;
-                print_status(&graph, &st, false);
+            if dry_run && executor == Executor::Slurm {
+                print!(
+                    "{}",
+                    slurm::dry_run(&ws, &reg, &ids, &profile, &force, &planned_work)?
+                );
                 return Ok(());
             }
-            let opts = RunOptions {
-                jobs: jobs.unwrap_or(RunOptions::default().jobs),
-                force,
-                progress: true,
+            if dry_run {
+                let (graph, st) = pipeline::figure_status(&ws, &reg, &ids, &profile, &force)?;
+                print_status(&graph, &st, false, &BTreeMap::new());
+                return Ok(());
+            }
+            let run = match executor {
+                Executor::Local => {
+                    let opts = RunOptions {
+                        jobs: jobs.unwrap_or(RunOptions::default().jobs),
+                        force,
+                        progress: true,
+                    };
+                    pipeline::run_figures(&ws, &reg, &ids, &profile, &opts)?
+                }
+                Executor::Slurm => {
+                    if jobs.is_some() {
+                        bail!(
+                            "--jobs applies to the local executor; Slurm runs every ready stage at once"
+                        );
+                    }
+                    let opts = slurm::SlurmOptions::new(force, true)?;
+                    slurm::run_figures(&ws, &reg, &ids, &profile, &opts, &planned_work)?
+                }
             };
-            let run = pipeline::run_figures(&ws, &reg, &ids, &profile, &opts)?;
             let count = |f: fn(&Outcome) -> bool| {
                 run.report
                     .results
@@ -261,6 +325,7 @@ pub fn run(c: Commands) -> Result<()> {
             }
             Ok(())
         }
+        Commands::Worker { store, key } => slurm::worker(&store, &reg, &key),
         Commands::Gc { dry_run, root } => {
             let r = pipeline::gc(&root.workspace(), &reg, dry_run)?;
             println!(
@@ -273,4 +338,62 @@ pub fn run(c: Commands) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Planned work of a `simulate` stage, for Slurm's resource requests: N, the
+/// frames it keeps, and its collisions: N x (collision rate per disk) / 2 x (the
+/// relaxation and production time), plus ~100 per disk for the compression
+/// (docs/sim.md).
+/// The rate per disk is the Enskog frequency at T = 1 times the measured ratio of
+/// the real rate to it (docs/sim.md: 1.01 at phi = 0.60 up to 1.46 at 0.805).
+fn planned_work(node: &pipeline::graph::Node) -> Option<Work> {
+    if node.kind != "simulate" {
+        return None;
+    }
+    let (_, cfg) = crate::stages::simulate::config(&node.params).ok()?;
+    let nf = cfg.n as f64;
+    let large = cfg.n_large() as f64 / nf;
+    let omega = crate::sim::enskog::collision_frequency(
+        cfg.phi,
+        &cfg.radii(),
+        &cfg.species_masses(),
+        &[1.0 - large, large],
+        1.0,
+    );
+    let frames = cfg.schedule.times().len() as u64;
+    // omega counts collisions per disk; each collision involves two disks.
+    let collisions =
+        nf * (omega / 2.0 * enskog_ratio(cfg.phi) * (cfg.relax_time + cfg.schedule.end()) + 100.0);
+    Some(Work {
+        n: cfg.n as u64,
+        collisions,
+        frames,
+    })
+}
+
+/// Measured collision rate over the Enskog frequency at the measured T, by phi
+/// (docs/sim.md, N = 4000, eps = 0.9); linear between, the end values outside.
+fn enskog_ratio(phi: f64) -> f64 {
+    const R: &[(f64, f64)] = &[
+        (0.60, 1.007),
+        (0.65, 1.012),
+        (0.70, 1.033),
+        (0.72, 1.048),
+        (0.74, 1.067),
+        (0.76, 1.105),
+        (0.78, 1.18),
+        (0.79, 1.24),
+        (0.80, 1.36),
+        (0.805, 1.46),
+    ];
+    if phi <= R[0].0 {
+        return R[0].1;
+    }
+    for w in R.windows(2) {
+        if phi <= w[1].0 {
+            let f = (phi - w[0].0) / (w[1].0 - w[0].0);
+            return w[0].1 + f * (w[1].1 - w[0].1);
+        }
+    }
+    R[R.len() - 1].1
 }

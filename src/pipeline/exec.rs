@@ -269,7 +269,7 @@ fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
     }
 }
 
-fn artifact(store: &Store, node: &Node, e: &Entry) -> Artifact {
+pub(crate) fn artifact(store: &Store, node: &Node, e: &Entry) -> Artifact {
     Artifact {
         label: node.label().to_string(),
         ids: node.ids.clone(),
@@ -337,15 +337,37 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     if !forced && let Some(e) = sh.store.lookup(&key) {
         return hit(e);
     }
-    let kind = match sh.reg.get(&node.kind) {
-        Ok(k) => k.clone(),
-        Err(e) => return fail(format!("{e:#}"), vec![]),
-    };
     let sink = sh.progress.start(i, node.label());
-    let ctx = StageCtx::new(node.seed, node.label().to_string(), Some(sink));
+    match compute(sh.store, sh.reg, node, key, &inputs, Some(sink)) {
+        Ok(entry) => StageResult {
+            outcome: Outcome::Executed,
+            entry: Some(entry),
+        },
+        Err((error, log)) => fail(error, log),
+    }
+}
+
+/// Run one stage whose inputs are ready and write its files to the store (objects
+/// first, then the entry naming them, each written to a temporary name and
+/// renamed). Both executors use it: threads here, Slurm workers (`repro worker`).
+/// The caller holds the key's lock. An error is (message, the stage's log).
+pub(crate) fn compute(
+    store: &Store,
+    reg: &Registry,
+    node: &Node,
+    key: String,
+    inputs: &[Artifact],
+    sink: Option<super::registry::ProgressSink>,
+) -> std::result::Result<Entry, (String, Vec<String>)> {
+    let fingerprint = reg.fingerprint(&node.kind);
+    let kind = match reg.get(&node.kind) {
+        Ok(k) => k.clone(),
+        Err(e) => return Err((format!("{e:#}"), vec![])),
+    };
+    let ctx = StageCtx::new(node.seed, node.label().to_string(), sink);
     let t0 = Instant::now();
     let cpu0 = thread_cpu_seconds();
-    let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.params, &inputs)));
+    let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.params, inputs)));
     let wall_s = t0.elapsed().as_secs_f64();
     let cpu_s = match (cpu0, thread_cpu_seconds()) {
         (Some(a), Some(b)) => Some(b - a),
@@ -354,26 +376,26 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     let log = ctx.take_log();
     let out = match out {
         Ok(Ok(o)) => o,
-        Ok(Err(e)) => return fail(format!("{e:#}"), log),
+        Ok(Err(e)) => return Err((format!("{e:#}"), log)),
         Err(p) => {
             let msg = p
                 .downcast_ref::<String>()
                 .cloned()
                 .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
                 .unwrap_or_else(|| "unknown panic".into());
-            return fail(format!("panicked: {msg}"), log);
+            return Err((format!("panicked: {msg}"), log));
         }
     };
     if out.files.is_empty() {
-        return fail("the stage produced no file".into(), log);
+        return Err(("the stage produced no file".into(), log));
     }
     let mut files = BTreeMap::new();
     for (ext, bytes) in &out.files {
-        match sh.store.put_object(bytes) {
+        match store.put_object(bytes) {
             Ok(h) => {
                 files.insert(ext.clone(), h);
             }
-            Err(e) => return fail(format!("writing its output to the store: {e:#}"), log),
+            Err(e) => return Err((format!("writing its output to the store: {e:#}"), log)),
         }
     }
     let entry = Entry {
@@ -394,16 +416,13 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
         log,
         side: out.side,
     };
-    if let Err(e) = sh.store.put_entry(&entry) {
-        return fail(format!("writing the cache entry: {e:#}"), entry.log);
+    if let Err(e) = store.put_entry(&entry) {
+        return Err((format!("writing the cache entry: {e:#}"), entry.log));
     }
     for l in &node.labels[1..] {
-        let _ = sh.store.set_label(l, &entry.key);
+        let _ = store.set_label(l, &entry.key);
     }
-    StageResult {
-        outcome: Outcome::Executed,
-        entry: Some(entry),
-    }
+    Ok(entry)
 }
 
 /// The intact cache entry of `key`, if any. A damaged one is reported (object path
@@ -414,19 +433,29 @@ fn find_or_repair(sh: &Shared, key: &str) -> Option<Entry> {
         Found::Hit(e) => Some(e),
         Found::Miss => None,
         Found::Damaged { problems, .. } => {
-            for d in problems {
-                let moved = match sh.store.quarantine(&d.hash) {
-                    Ok(Some(to)) => format!("; moved to {}", to.display()),
-                    Ok(None) => String::new(),
-                    Err(e) => format!("; could not be moved aside: {e:#}"),
-                };
-                let msg = format!("{d}{moved}; recomputing it");
+            for msg in quarantine(sh.store, &problems) {
                 sh.progress.line(&msg);
                 sh.damaged.lock().unwrap().push(msg);
             }
             None
         }
     }
+}
+
+/// Move damaged objects to the quarantine; one message per object (what, where
+/// it went) for the run's report. Both executors recompute the stage afterwards.
+pub(crate) fn quarantine(store: &Store, problems: &[super::store::Damage]) -> Vec<String> {
+    problems
+        .iter()
+        .map(|d| {
+            let moved = match store.quarantine(&d.hash) {
+                Ok(Some(to)) => format!("; moved to {}", to.display()),
+                Ok(None) => String::new(),
+                Err(e) => format!("; could not be moved aside: {e:#}"),
+            };
+            format!("{d}{moved}; recomputing it")
+        })
+        .collect()
 }
 
 /// Cache state of one stage, without running anything.

@@ -21,6 +21,7 @@ pub mod kinds;
 pub mod progress;
 pub mod publish;
 pub mod registry;
+pub mod slurm;
 pub mod spec;
 pub mod store;
 #[cfg(any(test, feature = "toy-kinds"))]

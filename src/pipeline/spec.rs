@@ -99,6 +99,31 @@ pub struct ProfileSpec {
     /// override the experiment's common `params`.
     #[serde(default)]
     pub params: BTreeMap<String, Value>,
+    /// How this profile's jobs go to Slurm (`--executor slurm`); see docs/slurm.md.
+    #[serde(default)]
+    pub slurm: Option<Spanned<SlurmSpec>>,
+}
+
+/// Slurm settings of one experiment profile: where its jobs (and those of the
+/// stages reading it) are submitted, and the margins on the planned resources.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SlurmSpec {
+    #[serde(default)]
+    pub partition: Option<String>,
+    #[serde(default)]
+    pub account: Option<String>,
+    #[serde(default)]
+    pub qos: Option<String>,
+    /// More sbatch options, verbatim (e.g. `--constraint=cpu`).
+    #[serde(default)]
+    pub extra: Vec<String>,
+    /// Requested memory = planned memory x this (default 1.5; at least 1).
+    #[serde(default)]
+    pub mem_margin: Option<Spanned<f64>>,
+    /// Time limit = planned time x this (default 3; at least 1).
+    #[serde(default)]
+    pub time_margin: Option<Spanned<f64>>,
 }
 
 /// `pipelines/ID.yaml`: one figure.

@@ -1,0 +1,654 @@
+//! The Slurm executor: the stage graph of the local executor, with the same cache,
+//! keys and bytes, where each stage is computed by a Slurm job running the repro
+//! binary itself (`repro worker --store S --key K`).
+//!
+//! A stage's key depends on its inputs' output bytes (early cut-off), so it is
+//! known only once its inputs are in the store: a driver submits in waves. Each
+//! wave's ready stages of one kind and one `slurm:` setting go out as one job
+//! array (the simulations of a sweep: one array). The driver records every job in
+//! the store (`jobs/KEY.json`), so it may exit or die: a rerun finds finished
+//! stages in the store, waits for jobs still queued or running, and resubmits
+//! those that failed. Workers write with the store's protocol (objects, then the
+//! entry, each to a temporary name and renamed, under the stage's lock), so
+//! nothing half-written enters the store.
+//!
+//! [`plan`]: resources from the planned work; [`state`]: job records and Slurm's
+//! view of the jobs.
+
+pub mod plan;
+pub mod state;
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Context, Result, bail, ensure};
+
+use super::exec::{self, Outcome, RunReport, StageResult, State, stage_key};
+use super::graph::{Graph, Node};
+use super::progress::Progress;
+use super::registry::Registry;
+use super::spec::Catalogue;
+use super::store::{Entry, Found, Store};
+use super::{FigureRun, Workspace, needed_nodes, publish};
+use plan::{Estimator, Resources, Settings};
+use state::{JobRecord, JobState};
+
+/// How to run on Slurm.
+#[derive(Debug, Clone)]
+pub struct SlurmOptions {
+    /// Stage kinds to rerun even when cached.
+    pub force: Vec<String>,
+    /// Bars on a terminal, else plain lines (as the local executor).
+    pub progress: bool,
+    /// How often to ask Slurm about the jobs.
+    pub poll: Duration,
+    /// The repro binary the jobs run (on a filesystem the nodes see).
+    pub binary: PathBuf,
+}
+
+impl SlurmOptions {
+    /// This binary, polling every `REPRO_SLURM_POLL_S` seconds (default 5).
+    pub fn new(force: Vec<String>, progress: bool) -> Result<Self> {
+        let poll = std::env::var("REPRO_SLURM_POLL_S")
+            .ok()
+            .and_then(|s| s.parse::<f64>().ok())
+            .filter(|s| *s > 0.0)
+            .unwrap_or(5.0);
+        Ok(SlurmOptions {
+            force,
+            progress,
+            poll: Duration::from_secs_f64(poll),
+            binary: std::env::current_exe().context("locating the repro binary")?,
+        })
+    }
+}
+
+fn absolute(p: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(p).ok();
+    p.canonicalize()
+        .with_context(|| format!("resolving {}", p.display()))
+}
+
+/// Build figures `ids` (all if empty) through Slurm and publish the complete ones,
+/// like [`super::run_figures`]. Returns when every job has ended.
+pub fn run_figures(
+    ws: &Workspace,
+    reg: &Registry,
+    ids: &[String],
+    profile: &str,
+    opts: &SlurmOptions,
+    est: Estimator,
+) -> Result<FigureRun> {
+    let ws = Workspace {
+        root: absolute(&ws.root)?,
+        results: ws.results.clone(),
+        store: absolute(&ws.store)?,
+    };
+    let cat = Catalogue::load(&ws.root)?;
+    let graph = ws.plan(reg, ids, profile)?;
+    let settings = plan::settings(&cat, &graph)?;
+    let store = Store::open(&ws.store)?;
+    let nodes = needed_nodes(&graph);
+    let report = Driver {
+        ws: &ws,
+        graph: &graph,
+        reg,
+        store: &store,
+        opts,
+        settings: &settings,
+        est,
+    }
+    .run(&nodes)?;
+    for fig in &graph.figures {
+        if report.complete(fig) {
+            publish::publish(&ws.root, &ws.results, &graph, fig, &report, reg, &store)?;
+        }
+    }
+    Ok(FigureRun { graph, report })
+}
+
+struct Driver<'a> {
+    ws: &'a Workspace,
+    graph: &'a Graph,
+    reg: &'a Registry,
+    store: &'a Store,
+    opts: &'a SlurmOptions,
+    settings: &'a [Settings],
+    est: Estimator<'a>,
+}
+
+fn now() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0)
+}
+
+fn describe(s: &JobState) -> String {
+    match s {
+        JobState::Queued { reason } => format!("queued ({reason})"),
+        JobState::Running => "running".into(),
+        JobState::Completed => "completed".into(),
+        JobState::Ended { state, reason } => format!("{state} ({reason})"),
+        JobState::Unknown => "no longer known to Slurm".into(),
+    }
+}
+
+impl Driver<'_> {
+    fn run(&self, nodes: &[usize]) -> Result<RunReport> {
+        let g = self.graph;
+        let n = g.nodes.len();
+        let log = self
+            .store
+            .dir
+            .parent()
+            .map(|d| d.join("log").join("LAST-RUN.log"));
+        let progress = Progress::new(self.opts.progress, nodes.len(), log.as_deref());
+        let mut results: Vec<Option<StageResult>> = vec![None; n];
+        let mut watching: BTreeMap<usize, JobRecord> = BTreeMap::new();
+        let mut damaged = Vec::new();
+        let finish = |results: &mut Vec<Option<StageResult>>, i: usize, r: StageResult| {
+            let what = match &r.outcome {
+                Outcome::Cached => "cached".to_string(),
+                Outcome::Executed => "executed".to_string(),
+                Outcome::Failed { error, .. } => format!("FAILED ({error})"),
+                Outcome::Skipped { failed_input } => {
+                    format!("skipped (input {failed_input} failed)")
+                }
+            };
+            progress.finish(i, g.nodes[i].label(), &g.nodes[i].kind, &what);
+            results[i] = Some(r);
+        };
+        loop {
+            let jobs = state::query()?;
+            // Jobs that ended: the store says whether they delivered.
+            for (i, rec) in watching.clone() {
+                let st = jobs.get(&rec.job_id).cloned().unwrap_or(JobState::Unknown);
+                if st.is_active() {
+                    continue;
+                }
+                watching.remove(&i);
+                // A forced stage had an entry before: only a completed job counts.
+                let entry = self.store.lookup(&rec.key);
+                let r = match entry {
+                    Some(e) if !rec.force || st == JobState::Completed => StageResult {
+                        outcome: Outcome::Executed,
+                        entry: Some(e),
+                    },
+                    _ => {
+                        let why = state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
+                        StageResult {
+                            outcome: Outcome::Failed {
+                                error: format!(
+                                    "Slurm job {} ended without a result: {why}; log {}",
+                                    rec.job_id,
+                                    rec.log.display()
+                                ),
+                                log: state::log_tail(&rec.log, 15),
+                            },
+                            entry: None,
+                        }
+                    }
+                };
+                finish(&mut results, i, r);
+            }
+            // Stages whose inputs are all done: cached, adopted or ready.
+            let mut ready: Vec<(usize, String, Vec<Entry>)> = Vec::new();
+            for &i in nodes {
+                if results[i].is_some() || watching.contains_key(&i) {
+                    continue;
+                }
+                let node = &g.nodes[i];
+                let mut inputs = Vec::new();
+                let mut failed = None;
+                let mut waiting = false;
+                for &j in &node.inputs {
+                    match &results[j] {
+                        Some(StageResult { entry: Some(e), .. }) => inputs.push(e.clone()),
+                        Some(_) => failed = Some(g.nodes[j].label().to_string()),
+                        None => waiting = true,
+                    }
+                }
+                if let Some(failed_input) = failed {
+                    let r = StageResult {
+                        outcome: Outcome::Skipped { failed_input },
+                        entry: None,
+                    };
+                    finish(&mut results, i, r);
+                    continue;
+                }
+                if waiting {
+                    continue;
+                }
+                let digests: Vec<&str> = inputs.iter().map(|e| e.digest.as_str()).collect();
+                let key = stage_key(
+                    &node.kind,
+                    &node.params,
+                    &digests,
+                    self.reg.fingerprint(&node.kind),
+                );
+                if !self.opts.force.contains(&node.kind) {
+                    match self.store.find(&key) {
+                        Found::Hit(e) => {
+                            for l in &node.labels {
+                                let _ = self.store.set_label(l, &e.key);
+                            }
+                            let r = StageResult {
+                                outcome: Outcome::Cached,
+                                entry: Some(e),
+                            };
+                            finish(&mut results, i, r);
+                            continue;
+                        }
+                        Found::Damaged { problems, .. } => {
+                            for msg in exec::quarantine(self.store, &problems) {
+                                progress.line(&msg);
+                                damaged.push(msg);
+                            }
+                        }
+                        Found::Miss => {}
+                    }
+                }
+                match state::read(self.store, &key) {
+                    Some(rec) if jobs.get(&rec.job_id).is_some_and(JobState::is_active) => {
+                        progress.line(&format!(
+                            "{}: job {} is {}; waiting for it",
+                            node.label(),
+                            rec.job_id,
+                            describe(&jobs[&rec.job_id])
+                        ));
+                        watching.insert(i, rec);
+                    }
+                    Some(rec) => {
+                        let st = jobs.get(&rec.job_id).cloned().unwrap_or(JobState::Unknown);
+                        let why = state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
+                        progress.line(&format!(
+                            "{}: earlier job {} ended without a result ({why}; log {}); resubmitting",
+                            node.label(),
+                            rec.job_id,
+                            rec.log.display()
+                        ));
+                        ready.push((i, key, inputs));
+                    }
+                    None => ready.push((i, key, inputs)),
+                }
+            }
+            if !ready.is_empty() {
+                for rec in self.submit(&ready)? {
+                    let i = ready
+                        .iter()
+                        .find(|(_, k, _)| *k == rec.key)
+                        .map(|(i, _, _)| *i)
+                        .expect("submitted key is ready");
+                    watching.insert(i, rec);
+                }
+            }
+            if watching.is_empty() {
+                break;
+            }
+            std::thread::sleep(self.opts.poll);
+        }
+        progress.done();
+        let mut out = BTreeMap::new();
+        for &i in nodes {
+            out.insert(i, results[i].take().expect("every node was resolved"));
+        }
+        Ok(RunReport {
+            results: out,
+            damaged,
+        })
+    }
+
+    /// Submit `ready` stages: one job (an array when several) per kind and
+    /// settings. Records each stage's job in the store; returns the records.
+    fn submit(&self, ready: &[(usize, String, Vec<Entry>)]) -> Result<Vec<JobRecord>> {
+        let g = self.graph;
+        let mut groups: BTreeMap<(String, String), Vec<usize>> = BTreeMap::new();
+        for (k, (i, _, _)) in ready.iter().enumerate() {
+            let s = serde_json::to_string(&self.settings[*i])?;
+            groups
+                .entry((g.nodes[*i].kind.clone(), s))
+                .or_default()
+                .push(k);
+        }
+        let logs = state::jobs_dir(self.store).join("log");
+        std::fs::create_dir_all(&logs)?;
+        let figures: Vec<String> = g.figures.iter().map(|f| f.id.clone()).collect();
+        let mut out = Vec::new();
+        for ((kind, _), members) in groups {
+            let settings = &self.settings[ready[members[0]].0];
+            let res: Vec<Resources> = members
+                .iter()
+                .map(|&k| {
+                    let (i, _, inputs) = &ready[k];
+                    plan::resources(
+                        (self.est)(&g.nodes[*i]).as_ref(),
+                        input_bytes(self.store, inputs),
+                        settings,
+                    )
+                })
+                .collect();
+            let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
+            let time = res.iter().map(|r| r.time_min).max().unwrap_or(2);
+            let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
+            let array = keys.len() > 1;
+            let mut args = vec![
+                format!("--job-name=repro-{kind}"),
+                "--cpus-per-task=1".to_string(),
+                "--ntasks=1".to_string(),
+                format!("--mem={mem}M"),
+                format!("--time={}", plan::time_limit(time)),
+                format!(
+                    "--output={}",
+                    logs.join(if array { "%A_%a.log" } else { "%j.log" })
+                        .display()
+                ),
+            ];
+            if array {
+                args.push(format!("--array=0-{}", keys.len() - 1));
+            }
+            args.extend(settings.sbatch_args());
+            let script = format!(
+                "#!/bin/bash\n# repro: {} stage(s) of kind {kind}\nKEYS=({})\nexec {} worker --store {} --key \"${{KEYS[${{SLURM_ARRAY_TASK_ID:-0}}]}}\"\n",
+                keys.len(),
+                keys.join(" "),
+                shell_quote(&self.opts.binary.display().to_string()),
+                shell_quote(&self.store.dir.display().to_string()),
+            );
+            // Records first (without a job id), so a worker always finds its record.
+            let mut recs: Vec<JobRecord> = members
+                .iter()
+                .zip(&res)
+                .map(|(&k, r)| {
+                    let (i, key, inputs) = &ready[k];
+                    let node = &g.nodes[*i];
+                    JobRecord {
+                        key: key.clone(),
+                        label: node.label().to_string(),
+                        kind: node.kind.clone(),
+                        recipe: node.recipe.clone(),
+                        root: self.ws.root.clone(),
+                        profile: g.profile.clone(),
+                        figures: figures.clone(),
+                        inputs: inputs.iter().map(|e| e.key.clone()).collect(),
+                        force: self.opts.force.contains(&node.kind),
+                        job_id: String::new(),
+                        log: PathBuf::new(),
+                        resources: r.clone(),
+                        submitted: now(),
+                    }
+                })
+                .collect();
+            for r in &recs {
+                state::write(self.store, r)?;
+            }
+            let id = state::submit(&args, &script)?;
+            eprintln!(
+                "submitted Slurm job {id}: {} {kind} stage(s), {mem} MiB and {} each",
+                keys.len(),
+                plan::time_limit(time)
+            );
+            for (t, r) in recs.iter_mut().enumerate() {
+                if array {
+                    r.job_id = format!("{id}_{t}");
+                    r.log = logs.join(format!("{id}_{t}.log"));
+                } else {
+                    r.job_id = id.clone();
+                    r.log = logs.join(format!("{id}.log"));
+                }
+                state::write(self.store, r)?;
+            }
+            out.extend(recs);
+        }
+        Ok(out)
+    }
+}
+
+fn shell_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', "'\\''"))
+}
+
+/// Bytes of the files of `inputs` in the store.
+fn input_bytes(store: &Store, inputs: &[Entry]) -> u64 {
+    inputs
+        .iter()
+        .flat_map(|e| e.files.values())
+        .filter_map(|h| std::fs::metadata(store.object_path(h)).ok())
+        .map(|m| m.len())
+        .sum()
+}
+
+/// `repro worker`: compute the stage recorded under `key` in the store's job
+/// records and write it to the store. Refuses when the specs or the binary
+/// differ from the submitter's (the key would not match).
+pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
+    let store = Store::open(store_dir)?;
+    let rec = state::read(&store, key).with_context(|| {
+        format!(
+            "no job record {}/{key}.json: this stage was not submitted through this store",
+            state::jobs_dir(&store).display()
+        )
+    })?;
+    let ws = Workspace {
+        root: rec.root.clone(),
+        results: rec.root.join("results"),
+        store: store_dir.to_path_buf(),
+    };
+    let graph = ws.plan(reg, &rec.figures, &rec.profile)?;
+    let Some(i) = graph.nodes.iter().position(|n| n.recipe == rec.recipe) else {
+        bail!(
+            "stage {} is no longer in the plan of {} at profile {}: the specs under {} changed since it was submitted",
+            rec.label,
+            rec.figures.join(" "),
+            rec.profile,
+            rec.root.display()
+        );
+    };
+    let node: &Node = &graph.nodes[i];
+    ensure!(
+        node.inputs.len() == rec.inputs.len(),
+        "stage {}: the plan has {} inputs, the job record {}",
+        rec.label,
+        node.inputs.len(),
+        rec.inputs.len()
+    );
+    let mut inputs = Vec::new();
+    for (&j, k) in node.inputs.iter().zip(&rec.inputs) {
+        let e = store.lookup(k).with_context(|| {
+            format!(
+                "input {} (key {k}) is not intact in the store {}",
+                graph.nodes[j].label(),
+                store_dir.display()
+            )
+        })?;
+        inputs.push(exec::artifact(&store, &graph.nodes[j], &e));
+    }
+    let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
+    let mine = stage_key(
+        &node.kind,
+        &node.params,
+        &digests,
+        reg.fingerprint(&node.kind),
+    );
+    ensure!(
+        mine == key,
+        "stage {}: this binary computes key {mine}, the submitter {key}: the repro binary (code fingerprint) differs from the submitter's",
+        rec.label
+    );
+    let _lock = store.lock_key(key)?;
+    if !rec.force && store.lookup(key).is_some() {
+        eprintln!(
+            "{} is already in the store (computed by another job)",
+            rec.label
+        );
+        return Ok(());
+    }
+    eprintln!("computing {} ({}), key {key}", rec.label, rec.kind);
+    match exec::compute(&store, reg, node, key.to_string(), &inputs, None) {
+        Ok(e) => {
+            for l in &e.log {
+                eprintln!("log: {l}");
+            }
+            eprintln!(
+                "wrote {} file(s) of {} in {:.1} s",
+                e.files.len(),
+                rec.label,
+                e.wall_s
+            );
+            Ok(())
+        }
+        Err((error, log)) => {
+            for l in &log {
+                eprintln!("log: {l}");
+            }
+            bail!("stage {} ({}) failed: {error}", rec.label, rec.kind)
+        }
+    }
+}
+
+/// Slurm state of the stages of `st` that are stale and have a job record:
+/// `queued (job 12_3, Priority)`, `running (job 12_3)`, `failed (...)`.
+pub fn job_states(
+    graph: &Graph,
+    st: &[(usize, State)],
+    reg: &Registry,
+    store: &Store,
+) -> BTreeMap<usize, String> {
+    let mut out = BTreeMap::new();
+    if std::fs::read_dir(state::jobs_dir(store)).map_or(true, |mut d| d.next().is_none()) {
+        return out;
+    }
+    let mut digest: HashMap<usize, String> = HashMap::new();
+    let mut recs = Vec::new();
+    for (i, s) in st {
+        let node = &graph.nodes[*i];
+        if let State::Cached { key } = s {
+            if let Some(e) = store.lookup(key) {
+                digest.insert(*i, e.digest);
+            }
+            continue;
+        }
+        let Some(d) = node
+            .inputs
+            .iter()
+            .map(|j| digest.get(j).map(|s| s.as_str()))
+            .collect::<Option<Vec<&str>>>()
+        else {
+            continue;
+        };
+        let key = stage_key(&node.kind, &node.params, &d, reg.fingerprint(&node.kind));
+        if let Some(r) = state::read(store, &key) {
+            recs.push((*i, r));
+        }
+    }
+    if recs.is_empty() {
+        return out;
+    }
+    let jobs = state::query();
+    for (i, r) in recs {
+        let s = match &jobs {
+            Err(e) => format!("submitted as job {} (cannot ask Slurm: {e:#})", r.job_id),
+            Ok(m) => match m.get(&r.job_id).cloned().unwrap_or(JobState::Unknown) {
+                JobState::Queued { reason } => format!("queued (job {}, {reason})", r.job_id),
+                JobState::Running => format!("running (job {})", r.job_id),
+                other => format!(
+                    "failed (job {}: {}; log {})",
+                    r.job_id,
+                    state::details(&r.job_id).unwrap_or_else(|| describe(&other)),
+                    r.log.display()
+                ),
+            },
+        };
+        out.insert(i, s);
+    }
+    out
+}
+
+/// What `--executor slurm` would submit now for figures `ids`: the stale stages
+/// grouped into jobs, with resources, and the total core-hours. Stages behind a
+/// stale one are planned with the bytes their inputs are expected to have.
+pub fn dry_run(
+    ws: &Workspace,
+    reg: &Registry,
+    ids: &[String],
+    profile: &str,
+    force: &[String],
+    est: Estimator,
+) -> Result<String> {
+    let cat = Catalogue::load(&ws.root)?;
+    let (graph, st) = super::figure_status(ws, reg, ids, profile, force)?;
+    let settings = plan::settings(&cat, &graph)?;
+    let store = Store::open(&ws.store)?;
+    let mut groups: BTreeMap<(String, String), Vec<(usize, Resources)>> = BTreeMap::new();
+    let mut cached = 0;
+    for (i, s) in &st {
+        let node = &graph.nodes[*i];
+        let key = match s {
+            State::Cached { .. } => {
+                cached += 1;
+                continue;
+            }
+            _ => node.kind.clone(),
+        };
+        // Input sizes: cached inputs as stored; simulations to come from their
+        // planned frames (x, y as f64 per disk); other stages' outputs are small.
+        let bytes: u64 = node
+            .inputs
+            .iter()
+            .map(|&j| {
+                let d = match st.iter().find(|(k, _)| *k == j) {
+                    Some((_, State::Cached { key })) => store.lookup(key),
+                    _ => None,
+                };
+                match d {
+                    Some(e) => input_bytes(&store, std::slice::from_ref(&e)),
+                    None => (est)(&graph.nodes[j]).map_or(0, |w| w.n * w.frames * 16),
+                }
+            })
+            .sum();
+        let r = plan::resources((est)(node).as_ref(), bytes, &settings[*i]);
+        let s = serde_json::to_string(&settings[*i].sbatch_args())?;
+        groups.entry((key, s)).or_default().push((*i, r));
+    }
+    let mut out = String::new();
+    let (mut expected, mut limit, mut longest) = (0.0, 0.0, 0.0f64);
+    for ((kind, sargs), members) in &groups {
+        let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
+        let time = members.iter().map(|(_, r)| r.time_min).max().unwrap_or(0);
+        out += &format!(
+            "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}\n",
+            members.len(),
+            if members.len() > 1 { " (array)" } else { "" },
+            plan::time_limit(time),
+            sargs
+        );
+        for (i, r) in members {
+            let w = (est)(&graph.nodes[*i]);
+            let work = w.map_or(String::new(), |w| {
+                format!("N = {}, {:.3e} collisions, ", w.n, w.collisions)
+            });
+            let cpu = if r.expected_s < 3600.0 {
+                format!("{:.1} CPU s", r.expected_s)
+            } else {
+                format!("{:.2} core-h", r.expected_s / 3600.0)
+            };
+            out += &format!(
+                "    {}  ({work}expected {cpu}, asks {} MiB, {})\n",
+                graph.nodes[*i].label(),
+                r.mem_mib,
+                plan::time_limit(r.time_min)
+            );
+            expected += r.expected_s / 3600.0 * r.cpus as f64;
+            limit += r.time_min as f64 / 60.0 * r.cpus as f64;
+            longest = longest.max(r.expected_s / 3600.0);
+        }
+    }
+    let jobs: usize = groups.values().map(|m| m.len()).sum();
+    out += &format!(
+        "{jobs} stage(s) to run in {} job(s) (waves: stages are submitted when their inputs are done), {cached} cached\n\
+         total: {expected:.2} core-hours expected, {limit:.2} core-hours requested (time limits); longest stage {longest:.2} h\n",
+        groups.len()
+    );
+    Ok(out)
+}

@@ -1,0 +1,283 @@
+//! Resources of a Slurm job from the planned work: memory from the measured bytes
+//! per disk times N, the time limit from the planned collisions over the measured
+//! collision rate, one CPU per stage; each times a margin from the profile's
+//! `slurm:` settings.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::super::graph::{Graph, Node};
+use super::super::spec::{Catalogue, SlurmSpec, SpecError};
+
+/// What one simulation is planned to do (from its parameters, before it runs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Work {
+    /// Disks.
+    pub n: u64,
+    /// Planned collisions (compression, relaxation and production).
+    pub collisions: f64,
+    /// Frames the trajectory keeps in memory until it is written.
+    pub frames: u64,
+}
+
+/// Estimates the work of a stage; `None` for stages that are not simulations.
+pub type Estimator<'a> = &'a (dyn Fn(&Node) -> Option<Work> + Sync);
+
+/// Engine memory per disk, measured at N = 10^4 to 4 x 10^6: 195-198 bytes
+/// (docs/measurements.md, 2026-11-22).
+pub const ENGINE_BYTES_PER_DISK: f64 = 198.0;
+/// A stored frame holds x and y (f64) per disk; writing the Parquet holds a
+/// second, encoded copy of about the same size.
+pub const FRAME_BYTES_PER_DISK: f64 = 2.0 * 16.0;
+/// Process baseline (binary, allocator, Parquet writer), MiB.
+pub const BASE_MIB: f64 = 64.0;
+
+/// Measured driven collisions per CPU second at phi = 0.78 (docs/measurements.md,
+/// 2026-11-22 and 11-23, `repro bench`; the lower end of each range): (N, rate).
+const SPEED: &[(f64, f64)] = &[(1e4, 1.0e6), (1e5, 0.75e6), (1e6, 0.46e6), (4e6, 0.40e6)];
+
+/// Collisions per CPU second at N disks: log-linear between the measured sizes,
+/// the end values outside them.
+pub fn collisions_per_second(n: f64) -> f64 {
+    if n <= SPEED[0].0 {
+        return SPEED[0].1;
+    }
+    for w in SPEED.windows(2) {
+        let ((n0, r0), (n1, r1)) = (w[0], w[1]);
+        if n <= n1 {
+            let f = (n / n0).ln() / (n1 / n0).ln();
+            return r0 + f * (r1 - r0);
+        }
+    }
+    SPEED[SPEED.len() - 1].1
+}
+
+/// Settings of one job: where it goes and the margins on its resources.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    pub partition: Option<String>,
+    pub account: Option<String>,
+    pub qos: Option<String>,
+    pub extra: Vec<String>,
+    pub mem_margin: f64,
+    pub time_margin: f64,
+}
+
+pub const DEFAULT_MEM_MARGIN: f64 = 1.5;
+pub const DEFAULT_TIME_MARGIN: f64 = 3.0;
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            partition: None,
+            account: None,
+            qos: None,
+            extra: Vec::new(),
+            mem_margin: DEFAULT_MEM_MARGIN,
+            time_margin: DEFAULT_TIME_MARGIN,
+        }
+    }
+}
+
+impl Settings {
+    /// The settings of a `slurm:` block; a margin below 1 (or not finite) is an
+    /// error at its line in `file`.
+    pub fn from_spec(file: &Path, s: &SlurmSpec) -> Result<Settings, SpecError> {
+        let margin = |m: &Option<serde_saphyr::Spanned<f64>>, name: &str, default: f64| match m {
+            None => Ok(default),
+            Some(v) if v.value.is_finite() && v.value >= 1.0 => Ok(v.value),
+            Some(v) => Err(SpecError::at(
+                file,
+                v,
+                format!(
+                    "slurm.{name} = {} must be a number >= 1 (it multiplies the planned resources)",
+                    v.value
+                ),
+            )),
+        };
+        Ok(Settings {
+            partition: s.partition.clone(),
+            account: s.account.clone(),
+            qos: s.qos.clone(),
+            extra: s.extra.clone(),
+            mem_margin: margin(&s.mem_margin, "mem_margin", DEFAULT_MEM_MARGIN)?,
+            time_margin: margin(&s.time_margin, "time_margin", DEFAULT_TIME_MARGIN)?,
+        })
+    }
+
+    /// sbatch options for these settings.
+    pub fn sbatch_args(&self) -> Vec<String> {
+        let mut v = Vec::new();
+        for (flag, val) in [
+            ("--partition", &self.partition),
+            ("--account", &self.account),
+            ("--qos", &self.qos),
+        ] {
+            if let Some(x) = val {
+                v.push(format!("{flag}={x}"));
+            }
+        }
+        v.extend(self.extra.iter().cloned());
+        v
+    }
+}
+
+/// The settings of every node of `graph`: a simulation takes its experiment
+/// profile's `slurm:` block; a pipeline stage that of the first experiment it
+/// reads (through its inputs); defaults where there is none. Bad values are
+/// located errors.
+pub fn settings(cat: &Catalogue, graph: &Graph) -> Result<Vec<Settings>, SpecError> {
+    let mut by_exp = std::collections::BTreeMap::new();
+    for (name, (file, spec)) in &cat.experiments {
+        if let Some(p) = spec.profiles.get(&graph.profile)
+            && let Some(s) = &p.value.slurm
+        {
+            by_exp.insert(name.clone(), Settings::from_spec(file, &s.value)?);
+        }
+    }
+    // Nodes are in topological order: inputs come first.
+    let mut out: Vec<Option<Settings>> = Vec::with_capacity(graph.nodes.len());
+    for node in &graph.nodes {
+        let own = node
+            .ids
+            .iter()
+            .find(|id| id.figure.is_none())
+            .and_then(|id| by_exp.get(&id.stage).cloned());
+        let s = own.or_else(|| node.inputs.iter().find_map(|&j| out[j].clone()));
+        out.push(s);
+    }
+    Ok(out.into_iter().map(Option::unwrap_or_default).collect())
+}
+
+/// What one job asks of Slurm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Resources {
+    pub cpus: u32,
+    pub mem_mib: u64,
+    pub time_min: u64,
+    /// Expected CPU seconds (without margin), for the core-hour estimate.
+    pub expected_s: f64,
+}
+
+/// Analyses, fits and plots: time and memory from the bytes they read (their
+/// work is not modelled per kind). Measured on the ci profile (2026-11-24,
+/// docs/measurements.md): the slowest per input byte was `chi4_peaks` at 4.4 MB/s
+/// (tau_alpha 23-69 MB/s); `aging` peaked at 25 MB of RSS for 2.5 MB of input
+/// over an 11 MB process baseline (5.6 bytes per input byte). Half the slowest
+/// speed, and 6 bytes per input byte over the baseline [`BASE_MIB`].
+pub const ANALYSIS_BYTES_PER_SECOND: f64 = 2e6;
+pub const ANALYSIS_MEM_PER_INPUT_BYTE: f64 = 6.0;
+
+/// Resources of a stage with planned `work` (simulations) or reading
+/// `input_bytes` (everything else).
+pub fn resources(work: Option<&Work>, input_bytes: u64, s: &Settings) -> Resources {
+    let (mem_bytes, secs) = match work {
+        Some(w) => {
+            let n = w.n as f64;
+            let mem = n * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK);
+            (mem, w.collisions / collisions_per_second(n))
+        }
+        None => {
+            let b = input_bytes as f64;
+            (
+                b * ANALYSIS_MEM_PER_INPUT_BYTE,
+                10.0 + b / ANALYSIS_BYTES_PER_SECOND,
+            )
+        }
+    };
+    let mem_mib = (BASE_MIB + mem_bytes / (1024.0 * 1024.0)) * s.mem_margin;
+    // Slurm counts time limits in minutes; two at least, for start-up on a busy node.
+    let time_min = ((secs * s.time_margin) / 60.0).ceil().max(2.0);
+    Resources {
+        cpus: 1,
+        mem_mib: mem_mib.ceil() as u64,
+        time_min: time_min as u64,
+        expected_s: secs,
+    }
+}
+
+/// `H:MM:SS`-free Slurm time limit: minutes as `D-HH:MM:00`.
+pub fn time_limit(minutes: u64) -> String {
+    let (d, h, m) = (minutes / 1440, (minutes % 1440) / 60, minutes % 60);
+    format!("{d}-{h:02}:{m:02}:00")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::pipeline::spec::{ExperimentSpec, parse};
+
+    const EXP: &str = "description: e\nkind: simulate\nseed: 1\nprofiles:\n  paper:\n    replicas: 1\n    slurm:\n";
+
+    fn slurm_of(block: &str) -> Result<Settings, String> {
+        let file = Path::new("experiments/e.yaml");
+        let spec: ExperimentSpec =
+            parse(file, &format!("{EXP}{block}")).map_err(|e| e.to_string())?;
+        let s = spec.profiles["paper"]
+            .value
+            .slurm
+            .clone()
+            .expect("slurm block");
+        Settings::from_spec(file, &s.value).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn slurm_keys_are_read_and_bad_ones_located() {
+        let s = slurm_of("      partition: p\n      account: a\n      qos: q\n      extra: [\"--x=1\"]\n      mem_margin: 2\n")
+            .unwrap();
+        assert_eq!(
+            s.sbatch_args(),
+            ["--partition=p", "--account=a", "--qos=q", "--x=1"]
+        );
+        assert_eq!((s.mem_margin, s.time_margin), (2.0, DEFAULT_TIME_MARGIN));
+        // An unknown key: file, line and column of the key.
+        let e = slurm_of("      partition: p\n      memory: 4G\n").unwrap_err();
+        assert!(
+            e.starts_with("experiments/e.yaml:9:") && e.contains("memory"),
+            "{e}"
+        );
+        // A margin below 1: at its value.
+        let e = slurm_of("      time_margin: 0.5\n").unwrap_err();
+        assert!(
+            e.starts_with("experiments/e.yaml:8:20") && e.contains("time_margin"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn speed_interpolates_between_measured_sizes() {
+        assert_eq!(collisions_per_second(1000.0), 1.0e6);
+        assert_eq!(collisions_per_second(1e6), 0.46e6);
+        assert_eq!(collisions_per_second(1e7), 0.40e6);
+        let mid = collisions_per_second(10f64.powf(5.5));
+        assert!((mid - 0.605e6).abs() < 1.0, "{mid}");
+    }
+
+    #[test]
+    fn resources_scale_with_n_and_collisions_with_margins() {
+        let s = Settings::default();
+        let w = Work {
+            n: 1_000_000,
+            collisions: 0.46e6 * 3600.0,
+            frames: 100,
+        };
+        let r = resources(Some(&w), 0, &s);
+        // One hour of work at 0.46e6 collisions/s, times the margin 3.
+        assert!((r.expected_s - 3600.0).abs() < 1e-6);
+        assert_eq!(r.time_min, 180);
+        let mib: f64 = (64.0 + 1e6 * (198.0 + 100.0 * 32.0) / 1048576.0) * 1.5;
+        assert_eq!(r.mem_mib, mib.ceil() as u64);
+        assert_eq!(r.cpus, 1);
+        let tight = Settings {
+            mem_margin: 1.0,
+            time_margin: 1.0,
+            ..s
+        };
+        let r1 = resources(Some(&w), 0, &tight);
+        assert_eq!(r1.time_min, 60);
+        assert!(r1.mem_mib < r.mem_mib);
+        assert_eq!(time_limit(60 * 24 + 61), "1-01:01:00");
+    }
+}
