@@ -221,7 +221,8 @@ fn tiny_figure_end_to_end_then_regression_check() {
         )],
     };
     let (lines, failures) = check(&good, &ws.results, &[]).unwrap();
-    assert_eq!(lines.len(), 1);
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(lines[1].starts_with("joint:"), "{lines:?}");
     assert!(failures.is_empty(), "{failures:?}");
     let bad = GoldenFile {
         quantities: vec![golden(

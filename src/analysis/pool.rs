@@ -60,6 +60,7 @@ fn floats(c: &ArrayRef) -> Option<&Float64Array> {
 }
 
 use crate::table::columns::is_count;
+pub use crate::table::replicas::{JK_UNIT, jk_column};
 
 /// Pool per-replica tables of identical shape. A column equal in every replica is a
 /// key (t, species, bin centres, ...) and kept; a count column (`n_*`, float or
@@ -148,16 +149,6 @@ pub fn seed_to_seed(tables: &[RecordBatch]) -> Result<(RecordBatch, Errors)> {
         },
     ))
 }
-
-/// Column `X_jkK` beside a column X: its value with replica K left out.
-pub fn jk_column(name: &str, k: usize) -> String {
-    format!("{name}_jk{k}")
-}
-
-/// Column naming the independent unit (the set of replicas) a row was computed
-/// from: rows of one analysis instance share it, rows of different state points
-/// do not. A jackknife over replicas leaves a replica out of one unit at a time.
-pub const JK_UNIT: &str = "jk_unit";
 
 /// At most this many replicas get leave-one-out columns (each costs one more
 /// analysis of the other replicas).

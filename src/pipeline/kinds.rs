@@ -40,7 +40,7 @@ impl StageKind for Table {
             .point
             .keys()
             .collect();
-        let mut out: Vec<RecordBatch> = Vec::new();
+        let mut out: Vec<(String, RecordBatch)> = Vec::new();
         for a in inputs {
             let k: BTreeSet<&String> = a.point.keys().collect();
             if k != keys {
@@ -80,18 +80,19 @@ impl StageKind for Table {
                 for (f, c) in b.schema().fields().iter().zip(b.columns()) {
                     cols.push((f.name().clone(), c.clone()));
                 }
-                let nb = RecordBatch::try_from_iter(cols)?;
-                if let Some(first) = out.first()
-                    && first.schema() != nb.schema()
-                {
-                    bail!(
-                        "table: input {} has columns {:?}, unlike the first input's {:?}",
-                        a.label,
-                        nb.schema().fields(),
-                        first.schema().fields()
-                    );
-                }
-                out.push(nb);
+                out.push((a.label.clone(), RecordBatch::try_from_iter(cols)?));
+            }
+        }
+        // Instances may differ in their replica jackknife columns only.
+        let labels: Vec<String> = out.iter().map(|(l, _)| l.clone()).collect();
+        let out = crate::table::replicas::align(out.into_iter().map(|(_, b)| b).collect())?;
+        for (label, b) in labels.iter().zip(&out) {
+            if b.schema() != out[0].schema() {
+                bail!(
+                    "table: input {label} has columns {:?}, unlike the first input's {:?}",
+                    b.schema().fields(),
+                    out[0].schema().fields()
+                );
             }
         }
         if out.is_empty() {

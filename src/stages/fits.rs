@@ -652,8 +652,7 @@ fn scan_ranges(
 }
 
 /// Appended to the error method when the replica jackknife could not be done.
-const JK_IMPOSSIBLE: &str =
-    " (the replica jackknife was not possible: a refit failed or a state point has fewer than two complete replica samples)";
+const JK_IMPOSSIBLE: &str = " (the replica jackknife was not possible: a refit failed or a state point has fewer than two complete replica samples)";
 
 /// Parquet metadata key of a fit table: how its errors were estimated.
 pub const ERROR_METHOD: &str = "error_method";

@@ -159,6 +159,11 @@ const COLUMNS: &[(&str, &str, &str)] = &[
         "upper end of the fit window of a range scan",
     ),
     ("n_points", "1", "number of data points in the fit window"),
+    (
+        "jk_unit",
+        "1",
+        "the set of replicas a row was computed from (rows sharing it are one jackknife unit)",
+    ),
     ("X", "1", "collapse abscissa sqrt(N)/xi (paper H, Fig. 19)"),
     ("Y", "1", "collapse ordinate chi4P xi^-g"),
 ];
@@ -183,6 +188,14 @@ pub fn describe(name: &str) -> Option<(String, String)> {
         && let Some(c) = find(base)
     {
         return Some((c.1.to_string(), format!("1-sigma error of {base}")));
+    }
+    if let Some((base, k)) = super::replicas::parse_jk(name)
+        && let Some((unit, _)) = describe(base)
+    {
+        return Some((
+            unit,
+            format!("{base} with replica {k} left out (replica jackknife)"),
+        ));
     }
     if let Some(unit) = name.strip_prefix("t_over_") {
         return Some((

@@ -6,6 +6,7 @@
 //! same directory, fsync, rename).
 
 pub mod columns;
+pub mod replicas;
 pub mod trajectory;
 
 use std::fs::File;
