@@ -211,6 +211,8 @@ fn tiny_figure_end_to_end_then_regression_check() {
         how: "test".into(),
         sigmas: 4.0,
         relative_floor: 0.01,
+        seeds: vec![1, 2],
+        ungated: vec![],
         quantities: vec![golden(
             "tinyfig",
             "phi_0",

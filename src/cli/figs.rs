@@ -224,6 +224,17 @@ fn regress(a: RegressArgs) -> Result<()> {
             },
             &opts,
         )?;
+        // Figures named: their bands replace theirs, the others' stay.
+        let g = if !a.ids.is_empty() && golden_path.exists() {
+            golden::merge(
+                GoldenFile::read(&golden_path)?,
+                g,
+                &ids,
+                &a.variant.experiment,
+            )?
+        } else {
+            g
+        };
         g.write(&golden_path)?;
         println!("wrote {}", golden_path.display());
         return Ok(());

@@ -40,6 +40,12 @@ pub struct GoldenFile {
     pub how: String,
     pub sigmas: f64,
     pub relative_floor: f64,
+    /// The master seeds every band was recorded at (empty in older files).
+    #[serde(default)]
+    pub seeds: Vec<u64>,
+    /// FIGURE:QUANTITY left out of the bands.
+    #[serde(default)]
+    pub ungated: Vec<String>,
     pub quantities: Vec<Golden>,
 }
 
@@ -297,30 +303,72 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
             }
         })
         .collect();
-    let list = |v: &[String]| {
-        if v.is_empty() {
-            "none".to_string()
-        } else {
-            v.join(", ")
-        }
-    };
     Ok(GoldenFile {
         profile: r.profile.to_string(),
-        how: format!(
-            "`repro regress --record --profile {} --seeds {}`: the figures built at each master seed (every experiment; parameters of '{}'); \
-             band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|); not gated: {}",
-            r.profile,
-            r.seeds
-                .iter()
-                .map(|s| s.to_string())
-                .collect::<Vec<_>>()
-                .join(","),
-            r.experiment,
-            list(r.ungated)
-        ),
+        how: how(r.profile, r.seeds, r.experiment, r.ungated),
         sigmas: SIGMAS,
         relative_floor: FLOOR,
+        seeds: r.seeds.to_vec(),
+        ungated: r.ungated.to_vec(),
         quantities,
+    })
+}
+
+fn how(profile: &str, seeds: &[u64], experiment: &str, ungated: &[String]) -> String {
+    let seeds: Vec<String> = seeds.iter().map(|s| s.to_string()).collect();
+    format!(
+        "`repro regress --record --profile {profile} --seeds {}`: the figures built at each master seed (every experiment; parameters of '{experiment}'); \
+         band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|); not gated: {}",
+        seeds.join(","),
+        if ungated.is_empty() {
+            "none".to_string()
+        } else {
+            ungated.join(", ")
+        }
+    )
+}
+
+/// The golden file after recording the figures `ids` anew: `new`'s bands for
+/// them, `old`'s for every other figure (recording one figure must not drop the
+/// others'). Both must be of one profile and one set of master seeds, so that
+/// every band means the same.
+pub fn merge(
+    old: GoldenFile,
+    new: GoldenFile,
+    ids: &[String],
+    experiment: &str,
+) -> Result<GoldenFile> {
+    if old.profile != new.profile {
+        bail!(
+            "the golden file is for profile '{}', the recording for '{}'",
+            old.profile,
+            new.profile
+        );
+    }
+    if old.seeds != new.seeds {
+        bail!(
+            "the golden file was recorded at master seeds {:?} (none listed: an older file), this recording at {:?}; record every figure at once (no figure ids) or use the same --seeds",
+            old.seeds,
+            new.seeds
+        );
+    }
+    let other = |fq: &str| {
+        !ids.iter()
+            .any(|id| fq.split(':').next() == Some(id.as_str()))
+    };
+    let mut ungated: Vec<String> = old.ungated.into_iter().filter(|u| other(u)).collect();
+    ungated.extend(new.ungated);
+    let mut quantities: Vec<Golden> = old
+        .quantities
+        .into_iter()
+        .filter(|q| !ids.contains(&q.figure))
+        .collect();
+    quantities.extend(new.quantities);
+    Ok(GoldenFile {
+        how: how(&new.profile, &new.seeds, experiment, &ungated),
+        ungated,
+        quantities,
+        ..new
     })
 }
 
@@ -366,6 +414,37 @@ pub fn seed_numbers(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn file(seeds: &[u64], figs: &[&str], ungated: &[&str]) -> GoldenFile {
+        GoldenFile {
+            profile: "ci".into(),
+            how: String::new(),
+            sigmas: SIGMAS,
+            relative_floor: FLOOR,
+            seeds: seeds.to_vec(),
+            ungated: ungated.iter().map(|u| u.to_string()).collect(),
+            quantities: figs
+                .iter()
+                .map(|f| golden(f, "q", seeds, &[1.0, 2.0], SIGMAS, FLOOR))
+                .collect(),
+        }
+    }
+
+    /// Recording one figure replaces its bands and keeps every other figure's;
+    /// bands of other master seeds are not mixed in.
+    #[test]
+    fn recording_some_figures_keeps_the_others() {
+        let old = file(&[1, 2], &["fig2", "fig4"], &["fig4:q", "fig2:q"]);
+        let new = file(&[1, 2], &["fig4", "fig9"], &["fig9:q"]);
+        let ids = vec!["fig4".to_string(), "fig9".to_string()];
+        let m = merge(old.clone(), new, &ids, "eps09").unwrap();
+        let figs: Vec<&str> = m.quantities.iter().map(|q| q.figure.as_str()).collect();
+        assert_eq!(figs, ["fig2", "fig4", "fig9"]);
+        assert_eq!(m.ungated, ["fig2:q", "fig9:q"]);
+        assert!(m.how.contains("not gated: fig2:q, fig9:q"), "{}", m.how);
+        let e = merge(old, file(&[3, 4], &["fig4"], &[]), &ids, "eps09").unwrap_err();
+        assert!(format!("{e}").contains("same --seeds"), "{e}");
+    }
 
     #[test]
     fn golden_band_is_four_sigma_or_the_floor() {
