@@ -226,6 +226,16 @@ fn tiny_figure_end_to_end_then_regression_check() {
     assert_eq!(lines.len(), 2, "{lines:?}");
     assert!(lines[1].starts_with("joint:"), "{lines:?}");
     assert!(failures.is_empty(), "{failures:?}");
+    // A CI figure with key numbers but no band is refused, with the command.
+    let tiny = ["tinyfig".to_string()];
+    let g = std::path::Path::new("ci.json");
+    repro::study::golden::all_recorded(&good, g, &tiny, &ws.results).unwrap();
+    let empty = GoldenFile {
+        quantities: vec![],
+        ..good.clone()
+    };
+    let e = repro::study::golden::all_recorded(&empty, g, &tiny, &ws.results).unwrap_err();
+    assert!(format!("{e}").contains("--seeds 1,2 tinyfig"), "{e}");
     let bad = GoldenFile {
         quantities: vec![golden(
             "tinyfig",

@@ -144,18 +144,23 @@ fn options(jobs: Option<usize>) -> RunOptions {
     o
 }
 
-const CI_FIGURES: [&str; 5] = ["fig2", "fig3", "fig4", "fig15", "fig19"];
-
-fn or_ci_figures(ids: &[String]) -> Vec<String> {
-    if ids.is_empty() {
-        CI_FIGURES.iter().map(|s| s.to_string()).collect()
-    } else {
-        ids.to_vec()
+/// The figures named, or the CI figures (`ci: true`) when none is.
+fn or_ci_figures(root: &std::path::Path, ids: &[String]) -> Result<Vec<String>> {
+    if !ids.is_empty() {
+        return Ok(ids.to_vec());
     }
+    let ci = crate::pipeline::Catalogue::load(root)?.ci_figures();
+    if ci.is_empty() {
+        anyhow::bail!(
+            "no figure of {}/pipelines is marked `ci: true`; name the figures",
+            root.display()
+        );
+    }
+    Ok(ci)
 }
 
 fn coverage(a: CoverageArgs) -> Result<()> {
-    let ids = or_ci_figures(&a.ids);
+    let ids = or_ci_figures(&a.variant.root, &a.ids)?;
     let per_seed = golden::seed_numbers(
         &a.variant.root,
         &a.variant.experiment,
@@ -212,7 +217,7 @@ fn regress(a: RegressArgs) -> Result<()> {
     });
     let opts = options(a.variant.jobs);
     if a.record {
-        let ids = or_ci_figures(&a.ids);
+        let ids = or_ci_figures(&a.variant.root, &a.ids)?;
         let g = golden::record(
             &Recording {
                 root: &a.variant.root,
@@ -266,6 +271,10 @@ fn regress(a: RegressArgs) -> Result<()> {
     } else {
         Workspace::new(&a.variant.root).results
     };
+    if a.ids.is_empty() {
+        let ci = crate::pipeline::Catalogue::load(&a.variant.root)?.ci_figures();
+        golden::all_recorded(&g, &golden_path, &ci, &results)?;
+    }
     let (lines, failures) = golden::check(&g, &results, &a.ids)?;
     for l in &lines {
         println!("{l}");

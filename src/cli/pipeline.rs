@@ -67,11 +67,14 @@ pub enum Commands {
     /// `repro figure --all --jobs 2`, `repro figure fig19 --dry-run`.
     Figure {
         /// Figure ids (file names of pipelines/ID.yaml without .yaml).
-        #[arg(value_name = "ID", required_unless_present = "all")]
+        #[arg(value_name = "ID", required_unless_present_any = ["all", "ci"])]
         ids: Vec<String>,
         /// Build every figure in pipelines/.
-        #[arg(long, conflicts_with = "ids")]
+        #[arg(long, conflicts_with_all = ["ids", "ci"])]
         all: bool,
+        /// Build the figures gated in CI (`ci: true` in their pipelines/ID.yaml).
+        #[arg(long, conflicts_with = "ids")]
+        ci: bool,
         /// Size of the runs: `ci` (seconds, for tests), `small` (a laptop, minutes;
         /// shows every qualitative feature), `paper` (the paper's N and run lengths).
         #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
@@ -200,6 +203,7 @@ pub fn run(c: Commands) -> Result<()> {
         Commands::Figure {
             ids,
             all,
+            ci,
             profile,
             jobs,
             dry_run,
@@ -208,7 +212,13 @@ pub fn run(c: Commands) -> Result<()> {
             root,
         } => {
             let ws = root.workspace();
-            let ids = if all { Vec::new() } else { ids };
+            let ids = if all {
+                Vec::new()
+            } else if ci {
+                pipeline::Catalogue::load(&ws.root)?.ci_figures()
+            } else {
+                ids
+            };
             for k in &force {
                 reg.get(k)?;
             }

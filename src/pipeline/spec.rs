@@ -132,6 +132,11 @@ pub struct SlurmSpec {
 pub struct PipelineSpec {
     /// One line shown by `repro list`.
     pub description: String,
+    /// Gated in the CI regression: `make test` builds it at the ci profile
+    /// (`repro figure --ci`) and `repro regress` checks its key numbers against
+    /// tests/golden/ci.json.
+    #[serde(default)]
+    pub ci: bool,
     /// The stages, in any order; each reads experiments or other stages by name.
     pub stages: Vec<Spanned<StageSpec>>,
 }
@@ -227,6 +232,15 @@ fn read(file: &Path) -> Result<String, SpecError> {
 }
 
 impl Catalogue {
+    /// The figures marked `ci: true`, sorted by name.
+    pub fn ci_figures(&self) -> Vec<String> {
+        self.pipelines
+            .iter()
+            .filter(|(_, (_, p))| p.ci)
+            .map(|(n, _)| n.clone())
+            .collect()
+    }
+
     /// Load `ROOT/experiments/*.yaml` and `ROOT/pipelines/*.yaml`; names are the
     /// file stems. Every file is parsed (a broken spec is reported even when
     /// another figure is asked for: the catalogue is one whole).
@@ -514,5 +528,37 @@ mod tests {
             " 4 |     params: {{n: 10, tau: {{A: x}}}}\n   | {}^",
             " ".repeat(29)
         )));
+    }
+
+    /// `ci: true` marks a figure for CI; absent means not; a misspelt key is a
+    /// located error, as every unknown key.
+    #[test]
+    fn ci_figures_are_those_marked_ci() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("pipelines");
+        std::fs::create_dir_all(&p).unwrap();
+        let stage = "stages:\n  - {name: t, kind: table, gather: [x]}\n";
+        std::fs::write(
+            p.join("b.yaml"),
+            format!("description: b\nci: true\n{stage}"),
+        )
+        .unwrap();
+        std::fs::write(p.join("a.yaml"), format!("description: a\n{stage}")).unwrap();
+        std::fs::write(
+            p.join("c.yaml"),
+            format!("description: c\nci: true\n{stage}"),
+        )
+        .unwrap();
+        assert_eq!(
+            Catalogue::load(dir.path()).unwrap().ci_figures(),
+            ["b", "c"]
+        );
+        std::fs::write(
+            p.join("a.yaml"),
+            format!("description: a\ncI: true\n{stage}"),
+        )
+        .unwrap();
+        let e = Catalogue::load(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("a.yaml:2") && e.contains("cI"), "{e}");
     }
 }

@@ -163,6 +163,37 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
     Ok((lines, failures))
 }
 
+/// Refuse a CI figure (`ci: true`) whose built results hold key numbers that
+/// the golden file has no band for: a new CI figure is recorded before it is
+/// gated, never silently left unchecked. Figures without key numbers (curves
+/// only, such as fig3) need none.
+pub fn all_recorded(g: &GoldenFile, file: &Path, ci: &[String], results: &Path) -> Result<()> {
+    let mut missing = Vec::new();
+    for f in ci {
+        if g.quantities.iter().any(|q| &q.figure == f) {
+            continue;
+        }
+        let dir = results.join(f);
+        if dir.exists() && !super::results::key_numbers(&dir)?.is_empty() {
+            missing.push(f.clone());
+        }
+    }
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let seeds: Vec<String> = g.seeds.iter().map(|s| s.to_string()).collect();
+    bail!(
+        "{} {} marked `ci: true` and {} key numbers, but {} has no band for them; record them with `repro regress --record --profile {} --seeds {} {}`",
+        missing.join(", "),
+        if missing.len() == 1 { "is" } else { "are" },
+        if missing.len() == 1 { "has" } else { "have" },
+        file.display(),
+        g.profile,
+        seeds.join(","),
+        missing.join(" ")
+    )
+}
+
 /// Nominal false-alarm probability of the joint test.
 pub const JOINT_FALSE_ALARM: f64 = 0.001;
 
