@@ -707,14 +707,30 @@ fn q_collapses_on_beta_ln_t_over_tau0_and_a_larger_cutoff_relaxes_later() {
         dev += (q[i] - 1.0 / (x[i].exp() + 1.0)).abs();
     }
     // Eq. 8 describes the tiny runs' Q(t) to a few percent on average.
-    assert!(dev / (t.len() as f64) < 0.05, "mean |Q - 1/(e^x + 1)| = {}", dev / t.len() as f64);
+    assert!(
+        dev / (t.len() as f64) < 0.05,
+        "mean |Q - 1/(e^x + 1)| = {}",
+        dev / t.len() as f64
+    );
     let tt = ws.results.join("qfig/tau_table.parquet");
-    let (a, phi, tau) = (column(&tt, "a"), column(&tt, "phi"), column(&tt, "tau_alpha"));
+    let (a, phi, tau) = (
+        column(&tt, "a"),
+        column(&tt, "phi"),
+        column(&tt, "tau_alpha"),
+    );
     assert_eq!(a.len(), 8, "4 phi x 2 cut-offs");
     for i in 0..a.len() {
         if a[i] == 1.0 {
-            let j = (0..a.len()).find(|&j| a[j] == 0.6 && phi[j] == phi[i]).unwrap();
-            assert!(tau[i] > tau[j], "phi {}: tau(a=1) {} <= tau(a=0.6) {}", phi[i], tau[i], tau[j]);
+            let j = (0..a.len())
+                .find(|&j| a[j] == 0.6 && phi[j] == phi[i])
+                .unwrap();
+            assert!(
+                tau[i] > tau[j],
+                "phi {}: tau(a=1) {} <= tau(a=0.6) {}",
+                phi[i],
+                tau[i],
+                tau[j]
+            );
         }
     }
 }
