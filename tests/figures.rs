@@ -660,3 +660,89 @@ fn diffusion_levels_and_claims_on_a_tiny_sweep() {
         .unwrap_or_default();
     assert!(e.contains("`than` without a `claim`"), "{e}");
 }
+
+const Q_SCALED_PIPELINE: &str = r#"
+description: tiny fig6 (Eq. 8 collapse) and fig20 (tau_alpha of a cut-off a)
+stages:
+  - name: q
+    kind: overlap
+    gather: [tiny]
+    by: [phi]
+  - name: q_table
+    kind: table
+    gather: [q]
+  - name: relax
+    kind: fit
+    gather: [q_table]
+    params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi]}
+  - name: q_scaled
+    kind: join
+    gather: [q_table, relax]
+    params:
+      left: q_table
+      right: relax
+      on: [phi]
+      derive: [{name: t_over_tau0, op: divide, a: t, b: tau0}, {name: x, op: ln_times, a: t_over_tau0, b: beta}]
+  - name: tau_a10
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+    sweep: {a: [1.0]}
+  - name: tau_a06
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+    sweep: {a: [0.6]}
+  - name: tau_table
+    kind: table
+    gather: [tau_a06, tau_a10]
+"#;
+
+/// Fig. 6: x = beta ln(t/tau0) from the per-phi Eq. 8 fits collapses Q onto
+/// 1/(e^x + 1); fig20: a one-value sweep of the cut-off puts `a` into the table,
+/// and a larger cut-off relaxes later.
+#[test]
+fn q_collapses_on_beta_ln_t_over_tau0_and_a_larger_cutoff_relaxes_later() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ws, _) = build(dir.path(), "qfig", Q_SCALED_PIPELINE);
+    let s = ws.results.join("qfig/q_scaled.parquet");
+    let (t, q, tau0, beta, x) = (
+        column(&s, "t"),
+        column(&s, "Q"),
+        column(&s, "tau0"),
+        column(&s, "beta"),
+        column(&s, "x"),
+    );
+    let mut dev = 0.0;
+    for i in 0..t.len() {
+        assert!((x[i] - beta[i] * (t[i] / tau0[i]).ln()).abs() <= 1e-12 * (1.0 + x[i].abs()));
+        dev += (q[i] - 1.0 / (x[i].exp() + 1.0)).abs();
+    }
+    // Eq. 8 describes the tiny runs' Q(t) to a few percent on average.
+    assert!(
+        dev / (t.len() as f64) < 0.05,
+        "mean |Q - 1/(e^x + 1)| = {}",
+        dev / t.len() as f64
+    );
+    let tt = ws.results.join("qfig/tau_table.parquet");
+    let (a, phi, tau) = (
+        column(&tt, "a"),
+        column(&tt, "phi"),
+        column(&tt, "tau_alpha"),
+    );
+    assert_eq!(a.len(), 8, "4 phi x 2 cut-offs");
+    for i in 0..a.len() {
+        if a[i] == 1.0 {
+            let j = (0..a.len())
+                .find(|&j| a[j] == 0.6 && phi[j] == phi[i])
+                .unwrap();
+            assert!(
+                tau[i] > tau[j],
+                "phi {}: tau(a=1) {} <= tau(a=0.6) {}",
+                phi[i],
+                tau[i],
+                tau[j]
+            );
+        }
+    }
+}

@@ -19,7 +19,8 @@ use crate::table::to_parquet_bytes;
 #[serde(deny_unknown_fields)]
 pub struct Derived {
     pub name: String,
-    /// `divide` (a / b), `multiply` (a b) or `sqrt_divide` (sqrt(a) / b).
+    /// `divide` (a / b), `multiply` (a b), `sqrt_divide` (sqrt(a) / b) or
+    /// `ln_times` (b ln a: Fig. 6's x = beta ln(t/tau0)).
     pub op: String,
     pub a: String,
     pub b: String,
@@ -38,7 +39,7 @@ pub struct JoinParams {
     pub derive: Vec<Derived>,
 }
 
-const OPS: &[&str] = &["divide", "multiply", "sqrt_divide"];
+const OPS: &[&str] = &["divide", "multiply", "sqrt_divide", "ln_times"];
 
 pub struct Join;
 
@@ -114,7 +115,7 @@ impl StageKind for Join {
         "rows of `left` with the matching row of `right` by key columns `on`, plus derived columns"
     }
     fn details(&self) -> String {
-        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide, a, b}]\n\
+        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b}]\n\
          example: {name: d_vs_tau, kind: join, gather: [msd_fit, tau_table], params: {left: msd_fit, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}}"
             .into()
     }
@@ -196,6 +197,7 @@ impl StageKind for Join {
                 .map(|(x, y)| match d.op.as_str() {
                     "divide" => x / y,
                     "multiply" => x * y,
+                    "ln_times" => y * x.ln(),
                     _ => x.sqrt() / y,
                 })
                 .collect();
