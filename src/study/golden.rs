@@ -388,7 +388,11 @@ pub fn merge(
             .any(|id| fq.split(':').next() == Some(id.as_str()))
     };
     let mut ungated: Vec<String> = old.ungated.into_iter().filter(|u| other(u)).collect();
-    ungated.extend(new.ungated);
+    for u in new.ungated {
+        if !ungated.contains(&u) {
+            ungated.push(u);
+        }
+    }
     let mut quantities: Vec<Golden> = old
         .quantities
         .into_iter()
@@ -466,7 +470,7 @@ mod tests {
     #[test]
     fn recording_some_figures_keeps_the_others() {
         let old = file(&[1, 2], &["fig2", "fig4"], &["fig4:q", "fig2:q"]);
-        let new = file(&[1, 2], &["fig4", "fig9"], &["fig9:q"]);
+        let new = file(&[1, 2], &["fig4", "fig9"], &["fig9:q", "fig2:q"]);
         let ids = vec!["fig4".to_string(), "fig9".to_string()];
         let m = merge(old.clone(), new, &ids, "eps09").unwrap();
         let figs: Vec<&str> = m.quantities.iter().map(|q| q.figure.as_str()).collect();
