@@ -14,9 +14,33 @@ pub struct Lag {
 }
 
 impl Lag {
-    /// Jackknife block of a pair: (replica, origin frame index).
+    /// Accumulation block of a pair: (replica, origin frame index). Per-origin
+    /// analyses (Fig. 2's aging) read these keys; errors regroup them with
+    /// [`origin_bins`].
     pub fn block(pair: &(usize, usize, usize)) -> (usize, usize) {
         (pair.0, pair.1)
+    }
+}
+
+/// The jackknife unit of an error: (replica, origin bin), bins `length` long from
+/// each replica's first frame. Origins closer than the structural relaxation time
+/// see overlapping stretches of the same motion, so their blocks are correlated and
+/// a jackknife over them quotes too small an error; with `length` >= tau_alpha the
+/// bins are nearly independent. A `length` that is not a positive number leaves
+/// every origin its own bin.
+pub fn origin_bins(trajs: &[&Trajectory], length: f64) -> impl Fn(&(usize, usize)) -> (usize, usize) {
+    let starts: Vec<f64> = trajs
+        .iter()
+        .map(|t| t.frames.first().map_or(0.0, |f| f.time))
+        .collect();
+    let times: Vec<Vec<f64>> = trajs.iter().map(|t| t.times()).collect();
+    move |&(r, i): &(usize, usize)| {
+        if !(length.is_finite() && length > 0.0) {
+            return (r, i);
+        }
+        // The slack keeps an origin that lands on a bin edge in the later bin.
+        let bin = ((times[r][i] - starts[r]) / length + 1e-9).floor();
+        (r, bin as usize)
     }
 }
 
