@@ -114,13 +114,19 @@ impl Moments {
     /// The blocks of sub-box size `size` regrouped for errors into (replica, origin
     /// bin) blocks [`lags::origin_bins`] of [`Self::bin_length`].
     pub fn error_blocks(&self, trajs: &[&Trajectory], size: usize) -> Vec<Blocks> {
-        rebin(&self.blocks[size], lags::origin_bins(trajs, self.bin_length()))
+        rebin(
+            &self.blocks[size],
+            lags::origin_bins(trajs, self.bin_length()),
+        )
     }
 }
 
 /// `blocks` with their keys mapped by `bin` and the sums of keys that share a bin
 /// added: the per-origin blocks of one lag become the error's units.
-pub(crate) fn rebin(blocks: &[Blocks], bin: impl Fn(&(usize, usize)) -> (usize, usize)) -> Vec<Blocks> {
+pub(crate) fn rebin(
+    blocks: &[Blocks],
+    bin: impl Fn(&(usize, usize)) -> (usize, usize),
+) -> Vec<Blocks> {
     blocks
         .iter()
         .map(|b| {
@@ -151,7 +157,11 @@ pub(crate) fn q_of(s: &[f64]) -> f64 {
 pub fn q_curve(trajs: &[&Trajectory], p: &Params) -> Result<(Vec<f64>, Vec<Estimate>, Vec<usize>)> {
     let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
     let t = m.lags.iter().map(|l| l.t).collect();
-    let q = m.error_blocks(trajs, 0).iter().map(|b| b.jackknife(q_of)).collect();
+    let q = m
+        .error_blocks(trajs, 0)
+        .iter()
+        .map(|b| b.jackknife(q_of))
+        .collect();
     let n = m.blocks[0].iter().map(Blocks::len).collect();
     Ok((t, q, n))
 }
@@ -456,7 +466,11 @@ mod level_tests {
                 (old.value - new.value).abs() < 1e-12 * new.value,
                 "binning changes errors, not values"
             );
-            assert!((m.bin_length() / tau - 1.0).abs() < 0.2, "bin {}", m.bin_length());
+            assert!(
+                (m.bin_length() / tau - 1.0).abs() < 0.2,
+                "bin {}",
+                m.bin_length()
+            );
             values.push(new.value);
             per_origin.push(old.err);
             binned.push(new.err);
@@ -467,6 +481,9 @@ mod level_tests {
         eprintln!("tau {tau} mean {mean} spread {spread} ratio per origin {r_old} binned {r_new}");
         assert!((mean / tau - 1.0).abs() < 0.05, "tau_alpha {mean} vs {tau}");
         assert!(r_old < 0.7, "per-origin errors / spread = {r_old}");
-        assert!((0.75..1.5).contains(&r_new), "binned errors / spread = {r_new}");
+        assert!(
+            (0.75..1.5).contains(&r_new),
+            "binned errors / spread = {r_new}"
+        );
     }
 }
