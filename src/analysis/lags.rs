@@ -31,7 +31,7 @@ impl Lag {
 pub fn origin_bins(
     trajs: &[&Trajectory],
     length: f64,
-) -> impl Fn(&(usize, usize)) -> (usize, usize) {
+) -> impl Fn(&(usize, usize)) -> (usize, usize) + use<> {
     let starts: Vec<f64> = trajs
         .iter()
         .map(|t| t.frames.first().map_or(0.0, |f| f.time))
