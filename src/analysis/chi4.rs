@@ -48,19 +48,19 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 }
 
 /// As [`compute`], pooling the time origins of several replicas (jackknife over
-/// every (replica, origin) block).
+/// (replica, origin bin) blocks).
 pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
     let m = run(trajs, p)?;
     let mut cols: [Vec<f64>; 6] = Default::default();
-    for (b, per_lag) in m.boxes.iter().zip(&m.blocks) {
-        for (lag, blocks) in m.lags.iter().zip(per_lag) {
+    for (s, (b, per_lag)) in m.boxes.iter().zip(&m.blocks).enumerate() {
+        for ((lag, origins), blocks) in m.lags.iter().zip(per_lag).zip(m.error_blocks(trajs, s)) {
             let c = blocks.jackknife(chi4_of(b.n_mean));
             cols[0].push(b.n_mean);
             cols[1].push(lag.t);
             cols[2].push(super::overlap::q_of(&blocks.total()));
             cols[3].push(c.value);
             cols[4].push(c.err);
-            cols[5].push(blocks.len() as f64);
+            cols[5].push(origins.len() as f64);
         }
     }
     let [n, t, q, chi, err, no] = cols;
@@ -83,12 +83,13 @@ pub struct Peak {
 }
 
 /// chi4 peak for each sub-box size (parabola in ln t through the largest sample and
-/// its neighbours; errors by leaving out one time origin at a time).
+/// its neighbours; errors by leaving out one (replica, origin bin) block at a time).
 pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
     let m = run(trajs, p)?;
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
     let mut out = Vec::new();
-    for (b, per_lag) in m.boxes.iter().zip(&m.blocks) {
+    for (s, b) in m.boxes.iter().enumerate() {
+        let per_lag = &m.error_blocks(trajs, s);
         let f = chi4_of(b.n_mean);
         let totals: Vec<Vec<f64>> = per_lag.iter().map(Blocks::total).collect();
         let curve: Vec<f64> = totals.iter().map(|s| f(s)).collect();

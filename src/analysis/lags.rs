@@ -14,9 +14,36 @@ pub struct Lag {
 }
 
 impl Lag {
-    /// Jackknife block of a pair: (replica, origin frame index).
+    /// Accumulation block of a pair: (replica, origin frame index). Per-origin
+    /// analyses (Fig. 2's aging) read these keys; errors regroup them with
+    /// [`origin_bins`].
     pub fn block(pair: &(usize, usize, usize)) -> (usize, usize) {
         (pair.0, pair.1)
+    }
+}
+
+/// The jackknife unit of an error: (replica, origin bin), bins `length` long from
+/// each replica's first frame. Origins closer than the structural relaxation time
+/// see overlapping stretches of the same motion, so their blocks are correlated and
+/// a jackknife over them quotes too small an error; with `length` >= tau_alpha the
+/// bins are nearly independent. A `length` that is not a positive number leaves
+/// every origin its own bin.
+pub fn origin_bins(
+    trajs: &[&Trajectory],
+    length: f64,
+) -> impl Fn(&(usize, usize)) -> (usize, usize) + use<> {
+    let starts: Vec<f64> = trajs
+        .iter()
+        .map(|t| t.frames.first().map_or(0.0, |f| f.time))
+        .collect();
+    let times: Vec<Vec<f64>> = trajs.iter().map(|t| t.times()).collect();
+    move |&(r, i): &(usize, usize)| {
+        if !(length.is_finite() && length > 0.0) {
+            return (r, i);
+        }
+        // The slack keeps an origin that lands on a bin edge in the later bin.
+        let bin = ((times[r][i] - starts[r]) / length + 1e-9).floor();
+        (r, bin as usize)
     }
 }
 
@@ -161,4 +188,34 @@ pub fn in_units(
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::synthetic::random_walk;
+    use crate::traj::Schedule;
+
+    /// Origins 0.5 apart (from t = 3) fall two to a bin of length 1, per replica;
+    /// a length that is not positive keeps one block per origin.
+    #[test]
+    fn origin_bins_group_close_origins_of_each_replica() {
+        let times = Schedule {
+            start: 3.0,
+            origins: 5,
+            origin_spacing: 0.5,
+            lags: vec![0.1],
+        }
+        .times();
+        let (a, b) = (
+            random_walk(4, [5.0, 5.0], &times, 0.1, 1),
+            random_walk(4, [5.0, 5.0], &times, 0.1, 2),
+        );
+        let bin = origin_bins(&[&a, &b], 1.0);
+        // Frames: 3.0, 3.1, 3.5, 3.6, 4.0, 4.1, 4.5, 4.6, 5.0, 5.1; origins at even indices.
+        let bins: Vec<(usize, usize)> = [0, 2, 4, 6, 8].iter().map(|&i| bin(&(1, i))).collect();
+        assert_eq!(bins, vec![(1, 0), (1, 0), (1, 1), (1, 1), (1, 2)]);
+        assert_eq!(origin_bins(&[&a, &b], 0.0)(&(0, 6)), (0, 6));
+        assert_eq!(origin_bins(&[&a, &b], f64::NAN)(&(1, 4)), (1, 4));
+    }
 }

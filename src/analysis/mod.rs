@@ -6,8 +6,9 @@
 //! g_ab first minima, clusters) are public for other Rust code.
 //!
 //! Time-origin averaging: at each lag the frame pairs come from
-//! [`Trajectory::pairs_at_lag`]; each time origin (and each replica) is one block
-//! for jackknife error bars.
+//! [`Trajectory::pairs_at_lag`]; each time origin of each replica is one block,
+//! and errors use a jackknife over (replica, origin bin) blocks with bins about
+//! tau_alpha long ([`lags::origin_bins`]), since closer origins are correlated.
 
 pub mod chi4;
 pub mod clusters;

@@ -186,7 +186,8 @@ fn slope(t: &[f64], y: &[f64]) -> f64 {
 /// Diffusion coefficient from the long-time MSD (Fig. 9): D = slope / 4 of the
 /// line through Delta(t) over lags in [fit_min_tau, fit_max_tau] x tau_alpha (2D:
 /// Delta = 4 D t + const at long times; the intercept absorbs the cage plateau),
-/// replicas pooled, with a jackknife error over (replica, time origin) blocks.
+/// replicas pooled, with a jackknife error over (replica, origin bin) blocks
+/// (bins tau_alpha long).
 /// Table (one row) `D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points`.
 pub fn diffusion(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBatch> {
     let lag_list = lags::every_origin(trajs, p.lags.clone(), p.rel_tol)?;
@@ -237,6 +238,7 @@ pub fn diffusion(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBat
         }
     }
     let t: Vec<f64> = used.iter().map(|l| l.t).collect();
+    let blocks = super::overlap::rebin(&blocks, lags::origin_bins(trajs, tau.value));
     let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
     let msd: Vec<f64> = totals.iter().map(|s| s[1] / s[0]).collect();
     let d = slope(&t, &msd) / 4.0;

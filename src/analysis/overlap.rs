@@ -99,6 +99,46 @@ pub fn moments(
     })
 }
 
+impl Moments {
+    /// Length of the error bins: tau_alpha of the pooled Q (the mean of Q_r is the
+    /// same whatever the sub-box size), or the longest lag when Q never reaches 1/e
+    /// (then tau_alpha is longer still).
+    pub fn bin_length(&self) -> f64 {
+        let t: Vec<f64> = self.lags.iter().map(|l| l.t).collect();
+        let q: Vec<f64> = self.blocks[0].iter().map(|b| q_of(&b.total())).collect();
+        crossing_time(&t, &q, (-1f64).exp())
+            .or(t.last().copied())
+            .unwrap_or(f64::NAN)
+    }
+
+    /// The blocks of sub-box size `size` regrouped for errors into (replica, origin
+    /// bin) blocks [`lags::origin_bins`] of [`Self::bin_length`].
+    pub fn error_blocks(&self, trajs: &[&Trajectory], size: usize) -> Vec<Blocks> {
+        rebin(
+            &self.blocks[size],
+            lags::origin_bins(trajs, self.bin_length()),
+        )
+    }
+}
+
+/// `blocks` with their keys mapped by `bin` and the sums of keys that share a bin
+/// added: the per-origin blocks of one lag become the error's units.
+pub(crate) fn rebin(
+    blocks: &[Blocks],
+    bin: impl Fn(&(usize, usize)) -> (usize, usize),
+) -> Vec<Blocks> {
+    blocks
+        .iter()
+        .map(|b| {
+            let mut out = Blocks::default();
+            for k in b.keys() {
+                out.add(bin(k), b.get(k).expect("key from this block set"));
+            }
+            out
+        })
+        .collect()
+}
+
 /// Every (replica, origin) block that any lag saw, sorted: the jackknife's units.
 pub(crate) fn block_keys(blocks: &[Blocks]) -> Vec<(usize, usize)> {
     let mut keys: Vec<(usize, usize)> = blocks.iter().flat_map(|b| b.keys().copied()).collect();
@@ -112,11 +152,16 @@ pub(crate) fn q_of(s: &[f64]) -> f64 {
     s[0] / s[2]
 }
 
-/// Q(t) with jackknife errors over time origins, pooling replicas.
+/// Q(t) with jackknife errors over (replica, origin bin) blocks, pooling replicas,
+/// and the number of time origins at each lag.
 pub fn q_curve(trajs: &[&Trajectory], p: &Params) -> Result<(Vec<f64>, Vec<Estimate>, Vec<usize>)> {
     let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
     let t = m.lags.iter().map(|l| l.t).collect();
-    let q = m.blocks[0].iter().map(|b| b.jackknife(q_of)).collect();
+    let q = m
+        .error_blocks(trajs, 0)
+        .iter()
+        .map(|b| b.jackknife(q_of))
+        .collect();
     let n = m.blocks[0].iter().map(Blocks::len).collect();
     Ok((t, q, n))
 }
@@ -133,15 +178,20 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 }
 
 /// tau_alpha where Q(tau_alpha) = 1/e (linear interpolation in ln t), with a
-/// jackknife error over time origins and replicas. Errors if Q never reaches 1/e.
+/// jackknife error over (replica, origin bin) blocks. Errors if Q never reaches 1/e.
 pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
     let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
+    crossing_estimate(&t, &m.error_blocks(trajs, 0))
+}
+
+/// Where Q, summed in `blocks` (one per lag `t`), crosses 1/e, with a delete-one
+/// jackknife over the blocks' keys.
+fn crossing_estimate(t: &[f64], blocks: &[Blocks]) -> Result<Estimate> {
     let level = (-1f64).exp();
-    let blocks = &m.blocks[0];
     let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
     let q: Vec<f64> = totals.iter().map(|s| q_of(s)).collect();
-    let Some(value) = crossing_time(&t, &q, level) else {
+    let Some(value) = crossing_time(t, &q, level) else {
         bail!(
             "Q(t) never falls to 1/e over the lags analysed (last lag {}, Q = {}): record \
              longer lags to measure tau_alpha",
@@ -158,7 +208,7 @@ pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
                 .zip(&totals)
                 .map(|(b, tot)| q_of(&b.total_without(tot, k)))
                 .collect();
-            crossing_time(&t, &qk, level).unwrap_or(f64::NAN)
+            crossing_time(t, &qk, level).unwrap_or(f64::NAN)
         })
         .collect();
     Ok(Estimate {
@@ -186,8 +236,8 @@ pub struct LevelParams {
 
 /// Time-density superposition test (Fig. 5): for each level q, the time t_q where
 /// Q(t_q) = q and its ratio to tau_alpha (Q = 1/e). Superposition means t_q / tau_alpha
-/// is the same at every phi. Both come from one jackknife over (replica, origin)
-/// blocks, so the ratio's error accounts for their correlation.
+/// is the same at every phi. Both come from one jackknife over (replica, origin
+/// bin) blocks, so the ratio's error accounts for their correlation.
 /// Table `level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err`.
 pub fn q_levels(trajs: &[&Trajectory], p: &LevelParams) -> Result<RecordBatch> {
     if let Some(l) = p.levels.iter().find(|l| !(**l > 0.0 && **l < 1.0)) {
@@ -199,7 +249,7 @@ pub fn q_levels(trajs: &[&Trajectory], p: &LevelParams) -> Result<RecordBatch> {
     let m = moments(trajs, p.a, &[None], p.lags.as_deref(), p.rel_tol)?;
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
     let alpha = (-1f64).exp();
-    let blocks = &m.blocks[0];
+    let blocks = &m.error_blocks(trajs, 0);
     let totals: Vec<Vec<f64>> = blocks.iter().map(Blocks::total).collect();
     let q: Vec<f64> = totals.iter().map(|s| q_of(s)).collect();
     let keys = block_keys(blocks);
@@ -380,5 +430,60 @@ mod level_tests {
         let traj = random_walk(10, [10.0, 10.0], &times, 0.1, 1);
         let e = format!("{:#}", q_levels(&[&traj], &bad).unwrap_err());
         assert!(e.contains("levels") && e.contains("1.2"), "{e}");
+    }
+
+    /// Overlapping origins (every tau_alpha / 8) see overlapping stretches of the
+    /// same walk: a jackknife over single origins quotes far too small an error on
+    /// tau_alpha, one over origin bins tau_alpha long about the seed-to-seed spread.
+    #[test]
+    fn origin_bins_keep_tau_alpha_errors_honest_with_overlapping_origins() {
+        // Q = 1 - exp(-a^2 / 4 D t) = 1/e at tau = a^2 / (4 D ln(e / (e - 1))).
+        let (a, d) = (0.6, 0.1);
+        let tau = a * a / (4.0 * d * (std::f64::consts::E / (std::f64::consts::E - 1.0)).ln());
+        let lags = Schedule::log_lags(0.05 * tau, 10.0 * tau, 8);
+        let times = Schedule {
+            start: 0.0,
+            origins: 4,
+            origin_spacing: 2.0 * tau,
+            lags: lags.clone(),
+        }
+        .overlapping(0.125 * tau)
+        .times();
+        let p = Params {
+            a,
+            n: None,
+            lags: Some(lags),
+            rel_tol: 1e-6,
+        };
+        let (mut values, mut per_origin, mut binned) = (Vec::new(), Vec::new(), Vec::new());
+        for seed in 0..40 {
+            let traj = random_walk(300, [40.0, 40.0], &times, d, 100 + seed);
+            let m = moments(&[&traj], a, &[None], p.lags.as_deref(), p.rel_tol).unwrap();
+            let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
+            let old = crossing_estimate(&t, &m.blocks[0]).unwrap();
+            let new = tau_alpha(&[&traj], &p).unwrap();
+            assert!(
+                (old.value - new.value).abs() < 1e-12 * new.value,
+                "binning changes errors, not values"
+            );
+            assert!(
+                (m.bin_length() / tau - 1.0).abs() < 0.2,
+                "bin {}",
+                m.bin_length()
+            );
+            values.push(new.value);
+            per_origin.push(old.err);
+            binned.push(new.err);
+        }
+        let (mean, spread) = crate::analysis::stats::mean_std(&values);
+        let rms = |e: &[f64]| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt();
+        let (r_old, r_new) = (rms(&per_origin) / spread, rms(&binned) / spread);
+        eprintln!("tau {tau} mean {mean} spread {spread} ratio per origin {r_old} binned {r_new}");
+        assert!((mean / tau - 1.0).abs() < 0.05, "tau_alpha {mean} vs {tau}");
+        assert!(r_old < 0.7, "per-origin errors / spread = {r_old}");
+        assert!(
+            (0.75..1.5).contains(&r_new),
+            "binned errors / spread = {r_new}"
+        );
     }
 }

@@ -2,7 +2,8 @@
 //! table with statistical errors, and saying how the errors were estimated.
 //!
 //! Observables that accumulate blocks ([`super::stats::Blocks`]) pool replicas
-//! themselves: every (replica, time origin) is one block of a delete-one jackknife.
+//! themselves: every (replica, origin bin) is one block of a delete-one jackknife,
+//! bins about tau_alpha long so that overlapping origins share a block.
 //! The others are computed per replica and pooled here, seed to seed: the mean over
 //! replicas with the standard error of that mean.
 
@@ -14,7 +15,8 @@ use arrow_array::{Array, ArrayRef, Float64Array, Int64Array, RecordBatch};
 /// How a table's error columns (`X_err`) were estimated; written into its metadata.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Errors {
-    /// Delete-one jackknife over blocks: every time origin of every replica.
+    /// Delete-one jackknife over blocks: time origins of every replica, binned
+    /// tau_alpha long.
     Jackknife { replicas: usize },
     /// Standard error of the mean over time blocks of every replica.
     TimeBlocks { replicas: usize },
@@ -33,7 +35,9 @@ impl Errors {
     pub fn describe(&self) -> String {
         match self {
             Errors::Jackknife { replicas } => {
-                format!("delete-one jackknife over time-origin blocks of {replicas} replica(s)")
+                format!(
+                    "delete-one jackknife over (replica, origin bin) blocks of {replicas} replica(s), bins tau_alpha long"
+                )
             }
             Errors::TimeBlocks { replicas } => {
                 format!("standard error of the mean over time blocks of {replicas} replica(s)")
