@@ -124,6 +124,35 @@ impl Pull {
         (Root::GaveUp(tau), MAX_STEPS)
     }
 
+    /// First time within [0, h] at which the intruder's x, from `x0` with
+    /// velocity `v0` along x, reaches `lo` moving down or `hi` moving up (its
+    /// centre's range between walls in x). The 1D version of
+    /// [`Self::contact_time`]: |x'| <= |v0| exp(-gamma tau) + |F/m0| E(h) on
+    /// [tau, h], so a step of gap / bound never passes the wall; accepted at a
+    /// gap <= GAP_TOL (hi - lo) while approaching.
+    pub fn wall_time(&self, x0: f64, v0: f64, lo: f64, hi: f64, h: f64) -> (Root, u32) {
+        let tol = GAP_TOL * (hi - lo);
+        let mut tau = 0.0;
+        for step in 0..MAX_STEPS {
+            let x = x0 + v0 * self.e(tau) + self.accel * self.g(tau);
+            let v = v0 * (-self.gamma * tau).exp() + self.accel * self.e(tau);
+            let (gap_lo, gap_hi) = (x - lo, hi - x);
+            if (gap_hi <= tol && v > 0.0) || (gap_lo <= tol && v < 0.0) {
+                return (Root::At(tau), step);
+            }
+            let l = self.speed_bound(v0.abs(), tau, h);
+            if l == 0.0 {
+                return (Root::Never, step);
+            }
+            // At a wall but leaving it: a minimal step (the force may bring it back).
+            tau += gap_lo.min(gap_hi).max(tol) / l;
+            if tau >= h {
+                return (Root::Never, step + 1);
+            }
+        }
+        (Root::GaveUp(tau), MAX_STEPS)
+    }
+
     /// First time within [0, h] at which |D| reaches `radius` from inside (the
     /// intruder leaves a disk's neighbour shell), never late: accepted within
     /// GAP_TOL radius before the crossing.
