@@ -141,7 +141,11 @@ fn parse_walls(s: &str) -> Result<[bool; 2], String> {
 
 fn parse_start(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("invalid start `{s}`: use x,y as fractions of the box, e.g. 0.1,0.5");
-    match s.split(',').map(|v| v.trim().parse::<f64>()).collect::<Vec<_>>()[..] {
+    match s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Vec<_>>()[..]
+    {
         [Ok(x), Ok(y)] => Ok([x, y]),
         _ => Err(bad()),
     }

@@ -153,7 +153,9 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     let s0 = (phi0 / cfg.phi).sqrt();
     let start = cfg.intruder.as_ref().and_then(|i| i.start);
     let first_at = start.map(|f| [f[0] * box_size[0], f[1] * box_size[1]]);
-    let (x, y) = random_disks(box_size, cfg.walls, &radii, &species, s0, first_at, &mut rng)?;
+    let (x, y) = random_disks(
+        box_size, cfg.walls, &radii, &species, s0, first_at, &mut rng,
+    )?;
     let (mut vx, mut vy) = maxwell_velocities(&masses, &species, &mut rng);
     let mut held = masses.clone();
     if start.is_some() {

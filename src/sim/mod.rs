@@ -38,11 +38,11 @@ pub mod walls;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_force_kicks;
+#[cfg(test)]
 mod tests_friction;
 #[cfg(test)]
 mod tests_intruder;
-#[cfg(test)]
-mod tests_force_kicks;
 #[cfg(test)]
 mod tests_intruder_walls;
 #[cfg(test)]

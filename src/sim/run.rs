@@ -280,10 +280,9 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     e.set_kicks(kicks, rate, p_dr);
     // The force kicks' interval: kick_rate_factor times the bath's collision rate.
-    let force_dt = cfg
-        .intruder
-        .as_ref()
-        .map_or(0.0, |i| 1.0 / (i.kick_rate_factor * enskog_rate(cfg.temperature)));
+    let force_dt = cfg.intruder.as_ref().map_or(0.0, |i| {
+        1.0 / (i.kick_rate_factor * enskog_rate(cfg.temperature))
+    });
     if let Some(intr) = &cfg.intruder {
         // The force is on from here: the relaxation holds the intruder's transient.
         match intr.force_mode {

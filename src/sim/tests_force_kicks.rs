@@ -130,13 +130,21 @@ fn bath_kicks_agree_with_the_exact_force() {
                     ..Intruder::paper(30.0)
                 });
                 let (_, s) = run::run(&c, &quiet).unwrap();
-                assert!(s.energy_balance_error < 1e-9, "{mode:?}: {}", s.energy_balance_error);
+                assert!(
+                    s.energy_balance_error < 1e-9,
+                    "{mode:?}: {}",
+                    s.energy_balance_error
+                );
                 let i = s.intruder.unwrap();
                 assert_eq!(i.force_mode, mode);
                 if mode == ForceMode::Kicks {
                     // 10^4 x the Enskog rate over the production time.
                     let want = s.sim_time / i.force_kick_interval;
-                    assert!((i.force_kicks as f64 - want).abs() <= 1.0, "{} {want}", i.force_kicks);
+                    assert!(
+                        (i.force_kicks as f64 - want).abs() <= 1.0,
+                        "{} {want}",
+                        i.force_kicks
+                    );
                 } else {
                     assert_eq!(i.force_kicks, 0);
                 }
@@ -154,5 +162,8 @@ fn bath_kicks_agree_with_the_exact_force() {
     eprintln!("exact {exact:?} kicks {kicks:?}");
     let err = (se * se + sk * sk).sqrt();
     assert!(me > 0.5 && me < 7.5, "{exact:?}");
-    assert!((me - mk).abs() < 4.0 * err, "exact {me} +- {se}, kicks {mk} +- {sk}");
+    assert!(
+        (me - mk).abs() < 4.0 * err,
+        "exact {me} +- {se}, kicks {mk} +- {sk}"
+    );
 }

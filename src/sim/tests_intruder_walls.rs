@@ -111,7 +111,10 @@ fn lone_intruder_bounces_on_the_wall_as_the_analytic_solution() {
             t += 0.25;
             assert!(e.run_until(t, 100_000_000));
             let x = e.particle(0).0[0];
-            assert!((2.0..=hi * (1.0 + 1e-12)).contains(&x), "gamma {gamma}: x {x}");
+            assert!(
+                (2.0..=hi * (1.0 + 1e-12)).contains(&x),
+                "gamma {gamma}: x {x}"
+            );
         }
         let s = e.stats;
         let ke = e.particle_kinetic_energy(0);
@@ -124,7 +127,11 @@ fn lone_intruder_bounces_on_the_wall_as_the_analytic_solution() {
             assert!(e.intruder_resting(), "gamma {gamma}: {s:?}");
             assert_eq!(e.particle(0).1, [0.0, 0.0]);
             assert!((e.particle(0).0[0] - hi).abs() < 1e-8 * hi);
-            assert!(s.wall_collisions < 200_000, "{s:?}");
+            assert!(s.wall_collisions < 20_000, "{s:?}");
+            eprintln!(
+                "gamma {gamma} F {force}: {} wall hits, {} root steps",
+                s.wall_collisions, s.root_steps
+            );
             // Resting, the wall holds F: impulse F per unit time.
             let (w0, t0) = (e.stats.wall_impulse[0], e.time());
             assert!(e.run_until(t0 + 10.0, 1_000_000));
@@ -170,8 +177,8 @@ fn chosen_start_between_four_walls() {
     let mut e = pulled(&c);
     let (t0, ke0, s0) = (e.time(), e.kinetic_energy(), e.stats);
     let mut reached = false;
-    for k in 0..200 {
-        e.run_until(f64::INFINITY, 500);
+    for k in 0..300 {
+        e.run_until(f64::INFINITY, 1000);
         assert!(
             e.worst_overlap(1e-10).is_none(),
             "after {k}: {:?}",
@@ -181,7 +188,10 @@ fn chosen_start_between_four_walls() {
         for i in 0..x.len() {
             let r = e.radii[e.species[i] as usize];
             assert!(
-                x[i] >= r - 1e-9 && x[i] <= lx - r + 1e-9 && y[i] >= r - 1e-9 && y[i] <= ly - r + 1e-9,
+                x[i] >= r - 1e-9
+                    && x[i] <= lx - r + 1e-9
+                    && y[i] >= r - 1e-9
+                    && y[i] <= ly - r + 1e-9,
                 "after {k}: disk {i} at ({}, {})",
                 x[i],
                 y[i]
@@ -189,7 +199,11 @@ fn chosen_start_between_four_walls() {
         }
         reached |= x[0] > lx - 2.0 - 0.5;
     }
-    assert!(reached, "the intruder never reached the right wall: x = {:?}", e.particle(0));
+    assert!(
+        reached,
+        "the intruder never reached the right wall: x = {:?}",
+        e.particle(0)
+    );
     let s = e.stats;
     let ke = e.kinetic_energy();
     let ledger = (s.injected - s0.injected) - (s.dissipated - s0.dissipated) + (s.work - s0.work);

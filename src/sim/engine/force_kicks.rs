@@ -6,8 +6,8 @@
 //! impulse of F over [t0 + (k-1) dt, t0 + k dt]. The train is deterministic
 //! (no random numbers): the bath's draws are those of the exact mode.
 
-use super::Engine;
 use super::super::friction::Clock;
+use super::Engine;
 
 /// A regular train of force kicks.
 #[derive(Clone, Copy, Debug)]
@@ -45,7 +45,10 @@ impl Engine {
     /// `force dt`, one every `dt` of real time from now on (the intruder then
     /// moves straight between kicks; [`Self::set_force`] is the exact mode).
     pub fn set_force_kicks(&mut self, force: f64, dt: f64) -> anyhow::Result<()> {
-        anyhow::ensure!(self.intruder != super::pulled::NO_INTRUDER, "no intruder to push");
+        anyhow::ensure!(
+            self.intruder != super::pulled::NO_INTRUDER,
+            "no intruder to push"
+        );
         anyhow::ensure!(
             force.is_finite() && force >= 0.0,
             "intruder force {force} is invalid: F must be finite and >= 0"

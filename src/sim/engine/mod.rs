@@ -17,8 +17,8 @@
 
 mod ahead;
 mod driving;
-mod lists;
 mod force_kicks;
+mod lists;
 mod pulled;
 
 use super::calendar::EventCalendar;

@@ -37,7 +37,7 @@ pub(super) const NO_INTRUDER: usize = usize::MAX;
 
 /// A rebound off the wall F presses on that would return within this time
 /// (2 v / (F/m0)) leaves the intruder resting on the wall.
-pub const WALL_REST_TIME: f64 = 1e-4;
+pub const WALL_REST_TIME: f64 = 1e-3;
 
 /// The intruder's prediction horizon, in shells of motion at its speed bound:
 /// long enough that it usually leaves its shell first, short enough that
