@@ -214,3 +214,31 @@ fn chosen_start_between_four_walls() {
     );
     assert!(e.time() > t0);
 }
+
+/// Frames carry velocities when asked (figs 1-2 need the velocity field):
+/// one per particle in every frame, the intruder's along the force; none by
+/// default (paper H's frames unchanged).
+#[test]
+fn frames_carry_velocities_when_asked() {
+    let mut c = bath(400, 0.5, 1.0, 50.0);
+    c.relax_time = 1.0;
+    c.schedule = crate::traj::Schedule {
+        start: 0.0,
+        origins: 1,
+        origin_spacing: 1.0,
+        lags: vec![0.5, 1.0],
+    };
+    let (t, _) = super::run(&c, &super::tests_intruder::quiet).unwrap();
+    assert!(t.frames.iter().all(|f| f.vx.is_empty() && f.vy.is_empty()));
+    c.record_velocities = true;
+    let (tv, _) = super::run(&c, &super::tests_intruder::quiet).unwrap();
+    assert_eq!(tv.frames.len(), t.frames.len());
+    for (f, g) in tv.frames.iter().zip(&t.frames) {
+        assert_eq!(f.vx.len(), 401);
+        assert_eq!(f.vy.len(), 401);
+        // Recording does not change the trajectory.
+        assert_eq!(f.x, g.x);
+        // The intruder (particle 0) moves along the force.
+        assert!(f.vx[0] > 0.0, "{}", f.vx[0]);
+    }
+}
