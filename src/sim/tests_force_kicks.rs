@@ -6,7 +6,7 @@
 
 use super::config::{ForceMode, Intruder};
 use super::intruder::Pull;
-use super::tests_intruder::{bath, lone, pulled, quiet};
+use super::tests_intruder::{bath, lone, quiet};
 use super::{init, run};
 
 /// Position error at time `t` of a lone intruder pushed by kicks every `dt`,
