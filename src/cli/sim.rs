@@ -59,6 +59,17 @@ pub struct SimArgs {
     /// force along +x, from the start of the relaxation on.
     #[arg(long)]
     pub intruder_force: Option<f64>,
+    /// How the force acts: `exact` (the curved path, root finder) or `kicks`
+    /// (paper I's train of momentum kicks F dt).
+    #[arg(long, default_value = "exact", value_parser = ["exact", "kicks"], requires = "intruder_force")]
+    pub intruder_force_mode: String,
+    /// With `--intruder-force-mode kicks`: kicks per unit time in units of the
+    /// bath's Enskog collision frequency (paper I: 10^4).
+    #[arg(long, default_value_t = 1e4, requires = "intruder_force")]
+    pub intruder_kick_rate_factor: f64,
+    /// The intruder's start, `x,y` as fractions of the box sides (default: at random).
+    #[arg(long, value_parser = parse_start, requires = "intruder_force")]
+    pub intruder_start: Option<[f64; 2]>,
     /// Measured (production) time after relaxation.
     #[arg(long, default_value_t = 10.0)]
     pub time: f64,
@@ -128,6 +139,18 @@ fn parse_walls(s: &str) -> Result<[bool; 2], String> {
     }
 }
 
+fn parse_start(s: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("invalid start `{s}`: use x,y as fractions of the box, e.g. 0.1,0.5");
+    match s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Vec<_>>()[..]
+    {
+        [Ok(x), Ok(y)] => Ok([x, y]),
+        _ => Err(bad()),
+    }
+}
+
 fn parse_kick_rate(s: &str) -> Result<KickRate, String> {
     let bad = || format!("invalid kick rate `{s}`: use balanced, enskog, enskog*F or a number");
     match s {
@@ -169,7 +192,16 @@ impl SimArgs {
             temperature: self.temperature,
             aspect: self.aspect,
             walls: self.walls,
-            intruder: self.intruder_force.map(sim::config::Intruder::paper),
+            intruder: self.intruder_force.map(|f| sim::config::Intruder {
+                force_mode: if self.intruder_force_mode == "kicks" {
+                    sim::ForceMode::Kicks
+                } else {
+                    sim::ForceMode::Exact
+                },
+                kick_rate_factor: self.intruder_kick_rate_factor,
+                start: self.intruder_start,
+                ..sim::config::Intruder::paper(f)
+            }),
             seed: self.seed,
             relax_time: self.relax,
             compression_rate: self.compression_rate,
@@ -339,6 +371,9 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     aspect: 1.0,
                     walls: [false, false],
                     intruder_force: None,
+                    intruder_force_mode: "exact".into(),
+                    intruder_kick_rate_factor: 1e4,
+                    intruder_start: None,
                     time: b.time,
                     relax: b.relax,
                     compression_rate: b.compression_rate,

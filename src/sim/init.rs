@@ -15,13 +15,15 @@ use rand_distr::{Distribution, StandardNormal};
 /// quickly (it jams only near 0.547).
 const START_PHI: f64 = 0.3;
 
-/// Place disks of radius `scale * radii[s]` at random without overlaps.
+/// Place disks of radius `scale * radii[s]` at random without overlaps
+/// (disk 0 at `first`, if given).
 fn random_disks(
     box_size: [f64; 2],
     walls: [bool; 2],
     radii: &[f64],
     species: &[u8],
     scale: f64,
+    first: Option<[f64; 2]>,
     rng: &mut ChaCha8Rng,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let w = 2.0 * radii.iter().copied().fold(0.0, f64::max) * scale;
@@ -36,10 +38,13 @@ fn random_disks(
         let mut placed = false;
         for _ in 0..100_000 {
             // Between walls the centres stay a radius away from them.
-            let (px, py) = (
-                place(rng.random::<f64>(), box_size[0], walls[0], ri),
-                place(rng.random::<f64>(), box_size[1], walls[1], ri),
-            );
+            let (px, py) = match first {
+                Some(p) if i == 0 => (p[0], p[1]),
+                _ => (
+                    place(rng.random::<f64>(), box_size[0], walls[0], ri),
+                    place(rng.random::<f64>(), box_size[1], walls[1], ri),
+                ),
+            };
             let cx = ((px / wx) as usize).min(ncx - 1);
             let cy = ((py / wy) as usize).min(ncy - 1);
             let mut free = true;
@@ -125,8 +130,13 @@ pub fn set_temperature(e: &mut Engine, t: f64) {
     }
 }
 
+/// A held intruder's mass during the compression, in units of its own: the
+/// disks bounce off it and it moves by ~1e-12 of their displacement.
+const HOLD_MASS: f64 = 1e12;
+
 /// An engine at `cfg.phi` with T = 1, no overlaps, elastic and undriven; its
-/// clock reads the time spent compressing.
+/// clock reads the time spent compressing. An intruder with a chosen start is
+/// held there (a huge mass) during the compression and left at rest.
 pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     let mut rng = rng_from_seed(cfg.seed);
     let radii = cfg.radii();
@@ -141,14 +151,23 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     let box_size = cfg.box_size();
     let phi0 = cfg.phi.min(START_PHI);
     let s0 = (phi0 / cfg.phi).sqrt();
-    let (x, y) = random_disks(box_size, cfg.walls, &radii, &species, s0, &mut rng)?;
-    let (vx, vy) = maxwell_velocities(&masses, &species, &mut rng);
+    let start = cfg.intruder.as_ref().and_then(|i| i.start);
+    let first_at = start.map(|f| [f[0] * box_size[0], f[1] * box_size[1]]);
+    let (x, y) = random_disks(
+        box_size, cfg.walls, &radii, &species, s0, first_at, &mut rng,
+    )?;
+    let (mut vx, mut vy) = maxwell_velocities(&masses, &species, &mut rng);
+    let mut held = masses.clone();
+    if start.is_some() {
+        held[2] *= HOLD_MASS;
+        (vx[0], vy[0]) = (0.0, 0.0);
+    }
     let setup = Setup {
         lx: box_size[0],
         ly: box_size[1],
         walls: cfg.walls,
         radii,
-        masses,
+        masses: held,
         species,
         x,
         y,
@@ -161,6 +180,10 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     }
     if s0 < 1.0 {
         compress(&mut e, cfg, s0, progress)?;
+    }
+    if let Some(p) = first_at {
+        debug_assert!(p[0].is_finite());
+        e.release_intruder(masses[2]);
     }
     e.sort_by_cell();
     Ok(e)

@@ -124,6 +124,40 @@ impl Pull {
         (Root::GaveUp(tau), MAX_STEPS)
     }
 
+    /// First time within [0, h] at which the intruder's x, from `x0` with
+    /// velocity `v0` along x, reaches `lo` moving down or `hi` moving up (its
+    /// centre's range between walls in x). The 1D member of the family of
+    /// [`Self::contact_time`], with a local bound: x'' = F/m0 - gamma x' only
+    /// shrinks in size from tau on, so with A = |F/m0 - gamma x'(tau)| the gap
+    /// g to the nearer wall cannot close before the root of
+    /// g = |x'(tau)| d + A d^2 / 2: a step of that d never passes a wall, and
+    /// near a rebound's apex it stays long (the straight bound of
+    /// `contact_time` would crawl). Accepted at a gap <= GAP_TOL (hi - lo)
+    /// while approaching.
+    pub fn wall_time(&self, x0: f64, v0: f64, lo: f64, hi: f64, h: f64) -> (Root, u32) {
+        let tol = GAP_TOL * (hi - lo);
+        let mut tau = 0.0;
+        for step in 0..MAX_STEPS {
+            let x = x0 + v0 * self.e(tau) + self.accel * self.g(tau);
+            let v = v0 * (-self.gamma * tau).exp() + self.accel * self.e(tau);
+            let (gap_lo, gap_hi) = (x - lo, hi - x);
+            if (gap_hi <= tol && v > 0.0) || (gap_lo <= tol && v < 0.0) {
+                return (Root::At(tau), step);
+            }
+            let a = (self.accel - self.gamma * v).abs();
+            if v == 0.0 && a == 0.0 {
+                return (Root::Never, step);
+            }
+            // At a wall but leaving it: a minimal step (the force may bring it back).
+            let g = gap_lo.min(gap_hi).max(tol);
+            tau += 2.0 * g / (v.abs() + (v * v + 2.0 * a * g).sqrt());
+            if tau >= h {
+                return (Root::Never, step + 1);
+            }
+        }
+        (Root::GaveUp(tau), MAX_STEPS)
+    }
+
     /// First time within [0, h] at which |D| reaches `radius` from inside (the
     /// intruder leaves a disk's neighbour shell), never late: accepted within
     /// GAP_TOL radius before the crossing.
@@ -332,6 +366,48 @@ mod unit {
         assert_eq!(steps, MAX_STEPS);
         let b = 1e3 - (sigma * sigma - d[1] * d[1]).sqrt();
         assert!(t <= b && t > 0.99 * b, "{t} vs contact at {b}");
+    }
+
+    #[test]
+    fn wall_time_matches_bisection_and_never_passes_the_wall() {
+        for (gamma, accel, v0) in [
+            (0.0, 25.0, 0.0),
+            (1.0, 25.0, -3.0),
+            (0.5, 2.0, -1e-3),
+            (2.0, 0.0, 4.0),
+        ] {
+            let p = Pull { gamma, accel };
+            let (lo, hi, x0) = (2.0, 98.0, 97.0);
+            let x = |t: f64| x0 + v0 * p.e(t) + accel * p.g(t);
+            let (root, _) = p.wall_time(x0, v0, lo, hi, 1e3);
+            let Root::At(t) = root else {
+                panic!("{gamma} {accel}: {root:?}")
+            };
+            // The first crossing of hi, by a dense scan and bisection.
+            let n = 1_000_000;
+            let first = (1..=n)
+                .map(|i| 50.0 * i as f64 / n as f64)
+                .find(|&t| x(t) >= hi);
+            let b = first.map(|t1| {
+                let (mut a, mut b) = (t1 - 50.0 / n as f64, t1);
+                for _ in 0..200 {
+                    let m = 0.5 * (a + b);
+                    if x(m) >= hi { b = m } else { a = m }
+                }
+                b
+            });
+            let b = b.expect("reaches the wall");
+            assert!(
+                t <= b + 1e-12 && (t - b).abs() < 1e-6,
+                "{gamma} {accel}: {t} vs {b}"
+            );
+        }
+        // Pulled away from the lower wall and too slow to reach the upper: never.
+        let p = Pull {
+            gamma: 1.0,
+            accel: -1.0,
+        };
+        assert_eq!(p.wall_time(50.0, 0.5, 2.0, 98.0, 10.0).0, Root::Never);
     }
 
     #[test]

@@ -38,12 +38,16 @@ pub mod walls;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_force_kicks;
+#[cfg(test)]
 mod tests_friction;
 #[cfg(test)]
 mod tests_intruder;
 #[cfg(test)]
+mod tests_intruder_walls;
+#[cfg(test)]
 mod tests_walls;
 
-pub use config::{Drive, KickRate, Masses, SimConfig};
+pub use config::{Drive, ForceMode, KickRate, Masses, SimConfig};
 pub use progress::{Progress, Stage};
 pub use run::{RunSummary, Sample, run};

@@ -1,7 +1,7 @@
 //! One simulation from config to trajectory: compress, relax under driving,
 //! then record frames and measure temperature, pressure and rates.
 
-use super::config::{Drive, KickRate, SimConfig};
+use super::config::{Drive, ForceMode, KickRate, SimConfig};
 use super::engine::{Engine, Kicks};
 use super::enskog;
 use super::init;
@@ -122,6 +122,13 @@ pub struct IntruderSummary {
     pub root_steps_per_call: f64,
     /// Re-predictions (the root finder gave up, or its horizon passed) over production.
     pub repredicts: u64,
+    /// How F acted, and with `kicks` the force kicks over production and their interval.
+    #[serde(default)]
+    pub force_mode: ForceMode,
+    #[serde(default)]
+    pub force_kicks: u64,
+    #[serde(default)]
+    pub force_kick_interval: f64,
 }
 
 /// Takes samples of T and P at regular times while the engine advances.
@@ -272,9 +279,16 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     }
     let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     e.set_kicks(kicks, rate, p_dr);
+    // The force kicks' interval: kick_rate_factor times the bath's collision rate.
+    let force_dt = cfg.intruder.as_ref().map_or(0.0, |i| {
+        1.0 / (i.kick_rate_factor * enskog_rate(cfg.temperature))
+    });
     if let Some(intr) = &cfg.intruder {
         // The force is on from here: the relaxation holds the intruder's transient.
-        e.set_force(intr.force)?;
+        match intr.force_mode {
+            ForceMode::Exact => e.set_force(intr.force)?,
+            ForceMode::Kicks => e.set_force_kicks(intr.force, force_dt)?,
+        }
     }
 
     let prod = cfg.schedule.end();
@@ -337,6 +351,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let before = e.stats;
     let ke0 = e.kinetic_energy();
     let intruder0 = e.intruder().map(|k| e.particle(k).0);
+    let force_kicks0 = e.force_kicks();
     let cpu_prod0 = resources::thread_cpu_seconds();
     let n_relax_samples = s.samples.len();
 
@@ -420,6 +435,13 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
                 root_steps_per_call: (st.root_steps - before.root_steps) as f64
                     / calls.max(1) as f64,
                 repredicts: st.repredicts - before.repredicts,
+                force_mode: intr.force_mode,
+                force_kicks: e.force_kicks() - force_kicks0,
+                force_kick_interval: if intr.force_mode == ForceMode::Kicks {
+                    force_dt
+                } else {
+                    0.0
+                },
             })
         }
         _ => None,

@@ -2,17 +2,17 @@
 //! balance (Eq. 11), the energy ledger with the work of F, no overlaps, and
 //! the configurations it cannot run in.
 
-use super::config::Intruder;
+use super::config::{ForceMode, Intruder};
 use super::engine::{Engine, Setup, rng_from_seed};
 use super::intruder::Pull;
 use super::{Drive, KickRate, SimConfig, init, run};
 use crate::traj::Schedule;
 
-fn quiet(_: super::Progress) {}
+pub(super) fn quiet(_: super::Progress) {}
 
 /// Paper I's bath (radius ratio 1.25, m_b = 25/16, eps = 0.9) with paper I's
 /// intruder pulled by `force`.
-fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
+pub(super) fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
     SimConfig {
         n,
         phi,
@@ -40,7 +40,7 @@ fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
 
 /// A compressed engine with friction, driving and the force on, as `run`
 /// starts it (kicks at the rate of an Enskog frequency of 5 per particle).
-fn pulled(c: &SimConfig) -> Engine {
+pub(super) fn pulled(c: &SimConfig) -> Engine {
     let mut e = init::prepare(c, &quiet).unwrap();
     e.eps = c.eps;
     e.tc = c.collapse_tc;
@@ -56,7 +56,7 @@ fn pulled(c: &SimConfig) -> Engine {
 
 /// The intruder (radius 2, mass 4) and a small disk far from its path, in a
 /// 100 x 100 periodic box.
-fn lone(v0: [f64; 2]) -> Engine {
+pub(super) fn lone(v0: [f64; 2]) -> Engine {
     let setup = Setup {
         lx: 100.0,
         ly: 100.0,
@@ -304,23 +304,51 @@ fn invalid_intruders_name_the_key() {
     assert!(err(c.clone()).contains("intruder.force = NaN"));
     c.intruder = Some(Intruder {
         radius: 30.0,
-        mass: 4.0,
-        force: 1.0,
+        ..Intruder::paper(1.0)
     });
     assert!(err(c.clone()).contains("intruder.radius = 30 is too large for the box"));
     c.intruder = Some(Intruder {
-        radius: 2.0,
         mass: 0.0,
-        force: 1.0,
+        ..Intruder::paper(1.0)
     });
     assert!(err(c.clone()).contains("intruder.mass = 0 is invalid"));
-    c.intruder = Some(Intruder::paper(10.0));
-    c.walls = [true, false];
-    assert!(err(c.clone()).contains("with walls in x is not supported"));
-    // F = 0 between walls in x: a passive large disk, allowed.
-    c.intruder = Some(Intruder::paper(0.0));
+    c.intruder = Some(Intruder {
+        kick_rate_factor: 0.5,
+        ..Intruder::paper(1.0)
+    });
+    assert!(err(c.clone()).contains("intruder.kick_rate_factor = 0.5 is invalid"));
+    // Pulled between walls in x (paper I figs 1-2): allowed; a start must
+    // keep R_0 from the walls and lie in the box.
+    c.walls = [true, true];
+    c.intruder = Some(Intruder {
+        start: Some([0.01, 0.5]),
+        ..Intruder::paper(10.0)
+    });
+    assert!(
+        err(c.clone()).contains("overlaps a wall of axis x"),
+        "{}",
+        err(c.clone())
+    );
+    c.intruder = Some(Intruder {
+        start: Some([0.5, 1.0]),
+        ..Intruder::paper(10.0)
+    });
+    assert!(err(c.clone()).contains("the y fraction 1 must be in [0, 1)"));
+    c.intruder = Some(Intruder {
+        start: Some([0.1, 0.5]),
+        ..Intruder::paper(10.0)
+    });
     c.validate().unwrap();
-    // From YAML, R_0 and m_0 default to paper I's.
+    // From YAML, R_0 and m_0 default to paper I's, the force is exact.
     let y: SimConfig = serde_saphyr::from_str("intruder: {force: 5}").unwrap();
     assert_eq!(y.intruder, Some(Intruder::paper(5.0)));
+    let y: SimConfig = serde_saphyr::from_str(
+        "intruder: {force: 5, force_mode: kicks, kick_rate_factor: 100, start: [0.1, 0.5]}",
+    )
+    .unwrap();
+    let i = y.intruder.unwrap();
+    assert_eq!(
+        (i.force_mode, i.kick_rate_factor, i.start),
+        (ForceMode::Kicks, 100.0, Some([0.1, 0.5]))
+    );
 }

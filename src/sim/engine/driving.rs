@@ -22,12 +22,13 @@ impl Engine {
     pub(super) fn schedule_kick(&mut self) {
         let wait = self.kick_wait();
         // Kicks come at a constant rate in time, not in the friction clock.
-        self.next_kick = if self.clock.gamma == 0.0 {
+        self.next_drive = if self.clock.gamma == 0.0 {
             self.now + wait
         } else {
             self.clock.s(self.clock.t(self.now) + wait)
         };
-        if self.next_kick < f64::INFINITY {
+        self.next_kick = self.next_drive.min(self.train.next);
+        if self.next_drive < f64::INFINITY {
             let n = self.n();
             let rng = &mut self.rng;
             let ring = self

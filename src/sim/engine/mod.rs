@@ -17,6 +17,7 @@
 
 mod ahead;
 mod driving;
+mod force_kicks;
 mod lists;
 mod pulled;
 
@@ -199,7 +200,12 @@ pub struct Engine {
     kicks: Kicks,
     /// Pair kicks per unit time, whole system.
     kick_rate: f64,
+    /// Clock reading of the next kick of either train: the driving's
+    /// (`next_drive`) or the force's (`train.next`).
     next_kick: f64,
+    next_drive: f64,
+    /// The force on the intruder as a train of momentum kicks (off: never).
+    train: force_kicks::Train,
     /// The first disk of the next kick, drawn [`KICKS_AHEAD`] kicks before it so
     /// that its data is fetched from memory while the events before it run.
     kick_next: usize,
@@ -226,6 +232,9 @@ pub struct Engine {
     /// The pulled intruder's pending event (its `Disk::te` reads minus
     /// infinity so that the bath's pair scan skips it).
     intruder_te: f64,
+    /// The pulled intruder rests on the x wall the force presses it on (the
+    /// wall holds F; see [`pulled`]).
+    resting: bool,
     rng: ChaCha8Rng,
     pub stats: Stats,
 }
@@ -355,6 +364,8 @@ impl Engine {
             kicks: Kicks::Off,
             kick_rate: 0.0,
             next_kick: f64::INFINITY,
+            next_drive: f64::INFINITY,
+            train: force_kicks::Train::OFF,
             kick_next: 0,
             kick_ring: None,
             kick_pos: 0,
@@ -370,6 +381,7 @@ impl Engine {
                 accel: 0.0,
             },
             intruder_te: f64::INFINITY,
+            resting: false,
             rng,
             stats: Stats::default(),
         };
@@ -508,7 +520,7 @@ impl Engine {
         self.account_friction();
         let lam = self.lambda();
         let t = self.clock.t(self.now);
-        let t_kick = self.clock.t(self.next_kick);
+        let t_kick = self.clock.t(self.next_drive);
         for d in &mut self.d {
             d.vx *= lam;
             d.vy *= lam;
@@ -519,7 +531,9 @@ impl Engine {
         self.pull.gamma = gamma;
         self.now = 0.0;
         self.time = t;
-        self.next_kick = self.clock.s(t_kick);
+        self.next_drive = self.clock.s(t_kick);
+        self.train.next = self.train.reading(&self.clock);
+        self.next_kick = self.next_drive.min(self.train.next);
         self.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
         self.lam2 = 1.0;
         self.reschedule_all();
@@ -634,8 +648,12 @@ impl Engine {
                     return true;
                 }
                 self.now = self.next_kick;
-                self.kick();
-                self.schedule_kick();
+                if self.next_kick == self.train.next {
+                    self.force_kick();
+                } else {
+                    self.kick();
+                    self.schedule_kick();
+                }
                 continue;
             }
             if te > s_stop {
@@ -891,7 +909,10 @@ impl Engine {
         let (m, lam, d) = (self.mass(i), self.lambda(), self.d[i]);
         let (pos, old) = if axis == 0 { (d.x, d.vx) } else { (d.y, d.vy) };
         let upper = pos > 0.5 * self.wall_len[axis];
-        let new = walls::reflect(old, d.radius, self.growth, upper);
+        let mut new = walls::reflect(old, d.radius, self.growth, upper);
+        if axis == 0 && upper && i == self.pulled {
+            new = self.settle_on_wall(i, new);
+        }
         let dm = &mut self.d[i];
         if axis == 0 {
             dm.vx = new;

@@ -15,6 +15,16 @@
 //! - The intruder predicts from its own neighbour list, with the horizon cut
 //!   at each disk's pending event. When the root finder gives up, or nothing
 //!   happens within the horizon, the event is a re-prediction ([`REPREDICT`]).
+//! - Between walls in x, its wall times come from the 1D root finder
+//!   ([`Pull::wall_time`]). The wall F presses it on reflects it elastically,
+//!   but with friction the bounces shrink without end (their number grows
+//!   exponentially in time), so a rebound that would return within
+//!   [`WALL_REST_TIME`] is absorbed instead: the intruder rests on the wall
+//!   (the wall holds F; its kinetic energy along x goes to the dissipation
+//!   ledger, F's share to the wall pressure) until a collision or kick gives
+//!   it a velocity along x. The same rule as the collapse guard of pair
+//!   collisions, on the wall: the bounce is given up when the next one would
+//!   come within a fixed short time.
 
 use super::super::disk::{Disk, REPREDICT, SHELL, WALL};
 use super::super::intruder::{Pull, Root};
@@ -24,6 +34,10 @@ use super::Engine;
 
 /// No intruder (or one the force does not pull): its index.
 pub(super) const NO_INTRUDER: usize = usize::MAX;
+
+/// A rebound off the wall F presses on that would return within this time
+/// (2 v / (F/m0)) leaves the intruder resting on the wall.
+pub const WALL_REST_TIME: f64 = 1e-3;
 
 /// The intruder's prediction horizon, in shells of motion at its speed bound:
 /// long enough that it usually leaves its shell first, short enough that
@@ -41,18 +55,56 @@ impl Engine {
         (self.intruder != NO_INTRUDER).then_some(self.intruder)
     }
 
+    /// Left at rest after the compression with its mass `mass` (it was held
+    /// in place by a huge one).
+    pub fn release_intruder(&mut self, mass: f64) {
+        let k = self.intruder;
+        self.advance(k);
+        self.masses[self.species[k] as usize] = mass;
+        let d = &mut self.d[k];
+        (d.vx, d.vy) = (0.0, 0.0);
+        d.count = d.count.wrapping_add(1);
+        self.reschedule_all();
+    }
+
+    /// The pulled intruder rests on the x wall (it touches it and has no
+    /// velocity along x): then the wall holds F.
+    pub fn intruder_resting(&self) -> bool {
+        self.resting && self.d[self.pulled].vx == 0.0
+    }
+
+    /// The intruder's motion law now: no acceleration while it rests on the wall.
+    #[inline]
+    fn path(&self) -> Pull {
+        if self.intruder_resting() {
+            Pull {
+                gamma: self.pull.gamma,
+                accel: 0.0,
+            }
+        } else {
+            self.pull
+        }
+    }
+
+    /// A rebound `u` (clock units) off the x wall F presses on: kept, or 0
+    /// with the intruder resting when it would return within [`WALL_REST_TIME`].
+    pub(super) fn settle_on_wall(&mut self, i: usize, u: f64) -> f64 {
+        let v = u.abs() * self.lambda();
+        if i != self.pulled || 2.0 * v >= self.pull.accel * WALL_REST_TIME {
+            return u;
+        }
+        self.resting = true;
+        self.stats.dissipated += 0.5 * self.mass(i) * v * v;
+        0.0
+    }
+
     /// Pull the intruder with force `force` along +x from now on (0: a
-    /// passive disk). Needs the neighbour lists (radii fixed, 5 x 5 cells) and
-    /// no walls in x.
+    /// passive disk). Needs the neighbour lists (radii fixed, 5 x 5 cells).
     pub fn set_force(&mut self, force: f64) -> anyhow::Result<()> {
         anyhow::ensure!(self.intruder != NO_INTRUDER, "no intruder to pull");
         anyhow::ensure!(
             force.is_finite() && force >= 0.0,
             "intruder force {force} is invalid: F must be finite and >= 0"
-        );
-        anyhow::ensure!(
-            force == 0.0 || !self.wall_len[0].is_finite(),
-            "the intruder cannot be pulled along x between walls in x"
         );
         anyhow::ensure!(
             force == 0.0 || (!self.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0),
@@ -61,6 +113,7 @@ impl Engine {
         );
         self.sync_all();
         self.force = force;
+        self.resting = false;
         self.pulled = if force > 0.0 {
             self.intruder
         } else {
@@ -107,8 +160,9 @@ impl Engine {
         let lam0 = self.clock.lambda(d.t);
         let tau = self.real_interval(d.t, self.now);
         let v0 = [d.vx * lam0, d.vy * lam0];
-        let dx = self.pull.displacement(v0, tau);
-        ([d.x + dx[0], d.y + dx[1]], self.pull.velocity(v0, tau))
+        let p = self.path();
+        let dx = p.displacement(v0, tau);
+        ([d.x + dx[0], d.y + dx[1]], p.velocity(v0, tau))
     }
 
     /// Move the pulled intruder to now along its exact path; the work of F
@@ -124,6 +178,11 @@ impl Engine {
         let ([x, y], v) = self.intruder_now();
         let m = self.mass(k);
         self.stats.work += self.force * (x - d.x);
+        if self.intruder_resting() {
+            // The wall holds F meanwhile.
+            self.stats.wall_impulse[0] += self.force * tau;
+            self.stats.wall_virial += x * self.force * tau;
+        }
         let u1 = [v[0] / lam1, v[1] / lam1];
         if self.clock.gamma > 0.0 {
             // The kinetic energy in u holds the intruder's at its last update,
@@ -145,7 +204,7 @@ impl Engine {
     /// v_x = V + (v0_x - V) exp(-gamma t), V = F / (gamma m), v_y = v0_y exp(-gamma t).
     fn intruder_friction(&self, m: f64, v0: [f64; 2], tau: f64) -> f64 {
         let g = self.clock.gamma;
-        let vt = self.pull.accel / g;
+        let vt = self.path().accel / g;
         let c = v0[0] - vt;
         let e1 = self.pull.e(tau);
         let e2 = Pull {
@@ -163,7 +222,11 @@ impl Engine {
         let a = self.d[i];
         let lam = self.lambda();
         let v = [a.vx * lam, a.vy * lam];
-        let p = self.pull;
+        if self.resting && a.vx != 0.0 {
+            // A collision or kick moved it off the wall: the force acts again.
+            self.resting = false;
+        }
+        let p = self.path();
         // Horizon: the bound |v| + |F/m0| h allows HORIZON_SHELLS shells of
         // motion. (Not cut at the clock's re-anchoring: an event past it
         // re-anchors the clock, which predicts everything anew.)
@@ -202,6 +265,17 @@ impl Engine {
                 _ => {}
             }
         }
+        let lx = self.wall_len[0];
+        if lx.is_finite() {
+            let (root, steps) = p.wall_time(a.x, v[0], a.radius, lx - a.radius, best);
+            self.stats.root_calls += 1;
+            self.stats.root_steps += u64::from(steps);
+            match root {
+                Root::At(t) if t < best => (best, partner) = (t, WALL),
+                Root::GaveUp(t) if t < best => (best, partner) = (t, REPREDICT),
+                _ => {}
+            }
+        }
         let mut ds = self.clock_interval(best);
         // Across y the intruder moves as any disk: straight in the clock.
         let l = self.wall_len[1];
@@ -233,7 +307,7 @@ impl Engine {
         ];
         let w = [v[0] - a.vx * lam, v[1] - a.vy * lam];
         let (root, steps) = self
-            .pull
+            .path()
             .contact_time(sep, w, a.radius + self.d[k].radius, h);
         self.stats.root_calls += 1;
         self.stats.root_steps += u64::from(steps);

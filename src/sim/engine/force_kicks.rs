@@ -1,0 +1,103 @@
+//! The force on the intruder as paper I applies it: a train of momentum kicks
+//! F dt along +x, one every dt of real time (the paper: dt = 1 / (10^4 x the
+//! collision rate)). Between kicks the intruder moves like any disk, straight
+//! in the friction clock, so the pair scan and the wall times serve as they
+//! are. Kick k comes at t0 + (k - 1/2) dt, the middle of its interval: the
+//! impulse of F over [t0 + (k-1) dt, t0 + k dt]. The train is deterministic
+//! (no random numbers): the bath's draws are those of the exact mode.
+
+use super::super::friction::Clock;
+use super::Engine;
+
+/// A regular train of force kicks.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Train {
+    /// Real time between kicks (infinity: off).
+    dt: f64,
+    /// Real time the train starts.
+    t0: f64,
+    /// Kicks given so far.
+    k: u64,
+    /// Clock reading of the next kick (infinity: off).
+    pub(super) next: f64,
+}
+
+impl Train {
+    pub(super) const OFF: Train = Train {
+        dt: f64::INFINITY,
+        t0: 0.0,
+        k: 0,
+        next: f64::INFINITY,
+    };
+
+    /// Clock reading of the next kick on `clock` (infinity when off).
+    pub(super) fn reading(&self, clock: &Clock) -> f64 {
+        if self.dt.is_finite() {
+            clock.s(self.t0 + (self.k as f64 + 0.5) * self.dt)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+impl Engine {
+    /// Push the intruder with force `force` along +x as a train of kicks
+    /// `force dt`, one every `dt` of real time from now on (the intruder then
+    /// moves straight between kicks; [`Self::set_force`] is the exact mode).
+    pub fn set_force_kicks(&mut self, force: f64, dt: f64) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.intruder != super::pulled::NO_INTRUDER,
+            "no intruder to push"
+        );
+        anyhow::ensure!(
+            force.is_finite() && force >= 0.0,
+            "intruder force {force} is invalid: F must be finite and >= 0"
+        );
+        anyhow::ensure!(
+            dt.is_finite() && dt > 0.0,
+            "force kick interval {dt} is invalid: must be positive"
+        );
+        self.force = force;
+        self.train = if force > 0.0 {
+            Train {
+                dt,
+                t0: self.clock.t(self.now),
+                k: 0,
+                next: 0.0,
+            }
+        } else {
+            Train::OFF
+        };
+        self.train.next = self.train.reading(&self.clock);
+        self.next_kick = self.next_drive.min(self.train.next);
+        Ok(())
+    }
+
+    /// Force kicks given so far.
+    pub fn force_kicks(&self) -> u64 {
+        self.train.k
+    }
+
+    /// The next force kick (now): the intruder gets F dt along x; the kinetic
+    /// energy it gains is the work of F (the ledger closes with it).
+    pub(super) fn force_kick(&mut self) {
+        let i = self.intruder;
+        self.advance(i);
+        let lam = self.lambda();
+        let before = self.kinetic_energy_of(i);
+        let m = self.mass(i) * lam;
+        let d = &mut self.d[i];
+        d.vx += self.force * self.train.dt / m;
+        d.count = d.count.wrapping_add(1);
+        let du = self.kinetic_energy_of(i) - before;
+        if self.clock.gamma > 0.0 {
+            self.account_friction();
+            self.ke_u += du;
+        }
+        self.stats.work += du * (lam * lam);
+        self.train.k += 1;
+        self.train.next = self.train.reading(&self.clock);
+        self.next_kick = self.next_drive.min(self.train.next);
+        self.predict(i);
+    }
+}
