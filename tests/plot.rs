@@ -18,6 +18,7 @@ fn axis(label: &str, log: bool) -> Axis {
         label: label.into(),
         log,
         range: None,
+        from_zero: false,
     }
 }
 

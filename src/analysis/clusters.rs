@@ -249,10 +249,11 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     ])
 }
 
-/// Table `t, kind, Nc, P, n_clusters, n_spanning, largest_spanning`: the log-binned
-/// size distribution of the slow (kind 0) and fast (kind 1) clusters that do not
-/// span the box, at each lag, pooled over time origins; beside it the number of
-/// spanning clusters left out and the largest of them (0 if none).
+/// Table `t, kind, Nc, P, P_err, n_clusters, n_spanning, largest_spanning`: the
+/// log-binned size distribution of the slow (kind 0) and fast (kind 1) clusters
+/// that do not span the box, at each lag, pooled over time origins, with its
+/// counting error P / sqrt(clusters in bin); beside it the number of spanning
+/// clusters left out and the largest of them (0 if none).
 pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     sizes_table(&compute(traj, p)?, p)
 }
@@ -267,7 +268,7 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
             .expect("column written by compute")
     };
     let (t, kind, nc, spans) = (col("t"), col("kind"), col("Nc"), col("spans"));
-    let mut cols: [Vec<f64>; 7] = Default::default();
+    let mut cols: [Vec<f64>; 8] = Default::default();
     for &lag in &p.lags {
         for k in [0.0, 1.0] {
             let here: Vec<usize> = (0..t.len())
@@ -294,15 +295,17 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
                 cols[4].push(count as f64);
                 cols[5].push(spanning);
                 cols[6].push(largest);
+                cols[7].push(prob / (count as f64).sqrt());
             }
         }
     }
-    let [t, k, n, pr, c, sp, big] = cols;
+    let [t, k, n, pr, c, sp, big, pe] = cols;
     f64_batch(&[
         ("t", t),
         ("kind", k),
         ("Nc", n),
         ("P", pr),
+        ("P_err", pe),
         ("n_clusters", c),
         ("n_spanning", sp),
         ("largest_spanning", big),
@@ -391,6 +394,10 @@ mod tests {
         );
         assert!((pr[slow[0]] - 2.0 / 3.0).abs() < 1e-12 && (pr[slow[1]] - 1.0 / 3.0).abs() < 1e-12);
         assert!(slow.iter().all(|&i| sp[i] == 1.0 && big[i] == 400.0));
+        // Counting error: two clusters of size 1, one of size 2.
+        let pe = col("P_err");
+        assert!((pe[slow[0]] - pr[slow[0]] / 2f64.sqrt()).abs() < 1e-12);
+        assert!((pe[slow[1]] - pr[slow[1]]).abs() < 1e-12);
         let fast: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 1.0).collect();
         assert!(fast.iter().all(|&i| sp[i] == 0.0 && big[i] == 0.0));
     }

@@ -346,7 +346,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "cluster_sizes",
-        describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, n_clusters",
+        describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
         modules: &[
             "analysis/clusters",
             "analysis/gr",

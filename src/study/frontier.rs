@@ -275,11 +275,13 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                     label: "CPU seconds (all stages)".into(),
                     log: true,
                     range: None,
+                    from_zero: false,
                 },
                 y: Axis {
                     label: q.to_string(),
                     log: false,
                     range,
+                    from_zero: false,
                 },
                 series,
                 hlines: vec![RefLine {
