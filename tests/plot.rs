@@ -32,6 +32,7 @@ fn series(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
         dashed: false,
         color: None,
         marker: Marker::Circle,
+        radius: None,
     }
 }
 

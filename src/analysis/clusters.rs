@@ -249,6 +249,57 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     ])
 }
 
+/// Table `t, t0, x, y, radius, class`: one frame's disks (positions at the end of
+/// the first interval of the first lag, folded into the box) with their mobility
+/// class over that interval: 0 slow (|dr| < a), 1 fast (|dr| > fast_factor a),
+/// 2 neither (paper H, Fig. 10).
+pub fn compute_snapshot(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    check_trajectory(traj)?;
+    ensure_positive("a", p.a)?;
+    let Some(&lag) = p.lags.first() else {
+        bail!("parameter `lags` is empty: give the lag of the snapshot (e.g. tau_alpha)");
+    };
+    let selected = lags::select(&[traj], Some(&[lag]), p.rel_tol)?;
+    let Some(&(_, i, j)) = selected.first().and_then(|l| l.pairs.first()) else {
+        bail!(
+            "no pair of frames is {lag} apart (within rel_tol = {})",
+            p.rel_tol
+        );
+    };
+    let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
+    let (slow2, fast2) = (p.a * p.a, (p.fast_factor * p.a).powi(2));
+    let d2 = super::squared_displacements(f0, f1);
+    let fold = |v: f64, l: f64| v.rem_euclid(l);
+    let n = d2.len();
+    f64_batch(&[
+        ("t", vec![selected[0].t; n]),
+        ("t0", vec![f0.time - traj.frames[0].time; n]),
+        (
+            "x",
+            f1.x.iter().map(|&v| fold(v, traj.box_size[0])).collect(),
+        ),
+        (
+            "y",
+            f1.y.iter().map(|&v| fold(v, traj.box_size[1])).collect(),
+        ),
+        ("radius", traj.radii.clone()),
+        (
+            "class",
+            d2.iter()
+                .map(|&d| {
+                    if d < slow2 {
+                        0.0
+                    } else if d > fast2 {
+                        1.0
+                    } else {
+                        2.0
+                    }
+                })
+                .collect(),
+        ),
+    ])
+}
+
 /// Table `t, kind, Nc, P, P_err, n_clusters, n_spanning, largest_spanning`: the
 /// log-binned size distribution of the slow (kind 0) and fast (kind 1) clusters
 /// that do not span the box, at each lag, pooled over time origins, with its

@@ -362,6 +362,16 @@ pub static OBSERVABLES: &[Observable] = &[
         },
     },
     Observable {
+        name: "mobility_snapshot",
+        describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
+        modules: &["analysis/clusters", "analysis/lags"],
+        validate: |v| params::<clusters::Params>("mobility_snapshot", v).map(drop),
+        compute: |t, v| {
+            let b = concat("mobility_snapshot", t, v, clusters::compute_snapshot)?;
+            Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+        },
+    },
+    Observable {
         name: "intruder_velocity",
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, n_blocks",
         modules: &["analysis/intruder"],

@@ -425,7 +425,7 @@ fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P>
     for s in &p.series {
         let pts = f.points(s);
         samples.extend(pts.iter().flatten());
-        if s.style != Style::Points {
+        if !matches!(s.style, Style::Points | Style::Disks) {
             for piece in clip_polyline(&pts, &r) {
                 for w in piece.windows(2) {
                     let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
@@ -514,6 +514,22 @@ fn draw_series<DB: DrawingBackend>(
         }
     }
     let pts = f.points(s);
+    if s.style == Style::Disks {
+        // Radius in pixels from the x scale: to scale when the panel's data
+        // aspect matches its frame (a square box in a square frame).
+        let radii = s.radius.as_deref().unwrap_or(&[]);
+        for ((&x, &y), &rad) in s.x.iter().zip(&s.y).zip(radii) {
+            let (Some(c), Some(e)) = (f.at(x, y), f.at(x + rad, y)) else {
+                continue;
+            };
+            if r.contains(c) {
+                let px_r = (e.0 - c.0).abs().max(1.0);
+                area.draw(&Circle::new(px(c), px_r.round() as i32, color.filled()))
+                    .map_err(err)?;
+            }
+        }
+        return Ok(());
+    }
     if s.style != Style::Points {
         for piece in clip_polyline(&pts, &r) {
             stroke(area, &piece, color, sz.line, s.dashed, sz)?;
@@ -655,7 +671,7 @@ fn draw_legend<DB: DrawingBackend>(
         let color = rgb(s
             .color
             .unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
-        if s.style != Style::Points {
+        if !matches!(s.style, Style::Points | Style::Disks) {
             stroke(
                 area,
                 &[(x_sample, row_y), (x_sample + lb.sample, row_y)],

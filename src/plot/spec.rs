@@ -94,6 +94,9 @@ pub struct Series {
     pub color: Option<Color>,
     #[serde(default)]
     pub marker: Marker,
+    /// Per-point radius in data units (style `disks`: disks drawn to scale).
+    #[serde(default)]
+    pub radius: Option<Vec<f64>>,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -105,6 +108,9 @@ pub enum Style {
     Points,
     #[serde(rename = "line+points")]
     LinePoints,
+    /// Filled disks of the series' `radius` (x-axis units), e.g. a configuration.
+    #[serde(rename = "disks")]
+    Disks,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

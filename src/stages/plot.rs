@@ -95,6 +95,9 @@ pub struct Layer {
     pub color: Option<Color>,
     #[serde(default)]
     pub marker: Marker,
+    /// Column of disk radii (style `disks`).
+    #[serde(default)]
+    pub radius: Option<String>,
 }
 
 fn default_file() -> String {
@@ -145,6 +148,13 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
     let e = layer.y_err.as_ref().map(|n| c.col(n)).transpose()?;
     let g = layer.group.as_ref().map(|n| c.col(n)).transpose()?;
+    let rad = layer.radius.as_ref().map(|n| c.col(n)).transpose()?;
+    if (layer.style == Style::Disks) != rad.is_some() {
+        anyhow::bail!(
+            "plot: layer from '{}': style `disks` and `radius: COLUMN` go together",
+            layer.from
+        );
+    }
     let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
     for &i in &rows {
         let key = g.map(|g| g[i]).unwrap_or(0.0);
@@ -170,6 +180,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             dashed: layer.dashed,
             color: layer.color,
             marker: layer.marker,
+            radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
         });
     }
     Ok(out)

@@ -259,6 +259,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                         dashed: false,
                         color: None,
                         marker: Marker::Circle,
+                        radius: None,
                     }
                 })
                 .collect();
