@@ -17,7 +17,7 @@ build:
 # run millions of events).
 # Then the ci profile of the CI-checked figures and their regression check
 # against tests/golden/ci.json (docs/figures.md).
-CI_FIGURES = fig2 fig3 fig4 fig5 fig7 fig8 fig9 fig11 fig12 fig15 fig16 fig17 fig18 fig19 fig25
+CI_FIGURES = fig2 fig3 fig4 fig5 fig7 fig8 fig9 fig11 fig12 fig15 fig16 fig17 fig18 fig19 fig25 fig10 fig13 fig14
 test:
 	$(CARGO) test --release --locked
 	$(REPRO) figure $(CI_FIGURES) --profile ci $(JOBS_FLAG)

@@ -282,7 +282,13 @@ pub fn compute_snapshot(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
             "y",
             f1.y.iter().map(|&v| fold(v, traj.box_size[1])).collect(),
         ),
-        ("radius", traj.radii.clone()),
+        (
+            "radius",
+            traj.species
+                .iter()
+                .map(|&s| traj.radii[s as usize])
+                .collect(),
+        ),
         (
             "class",
             d2.iter()
@@ -399,6 +405,51 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Free flight over t = 1: a disk is slow when its speed is below a, fast above
+    /// 3a; each carries its species' radius and a position inside the box.
+    #[test]
+    fn snapshot_classes_follow_the_displacement() {
+        let traj = crate::analysis::synthetic::ballistic(400, [20.0, 20.0], &[0.0, 1.0], 3);
+        let p = Params {
+            a: 0.6,
+            fast_factor: 3.0,
+            lags: vec![1.0],
+            cutoffs: None,
+            rel_tol: 1e-6,
+            per_decade: 5,
+        };
+        let b = compute_snapshot(&traj, &p).unwrap();
+        let col = |n: &str| -> Vec<f64> {
+            b.column_by_name(n)
+                .unwrap()
+                .as_any()
+                .downcast_ref::<arrow_array::Float64Array>()
+                .unwrap()
+                .values()
+                .to_vec()
+        };
+        let (x, y, r, class) = (col("x"), col("y"), col("radius"), col("class"));
+        assert_eq!(class.len(), 400);
+        let f = &traj.frames[1];
+        for i in 0..400 {
+            let v = f.vx[i].hypot(f.vy[i]);
+            let want = if v < 0.6 {
+                0.0
+            } else if v > 1.8 {
+                1.0
+            } else {
+                2.0
+            };
+            assert_eq!(class[i], want, "disk {i}, speed {v}");
+            assert_eq!(r[i], traj.radii[traj.species[i] as usize]);
+            assert!((0.0..20.0).contains(&x[i]) && (0.0..20.0).contains(&y[i]));
+        }
+        // All three classes occur for unit-variance velocities.
+        for k in [0.0, 1.0, 2.0] {
+            assert!(class.contains(&k));
+        }
+    }
 
     /// A spanning cluster has no finite size: it is counted beside P(Nc), not in it.
     #[test]

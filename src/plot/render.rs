@@ -495,12 +495,20 @@ fn draw_series<DB: DrawingBackend>(
             let (Some(mid), true) = (f.at(x, y), e.is_finite() && e > 0.0) else {
                 continue;
             };
-            // A lower end a log axis cannot show runs to the bottom of the axes.
-            let lo = f.at(x, y - e).map_or(r.y1 + 1.0, |p| p.1);
+            // On a log axis a bar reaching below a tenth of its point (or below
+            // zero) stops there without a cap: open downwards, not off the axes.
+            let open = f.y.log && y - e < 0.1 * y;
+            let lo_y = if open { 0.1 * y } else { y - e };
+            let lo = f.at(x, lo_y).map_or(r.y1 + 1.0, |p| p.1);
             let hi = f.at(x, y + e).map_or(r.y0 - 1.0, |p| p.1);
             if let Some((a, b)) = clip_segment((mid.0, lo), (mid.0, hi), &r) {
                 polyline(area, &[a, b], color, 1)?;
-                for end in [(mid.0, lo), (mid.0, hi)] {
+                let ends: &[P] = if open {
+                    &[(mid.0, hi)]
+                } else {
+                    &[(mid.0, lo), (mid.0, hi)]
+                };
+                for &end in ends {
                     if r.contains(end) {
                         polyline(
                             area,
