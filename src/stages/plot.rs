@@ -18,7 +18,10 @@ use crate::plot::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, 
 /// and values below 10 keep two (0.60, 0.65) so a column of phi reads evenly.
 fn legend_number(v: f64) -> String {
     let r = (v * 1e3).round() / 1e3;
-    if r.abs() >= 10.0 || r == 0.0 {
+    if r.abs() >= 10.0 {
+        // Times and sizes: to the unit (t0 = 29, not 29.333).
+        format!("{v:.0}")
+    } else if r == 0.0 {
         format!("{r}")
     } else if ((r * 1e2).round() / 1e2 - r).abs() < 1e-12 {
         format!("{r:.2}")
@@ -38,7 +41,8 @@ fn value_with_error(v: f64, e: f64) -> String {
         digits += 1.0;
     }
     let d = digits.max(0.0) as usize;
-    format!("{v:.d$} ± {e:.d$}")
+    // A typeset minus, as in the axis labels.
+    format!("{v:.d$} ± {e:.d$}").replacen('-', "−", 1)
 }
 
 /// `{=STAGE.QUANTITY}` in a title or legend entry: that fitted value with its
@@ -261,5 +265,8 @@ mod tests {
         assert_eq!(value_with_error(241.3, 17.0), "241 ± 17");
         assert_eq!(value_with_error(241.3, 47.0), "241 ± 47");
         assert_eq!(value_with_error(0.6, f64::NAN), "0.60");
+        assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
+        assert_eq!(super::legend_number(29.333), "29");
+        assert_eq!(super::legend_number(0.785), "0.785");
     }
 }
