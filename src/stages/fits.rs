@@ -987,34 +987,57 @@ impl StageKind for Collapse {
                 (rows, msg, None)
             }
         };
-        let mut cols: [Vec<f64>; 5] = Default::default();
-        if let Some(q) = best {
-            for cv in &curves {
-                for k in 0..cv.x.len() {
-                    let (x, y, s) = rescale(&q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
-                    for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
-                        col.push(v);
-                    }
+        let best = best.map(|q| q.to_vec());
+        collapse_output(
+            &p,
+            &curves,
+            best.as_deref(),
+            &rescale,
+            &rows,
+            &note,
+            &method,
+        )
+    }
+}
+
+/// A collapse's outputs: the quantity table and the curves rescaled at the best
+/// parameters (none when the collapse failed).
+fn collapse_output(
+    p: &CollapseParams,
+    curves: &[Curve],
+    best: Option<&[f64]>,
+    rescale: collapse::Rescale<'_>,
+    rows: &[(String, f64, f64)],
+    note: &str,
+    method: &str,
+) -> Result<Output> {
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    if let Some(q) = best {
+        for cv in curves {
+            for k in 0..cv.x.len() {
+                let (x, y, s) = rescale(q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
+                for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
+                    col.push(v);
                 }
             }
         }
-        let [phi, n, x, y, s] = cols;
-        let resc = f64_batch(&[
-            (p.curve_by.as_str(), phi),
-            (p.x.as_str(), n),
-            ("X", x),
-            ("Y", y),
-            ("Y_err", s),
-        ])?;
-        Ok(Output::single(
-            "parquet",
-            to_parquet_bytes(
-                &[quantity_table(&[], &rows, &note)?],
-                &[(ERROR_METHOD, method.as_str())],
-            )?,
-        )
-        .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
     }
+    let [phi, n, x, y, s] = cols;
+    let resc = f64_batch(&[
+        (p.curve_by.as_str(), phi),
+        (p.x.as_str(), n),
+        ("X", x),
+        ("Y", y),
+        ("Y_err", s),
+    ])?;
+    Ok(Output::single(
+        "parquet",
+        to_parquet_bytes(
+            &[quantity_table(&[], rows, note)?],
+            &[(ERROR_METHOD, method)],
+        )?,
+    )
+    .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
 }
 
 /// The keys of a named rescaling: its fitted parameters in `bounds`, phi_c when it
@@ -1176,33 +1199,7 @@ fn run_named(
             (rows, msg, None)
         }
     };
-    let mut cols: [Vec<f64>; 5] = Default::default();
-    if let Some(q) = best {
-        for cv in &curves {
-            for k in 0..cv.x.len() {
-                let (x, y, s) = rescale(&q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
-                for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
-                    col.push(v);
-                }
-            }
-        }
-    }
-    let [phi, n, x, y, s] = cols;
-    let resc = f64_batch(&[
-        (p.curve_by.as_str(), phi),
-        (p.x.as_str(), n),
-        ("X", x),
-        ("Y", y),
-        ("Y_err", s),
-    ])?;
-    Ok(Output::single(
-        "parquet",
-        to_parquet_bytes(
-            &[quantity_table(&[], &rows, &note)?],
-            &[(ERROR_METHOD, method.as_str())],
-        )?,
-    )
-    .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
+    collapse_output(p, &curves, best.as_deref(), &rescale, &rows, &note, &method)
 }
 
 #[cfg(test)]
