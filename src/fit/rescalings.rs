@@ -32,8 +32,11 @@ pub struct Rescaling {
     /// Whether phi_c must be given (`phi_c` or `phi_c_from`).
     pub needs_phi_c: bool,
     /// (fitted parameters, curve, x, y, sigma) -> (X, Y, sigma_Y).
-    pub map: fn(&[f64], &At<'_>, f64, f64, f64) -> (f64, f64, f64),
+    pub map: Map,
 }
+
+/// (fitted parameters, curve, x, y, sigma) -> (X, Y, sigma_Y).
+pub type Map = fn(&[f64], &At<'_>, f64, f64, f64) -> (f64, f64, f64);
 
 pub static RESCALINGS: &[Rescaling] = &[
     Rescaling {

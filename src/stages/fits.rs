@@ -1153,8 +1153,10 @@ fn run_named(
     let mut method = "fit covariance of the collapse".to_string();
     let (rows, note, best) = match result {
         Ok((q, mut dq, s)) => {
-            if !r.fitted.is_empty() {
-                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+            if !r.fitted.is_empty()
+                && let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y)
+            {
+                {
                     let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
                         collapse::best(&curves_of(ys), r.fitted, &bounds, &rescale)
                             .map_err(|e| {
