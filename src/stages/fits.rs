@@ -1156,21 +1156,19 @@ fn run_named(
             if !r.fitted.is_empty()
                 && let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y)
             {
-                {
-                    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                        collapse::best(&curves_of(ys), r.fitted, &bounds, &rescale)
-                            .map_err(|e| {
-                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
-                            })
-                            .ok()
-                    };
-                    match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
-                        Some((e, refits)) => {
-                            dq = e;
-                            method = jackknife_method(refits, true);
-                        }
-                        None => method.push_str(JK_IMPOSSIBLE),
+                let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    collapse::best(&curves_of(ys), r.fitted, &bounds, &rescale)
+                        .map_err(|e| {
+                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                        })
+                        .ok()
+                };
+                match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
+                    Some((e, refits)) => {
+                        dq = e;
+                        method = jackknife_method(refits, true);
                     }
+                    None => method.push_str(JK_IMPOSSIBLE),
                 }
             }
             let mut rows: Vec<(String, f64, f64)> = r
