@@ -18,6 +18,7 @@ fn axis(label: &str, log: bool) -> Axis {
         label: label.into(),
         log,
         range: None,
+        from_zero: false,
     }
 }
 
@@ -31,6 +32,7 @@ fn series(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
         dashed: false,
         color: None,
         marker: Marker::Circle,
+        radius: None,
     }
 }
 

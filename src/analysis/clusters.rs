@@ -249,10 +249,68 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     ])
 }
 
-/// Table `t, kind, Nc, P, n_clusters, n_spanning, largest_spanning`: the log-binned
-/// size distribution of the slow (kind 0) and fast (kind 1) clusters that do not
-/// span the box, at each lag, pooled over time origins; beside it the number of
-/// spanning clusters left out and the largest of them (0 if none).
+/// Table `t, t0, x, y, radius, class`: one frame's disks (positions at the end of
+/// the first interval of the first lag, folded into the box) with their mobility
+/// class over that interval: 0 slow (|dr| < a), 1 fast (|dr| > fast_factor a),
+/// 2 neither (paper H, Fig. 10).
+pub fn compute_snapshot(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
+    check_trajectory(traj)?;
+    ensure_positive("a", p.a)?;
+    let Some(&lag) = p.lags.first() else {
+        bail!("parameter `lags` is empty: give the lag of the snapshot (e.g. tau_alpha)");
+    };
+    let selected = lags::select(&[traj], Some(&[lag]), p.rel_tol)?;
+    let Some(&(_, i, j)) = selected.first().and_then(|l| l.pairs.first()) else {
+        bail!(
+            "no pair of frames is {lag} apart (within rel_tol = {})",
+            p.rel_tol
+        );
+    };
+    let (f0, f1) = (&traj.frames[i], &traj.frames[j]);
+    let (slow2, fast2) = (p.a * p.a, (p.fast_factor * p.a).powi(2));
+    let d2 = super::squared_displacements(f0, f1);
+    let fold = |v: f64, l: f64| v.rem_euclid(l);
+    let n = d2.len();
+    f64_batch(&[
+        ("t", vec![selected[0].t; n]),
+        ("t0", vec![f0.time - traj.frames[0].time; n]),
+        (
+            "x",
+            f1.x.iter().map(|&v| fold(v, traj.box_size[0])).collect(),
+        ),
+        (
+            "y",
+            f1.y.iter().map(|&v| fold(v, traj.box_size[1])).collect(),
+        ),
+        (
+            "radius",
+            traj.species
+                .iter()
+                .map(|&s| traj.radii[s as usize])
+                .collect(),
+        ),
+        (
+            "class",
+            d2.iter()
+                .map(|&d| {
+                    if d < slow2 {
+                        0.0
+                    } else if d > fast2 {
+                        1.0
+                    } else {
+                        2.0
+                    }
+                })
+                .collect(),
+        ),
+    ])
+}
+
+/// Table `t, kind, Nc, P, P_err, n_clusters, n_spanning, largest_spanning`: the
+/// log-binned size distribution of the slow (kind 0) and fast (kind 1) clusters
+/// that do not span the box, at each lag, pooled over time origins, with its
+/// counting error P / sqrt(clusters in bin); beside it the number of spanning
+/// clusters left out and the largest of them (0 if none).
 pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     sizes_table(&compute(traj, p)?, p)
 }
@@ -267,7 +325,7 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
             .expect("column written by compute")
     };
     let (t, kind, nc, spans) = (col("t"), col("kind"), col("Nc"), col("spans"));
-    let mut cols: [Vec<f64>; 7] = Default::default();
+    let mut cols: [Vec<f64>; 8] = Default::default();
     for &lag in &p.lags {
         for k in [0.0, 1.0] {
             let here: Vec<usize> = (0..t.len())
@@ -294,15 +352,17 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
                 cols[4].push(count as f64);
                 cols[5].push(spanning);
                 cols[6].push(largest);
+                cols[7].push(prob / (count as f64).sqrt());
             }
         }
     }
-    let [t, k, n, pr, c, sp, big] = cols;
+    let [t, k, n, pr, c, sp, big, pe] = cols;
     f64_batch(&[
         ("t", t),
         ("kind", k),
         ("Nc", n),
         ("P", pr),
+        ("P_err", pe),
         ("n_clusters", c),
         ("n_spanning", sp),
         ("largest_spanning", big),
@@ -345,6 +405,51 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Free flight over t = 1: a disk is slow when its speed is below a, fast above
+    /// 3a; each carries its species' radius and a position inside the box.
+    #[test]
+    fn snapshot_classes_follow_the_displacement() {
+        let traj = crate::analysis::synthetic::ballistic(400, [20.0, 20.0], &[0.0, 1.0], 3);
+        let p = Params {
+            a: 0.6,
+            fast_factor: 3.0,
+            lags: vec![1.0],
+            cutoffs: None,
+            rel_tol: 1e-6,
+            per_decade: 5,
+        };
+        let b = compute_snapshot(&traj, &p).unwrap();
+        let col = |n: &str| -> Vec<f64> {
+            b.column_by_name(n)
+                .unwrap()
+                .as_any()
+                .downcast_ref::<arrow_array::Float64Array>()
+                .unwrap()
+                .values()
+                .to_vec()
+        };
+        let (x, y, r, class) = (col("x"), col("y"), col("radius"), col("class"));
+        assert_eq!(class.len(), 400);
+        let f = &traj.frames[1];
+        for i in 0..400 {
+            let v = f.vx[i].hypot(f.vy[i]);
+            let want = if v < 0.6 {
+                0.0
+            } else if v > 1.8 {
+                1.0
+            } else {
+                2.0
+            };
+            assert_eq!(class[i], want, "disk {i}, speed {v}");
+            assert_eq!(r[i], traj.radii[traj.species[i] as usize]);
+            assert!((0.0..20.0).contains(&x[i]) && (0.0..20.0).contains(&y[i]));
+        }
+        // All three classes occur for unit-variance velocities.
+        for k in [0.0, 1.0, 2.0] {
+            assert!(class.contains(&k));
+        }
+    }
 
     /// A spanning cluster has no finite size: it is counted beside P(Nc), not in it.
     #[test]
@@ -391,6 +496,10 @@ mod tests {
         );
         assert!((pr[slow[0]] - 2.0 / 3.0).abs() < 1e-12 && (pr[slow[1]] - 1.0 / 3.0).abs() < 1e-12);
         assert!(slow.iter().all(|&i| sp[i] == 1.0 && big[i] == 400.0));
+        // Counting error: two clusters of size 1, one of size 2.
+        let pe = col("P_err");
+        assert!((pe[slow[0]] - pr[slow[0]] / 2f64.sqrt()).abs() < 1e-12);
+        assert!((pe[slow[1]] - pr[slow[1]]).abs() < 1e-12);
         let fast: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 1.0).collect();
         assert!(fast.iter().all(|&i| sp[i] == 0.0 && big[i] == 0.0));
     }

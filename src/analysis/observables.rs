@@ -346,7 +346,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "cluster_sizes",
-        describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, n_clusters",
+        describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
         modules: &[
             "analysis/clusters",
             "analysis/gr",
@@ -358,6 +358,16 @@ pub static OBSERVABLES: &[Observable] = &[
             let p: clusters::Params = params("cluster_sizes", v)?;
             let rows = concat("cluster_sizes", t, v, clusters::compute)?;
             let b = clusters::sizes_table(&rows, &p)?;
+            Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+        },
+    },
+    Observable {
+        name: "mobility_snapshot",
+        describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
+        modules: &["analysis/clusters", "analysis/lags"],
+        validate: |v| params::<clusters::Params>("mobility_snapshot", v).map(drop),
+        compute: |t, v| {
+            let b = concat("mobility_snapshot", t, v, clusters::compute_snapshot)?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
         },
     },

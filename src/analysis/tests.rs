@@ -675,6 +675,7 @@ fn every_kind_runs_from_json_parameters() {
         ("gr", json!({"r_max": 5.0}), "g"),
         ("clusters", json!({"lags": [1.0], "cutoffs": cut}), "Rg"),
         ("cluster_sizes", json!({"lags": [1.0], "cutoffs": cut}), "P"),
+        ("mobility_snapshot", json!({"lags": [1.0]}), "class"),
         ("intruder_velocity", json!({"blocks": 2}), "v"),
         ("intruder_path", json!({}), "x"),
         ("momentum_profile", json!({"times": [1.0], "bins": 6}), "Px"),

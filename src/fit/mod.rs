@@ -8,6 +8,7 @@
 //!   Q(t) of Eq. 8, Ornstein-Zernike Eq. 18/20, Gaussian and exponential tails,
 //!   log-normal Eq. 13, plain power laws).
 //! - [`collapse`]: scaling exponents by minimising the spread of rescaled curves.
+//! - [`rescalings`]: the named rescalings of a collapse (Figs. 13, 14 of paper H).
 //! - [`ranges`]: the same fit over several ranges, with the spread of the results.
 //!
 //! Every fit returns a [`FitResult`] or a [`FitError`] that names the form, the
@@ -21,6 +22,7 @@ mod least_squares;
 mod linalg;
 pub mod linear;
 pub mod ranges;
+pub mod rescalings;
 mod result;
 
 pub use error::FitError;

@@ -61,26 +61,101 @@ fn text_style(size: f64, color: RGBColor, h: HPos, v: VPos) -> TextStyle<'static
     (FONT, size).into_font().color(&color).pos(Pos::new(h, v))
 }
 
-fn text_size<DB: DrawingBackend>(area: &Area<DB>, text: &str, size: f64) -> Result<(f64, f64)> {
-    if text.is_empty() {
-        return Ok((0.0, 0.0));
+/// Label markup: `_{...}` is a subscript, `^{...}` a superscript (braces
+/// required, so names with underscores print as written). Returns the pieces
+/// with their level: 0 on the line, -1 below, 1 above.
+fn spans(text: &str) -> Vec<(&str, i8)> {
+    let mut out = vec![];
+    let mut rest = text;
+    while !rest.is_empty() {
+        let next = [("_{", -1), ("^{", 1)]
+            .into_iter()
+            .filter_map(|(m, l)| rest.find(m).map(|i| (i, l)))
+            .min();
+        let Some((i, level)) = next else {
+            out.push((rest, 0));
+            break;
+        };
+        let Some(len) = rest[i + 2..].find('}') else {
+            out.push((rest, 0));
+            break;
+        };
+        if i > 0 {
+            out.push((&rest[..i], 0));
+        }
+        out.push((&rest[i + 2..i + 2 + len], level));
+        rest = &rest[i + 3 + len..];
     }
-    let (w, h) = area
-        .estimate_text_size(text, &TextStyle::from((FONT, size).into_font()))
-        .map_err(err)?;
-    Ok((w as f64, h as f64))
+    out
 }
 
+/// Sub- and superscripts are set at this fraction of the text size.
+const SCRIPT: f64 = 0.7;
+
+fn text_size<DB: DrawingBackend>(area: &Area<DB>, text: &str, size: f64) -> Result<(f64, f64)> {
+    let (mut w, mut h) = (0.0, 0.0);
+    for (piece, level) in spans(text) {
+        if piece.is_empty() {
+            continue;
+        }
+        let k = if level == 0 { size } else { SCRIPT * size };
+        let (pw, ph) = area
+            .estimate_text_size(piece, &TextStyle::from((FONT, k).into_font()))
+            .map_err(err)?;
+        w += pw as f64;
+        let lift = if level == 0 { 0.0 } else { 0.35 * size };
+        h = f64::max(h, ph as f64 + lift);
+    }
+    Ok((w, h))
+}
+
+/// Draw `text` (with its sub- and superscripts) anchored at `at` as `style` says;
+/// y labels turned by 270 degrees run up the page.
 fn draw_text<DB: DrawingBackend>(
     area: &Area<DB>,
     text: &str,
     style: &TextStyle,
     at: P,
 ) -> Result<()> {
-    if text.is_empty() {
-        return Ok(());
+    let pieces = spans(text);
+    if pieces.iter().all(|p| p.1 == 0) {
+        if text.is_empty() {
+            return Ok(());
+        }
+        return area.draw_text(text, style, px(at)).map_err(err);
     }
-    area.draw_text(text, style, px(at)).map_err(err)
+    let size = style.font.get_size();
+    let turned = matches!(style.font.get_transform(), FontTransform::Rotate270);
+    let total = text_size(area, text, size)?.0;
+    let mut along = match style.pos.h_pos {
+        HPos::Left => 0.0,
+        HPos::Center => -total / 2.0,
+        HPos::Right => -total,
+    };
+    for (piece, level) in pieces {
+        if piece.is_empty() {
+            continue;
+        }
+        let k = if level == 0 { size } else { SCRIPT * size };
+        let up = match level {
+            1 => 0.4 * size,
+            -1 => -0.2 * size,
+            _ => 0.0,
+        };
+        let piece_style = TextStyle {
+            font: style.font.resize(k),
+            color: style.color,
+            pos: Pos::new(HPos::Left, style.pos.v_pos),
+        };
+        let p = if turned {
+            (at.0 - up, at.1 - along)
+        } else {
+            (at.0 + along, at.1 - up)
+        };
+        area.draw_text(piece, &piece_style, px(p)).map_err(err)?;
+        along += text_size(area, piece, k)?.0;
+    }
+    Ok(())
 }
 
 fn polyline<DB: DrawingBackend>(
@@ -138,18 +213,26 @@ fn scales(p: &Panel) -> (Scale, Scale) {
             hi,
             log: axis.log,
         },
+        None if axis.from_zero && !axis.log => Scale::fit(values.into_iter().chain([0.0]), false),
         None => Scale::fit(values, axis.log),
     };
     let xs = p.series.iter().flat_map(|s| s.x.iter().copied()).collect();
+    // On a log axis a bar reaching below a tenth of its point (or below zero)
+    // does not stretch the range: it is cut at the frame instead of squeezing
+    // the data into a corner.
+    let log_y = p.y.log;
     let ys = p
         .series
         .iter()
         .flat_map(|s| {
             let err = s.y_err.clone().unwrap_or_default();
-            let bars =
-                s.y.iter()
-                    .zip(err)
-                    .flat_map(|(&y, e)| [y - e.abs(), y + e.abs()]);
+            let bars = s.y.iter().zip(err).flat_map(|(&y, e)| {
+                let lo = y - e.abs();
+                [
+                    if log_y && lo < 0.1 * y { f64::NAN } else { lo },
+                    y + e.abs(),
+                ]
+            });
             s.y.iter().copied().chain(bars).collect::<Vec<_>>()
         })
         .collect();
@@ -342,7 +425,7 @@ fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P>
     for s in &p.series {
         let pts = f.points(s);
         samples.extend(pts.iter().flatten());
-        if s.style != Style::Points {
+        if !matches!(s.style, Style::Points | Style::Disks) {
             for piece in clip_polyline(&pts, &r) {
                 for w in piece.windows(2) {
                     let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
@@ -412,12 +495,20 @@ fn draw_series<DB: DrawingBackend>(
             let (Some(mid), true) = (f.at(x, y), e.is_finite() && e > 0.0) else {
                 continue;
             };
-            // A lower end a log axis cannot show runs to the bottom of the axes.
-            let lo = f.at(x, y - e).map_or(r.y1 + 1.0, |p| p.1);
+            // On a log axis a bar reaching below a tenth of its point (or below
+            // zero) stops there without a cap: open downwards, not off the axes.
+            let open = f.y.log && y - e < 0.1 * y;
+            let lo_y = if open { 0.1 * y } else { y - e };
+            let lo = f.at(x, lo_y).map_or(r.y1 + 1.0, |p| p.1);
             let hi = f.at(x, y + e).map_or(r.y0 - 1.0, |p| p.1);
             if let Some((a, b)) = clip_segment((mid.0, lo), (mid.0, hi), &r) {
                 polyline(area, &[a, b], color, 1)?;
-                for end in [(mid.0, lo), (mid.0, hi)] {
+                let ends: &[P] = if open {
+                    &[(mid.0, hi)]
+                } else {
+                    &[(mid.0, lo), (mid.0, hi)]
+                };
+                for &end in ends {
                     if r.contains(end) {
                         polyline(
                             area,
@@ -431,6 +522,22 @@ fn draw_series<DB: DrawingBackend>(
         }
     }
     let pts = f.points(s);
+    if s.style == Style::Disks {
+        // Radius in pixels from the x scale: to scale when the panel's data
+        // aspect matches its frame (a square box in a square frame).
+        let radii = s.radius.as_deref().unwrap_or(&[]);
+        for ((&x, &y), &rad) in s.x.iter().zip(&s.y).zip(radii) {
+            let (Some(c), Some(e)) = (f.at(x, y), f.at(x + rad, y)) else {
+                continue;
+            };
+            if r.contains(c) {
+                let px_r = (e.0 - c.0).abs().max(1.0);
+                area.draw(&Circle::new(px(c), px_r.round() as i32, color.filled()))
+                    .map_err(err)?;
+            }
+        }
+        return Ok(());
+    }
     if s.style != Style::Points {
         for piece in clip_polyline(&pts, &r) {
             stroke(area, &piece, color, sz.line, s.dashed, sz)?;
@@ -572,7 +679,7 @@ fn draw_legend<DB: DrawingBackend>(
         let color = rgb(s
             .color
             .unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
-        if s.style != Style::Points {
+        if !matches!(s.style, Style::Points | Style::Disks) {
             stroke(
                 area,
                 &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
@@ -595,4 +702,22 @@ fn draw_legend<DB: DrawingBackend>(
         row_y += lb.row;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spans;
+
+    #[test]
+    fn labels_split_into_sub_and_superscripts() {
+        assert_eq!(
+            spans("(φ_{c} − φ)^{−γ}"),
+            vec![("(φ", 0), ("c", -1), (" − φ)", 0), ("−γ", 1)]
+        );
+        assert_eq!(spans("τ_{α}"), vec![("τ", 0), ("α", -1)]);
+        // Names with underscores and unclosed braces print as written.
+        assert_eq!(spans("tau_alpha"), vec![("tau_alpha", 0)]);
+        assert_eq!(spans("x^{2"), vec![("x^{2", 0)]);
+        assert!(spans("").is_empty());
+    }
 }

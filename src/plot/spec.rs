@@ -55,7 +55,8 @@ pub struct Panel {
     pub palette: Palette,
 }
 
-/// One axis. Labels may use any symbol of DejaVu Sans (τ_α as "τ_α" or "τₐ", χ₄, φ, ξ).
+/// One axis. Labels may use any symbol of DejaVu Sans (χ₄, φ, ξ) and the markup
+/// `_{...}` (subscript), `^{...}` (superscript): "τ_{α}", "(φ_{c} − φ)^{−γ}".
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Axis {
@@ -66,6 +67,10 @@ pub struct Axis {
     /// Fixed (min, max); default: fitted to the data (whole decades on log axes).
     #[serde(default)]
     pub range: Option<(f64, f64)>,
+    /// A linear axis fitted to the data and zero (so a drift reads against the
+    /// whole value, not against the seed noise).
+    #[serde(default)]
+    pub from_zero: bool,
 }
 
 /// One curve or point set.
@@ -89,6 +94,9 @@ pub struct Series {
     pub color: Option<Color>,
     #[serde(default)]
     pub marker: Marker,
+    /// Per-point radius in data units (style `disks`: disks drawn to scale).
+    #[serde(default)]
+    pub radius: Option<Vec<f64>>,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -100,6 +108,9 @@ pub enum Style {
     Points,
     #[serde(rename = "line+points")]
     LinePoints,
+    /// Filled disks of the series' `radius` (x-axis units), e.g. a configuration.
+    #[serde(rename = "disks")]
+    Disks,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

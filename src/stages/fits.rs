@@ -18,6 +18,7 @@ use crate::analysis::pool;
 use crate::fit::catalogue::{self, Form};
 use crate::fit::collapse::{self, Curve};
 use crate::fit::ranges::range_scan;
+use crate::fit::rescalings::{self, At, Rescaling};
 use crate::fit::{Data, FitError, FitResult, linear};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
@@ -736,8 +737,14 @@ pub struct CollapseParams {
     /// in): then xi is not a power law of phi, and only `g` is fitted.
     #[serde(default)]
     pub xi: Option<String>,
-    /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`).
+    /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`), or of the
+    /// `rescaling`'s fitted parameters.
+    #[serde(default)]
     pub bounds: BTreeMap<String, (f64, f64)>,
+    /// A named rescaling of [`crate::fit::rescalings`] instead of Fig. 19's
+    /// finite-size scaling (e.g. `cluster_cutoff`, `log_normal`).
+    #[serde(default)]
+    pub rescaling: Option<String>,
 }
 
 pub struct Collapse;
@@ -783,6 +790,9 @@ impl StageKind for Collapse {
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CollapseParams = typed("collapse", params)?;
+        if let Some(name) = &p.rescaling {
+            return validate_named(&p, name);
+        }
         let keys: &[&str] = if p.xi.is_some() {
             if p.phi_c.is_some() || p.phi_c_from.is_some() {
                 bail!(
@@ -813,6 +823,10 @@ impl StageKind for Collapse {
     }
     fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: CollapseParams = typed("collapse", params)?;
+        if let Some(name) = &p.rescaling {
+            let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
+            return run_named(ctx, &p, r, inputs);
+        }
         let phi_c = match (&p.phi_c, &p.phi_c_from) {
             (Some(v), _) => *v,
             (None, Some(f)) => f.get("collapse", inputs)?,
@@ -973,34 +987,219 @@ impl StageKind for Collapse {
                 (rows, msg, None)
             }
         };
-        let mut cols: [Vec<f64>; 5] = Default::default();
-        if let Some(q) = best {
-            for cv in &curves {
-                for k in 0..cv.x.len() {
-                    let (x, y, s) = rescale(&q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
-                    for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
-                        col.push(v);
-                    }
+        let best = best.map(|q| q.to_vec());
+        collapse_output(
+            &p,
+            &curves,
+            best.as_deref(),
+            &rescale,
+            &rows,
+            &note,
+            &method,
+        )
+    }
+}
+
+/// A collapse's outputs: the quantity table and the curves rescaled at the best
+/// parameters (none when the collapse failed).
+fn collapse_output(
+    p: &CollapseParams,
+    curves: &[Curve],
+    best: Option<&[f64]>,
+    rescale: collapse::Rescale<'_>,
+    rows: &[(String, f64, f64)],
+    note: &str,
+    method: &str,
+) -> Result<Output> {
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    if let Some(q) = best {
+        for cv in curves {
+            for k in 0..cv.x.len() {
+                let (x, y, s) = rescale(q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
+                for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
+                    col.push(v);
                 }
             }
         }
-        let [phi, n, x, y, s] = cols;
-        let resc = f64_batch(&[
-            (p.curve_by.as_str(), phi),
-            (p.x.as_str(), n),
-            ("X", x),
-            ("Y", y),
-            ("Y_err", s),
-        ])?;
-        Ok(Output::single(
-            "parquet",
-            to_parquet_bytes(
-                &[quantity_table(&[], &rows, &note)?],
-                &[(ERROR_METHOD, method.as_str())],
-            )?,
-        )
-        .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
     }
+    let [phi, n, x, y, s] = cols;
+    let resc = f64_batch(&[
+        (p.curve_by.as_str(), phi),
+        (p.x.as_str(), n),
+        ("X", x),
+        ("Y", y),
+        ("Y_err", s),
+    ])?;
+    Ok(Output::single(
+        "parquet",
+        to_parquet_bytes(
+            &[quantity_table(&[], rows, note)?],
+            &[(ERROR_METHOD, method)],
+        )?,
+    )
+    .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
+}
+
+/// The keys of a named rescaling: its fitted parameters in `bounds`, phi_c when it
+/// needs one, no measured `xi`.
+fn validate_named(p: &CollapseParams, name: &str) -> Result<()> {
+    let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
+    if p.xi.is_some() {
+        bail!(
+            "collapse: `xi` belongs to the finite-size scaling of Fig. 19, not to rescaling `{name}`"
+        );
+    }
+    if r.needs_phi_c && p.phi_c.is_some() == p.phi_c_from.is_some() {
+        bail!(
+            "collapse: rescaling `{name}` needs exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
+        );
+    }
+    if !r.needs_phi_c && (p.phi_c.is_some() || p.phi_c_from.is_some()) {
+        bail!("collapse: rescaling `{name}` does not use phi_c; remove `phi_c`/`phi_c_from`");
+    }
+    let want: Vec<&str> = r.fitted.to_vec();
+    let got: Vec<&str> = p.bounds.keys().map(String::as_str).collect();
+    let mut sorted = want.clone();
+    sorted.sort();
+    if got != sorted {
+        bail!(
+            "collapse: rescaling `{name}` takes `bounds` for exactly [{}] (got [{}])",
+            want.join(", "),
+            got.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// A collapse with a named rescaling: the fitted parameters with errors (fit
+/// covariance, or replica jackknife when the data carry replica columns), the
+/// quality S and the rescaled curves.
+fn run_named(
+    ctx: &StageCtx,
+    p: &CollapseParams,
+    r: &'static Rescaling,
+    inputs: &[Artifact],
+) -> Result<Output> {
+    let phi_c = match (&p.phi_c, &p.phi_c_from) {
+        (Some(v), _) => *v,
+        (None, Some(f)) => f.get("collapse", inputs)?,
+        _ => f64::NAN,
+    };
+    let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+    // The per-curve numbers (first row of each curve), e.g. a joined per-phi fit.
+    let by_all = c.col(&p.curve_by)?;
+    let cols: Vec<&[f64]> = r
+        .per_curve
+        .iter()
+        .map(|name| {
+            c.col(name).map_err(|e| {
+                anyhow::anyhow!(
+                    "collapse: rescaling `{}` reads column `{name}` per curve: {e:#}",
+                    r.name
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    let mut per_curve: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+    for i in 0..c.rows {
+        per_curve
+            .entry(by_all[i].to_bits())
+            .or_insert_with(|| cols.iter().map(|v| v[i]).collect());
+    }
+    let rows_in = c.select(&p.filter)?;
+    let x_all = pick(c.col(&p.x)?, &rows_in);
+    let y_all = pick(c.col(&p.y)?, &rows_in);
+    let e_all = pick(c.col(&p.y_err)?, &rows_in);
+    let b_all = pick(by_all, &rows_in);
+    let none: Vec<f64> = vec![];
+    let columns_of =
+        |phi: f64| -> &[f64] { per_curve.get(&phi.to_bits()).map_or(&none[..], |v| &v[..]) };
+    // Curves whose per-curve numbers are missing or not finite are left out.
+    let usable = |cv: &Curve| {
+        let v = columns_of(cv.param);
+        v.len() == r.per_curve.len() && v.iter().all(|u| u.is_finite() && *u > 0.0)
+    };
+    let curves_of = |ys: &[f64]| -> Vec<Curve> {
+        collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all)
+            .into_iter()
+            .filter(|cv| usable(cv))
+            .collect()
+    };
+    let curves = curves_of(&y_all);
+    let bounds: Vec<(f64, f64)> = r.fitted.iter().map(|k| p.bounds[*k]).collect();
+    let rescale = |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+        let at = At {
+            param: cv.param,
+            phi_c,
+            columns: columns_of(cv.param),
+        };
+        (r.map)(q, &at, x, y, s)
+    };
+    let result: Result<(Vec<f64>, Vec<f64>, f64)> =
+        if r.needs_phi_c && curves.iter().any(|cv| cv.param >= phi_c) {
+            Err(anyhow::anyhow!(
+                "phi_c = {phi_c} is not above every {} of the data",
+                p.curve_by
+            ))
+        } else if r.fitted.is_empty() {
+            collapse::quality(&curves, &rescale, &[])
+                .map(|q| (vec![], vec![], q.s))
+                .map_err(anyhow::Error::from)
+        } else {
+            collapse::collapse(&curves, r.fitted, &bounds, &rescale)
+                .map(|res| (res.params, res.stderr, res.quality.s))
+                .map_err(anyhow::Error::from)
+        };
+    let mut method = "fit covariance of the collapse".to_string();
+    let (rows, note, best) = match result {
+        Ok((q, mut dq, s)) => {
+            if !r.fitted.is_empty()
+                && let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y)
+            {
+                let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    collapse::best(&curves_of(ys), r.fitted, &bounds, &rescale)
+                        .map_err(|e| {
+                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                        })
+                        .ok()
+                };
+                match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
+                    Some((e, refits)) => {
+                        dq = e;
+                        method = jackknife_method(refits, true);
+                    }
+                    None => method.push_str(JK_IMPOSSIBLE),
+                }
+            }
+            let mut rows: Vec<(String, f64, f64)> = r
+                .fitted
+                .iter()
+                .zip(q.iter().zip(&dq))
+                .map(|(n, (v, e))| (n.to_string(), *v, *e))
+                .collect();
+            rows.push(("collapse_S".to_string(), s, f64::NAN));
+            if r.needs_phi_c {
+                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+            }
+            rows.push(("curves".to_string(), curves.len() as f64, 0.0));
+            (rows, String::new(), Some(q))
+        }
+        Err(e) => {
+            let msg = format!("collapse failed: {e:#}");
+            ctx.log(msg.clone());
+            let mut rows: Vec<(String, f64, f64)> = r
+                .fitted
+                .iter()
+                .chain(&["collapse_S"])
+                .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+                .collect();
+            if r.needs_phi_c {
+                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+            }
+            (rows, msg, None)
+        }
+    };
+    collapse_output(p, &curves, best.as_deref(), &rescale, &rows, &note, &method)
 }
 
 #[cfg(test)]

@@ -18,13 +18,57 @@ use crate::plot::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, 
 /// and values below 10 keep two (0.60, 0.65) so a column of phi reads evenly.
 fn legend_number(v: f64) -> String {
     let r = (v * 1e3).round() / 1e3;
-    if r.abs() >= 10.0 || r == 0.0 {
+    if r.abs() >= 10.0 {
+        // Times and sizes: to the unit (t0 = 29, not 29.333).
+        format!("{v:.0}")
+    } else if r == 0.0 {
         format!("{r}")
     } else if ((r * 1e2).round() / 1e2 - r).abs() < 1e-12 {
         format!("{r:.2}")
     } else {
         format!("{r:.3}")
     }
+}
+
+/// A fitted value as a legend shows it: the error to one significant digit (two
+/// when that digit is 1) and the value to the same decimal (`0.80 ± 0.01`).
+fn value_with_error(v: f64, e: f64) -> String {
+    if !(e.is_finite() && e > 0.0) {
+        return legend_number(v);
+    }
+    let mut digits = -e.log10().floor();
+    if e * 10f64.powf(digits) < 2.0 {
+        digits += 1.0;
+    }
+    let d = digits.max(0.0) as usize;
+    // A typeset minus, as in the axis labels.
+    format!("{v:.d$} ± {e:.d$}").replacen('-', "−", 1)
+}
+
+/// `{=STAGE.QUANTITY}` in a title or legend entry: that fitted value with its
+/// error, read from the quantity table of the gathered stage STAGE.
+fn fill(text: &str, inputs: &[Artifact]) -> Result<String> {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(i) = rest.find("{=") {
+        let end = rest[i..]
+            .find('}')
+            .with_context(|| format!("plot: `{{=` without `}}` in label \"{text}\""))?;
+        let key = &rest[i + 2..i + end];
+        let (stage, quantity) = key.split_once('.').with_context(|| {
+            format!("plot: `{{={key}}}` in label \"{text}\" needs the form {{=STAGE.QUANTITY}}")
+        })?;
+        let c = Columns::read(&inputs_of("plot", inputs, stage)?)
+            .with_context(|| format!("plot: label \"{text}\""))?;
+        let (v, e) = c
+            .quantity(quantity)
+            .with_context(|| format!("plot: label \"{text}\""))?;
+        out.push_str(&rest[..i]);
+        out.push_str(&value_with_error(v, e));
+        rest = &rest[i + end + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -55,6 +99,9 @@ pub struct Layer {
     pub color: Option<Color>,
     #[serde(default)]
     pub marker: Marker,
+    /// Column of disk radii (style `disks`).
+    #[serde(default)]
+    pub radius: Option<String>,
 }
 
 fn default_file() -> String {
@@ -105,6 +152,13 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
     let e = layer.y_err.as_ref().map(|n| c.col(n)).transpose()?;
     let g = layer.group.as_ref().map(|n| c.col(n)).transpose()?;
+    let rad = layer.radius.as_ref().map(|n| c.col(n)).transpose()?;
+    if (layer.style == Style::Disks) != rad.is_some() {
+        anyhow::bail!(
+            "plot: layer from '{}': style `disks` and `radius: COLUMN` go together",
+            layer.from
+        );
+    }
     let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
     for &i in &rows {
         let key = g.map(|g| g[i]).unwrap_or(0.0);
@@ -130,6 +184,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             dashed: layer.dashed,
             color: layer.color,
             marker: layer.marker,
+            radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
         });
     }
     Ok(out)
@@ -144,10 +199,12 @@ pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
             let arts = inputs_of("plot", inputs, &layer.from)?;
             let c = Columns::read_file(&arts, &layer.file)
                 .with_context(|| format!("plot: panel {} layer from '{}'", k + 1, layer.from))?;
-            all.extend(series(layer, &c)?.into_iter().filter(|s| !s.x.is_empty()));
+            let mut layer = layer.clone();
+            layer.label = fill(&layer.label, inputs)?;
+            all.extend(series(&layer, &c)?.into_iter().filter(|s| !s.x.is_empty()));
         }
         panels.push(Panel {
-            title: ps.title.clone(),
+            title: fill(&ps.title, inputs)?,
             x: ps.x.clone(),
             y: ps.y.clone(),
             series: all,
@@ -193,5 +250,23 @@ impl StageKind for Plot {
         let svg = crate::plot::draw_svg_string(&fig)?;
         let png = crate::plot::draw_png_bytes(&fig)?;
         Ok(Output::single("svg", svg.into_bytes()).with("png", png))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::value_with_error;
+
+    #[test]
+    fn fitted_values_round_to_their_error() {
+        assert_eq!(value_with_error(0.80342, 0.0123), "0.803 ± 0.012");
+        assert_eq!(value_with_error(0.80342, 0.031), "0.80 ± 0.03");
+        assert_eq!(value_with_error(1.622, 0.35), "1.6 ± 0.3");
+        assert_eq!(value_with_error(241.3, 17.0), "241 ± 17");
+        assert_eq!(value_with_error(241.3, 47.0), "241 ± 47");
+        assert_eq!(value_with_error(0.6, f64::NAN), "0.60");
+        assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
+        assert_eq!(super::legend_number(29.333), "29");
+        assert_eq!(super::legend_number(0.785), "0.785");
     }
 }

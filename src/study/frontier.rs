@@ -259,6 +259,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                         dashed: false,
                         color: None,
                         marker: Marker::Circle,
+                        radius: None,
                     }
                 })
                 .collect();
@@ -275,11 +276,13 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                     label: "CPU seconds (all stages)".into(),
                     log: true,
                     range: None,
+                    from_zero: false,
                 },
                 y: Axis {
                     label: q.to_string(),
                     log: false,
                     range,
+                    from_zero: false,
                 },
                 series,
                 hlines: vec![RefLine {
