@@ -136,6 +136,37 @@ impl RunLength {
 }
 
 /// Split the stage parameters into the run-length rule and the SimConfig.
+/// A flat `force: F` (a grid key: grid values are flat parameters and become table
+/// columns) is the intruder's force: it sets `intruder.force`, creating the intruder
+/// with paper I's radius and mass when `intruder` is not given.
+fn force_into_intruder(mut rest: Map<String, Value>) -> Result<Map<String, Value>> {
+    let Some(force) = rest.remove("force") else {
+        return Ok(rest);
+    };
+    match rest
+        .entry("intruder")
+        .or_insert_with(|| Value::Object(Map::new()))
+    {
+        Value::Object(m) => {
+            if m.contains_key("force") {
+                return Err(param_error(
+                    &["force"],
+                    "simulate: `force` and `intruder.force` are both given; keep one".to_string(),
+                ));
+            }
+            m.insert("force".into(), force);
+        }
+        _ => {
+            return Err(param_error(
+                &["intruder"],
+                "simulate: `intruder` must be a map ({force: F, radius: R0, mass: m0}) when `force` is given"
+                    .to_string(),
+            ));
+        }
+    }
+    Ok(rest)
+}
+
 pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
     let obj = params
         .as_object()
@@ -162,6 +193,7 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
             );
         }
     }
+    let rest = force_into_intruder(rest)?;
     let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
     rule.check()?;
     let mut cfg: SimConfig =
