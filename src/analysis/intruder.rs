@@ -147,7 +147,11 @@ fn all_blocks(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Vec<Vec<Block
 /// Stationary velocity along x: mean over time blocks of every replica, with the
 /// standard error of the block means.
 pub fn stationary_velocity(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Estimate> {
-    let v: Vec<f64> = all_blocks(trajs, p)?.iter().flatten().map(|b| b.v).collect();
+    let v: Vec<f64> = all_blocks(trajs, p)?
+        .iter()
+        .flatten()
+        .map(|b| b.v)
+        .collect();
     Ok(mean_err(&v))
 }
 
@@ -172,7 +176,8 @@ pub fn drive_velocity(traj: &Trajectory, phi: f64, d: &DriveParams) -> f64 {
         &bath_fractions(traj),
         d.temperature,
     );
-    let p_dr = crate::sim::kicks::amplitude(d.eps, d.gamma, d.temperature, omega, masses[0], masses[1]);
+    let p_dr =
+        crate::sim::kicks::amplitude(d.eps, d.gamma, d.temperature, omega, masses[0], masses[1]);
     p_dr * (masses[0] + masses[1]) / (masses[0] * masses[1])
 }
 
@@ -232,7 +237,10 @@ pub fn velocity_table(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Recor
         ("v_first_err", vec![first.err]),
         ("v_second", vec![second.value]),
         ("v_second_err", vec![second.err]),
-        ("stationary", vec![f64::from(u8::from(halves_agree(&first, &second)))]),
+        (
+            "stationary",
+            vec![f64::from(u8::from(halves_agree(&first, &second)))],
+        ),
         ("snr", vec![v.value / v.err]),
         ("v_bath", vec![bath.value]),
         ("v_bath_err", vec![bath.err]),

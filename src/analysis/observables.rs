@@ -389,7 +389,10 @@ pub static OBSERVABLES: &[Observable] = &[
         validate: |v| params::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
         compute: |t, v| {
             let p: intruder::DiffusionParams = params("intruder_diffusion", v)?;
-            Ok(Tables::one(intruder::diffusion_table(t, &p)?, Errors::Rows { replicas: t.len() }))
+            Ok(Tables::one(
+                intruder::diffusion_table(t, &p)?,
+                Errors::Rows { replicas: t.len() },
+            ))
         },
     },
     Observable {

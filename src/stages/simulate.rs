@@ -343,4 +343,25 @@ mod tests {
             assert!(e.contains(key) && e.contains("run-length rule"), "{e}");
         }
     }
+
+    #[test]
+    fn a_flat_force_is_the_intruders() {
+        // Paper I's intruder (R0 = 2, m0 = 4) from a flat grid key.
+        let mut p = params();
+        p["force"] = serde_json::json!(8.0);
+        let (_, cfg) = config(&p).unwrap();
+        let i = cfg.intruder.unwrap();
+        assert_eq!((i.force, i.radius, i.mass), (8.0, 2.0, 4.0));
+        // Merged into a given intruder map.
+        p["intruder"] = serde_json::json!({"radius": 2.5});
+        let i = config(&p).unwrap().1.intruder.unwrap();
+        assert_eq!((i.force, i.radius), (8.0, 2.5));
+        // Both given, or an intruder that is not a map: errors naming the key.
+        p["intruder"] = serde_json::json!({"force": 2.0});
+        let e = format!("{:#}", config(&p).unwrap_err());
+        assert!(e.contains("`force` and `intruder.force`"), "{e}");
+        p["intruder"] = serde_json::json!(5);
+        let e = format!("{:#}", config(&p).unwrap_err());
+        assert!(e.contains("`intruder` must be a map"), "{e}");
+    }
 }
