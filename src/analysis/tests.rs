@@ -679,6 +679,11 @@ fn every_kind_runs_from_json_parameters() {
         ("intruder_velocity", json!({"blocks": 2}), "v"),
         ("intruder_path", json!({}), "x"),
         ("momentum_profile", json!({"times": [1.0], "bins": 6}), "Px"),
+        (
+            "intruder_diffusion",
+            json!({"lag_min": 0.5, "lag_max": 10.0}),
+            "D",
+        ),
     ];
     assert_eq!(cases.len(), observables::OBSERVABLES.len());
     for (kind, params, column) in cases {
