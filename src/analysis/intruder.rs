@@ -32,6 +32,20 @@ pub struct VelocityParams {
     /// Number of equal time blocks for the error estimate.
     #[serde(default = "default_blocks")]
     pub blocks: usize,
+    /// The driving of the bath (eps, gamma, T of the simulation): adds the drive
+    /// velocity v_dr = p_dr / m_eff of Eq. (7) of paper I at the measured packing
+    /// fraction, and the scaled columns of Fig. 5.
+    #[serde(default)]
+    pub drive: Option<DriveParams>,
+}
+
+/// eps, gamma and T of the simulation, for Eq. (7) of paper I.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DriveParams {
+    pub eps: f64,
+    pub gamma: f64,
+    pub temperature: f64,
 }
 
 fn intruders(traj: &Trajectory, species: u8) -> Result<Vec<usize>> {
@@ -48,11 +62,25 @@ fn mean_of(v: &[f64], idx: &[usize]) -> f64 {
     idx.iter().map(|&i| v[i]).sum::<f64>() / idx.len() as f64
 }
 
+/// One time block: the intruder's velocity along x and the bath's centre-of-mass
+/// velocity along x (mass-weighted, the intruder left out).
+struct Block {
+    v: f64,
+    bath: f64,
+}
+
 /// Block velocities of one trajectory: mean recorded vx over the frames of each block
-/// if velocities are recorded, else the x displacement across the block over its duration.
-fn block_velocities(traj: &Trajectory, p: &VelocityParams) -> Result<Vec<f64>> {
+/// if velocities are recorded, else the x displacement across the block over its
+/// duration (positions are unwrapped); the same for the bath's centre of mass.
+fn block_velocities(traj: &Trajectory, p: &VelocityParams) -> Result<Vec<Block>> {
     check_trajectory(traj)?;
     let idx = intruders(traj, p.species)?;
+    let bath: Vec<usize> = (0..traj.n())
+        .filter(|&i| traj.species[i] != p.species)
+        .collect();
+    let mass = |i: &usize| traj.masses[traj.species[*i] as usize];
+    let m_bath: f64 = bath.iter().map(mass).sum();
+    let com = |v: &[f64]| bath.iter().map(|i| mass(i) * v[*i]).sum::<f64>() / m_bath;
     let frames: Vec<&Frame> = traj.frames.iter().filter(|f| f.time >= p.t_start).collect();
     if p.blocks == 0 {
         bail!("parameter `blocks` must be at least 1");
@@ -78,45 +106,158 @@ fn block_velocities(traj: &Trajectory, p: &VelocityParams) -> Result<Vec<f64>> {
         if inb.len() < 2 {
             bail!("time block [{lo}, {hi}) holds fewer than two frames: use fewer blocks");
         }
-        let v = if with_v {
-            inb.iter().map(|f| mean_of(&f.vx, &idx)).sum::<f64>() / inb.len() as f64
+        out.push(if with_v {
+            let k = inb.len() as f64;
+            Block {
+                v: inb.iter().map(|f| mean_of(&f.vx, &idx)).sum::<f64>() / k,
+                bath: inb.iter().map(|f| com(&f.vx)).sum::<f64>() / k,
+            }
         } else {
             let (fa, fb) = (inb[0], inb[inb.len() - 1]);
-            (mean_of(&fb.x, &idx) - mean_of(&fa.x, &idx)) / (fb.time - fa.time)
-        };
-        out.push(v);
+            let dt = fb.time - fa.time;
+            Block {
+                v: (mean_of(&fb.x, &idx) - mean_of(&fa.x, &idx)) / dt,
+                bath: (com(&fb.x) - com(&fa.x)) / dt,
+            }
+        });
     }
     Ok(out)
 }
 
-/// Stationary velocity along x: mean over time blocks of every replica, with the
-/// standard error of the block means.
-pub fn stationary_velocity(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Estimate> {
-    let mut v = Vec::new();
-    for t in trajs {
-        v.extend(block_velocities(t, p)?);
-    }
+/// Mean and standard error of independent samples (NaN error for one sample).
+fn mean_err(v: &[f64]) -> Estimate {
     let n = v.len() as f64;
     let m = v.iter().sum::<f64>() / n;
     let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
-    Ok(Estimate {
+    Estimate {
         value: m,
         err: if v.len() > 1 {
             (var / n).sqrt()
         } else {
             f64::NAN
         },
-    })
+    }
 }
 
-/// Table `v, v_err, n_blocks` from the time blocks of every replica.
+/// Blocks of every replica, each replica's in time order.
+fn all_blocks(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Vec<Vec<Block>>> {
+    trajs.iter().map(|t| block_velocities(t, p)).collect()
+}
+
+/// Stationary velocity along x: mean over time blocks of every replica, with the
+/// standard error of the block means.
+pub fn stationary_velocity(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Estimate> {
+    let v: Vec<f64> = all_blocks(trajs, p)?
+        .iter()
+        .flatten()
+        .map(|b| b.v)
+        .collect();
+    Ok(mean_err(&v))
+}
+
+/// Whether the first and second halves of the measurement agree: the block means
+/// of the first half (every replica) and of the second half differ by less than
+/// three standard errors of the difference. A transient still running when the
+/// measurement starts shows as a difference of the halves.
+pub fn halves_agree(first: &Estimate, second: &Estimate) -> bool {
+    let d = (first.value - second.value).abs();
+    let e = first.err.hypot(second.err);
+    d <= 3.0 * e
+}
+
+/// The drive velocity v_dr = p_dr / m_eff of paper I (Eq. 7 with the Enskog rate
+/// of the bath at packing fraction `phi`; m_eff = m_s m_b / (m_s + m_b)).
+pub fn drive_velocity(traj: &Trajectory, phi: f64, d: &DriveParams) -> f64 {
+    let (radii, masses) = (&traj.radii[..2], &traj.masses[..2]);
+    let omega = crate::sim::enskog::collision_frequency(
+        phi,
+        radii,
+        masses,
+        &bath_fractions(traj),
+        d.temperature,
+    );
+    let p_dr =
+        crate::sim::kicks::amplitude(d.eps, d.gamma, d.temperature, omega, masses[0], masses[1]);
+    p_dr * (masses[0] + masses[1]) / (masses[0] * masses[1])
+}
+
+fn bath_fractions(traj: &Trajectory) -> [f64; 2] {
+    let n = traj.species.iter().filter(|&&s| s < 2).count() as f64;
+    let large = traj.species.iter().filter(|&&s| s == 1).count() as f64;
+    [1.0 - large / n, large / n]
+}
+
+/// Packing fraction of the box: every disk's area (the intruder's too) over Lx Ly.
+pub fn packing_fraction(traj: &Trajectory) -> f64 {
+    let area: f64 = traj
+        .species
+        .iter()
+        .map(|&s| std::f64::consts::PI * traj.radii[s as usize].powi(2))
+        .sum();
+    area / (traj.box_size[0] * traj.box_size[1])
+}
+
+/// Table of the stationary velocity (one row): `v, v_err` over the time blocks of
+/// every replica; `v_first, v_second` (+ `_err`) over the first and second halves
+/// and `stationary` (1 if they agree within three errors, else 0: such a point is
+/// kept but flagged, never silently averaged); `snr = v / v_err`; the bath's
+/// centre-of-mass velocity `v_bath` (+ `_err`) and `v_rel = v - v_bath`;
+/// `mass_total` (the drift of Eq. 11 is F / (gamma mass_total)); `n_blocks`; with
+/// `drive`, `v_dr`, `v_over_vdr` and `vdr2_sqrt_eta = v_dr^2 eta^(1/2)` (Fig. 5).
 pub fn velocity_table(trajs: &[&Trajectory], p: &VelocityParams) -> Result<RecordBatch> {
-    let e = stationary_velocity(trajs, p)?;
-    f64_batch(&[
-        ("v", vec![e.value]),
-        ("v_err", vec![e.err]),
+    let blocks = all_blocks(trajs, p)?;
+    let pick = |half: Option<bool>, f: fn(&Block) -> f64| -> Vec<f64> {
+        blocks
+            .iter()
+            .flat_map(|r| {
+                let h = r.len() / 2;
+                r.iter()
+                    .enumerate()
+                    .filter(move |(k, _)| half.is_none_or(|second| (*k >= h) == second))
+                    .map(move |(_, b)| f(b))
+            })
+            .collect()
+    };
+    let v = mean_err(&pick(None, |b| b.v));
+    let bath = mean_err(&pick(None, |b| b.bath));
+    let rel = mean_err(&pick(None, |b| b.v - b.bath));
+    if p.blocks < 2 {
+        bail!("parameter `blocks` must be at least 2 to compare the halves of the measurement");
+    }
+    let (first, second) = (
+        mean_err(&pick(Some(false), |b| b.v)),
+        mean_err(&pick(Some(true), |b| b.v)),
+    );
+    let t = trajs[0];
+    let mass_total: f64 = t.species.iter().map(|&s| t.masses[s as usize]).sum();
+    let mut cols = vec![
+        ("v", vec![v.value]),
+        ("v_err", vec![v.err]),
+        ("v_first", vec![first.value]),
+        ("v_first_err", vec![first.err]),
+        ("v_second", vec![second.value]),
+        ("v_second_err", vec![second.err]),
+        (
+            "stationary",
+            vec![f64::from(u8::from(halves_agree(&first, &second)))],
+        ),
+        ("snr", vec![v.value / v.err]),
+        ("v_bath", vec![bath.value]),
+        ("v_bath_err", vec![bath.err]),
+        ("v_rel", vec![rel.value]),
+        ("v_rel_err", vec![rel.err]),
+        ("mass_total", vec![mass_total]),
         ("n_blocks", vec![(p.blocks * trajs.len()) as f64]),
-    ])
+    ];
+    if let Some(d) = &p.drive {
+        let eta = packing_fraction(t);
+        let v_dr = drive_velocity(t, eta, d);
+        cols.push(("v_dr", vec![v_dr]));
+        cols.push(("v_over_vdr", vec![v.value / v_dr]));
+        cols.push(("v_over_vdr_err", vec![v.err / v_dr]));
+        cols.push(("vdr2_sqrt_eta", vec![v_dr * v_dr * eta.sqrt()]));
+    }
+    f64_batch(&cols)
 }
 
 /// Table `t, x, v` of the intruder path (Fig. 4 inset of paper I): v is the recorded
@@ -234,4 +375,99 @@ pub fn compute_profile(traj: &Trajectory, p: &ProfileParams) -> Result<RecordBat
     }
     let [t, x, px] = cols;
     f64_batch(&[("t", t), ("x", x), ("Px", px)])
+}
+
+fn default_lag_min() -> f64 {
+    2.0
+}
+
+fn default_lag_max() -> f64 {
+    20.0
+}
+
+/// Parameters of the intruder's diffusion (at F = 0).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DiffusionParams {
+    /// Species of the intruder.
+    #[serde(default = "default_species")]
+    pub species: u8,
+    /// Frame pairs this far apart and more enter the fit (beyond the velocity
+    /// relaxation, ~1/gamma).
+    #[serde(default = "default_lag_min")]
+    pub lag_min: f64,
+    /// Frame pairs at most this far apart enter the fit.
+    #[serde(default = "default_lag_max")]
+    pub lag_max: f64,
+}
+
+/// D and T of one replica: D from the line <dx^2> = 2 D t + c fitted to every pair
+/// of frames with lag in [lag_min, lag_max] (x is periodic and unwrapped); T = m0
+/// <vx^2> over the frames (NaN without recorded velocities).
+fn replica_diffusion(traj: &Trajectory, p: &DiffusionParams) -> Result<(f64, f64)> {
+    check_trajectory(traj)?;
+    let idx = intruders(traj, p.species)?;
+    if !(p.lag_min >= 0.0 && p.lag_max > p.lag_min) {
+        bail!(
+            "parameters need 0 <= lag_min < lag_max, got lag_min = {}, lag_max = {}",
+            p.lag_min,
+            p.lag_max
+        );
+    }
+    let fr = &traj.frames;
+    let x: Vec<f64> = fr.iter().map(|f| mean_of(&f.x, &idx)).collect();
+    let (mut n, mut st, mut sy, mut stt, mut sty) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for a in 0..fr.len() {
+        for b in a + 1..fr.len() {
+            let t = fr[b].time - fr[a].time;
+            if t < p.lag_min || t > p.lag_max {
+                continue;
+            }
+            let y = (x[b] - x[a]).powi(2);
+            n += 1.0;
+            st += t;
+            sy += y;
+            stt += t * t;
+            sty += t * y;
+        }
+    }
+    let det = n * stt - st * st;
+    if n < 3.0 || det <= 1e-12 * n * stt {
+        bail!(
+            "fewer than three frame pairs with distinct lags in [{}, {}]: record longer or widen the window",
+            p.lag_min,
+            p.lag_max
+        );
+    }
+    let slope = (n * sty - st * sy) / det;
+    let with_v: Vec<&Frame> = fr.iter().filter(|f| f.vx.len() == traj.n()).collect();
+    let m0 = traj.masses[p.species as usize];
+    let temp = with_v
+        .iter()
+        .map(|f| m0 * idx.iter().map(|&i| f.vx[i].powi(2)).sum::<f64>() / idx.len() as f64)
+        .sum::<f64>()
+        / with_v.len() as f64;
+    Ok((slope / 2.0, temp))
+}
+
+/// Table (one row) `D, D_err, T_x, T_x_err, mu_einstein, mu_einstein_err, replicas`:
+/// the intruder's diffusion coefficient along x, its kinetic temperature along x and
+/// the mobility the Einstein relation predicts, mu = D / T_x (errors over replicas).
+pub fn diffusion_table(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBatch> {
+    let per: Vec<(f64, f64)> = trajs
+        .iter()
+        .map(|t| replica_diffusion(t, p))
+        .collect::<Result<_>>()?;
+    let d = mean_err(&per.iter().map(|r| r.0).collect::<Vec<_>>());
+    let t = mean_err(&per.iter().map(|r| r.1).collect::<Vec<_>>());
+    let mu = mean_err(&per.iter().map(|r| r.0 / r.1).collect::<Vec<_>>());
+    f64_batch(&[
+        ("D", vec![d.value]),
+        ("D_err", vec![d.err]),
+        ("T_x", vec![t.value]),
+        ("T_x_err", vec![t.err]),
+        ("mu_einstein", vec![mu.value]),
+        ("mu_einstein_err", vec![mu.err]),
+        ("replicas", vec![trajs.len() as f64]),
+    ])
 }

@@ -373,8 +373,8 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "intruder_velocity",
-        describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, n_blocks",
-        modules: &["analysis/intruder"],
+        describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta",
+        modules: &["analysis/intruder", "sim/enskog", "sim/kicks"],
         validate: |v| params::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {
             let p: intruder::VelocityParams = params("intruder_velocity", v)?;
@@ -390,6 +390,19 @@ pub static OBSERVABLES: &[Observable] = &[
         compute: |t, v| {
             let b = concat("intruder_path", t, v, intruder::compute_path)?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+        },
+    },
+    Observable {
+        name: "intruder_diffusion",
+        describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
+        modules: &["analysis/intruder"],
+        validate: |v| params::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
+        compute: |t, v| {
+            let p: intruder::DiffusionParams = params("intruder_diffusion", v)?;
+            Ok(Tables::one(
+                intruder::diffusion_table(t, &p)?,
+                Errors::Rows { replicas: t.len() },
+            ))
         },
     },
     Observable {

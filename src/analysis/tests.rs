@@ -610,6 +610,7 @@ fn intruder_velocity_and_mobility() {
         species: 2,
         t_start: 10.0,
         blocks: 10,
+        drive: None,
     };
     let v = intruder::stationary_velocity(&[&traj], &p).unwrap();
     assert!((v.value - 0.7).abs() < 4.0 * v.err && v.err < 0.02, "{v:?}");
@@ -679,6 +680,11 @@ fn every_kind_runs_from_json_parameters() {
         ("intruder_velocity", json!({"blocks": 2}), "v"),
         ("intruder_path", json!({}), "x"),
         ("momentum_profile", json!({"times": [1.0], "bins": 6}), "Px"),
+        (
+            "intruder_diffusion",
+            json!({"lag_min": 0.5, "lag_max": 10.0}),
+            "D",
+        ),
     ];
     assert_eq!(cases.len(), observables::OBSERVABLES.len());
     for (kind, params, column) in cases {
@@ -794,4 +800,129 @@ fn times_in_units_of_tau_alpha_pick_the_nearest_lag_and_never_extrapolate() {
     assert!(e.contains("outside the recorded lags"), "{e}");
     let e = err_text(lags::in_units(&lags, f64::NAN, "tau_alpha", &[1.0], 1e-6));
     assert!(e.contains("not a positive time"), "{e}");
+}
+
+/// An intruder (species 2) drifting at `v(t)` with weak noise among random
+/// walkers of paper I's bath species (radii 1 : 1.25, masses 1 : 25/16, 50:50).
+fn drifting_intruder(v: impl Fn(f64) -> f64, seed: u64) -> Trajectory {
+    let times: Vec<f64> = (0..=400).map(|k| k as f64 * 0.25).collect();
+    let mut traj = random_walk(61, [30.0, 30.0], &times, 0.01, seed);
+    traj.radii = vec![1.0, 1.25, 2.0];
+    traj.masses = vec![1.0, 25.0 / 16.0, 4.0];
+    traj.species[0] = 2;
+    // x(t) = integral of v from 0 to t (trapezoids on a fine grid).
+    for f in &mut traj.frames {
+        let k = 1000;
+        let h = f.time / k as f64;
+        let x: f64 = (0..k)
+            .map(|j| 0.5 * h * (v(j as f64 * h) + v((j + 1) as f64 * h)))
+            .sum();
+        f.x[0] += x;
+    }
+    traj
+}
+
+fn velocity_row(traj: &Trajectory, drive: Option<intruder::DriveParams>) -> RecordBatch {
+    let p = intruder::VelocityParams {
+        species: 2,
+        t_start: 0.0,
+        blocks: 10,
+        drive,
+    };
+    intruder::velocity_table(&[traj], &p).unwrap()
+}
+
+/// The first value of column `name`.
+fn first(b: &RecordBatch, name: &str) -> f64 {
+    col(b, name)[0]
+}
+
+#[test]
+fn intruder_stationarity_flags_a_transient_and_reports_the_bath() {
+    // Steady drift: the halves agree, flagged stationary; the bath (random
+    // walkers) does not drift, so v_rel = v.
+    let steady = velocity_row(&drifting_intruder(|_| 0.5, 7), None);
+    assert_eq!(first(&steady, "stationary"), 1.0);
+    assert!((first(&steady, "v") - 0.5).abs() < 4.0 * first(&steady, "v_err"));
+    assert!(first(&steady, "v_bath").abs() < 4.0 * first(&steady, "v_bath_err"));
+    assert!((first(&steady, "v_rel") - first(&steady, "v")).abs() < 0.02);
+    assert!((first(&steady, "snr") - first(&steady, "v") / first(&steady, "v_err")).abs() < 1e-12);
+    // 30 small, 30 large, the intruder (disk 0 was small).
+    let m = 30.0 + 30.0 * 25.0 / 16.0 + 4.0;
+    assert!(
+        (first(&steady, "mass_total") - m).abs() < 1e-9,
+        "{}",
+        first(&steady, "mass_total")
+    );
+    // A transient still running (v relaxing from 0 to 0.5 with time constant 30):
+    // the halves differ and the point is flagged, not silently averaged.
+    let relaxing = velocity_row(
+        &drifting_intruder(|t| 0.5 * (1.0 - (-t / 30.0).exp()), 7),
+        None,
+    );
+    assert_eq!(first(&relaxing, "stationary"), 0.0);
+    assert!(first(&relaxing, "v_second") > first(&relaxing, "v_first"));
+}
+
+#[test]
+fn intruder_drive_velocity_is_eq7_of_paper_i() {
+    // v_dr = p_dr / m_eff with the golden p_dr of eps = 0.9, T = gamma = 1 at
+    // eta = 0.3, 0.6, 0.8 (Enskog rates 0.9423, 4.876, 22.82), m_eff = 25/41.
+    let traj = drifting_intruder(|_| 0.0, 1);
+    let d = intruder::DriveParams {
+        eps: 0.9,
+        gamma: 1.0,
+        temperature: 1.0,
+    };
+    for (eta, v) in [(0.3, 2.697), (0.6, 1.287), (0.8, 0.774)] {
+        let got = intruder::drive_velocity(&traj, eta, &d);
+        assert!((got - v).abs() < 2e-3, "eta {eta}: v_dr {got} vs {v}");
+    }
+    // The table's scaled columns of Fig. 5 at the box's own packing fraction.
+    let row = velocity_row(&traj, Some(d.clone()));
+    let eta = intruder::packing_fraction(&traj);
+    let v_dr = intruder::drive_velocity(&traj, eta, &d);
+    assert!((first(&row, "v_dr") - v_dr).abs() < 1e-12);
+    assert!((first(&row, "vdr2_sqrt_eta") - v_dr * v_dr * eta.sqrt()).abs() < 1e-12);
+    assert!((first(&row, "v_over_vdr") - first(&row, "v") / v_dr).abs() < 1e-12);
+}
+
+#[test]
+fn intruder_diffusion_recovers_d_and_needs_a_lag_window() {
+    // A Brownian intruder with D = 0.3 (random-walk frames, no velocities: T_x NaN).
+    let times: Vec<f64> = (0..=600).map(|k| k as f64 * 0.5).collect();
+    let trajs: Vec<_> = (0..4)
+        .map(|s| {
+            let mut t = random_walk(20, [40.0, 40.0], &times, 0.3, 10 + s);
+            t.radii.push(2.0);
+            t.masses.push(4.0);
+            t.species[0] = 2;
+            t
+        })
+        .collect();
+    let refs: Vec<&Trajectory> = trajs.iter().collect();
+    let p = intruder::DiffusionParams {
+        species: 2,
+        lag_min: 1.0,
+        lag_max: 10.0,
+    };
+    let b = intruder::diffusion_table(&refs, &p).unwrap();
+    let get = |n: &str| first(&b, n);
+    let (d, e) = (get("D"), get("D_err"));
+    assert!((d - 0.3).abs() < 4.0 * e && e < 0.05, "D = {d} +- {e}");
+    assert!(get("T_x").is_nan());
+    let bad = intruder::DiffusionParams {
+        lag_min: 5.0,
+        lag_max: 5.0,
+        ..p.clone()
+    };
+    let msg = err_text(intruder::diffusion_table(&refs, &bad));
+    assert!(msg.contains("lag_min < lag_max"), "{msg}");
+    let none = intruder::DiffusionParams {
+        lag_min: 1000.0,
+        lag_max: 2000.0,
+        ..p
+    };
+    let msg = err_text(intruder::diffusion_table(&refs, &none));
+    assert!(msg.contains("fewer than three frame pairs"), "{msg}");
 }

@@ -136,6 +136,37 @@ impl RunLength {
 }
 
 /// Split the stage parameters into the run-length rule and the SimConfig.
+/// A flat `force: F` (a grid key: grid values are flat parameters and become table
+/// columns) is the intruder's force: it sets `intruder.force`, creating the intruder
+/// with paper I's radius and mass when `intruder` is not given.
+fn force_into_intruder(mut rest: Map<String, Value>) -> Result<Map<String, Value>> {
+    let Some(force) = rest.remove("force") else {
+        return Ok(rest);
+    };
+    match rest
+        .entry("intruder")
+        .or_insert_with(|| Value::Object(Map::new()))
+    {
+        Value::Object(m) => {
+            if m.contains_key("force") {
+                return Err(param_error(
+                    &["force"],
+                    "simulate: `force` and `intruder.force` are both given; keep one".to_string(),
+                ));
+            }
+            m.insert("force".into(), force);
+        }
+        _ => {
+            return Err(param_error(
+                &["intruder"],
+                "simulate: `intruder` must be a map ({force: F, radius: R0, mass: m0}) when `force` is given"
+                    .to_string(),
+            ));
+        }
+    }
+    Ok(rest)
+}
+
 pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
     let obj = params
         .as_object()
@@ -162,6 +193,7 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
             );
         }
     }
+    let rest = force_into_intruder(rest)?;
     let rule: RunLength = typed("simulate (run-length rule)", &Value::Object(rule))?;
     rule.check()?;
     let mut cfg: SimConfig =
@@ -310,5 +342,26 @@ mod tests {
             let e = format!("{:#}", config(&p).unwrap_err());
             assert!(e.contains(key) && e.contains("run-length rule"), "{e}");
         }
+    }
+
+    #[test]
+    fn a_flat_force_is_the_intruders() {
+        // Paper I's intruder (R0 = 2, m0 = 4) from a flat grid key.
+        let mut p = params();
+        p["force"] = serde_json::json!(8.0);
+        let (_, cfg) = config(&p).unwrap();
+        let i = cfg.intruder.unwrap();
+        assert_eq!((i.force, i.radius, i.mass), (8.0, 2.0, 4.0));
+        // Merged into a given intruder map.
+        p["intruder"] = serde_json::json!({"radius": 2.5});
+        let i = config(&p).unwrap().1.intruder.unwrap();
+        assert_eq!((i.force, i.radius), (8.0, 2.5));
+        // Both given, or an intruder that is not a map: errors naming the key.
+        p["intruder"] = serde_json::json!({"force": 2.0});
+        let e = format!("{:#}", config(&p).unwrap_err());
+        assert!(e.contains("`force` and `intruder.force`"), "{e}");
+        p["intruder"] = serde_json::json!(5);
+        let e = format!("{:#}", config(&p).unwrap_err());
+        assert!(e.contains("`intruder` must be a map"), "{e}");
     }
 }
