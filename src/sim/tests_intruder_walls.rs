@@ -62,7 +62,7 @@ fn bounces(p: Pull, d: f64, n: usize) -> Vec<(f64, f64)> {
 /// analytic times (gamma = 0: periodic, t_k = (2k - 1) t_1; gamma > 0:
 /// shrinking), its position between hits is the analytic path, it never
 /// passes the wall, and the ledger closes (work of F = kinetic energy gained
-/// + friction + what the rest on the wall absorbed). With friction it ends
+/// plus friction plus what the rest on the wall absorbed). With friction it ends
 /// at rest on the wall, the wall holding F.
 #[test]
 fn lone_intruder_bounces_on_the_wall_as_the_analytic_solution() {
