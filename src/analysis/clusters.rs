@@ -420,15 +420,7 @@ mod tests {
             per_decade: 5,
         };
         let b = compute_snapshot(&traj, &p).unwrap();
-        let col = |n: &str| -> Vec<f64> {
-            b.column_by_name(n)
-                .unwrap()
-                .as_any()
-                .downcast_ref::<arrow_array::Float64Array>()
-                .unwrap()
-                .values()
-                .to_vec()
-        };
+        let col = |n: &str| crate::analysis::tests::col(&b, n);
         let (x, y, r, class) = (col("x"), col("y"), col("radius"), col("class"));
         assert_eq!(class.len(), 400);
         let f = &traj.frames[1];
@@ -472,15 +464,7 @@ mod tests {
             per_decade: 10,
         };
         let b = sizes_table(&rows, &p).unwrap();
-        let col = |n: &str| -> Vec<f64> {
-            b.column_by_name(n)
-                .unwrap()
-                .as_any()
-                .downcast_ref::<arrow_array::Float64Array>()
-                .unwrap()
-                .values()
-                .to_vec()
-        };
+        let col = |n: &str| crate::analysis::tests::col(&b, n);
         let (kind, nc, pr, sp, big) = (
             col("kind"),
             col("Nc"),

@@ -297,14 +297,7 @@ mod tests {
                 rel_tol: 1e-6,
             };
             let b = diffusion(&[&traj], &p).unwrap();
-            let get = |n: &str| {
-                b.column_by_name(n)
-                    .unwrap()
-                    .as_any()
-                    .downcast_ref::<arrow_array::Float64Array>()
-                    .unwrap()
-                    .value(0)
-            };
+            let get = |n: &str| crate::analysis::tests::col(&b, n)[0];
             let (dd, err, tau) = (get("D"), get("D_err"), get("tau_alpha"));
             // Q = 1 - exp(-a^2 / 4 D t) = 1/e: tau_alpha = a^2 / (4 D ln(e / (e - 1))).
             let exact_tau =

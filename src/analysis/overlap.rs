@@ -406,14 +406,7 @@ mod level_tests {
                 rel_tol: 1e-6,
             };
             let b = q_levels(&[&traj], &p).unwrap();
-            let get = |n: &str| {
-                b.column_by_name(n)
-                    .unwrap()
-                    .as_any()
-                    .downcast_ref::<arrow_array::Float64Array>()
-                    .unwrap()
-                    .value(0)
-            };
+            let get = |n: &str| crate::analysis::tests::col(&b, n)[0];
             let (r, err) = (get("t_over_tau_alpha"), get("t_over_tau_alpha_err"));
             assert!(err > 0.0 && err < 0.05 * exact, "error {err}");
             assert!(

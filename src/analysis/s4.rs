@@ -548,12 +548,7 @@ mod tests {
     use crate::analysis::chi4;
     use crate::analysis::synthetic::oz_slow;
 
-    fn col(b: &RecordBatch, name: &str) -> Vec<f64> {
-        b.column_by_name(name)
-            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
-            .map(|a| a.values().to_vec())
-            .unwrap_or_else(|| panic!("no column {name}"))
-    }
+    use crate::analysis::tests::col;
 
     /// Fig. 16: the q = 0 point of S4 is Eq. 15 with W(0) = N_slow, i.e. chi4 of the
     /// whole system (Eq. 14 with one box), on correlated (OZ) slow particles.

@@ -9,7 +9,8 @@ use super::synthetic::{ballistic, independent_slow, oz_slow, random_walk};
 use super::*;
 use crate::traj::{Frame, Schedule, Trajectory};
 
-fn col(b: &RecordBatch, name: &str) -> Vec<f64> {
+/// A Float64 column of a table, for the analysis modules' tests.
+pub(super) fn col(b: &RecordBatch, name: &str) -> Vec<f64> {
     b.column_by_name(name)
         .unwrap_or_else(|| panic!("no column {name}"))
         .as_any()
