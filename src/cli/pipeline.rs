@@ -363,10 +363,11 @@ fn planned_work(node: &pipeline::graph::Node) -> Option<Work> {
     let (_, cfg) = crate::stages::simulate::config(&node.params).ok()?;
     let nf = cfg.n as f64;
     let large = cfg.n_large() as f64 / nf;
+    // The bath's two species (an intruder, species 2, is left out, as in the run).
     let omega = crate::sim::enskog::collision_frequency(
         cfg.phi,
-        &cfg.radii(),
-        &cfg.species_masses(),
+        &cfg.radii()[..2],
+        &cfg.species_masses()[..2],
         &[1.0 - large, large],
         1.0,
     );
