@@ -501,7 +501,7 @@ stages:
   - name: xi_table
     kind: join
     gather: [tau_table, oz]
-    params: {left: tau_table, right: oz, on: [phi], derive: [{name: xi_over_tau, op: divide, a: xi, b: tau_alpha}]}
+    params: {left: tau_table, right: oz, on: [phi], derive: [{name: xi_over_tau, op: divide, a: xi, b: tau_alpha}, {name: inv_xi, op: reciprocal, a: xi}]}
   - name: tau_pl
     kind: fit
     gather: [tau_table]
@@ -551,9 +551,13 @@ fn s4_q_zero_is_chi4_and_fit_tables_join_as_columns() {
     );
     assert_eq!(phis, vec![0.55, 0.62, 0.68, 0.72]);
     assert_eq!(column(&xi, "chi0").len(), 4);
+    let (inv, inv_err) = (column(&xi, "inv_xi"), column(&xi, "inv_xi_err"));
     for i in 0..4 {
         assert!(x[i].is_nan() || (x[i] > 0.0 && xe[i] >= 0.0), "xi {}", x[i]);
         assert!(x[i].is_nan() || r[i] == x[i] / ta[i]);
+        // `reciprocal`: 1/xi with the propagated error xi_err / xi^2.
+        assert!(x[i].is_nan() || inv[i] == 1.0 / x[i]);
+        assert!(x[i].is_nan() || (inv_err[i] - xe[i] / (x[i] * x[i])).abs() <= 1e-12 * inv_err[i]);
     }
     assert!(x.iter().any(|v| v.is_finite()), "{x:?}");
     // A divergence 0.005 beyond the last phi (steps of 0.04): the compare verdict
@@ -745,4 +749,55 @@ fn q_collapses_on_beta_ln_t_over_tau0_and_a_larger_cutoff_relaxes_later() {
             );
         }
     }
+}
+
+/// A second figure that shares tinyfig's `tau_table` node under the name
+/// `tau09_table` and has a `tau_table` of its own (another cut-off a).
+const SHARING_PIPELINE: &str = r#"
+description: a figure sharing a node that another figure names like one of its own
+stages:
+  - name: tau09
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+  - name: tau09_table
+    kind: table
+    gather: [tau09]
+  - name: tau_a05
+    kind: tau_alpha
+    gather: [tiny]
+    by: [phi]
+    params: {a: 0.5}
+  - name: tau_table
+    kind: table
+    gather: [tau_a05]
+  - name: both
+    kind: join
+    gather: [tau_table, tau09_table]
+    params: {left: tau_table, right: tau09_table, on: [phi]}
+"#;
+
+/// A node shared between figures answers to each figure's name for it, but a
+/// stage reads it only under its own figure's name: planned together with
+/// tinyfig (whose `tau_table` is this figure's `tau09_table`), `left: tau_table`
+/// still reads this figure's table alone (it used to read both, and rows without
+/// a column of the other, such as eps, showed as a group "NaN" in a legend).
+#[test]
+fn a_shared_node_is_read_under_its_own_figures_name_only() {
+    let dir = tempfile::tempdir().unwrap();
+    write_specs(dir.path());
+    std::fs::write(dir.path().join("pipelines/sharing.yaml"), SHARING_PIPELINE).unwrap();
+    let ws = Workspace::new(dir.path());
+    let reg = repro::stages::registry();
+    let figs = ["sharing".to_string(), "tinyfig".to_string()];
+    run_figures(&ws, &reg, &figs, "ci", &options())
+        .unwrap()
+        .check()
+        .unwrap();
+    let phi = column(&ws.results.join("sharing/both.parquet"), "phi");
+    assert_eq!(phi, vec![0.55, 0.62, 0.68, 0.72], "one row per phi of its own table");
+    // The smaller cut-off relaxes sooner: every row is this figure's a = 0.5.
+    let own = column(&ws.results.join("sharing/tau_table.parquet"), "tau_alpha");
+    let joined = column(&ws.results.join("sharing/both.parquet"), "tau_alpha");
+    assert_eq!(own, joined);
 }

@@ -237,7 +237,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "aging",
-        describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha",
+        describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
         modules: OVERLAP,
         validate: |v| params::<overlap::Params>("aging", v).map(drop),
         compute: |t, v| {

@@ -320,8 +320,9 @@ pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<OriginCurve>> {
         .collect())
 }
 
-/// One waiting time t0 with its lags and Q(t; t0).
-pub type AgingCurve = (f64, Vec<f64>, Vec<f64>);
+/// One waiting time t0: its lags, Q(t; t0) averaged over replicas, and each
+/// replica's own Q(t; t0) (for the replica jackknife of tau_alpha(t0)).
+pub type AgingCurve = (f64, Vec<f64>, Vec<f64>, Vec<Vec<f64>>);
 
 /// Aging check (Fig. 2): Q(t; t0) per waiting time t0, averaged over replicas that
 /// share one schedule. Only true time origins count: the frames from which the
@@ -329,18 +330,15 @@ pub type AgingCurve = (f64, Vec<f64>, Vec<f64>);
 /// a block is that close to another); frames pairing only with other origins'
 /// frames are not waiting times.
 pub fn aging_curves(trajs: &[&Trajectory], p: &Params) -> Result<Vec<AgingCurve>> {
-    let mut acc: std::collections::BTreeMap<u64, (f64, Vec<f64>, Vec<f64>, usize)> =
+    let mut acc: std::collections::BTreeMap<u64, (f64, Vec<f64>, Vec<Vec<f64>>)> =
         Default::default();
     for tr in trajs {
         for (t0, t, q) in per_origin(tr, p)? {
             // Waiting times agree across replicas up to rounding: key them on 1e-9.
             let key = (t0 * 1e9).round() as u64;
-            let e = acc
-                .entry(key)
-                .or_insert_with(|| (t0, t.clone(), vec![0.0; q.len()], 0));
+            let e = acc.entry(key).or_insert_with(|| (t0, t.clone(), Vec::new()));
             if e.1 == t {
-                e.2.iter_mut().zip(&q).for_each(|(s, v)| *s += v);
-                e.3 += 1;
+                e.2.push(q);
             }
         }
     }
@@ -354,19 +352,36 @@ pub fn aging_curves(trajs: &[&Trajectory], p: &Params) -> Result<Vec<AgingCurve>
             e.1.first()
                 .is_some_and(|&t| (t - shortest).abs() <= 1e-9 * shortest)
         })
-        .map(|(t0, t, s, k)| (t0, t, s.into_iter().map(|v| v / k as f64).collect()))
+        .map(|(t0, t, per)| {
+            let mean = (0..t.len())
+                .map(|i| per.iter().map(|q| q[i]).sum::<f64>() / per.len() as f64)
+                .collect();
+            (t0, t, mean, per)
+        })
         .collect())
 }
 
-/// The aging tables: `t0, t, Q` (Q(t; t0), Fig. 2) and `t0, tau_alpha` (Fig. 2 inset,
-/// NaN where Q(t; t0) never reaches 1/e), from [`aging_curves`].
+/// The aging tables: `t0, t, Q` (Q(t; t0), Fig. 2) and `t0, tau_alpha,
+/// tau_alpha_err` (Fig. 2 inset, NaN where Q(t; t0) never reaches 1/e), from
+/// [`aging_curves`]. One waiting time is one time origin per replica, so its error
+/// is the delete-one jackknife over replicas (NaN with one replica).
 pub fn aging(trajs: &[&Trajectory], p: &Params) -> Result<(RecordBatch, RecordBatch)> {
     let level = (-1f64).exp();
     let mut cols: [Vec<f64>; 3] = Default::default();
-    let (mut t0s, mut taus) = (Vec::new(), Vec::new());
-    for (t0, t, q) in aging_curves(trajs, p)? {
+    let (mut t0s, mut taus, mut errs) = (Vec::new(), Vec::new(), Vec::new());
+    for (t0, t, q, per) in aging_curves(trajs, p)? {
         t0s.push(t0);
         taus.push(crossing_time(&t, &q, level).unwrap_or(f64::NAN));
+        let r = per.len() as f64;
+        let loo = per.iter().map(|qk| {
+            let q_without: Vec<f64> = q
+                .iter()
+                .zip(qk)
+                .map(|(m, v)| (m * r - v) / (r - 1.0))
+                .collect();
+            crossing_time(&t, &q_without, level).unwrap_or(f64::NAN)
+        });
+        errs.push(super::stats::jackknife_err(loo.collect()));
         cols[0].extend(std::iter::repeat_n(t0, t.len()));
         cols[1].extend(t);
         cols[2].extend(q);
@@ -374,7 +389,7 @@ pub fn aging(trajs: &[&Trajectory], p: &Params) -> Result<(RecordBatch, RecordBa
     let [t0, t, q] = cols;
     Ok((
         f64_batch(&[("t0", t0), ("t", t), ("Q", q)])?,
-        f64_batch(&[("t0", t0s), ("tau_alpha", taus)])?,
+        f64_batch(&[("t0", t0s), ("tau_alpha", taus), ("tau_alpha_err", errs)])?,
     ))
 }
 

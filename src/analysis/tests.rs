@@ -927,3 +927,38 @@ fn intruder_diffusion_recovers_d_and_needs_a_lag_window() {
     let msg = err_text(intruder::diffusion_table(&refs, &none));
     assert!(msg.contains("fewer than three frame pairs"), "{msg}");
 }
+
+#[test]
+fn aging_tau_alpha_error_is_the_replica_jackknife() {
+    // One waiting time is one origin per replica: leaving one of two replicas out
+    // leaves the other, so the jackknife error is half the two replicas' difference.
+    let times = schedule_times(5, 40.0, 0.1, 30.0);
+    let slow = random_walk(2000, [50.0, 50.0], &times, 0.05, 3);
+    let fast = random_walk(2000, [50.0, 50.0], &times, 0.1, 4);
+    let p = overlap::Params {
+        lags: Some(Schedule::log_lags(0.1, 30.0, 8)),
+        ..Default::default()
+    };
+    let tau_of = |trajs: &[&Trajectory]| {
+        let (_, ag) = overlap::aging(trajs, &p).unwrap();
+        (col(&ag, "tau_alpha"), col(&ag, "tau_alpha_err"))
+    };
+    let (ts, es) = tau_of(&[&slow]);
+    let (tf, _) = tau_of(&[&fast]);
+    let (tb, eb) = tau_of(&[&slow, &fast]);
+    assert!(es.iter().all(|e| e.is_nan()), "one replica has no error: {es:?}");
+    let mut checked = 0;
+    for i in 0..tb.len() {
+        if !(ts[i].is_finite() && tf[i].is_finite()) {
+            continue;
+        }
+        let want = (ts[i] - tf[i]).abs() / 2.0;
+        assert!(want > 0.0 && (eb[i] - want).abs() < 1e-9 * want, "{} vs {want}", eb[i]);
+        // The slower walk relaxes later; the pooled tau lies between the two.
+        assert!(ts[i] > tf[i] && tb[i] < ts[i] && tb[i] > tf[i]);
+        checked += 1;
+    }
+    assert_eq!(checked, 5);
+    let (_, same) = tau_of(&[&slow, &slow]);
+    assert!(same.iter().all(|&e| e == 0.0), "identical replicas: {same:?}");
+}

@@ -269,10 +269,22 @@ fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
     }
 }
 
-pub(crate) fn artifact(store: &Store, node: &Node, e: &Entry) -> Artifact {
+/// `node`'s entry `e` as an input of `consumer`. A node shared between figures
+/// carries every figure's name for it (fig4's `tau_table` is fig23's
+/// `tau09_table`); the consumer sees only the names its own figures gave it
+/// (and experiment names), so `from: tau_table` in fig23 never picks eps09's
+/// table up when fig4 is planned in the same run.
+pub(crate) fn artifact(store: &Store, consumer: &Node, node: &Node, e: &Entry) -> Artifact {
+    let mine = |f: &Option<String>| {
+        f.is_none()
+            || consumer
+                .ids
+                .iter()
+                .any(|c| c.figure.is_none() || c.figure == *f)
+    };
     Artifact {
         label: node.label().to_string(),
-        ids: node.ids.clone(),
+        ids: node.ids.iter().filter(|id| mine(&id.figure)).cloned().collect(),
         kind: node.kind.clone(),
         point: node.point.clone(),
         params: node.params.clone(),
@@ -291,7 +303,7 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     for &j in &node.inputs {
         let r = sh.results[j].lock().unwrap();
         match r.as_ref().and_then(|r| r.entry.as_ref()) {
-            Some(e) => inputs.push(artifact(sh.store, &sh.graph.nodes[j], e)),
+            Some(e) => inputs.push(artifact(sh.store, node, &sh.graph.nodes[j], e)),
             None => {
                 return StageResult {
                     outcome: Outcome::Skipped {

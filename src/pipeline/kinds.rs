@@ -18,7 +18,13 @@ pub struct Table;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct TableParams {}
+struct TableParams {
+    /// Point values for the inputs whose point lacks the key: a parameter of one
+    /// ensemble that is a grid key of the others (eps = 0.9 of eps09, which is
+    /// not a grid key there, beside eps10, eps08, eps07), so one table holds all.
+    #[serde(default)]
+    defaults: std::collections::BTreeMap<String, f64>,
+}
 
 impl StageKind for Table {
     fn name(&self) -> &str {
@@ -33,19 +39,24 @@ impl StageKind for Table {
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<TableParams>("table", params).map(|_| ())
     }
-    fn run(&self, _ctx: &StageCtx, _params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let keys: BTreeSet<&String> = inputs
-            .first()
-            .context("table: no input")?
-            .point
-            .keys()
-            .collect();
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: TableParams = typed("table", params)?;
+        let point_of = |a: &Artifact| {
+            let mut pt = a.point.clone();
+            for (k, v) in &p.defaults {
+                pt.entry(k.clone()).or_insert_with(|| Value::from(*v));
+            }
+            pt
+        };
+        let first = point_of(inputs.first().context("table: no input")?);
+        let keys: BTreeSet<&String> = first.keys().collect();
         let mut out: Vec<(String, RecordBatch)> = Vec::new();
         for a in inputs {
-            let k: BTreeSet<&String> = a.point.keys().collect();
+            let point = point_of(a);
+            let k: BTreeSet<&String> = point.keys().collect();
             if k != keys {
                 bail!(
-                    "table: input {} has point keys {k:?} but the first input has {keys:?}; gather sources with the same grid",
+                    "table: input {} has point keys {k:?} but the first input has {keys:?}; gather sources with the same grid, or give the missing keys with `defaults: {{KEY: VALUE}}`",
                     a.label
                 );
             }
@@ -53,7 +64,7 @@ impl StageKind for Table {
                 .with_context(|| format!("table: reading {}", a.label))?;
             for b in batches {
                 let mut cols: Vec<(String, ArrayRef)> = Vec::new();
-                for (name, v) in &a.point {
+                for (name, v) in &point {
                     if b.schema().column_with_name(name).is_some() {
                         bail!(
                             "table: input {} already has a column '{name}', which is also a point key",

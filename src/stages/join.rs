@@ -19,10 +19,13 @@ use crate::table::to_parquet_bytes;
 #[serde(deny_unknown_fields)]
 pub struct Derived {
     pub name: String,
-    /// `divide` (a / b), `multiply` (a b), `sqrt_divide` (sqrt(a) / b) or
-    /// `ln_times` (b ln a: Fig. 6's x = beta ln(t/tau0)).
+    /// `divide` (a / b), `multiply` (a b), `sqrt_divide` (sqrt(a) / b),
+    /// `ln_times` (b ln a: Fig. 6's x = beta ln(t/tau0)) or `reciprocal` (1 / a,
+    /// no `b`: d_f from a fitted 1/d_f, with `NAME_err` = a_err / a^2 when the
+    /// table has `a_err`).
     pub op: String,
     pub a: String,
+    #[serde(default)]
     pub b: String,
 }
 
@@ -39,7 +42,7 @@ pub struct JoinParams {
     pub derive: Vec<Derived>,
 }
 
-const OPS: &[&str] = &["divide", "multiply", "sqrt_divide", "ln_times"];
+const OPS: &[&str] = &["divide", "multiply", "sqrt_divide", "ln_times", "reciprocal"];
 
 pub struct Join;
 
@@ -115,7 +118,7 @@ impl StageKind for Join {
         "rows of `left` with the matching row of `right` by key columns `on`, plus derived columns"
     }
     fn details(&self) -> String {
-        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b}]\n\
+        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b} or {name, op: reciprocal, a}]\n\
          example: {name: d_vs_tau, kind: join, gather: [msd_fit, tau_table], params: {left: msd_fit, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}}"
             .into()
     }
@@ -134,6 +137,18 @@ impl StageKind for Join {
                     d.name,
                     d.op,
                     OPS.join(", ")
+                );
+            }
+            if (d.op == "reciprocal") != d.b.is_empty() {
+                bail!(
+                    "join: derived column '{}': op '{}' {}",
+                    d.name,
+                    d.op,
+                    if d.b.is_empty() {
+                        "needs `b` (the second column)"
+                    } else {
+                        "reads only `a`; remove `b`"
+                    }
                 );
             }
         }
@@ -190,6 +205,15 @@ impl StageKind for Join {
                     )
                 })
             };
+            if d.op == "reciprocal" {
+                let a = get(&d.a)?;
+                if let Some(e) = f64s.get(&format!("{}_err", d.a)) {
+                    let err = a.iter().zip(e).map(|(x, e)| e / (x * x)).collect();
+                    f64s.insert(format!("{}_err", d.name), err);
+                }
+                f64s.insert(d.name.clone(), a.iter().map(|x| 1.0 / x).collect());
+                continue;
+            }
             let (a, b) = (get(&d.a)?, get(&d.b)?);
             let v = a
                 .iter()

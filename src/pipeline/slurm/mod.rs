@@ -462,7 +462,7 @@ pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
                 store_dir.display()
             )
         })?;
-        inputs.push(exec::artifact(&store, &graph.nodes[j], &e));
+        inputs.push(exec::artifact(&store, node, &graph.nodes[j], &e));
     }
     let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
     let mine = stage_key(
