@@ -795,7 +795,11 @@ fn a_shared_node_is_read_under_its_own_figures_name_only() {
         .check()
         .unwrap();
     let phi = column(&ws.results.join("sharing/both.parquet"), "phi");
-    assert_eq!(phi, vec![0.55, 0.62, 0.68, 0.72], "one row per phi of its own table");
+    assert_eq!(
+        phi,
+        vec![0.55, 0.62, 0.68, 0.72],
+        "one row per phi of its own table"
+    );
     // The smaller cut-off relaxes sooner: every row is this figure's a = 0.5.
     let own = column(&ws.results.join("sharing/tau_table.parquet"), "tau_alpha");
     let joined = column(&ws.results.join("sharing/both.parquet"), "tau_alpha");

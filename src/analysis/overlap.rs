@@ -330,13 +330,16 @@ pub type AgingCurve = (f64, Vec<f64>, Vec<f64>, Vec<Vec<f64>>);
 /// a block is that close to another); frames pairing only with other origins'
 /// frames are not waiting times.
 pub fn aging_curves(trajs: &[&Trajectory], p: &Params) -> Result<Vec<AgingCurve>> {
-    let mut acc: std::collections::BTreeMap<u64, (f64, Vec<f64>, Vec<Vec<f64>>)> =
-        Default::default();
+    // Per waiting time: (t0, lags, each replica's Q).
+    type PerReplica = (f64, Vec<f64>, Vec<Vec<f64>>);
+    let mut acc: std::collections::BTreeMap<u64, PerReplica> = Default::default();
     for tr in trajs {
         for (t0, t, q) in per_origin(tr, p)? {
             // Waiting times agree across replicas up to rounding: key them on 1e-9.
             let key = (t0 * 1e9).round() as u64;
-            let e = acc.entry(key).or_insert_with(|| (t0, t.clone(), Vec::new()));
+            let e = acc
+                .entry(key)
+                .or_insert_with(|| (t0, t.clone(), Vec::new()));
             if e.1 == t {
                 e.2.push(q);
             }

@@ -946,19 +946,29 @@ fn aging_tau_alpha_error_is_the_replica_jackknife() {
     let (ts, es) = tau_of(&[&slow]);
     let (tf, _) = tau_of(&[&fast]);
     let (tb, eb) = tau_of(&[&slow, &fast]);
-    assert!(es.iter().all(|e| e.is_nan()), "one replica has no error: {es:?}");
+    assert!(
+        es.iter().all(|e| e.is_nan()),
+        "one replica has no error: {es:?}"
+    );
     let mut checked = 0;
     for i in 0..tb.len() {
         if !(ts[i].is_finite() && tf[i].is_finite()) {
             continue;
         }
         let want = (ts[i] - tf[i]).abs() / 2.0;
-        assert!(want > 0.0 && (eb[i] - want).abs() < 1e-9 * want, "{} vs {want}", eb[i]);
+        assert!(
+            want > 0.0 && (eb[i] - want).abs() < 1e-9 * want,
+            "{} vs {want}",
+            eb[i]
+        );
         // The slower walk relaxes later; the pooled tau lies between the two.
         assert!(ts[i] > tf[i] && tb[i] < ts[i] && tb[i] > tf[i]);
         checked += 1;
     }
     assert_eq!(checked, 5);
     let (_, same) = tau_of(&[&slow, &slow]);
-    assert!(same.iter().all(|&e| e == 0.0), "identical replicas: {same:?}");
+    assert!(
+        same.iter().all(|&e| e == 0.0),
+        "identical replicas: {same:?}"
+    );
 }

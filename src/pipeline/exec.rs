@@ -284,7 +284,12 @@ pub(crate) fn artifact(store: &Store, consumer: &Node, node: &Node, e: &Entry) -
     };
     Artifact {
         label: node.label().to_string(),
-        ids: node.ids.iter().filter(|id| mine(&id.figure)).cloned().collect(),
+        ids: node
+            .ids
+            .iter()
+            .filter(|id| mine(&id.figure))
+            .cloned()
+            .collect(),
         kind: node.kind.clone(),
         point: node.point.clone(),
         params: node.params.clone(),

@@ -42,7 +42,13 @@ pub struct JoinParams {
     pub derive: Vec<Derived>,
 }
 
-const OPS: &[&str] = &["divide", "multiply", "sqrt_divide", "ln_times", "reciprocal"];
+const OPS: &[&str] = &[
+    "divide",
+    "multiply",
+    "sqrt_divide",
+    "ln_times",
+    "reciprocal",
+];
 
 pub struct Join;
 
