@@ -286,7 +286,10 @@ pub fn replica_jackknife_with(
                     xs[i] = x_jk[k][i];
                 }
             }
-            let left = LeftOut { unit: u, replica: k };
+            let left = LeftOut {
+                unit: u,
+                replica: k,
+            };
             let theta = fit(left, &xs, &ys)?;
             refits.push((left, theta.clone()));
             thetas.push(theta);
@@ -296,7 +299,10 @@ pub fn replica_jackknife_with(
     for &(u, replicas) in also.iter().filter(|(u, _)| !distinct.contains(u)) {
         let mut thetas: Vec<Vec<f64>> = Vec::new();
         for k in 0..replicas {
-            let left = LeftOut { unit: u, replica: k };
+            let left = LeftOut {
+                unit: u,
+                replica: k,
+            };
             let theta = fit(left, x, y)?;
             refits.push((left, theta.clone()));
             thetas.push(theta);

@@ -57,11 +57,7 @@ impl FromQuantity {
         let Some(q) = c.str.get("quantity") else {
             return Ok(None);
         };
-        let (unit, replica, value) = (
-            c.col(pool::JK_UNIT)?,
-            c.col("replica")?,
-            c.col("value")?,
-        );
+        let (unit, replica, value) = (c.col(pool::JK_UNIT)?, c.col("replica")?, c.col("value")?);
         let refits: Refits = (0..c.rows)
             .filter(|&i| q[i] == self.quantity)
             .map(|i| ((unit[i].to_bits(), replica[i] as usize), value[i]))
@@ -553,7 +549,8 @@ fn fit_group(
                         for (row, e) in rows.iter_mut().zip(&j.errors) {
                             row.2 = *e;
                         }
-                        method = jackknife_method(j.refits.len(), &from_note(&p.fixed_from, shifted));
+                        method =
+                            jackknife_method(j.refits.len(), &from_note(&p.fixed_from, shifted));
                         refits = Some(j.refits);
                     }
                     None => {
@@ -733,7 +730,12 @@ fn jackknife_table(
     let rows = value.len();
     let mut cols: Vec<(String, ArrayRef)> = group
         .iter()
-        .map(|(k, v)| (k.clone(), Arc::new(Float64Array::from(vec![*v; rows])) as ArrayRef))
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                Arc::new(Float64Array::from(vec![*v; rows])) as ArrayRef,
+            )
+        })
         .collect();
     cols.push((pool::JK_UNIT.into(), Arc::new(Float64Array::from(unit))));
     cols.push(("replica".into(), Arc::new(Float64Array::from(replica))));
@@ -1542,7 +1544,10 @@ mod tests {
                 ("phi".into(), phi.to_vec()),
                 (y.into(), vec![]),
                 (format!("{y}_err"), vec![]),
-                (pool::JK_UNIT.into(), (1..=phi.len()).map(|u| u as f64).collect()),
+                (
+                    pool::JK_UNIT.into(),
+                    (1..=phi.len()).map(|u| u as f64).collect(),
+                ),
             ];
             let mut jk = vec![vec![]; replicas];
             for &p in &phi {
@@ -1566,7 +1571,8 @@ mod tests {
                 cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
             f64_batch(&cols).unwrap()
         };
-        let tau_fit = yaml("{form: power_law_offset, data: tau, x: phi, y: tau_alpha, y_err: tau_alpha_err}");
+        let tau_fit =
+            yaml("{form: power_law_offset, data: tau, x: phi, y: tau_alpha, y_err: tau_alpha_err}");
         let chi_fit = yaml(
             "{form: power_law_offset, data: peaks, x: phi, y: chi4, y_err: chi4_err, \
              fixed_from: {phi_c: {stage: power_law, quantity: phi_c}}, rename: {gamma: gamma_chi}}",
@@ -1593,7 +1599,10 @@ mod tests {
         let (_, spread) = crate::analysis::stats::mean_std(&values);
         let rms = |e: &[f64]| (e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64).sqrt();
         let (with, held) = (rms(&with) / spread, rms(&held) / spread);
-        assert!((0.75..1.35).contains(&with), "quoted/spread {with} (held: {held})");
+        assert!(
+            (0.75..1.35).contains(&with),
+            "quoted/spread {with} (held: {held})"
+        );
         assert!(held < 0.6, "quoted/spread with phi_c held {held}");
     }
 
