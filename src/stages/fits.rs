@@ -1599,6 +1599,7 @@ mod tests {
         let (_, spread) = crate::analysis::stats::mean_std(&values);
         let rms = |e: &[f64]| (e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64).sqrt();
         let (with, held) = (rms(&with) / spread, rms(&held) / spread);
+        eprintln!("gamma_chi: quoted/spread {with:.2} refitted, {held:.2} held");
         assert!(
             (0.75..1.35).contains(&with),
             "quoted/spread {with} (held: {held})"
