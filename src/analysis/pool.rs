@@ -218,12 +218,58 @@ pub fn replica_jackknife(
     y_jk: &[Vec<f64>],
     mut fit: impl FnMut(&[f64], &[f64]) -> Option<Vec<f64>>,
 ) -> Option<(Vec<f64>, usize)> {
+    let j = replica_jackknife_with(units, x, y, x_jk, y_jk, &[], |_, x, y| fit(x, y))?;
+    Some((j.errors, j.refits.len()))
+}
+
+/// One refit of a replica jackknife: replica `replica` of unit `unit` left out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeftOut {
+    pub unit: f64,
+    pub replica: usize,
+}
+
+/// A replica jackknife: the standard errors and every refit's numbers.
+#[derive(Clone, Debug)]
+pub struct Jackknife {
+    pub errors: Vec<f64>,
+    pub refits: Vec<(LeftOut, Vec<f64>)>,
+}
+
+/// [`replica_jackknife`] for a number that also depends on numbers measured on
+/// the same replicas elsewhere (phi_c of the tau_alpha fit in a fit of chi4 or
+/// xi): `fit` learns which replica of which unit is left out, to use those
+/// numbers with the same replica left out, and `also` lists (unit, replicas) of
+/// units outside the rows that change them (refit with the rows unchanged).
+/// Holding such a number at its value would drop its share of the variance.
+pub fn replica_jackknife_with(
+    units: &[f64],
+    x: &[f64],
+    y: &[f64],
+    x_jk: &[Vec<f64>],
+    y_jk: &[Vec<f64>],
+    also: &[(f64, usize)],
+    mut fit: impl FnMut(LeftOut, &[f64], &[f64]) -> Option<Vec<f64>>,
+) -> Option<Jackknife> {
     let mut distinct: Vec<f64> = units.to_vec();
     distinct.sort_by(f64::total_cmp);
     distinct.dedup();
     let mut var: Vec<f64> = Vec::new();
-    let mut refits = 0;
-    for u in distinct {
+    let mut refits = Vec::new();
+    let add = |thetas: &[Vec<f64>], var: &mut Vec<f64>| -> Option<()> {
+        let r = thetas.len();
+        if r < 2 {
+            return None;
+        }
+        var.resize(thetas[0].len(), 0.0);
+        for (p, v) in var.iter_mut().enumerate() {
+            let mean = thetas.iter().map(|t| t[p]).sum::<f64>() / r as f64;
+            let ss: f64 = thetas.iter().map(|t| (t[p] - mean).powi(2)).sum();
+            *v += (r as f64 - 1.0) / r as f64 * ss;
+        }
+        Some(())
+    };
+    for &u in &distinct {
         let rows: Vec<usize> = (0..units.len()).filter(|&i| units[i] == u).collect();
         let mut thetas: Vec<Vec<f64>> = Vec::new();
         for k in 0..y_jk.len() {
@@ -240,21 +286,36 @@ pub fn replica_jackknife(
                     xs[i] = x_jk[k][i];
                 }
             }
-            thetas.push(fit(&xs, &ys)?);
-            refits += 1;
+            let left = LeftOut {
+                unit: u,
+                replica: k,
+            };
+            let theta = fit(left, &xs, &ys)?;
+            refits.push((left, theta.clone()));
+            thetas.push(theta);
         }
-        let r = thetas.len();
-        if r < 2 {
-            return None;
-        }
-        var.resize(thetas[0].len(), 0.0);
-        for (p, v) in var.iter_mut().enumerate() {
-            let mean = thetas.iter().map(|t| t[p]).sum::<f64>() / r as f64;
-            let ss: f64 = thetas.iter().map(|t| (t[p] - mean).powi(2)).sum();
-            *v += (r as f64 - 1.0) / r as f64 * ss;
-        }
+        add(&thetas, &mut var)?;
     }
-    Some((var.into_iter().map(f64::sqrt).collect(), refits))
+    for &(u, replicas) in also.iter().filter(|(u, _)| !distinct.contains(u)) {
+        let mut thetas: Vec<Vec<f64>> = Vec::new();
+        for k in 0..replicas {
+            let left = LeftOut {
+                unit: u,
+                replica: k,
+            };
+            let theta = fit(left, x, y)?;
+            refits.push((left, theta.clone()));
+            thetas.push(theta);
+        }
+        add(&thetas, &mut var)?;
+    }
+    if refits.is_empty() {
+        return None;
+    }
+    Some(Jackknife {
+        errors: var.into_iter().map(f64::sqrt).collect(),
+        refits,
+    })
 }
 
 #[cfg(test)]

@@ -144,59 +144,18 @@ pub fn find(name: &str) -> Result<&'static Form, String> {
 mod tests {
     use super::*;
 
-    /// Each form recovers the parameters of data drawn from its own model.
+    /// Each form recovers the parameters of data drawn from its own model (the
+    /// synthetic examples of the stability map, noise-free).
     #[test]
     fn every_form_fits_its_own_model() {
-        let cases: &[(&str, &[f64], Vec<f64>)] = &[
-            (
-                "power_law_offset",
-                &[2.0, 0.8, 1.5],
-                (0..12).map(|i| 0.6 + 0.015 * i as f64).collect(),
-            ),
-            (
-                "vft",
-                &[0.7, 0.85, 0.15],
-                (0..12).map(|i| 0.6 + 0.015 * i as f64).collect(),
-            ),
-            (
-                "power_law",
-                &[3.0, -1.5],
-                (1..20).map(|i| i as f64).collect(),
-            ),
-            ("line", &[1.0, 2.0], (0..10).map(|i| i as f64).collect()),
-            ("proportional", &[2.5], (1..10).map(|i| i as f64).collect()),
-            (
-                "q_relaxation",
-                &[5.0, 0.8],
-                (0..30).map(|i| 0.05 * 1.3f64.powi(i)).collect(),
-            ),
-            (
-                "oz",
-                &[20.0, 4.0],
-                (1..30).map(|i| 0.05 * i as f64).collect(),
-            ),
-            (
-                "oz_quartic",
-                &[20.0, 4.0, 0.5],
-                (1..30).map(|i| 0.05 * i as f64).collect(),
-            ),
-            (
-                "exponential_tail",
-                &[0.3, 0.7],
-                (0..15).map(|i| 1.0 + 0.3 * i as f64).collect(),
-            ),
-            (
-                "log_normal",
-                &[0.2, 5.0, 1.2],
-                (0..20).map(|i| 1.5f64.powi(i)).collect(),
-            ),
-        ];
-        for (name, truth, x) in cases {
-            let f = find(name).unwrap();
+        for ex in crate::fit::stability::EXAMPLES {
+            let (name, truth, f) = (ex.form, ex.truth, ex.form());
             assert_eq!(f.params.len(), truth.len(), "{name}");
-            let y: Vec<f64> = x.iter().map(|&v| (f.model)(truth, &[], v)).collect();
+            let x = ex.x(20);
+            let y = ex.y(&x);
             let s: Vec<f64> = y.iter().map(|v| 1e-3 * v.abs().max(1e-6)).collect();
-            let r = (f.fit)(Data::new(x, &y, &s), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let r =
+                (f.fit)(Data::new(&x, &y, &s), ex.fixed).unwrap_or_else(|e| panic!("{name}: {e}"));
             for (k, (p, t)) in r.params.iter().zip(truth.iter()).enumerate() {
                 assert!(
                     (p - t).abs() <= 1e-3 * t.abs().max(1.0),

@@ -45,7 +45,34 @@ impl FromQuantity {
         let c = Columns::read(&inputs_of(kind, inputs, &self.stage)?)?;
         Ok(c.quantity(&self.quantity)?.0)
     }
+
+    /// The number's replica jackknife refits (`jackknife.parquet` of its fit), if
+    /// it has them: its value with each replica of each unit left out.
+    fn jackknife(&self, kind: &str, inputs: &[Artifact]) -> Result<Option<Refits>> {
+        let arts = inputs_of(kind, inputs, &self.stage)?;
+        if arts.iter().any(|a| !a.files.contains_key(JACKKNIFE_FILE)) {
+            return Ok(None);
+        }
+        let c = Columns::read_file(&arts, JACKKNIFE_FILE)?;
+        let Some(q) = c.str.get("quantity") else {
+            return Ok(None);
+        };
+        let (unit, replica, value) = (c.col(pool::JK_UNIT)?, c.col("replica")?, c.col("value")?);
+        let refits: Refits = (0..c.rows)
+            .filter(|&i| q[i] == self.quantity)
+            .map(|i| ((unit[i].to_bits(), replica[i] as usize), value[i]))
+            .collect();
+        Ok((!refits.is_empty()).then_some(refits))
+    }
 }
+
+/// A number's jackknife refits by (unit bits, replica left out).
+type Refits = BTreeMap<(u64, usize), f64>;
+
+/// File of a fit's replica jackknife refits: `jk_unit`, `replica` (the one left
+/// out), `quantity`, `value` (and the group's columns); a fit that takes one of
+/// its numbers (`fixed_from`) refits with the same replica left out.
+pub const JACKKNIFE_FILE: &str = "jackknife.parquet";
 
 /// Where the fitted line is drawn.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -314,8 +341,12 @@ impl StageKind for Fit {
         let c = Columns::read_file(&data_inputs(&p, inputs)?, &p.file)?;
         let rows = c.select(&p.filter)?;
         let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        let mut shifted: Vec<(String, Refits)> = Vec::new();
         for (name, from) in &p.fixed_from {
             fixed.push((name.clone(), from.get("fit", inputs)?));
+            if let Some(r) = from.jackknife("fit", inputs)? {
+                shifted.push((name.clone(), r));
+            }
         }
         // Rows per group, groups in ascending order of their values.
         let keys: Vec<&[f64]> = p.group_by.iter().map(|k| c.col(k)).collect::<Result<_>>()?;
@@ -327,8 +358,8 @@ impl StageKind for Fit {
         if groups.is_empty() {
             groups.insert(vec![], vec![]);
         }
-        let (mut tables, mut curves, mut scans, mut methods) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut tables, mut curves, mut scans, mut methods, mut jackknives) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (key, rows) in groups {
             let group: Vec<(String, f64)> = p
                 .group_by
@@ -338,12 +369,13 @@ impl StageKind for Fit {
                 .collect();
             let mut fixed = fixed.clone();
             fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
-            let (t, curve, scan, method) = fit_group(ctx, &p, &c, &rows, &group, &fixed)?;
-            tables.push(t);
-            curves.extend(curve);
-            scans.extend(scan);
-            if !methods.contains(&method) {
-                methods.push(method);
+            let g = fit_group(ctx, &p, &c, &rows, &group, &fixed, &shifted)?;
+            tables.push(g.table);
+            curves.extend(g.curve);
+            scans.extend(g.scan);
+            jackknives.extend(g.jackknife);
+            if !methods.contains(&g.method) {
+                methods.push(g.method);
             }
         }
         let method = methods.join("; ");
@@ -356,6 +388,9 @@ impl StageKind for Fit {
         }
         if !scans.is_empty() {
             out = out.with("ranges.parquet", to_parquet_bytes(&scans, &[])?);
+        }
+        if !jackknives.is_empty() {
+            out = out.with(JACKKNIFE_FILE, to_parquet_bytes(&jackknives, &[])?);
         }
         Ok(out)
     }
@@ -409,7 +444,8 @@ fn fit_group(
     rows: &[usize],
     group: &[(String, f64)],
     fixed: &[(String, f64)],
-) -> Result<(RecordBatch, Option<RecordBatch>, Vec<RecordBatch>, String)> {
+    shifted: &[(String, Refits)],
+) -> Result<Group> {
     let x = pick(c.col(&p.x)?, rows);
     let y = pick(c.col(&p.y)?, rows);
     let s = match &p.y_err {
@@ -440,17 +476,20 @@ fn fit_group(
             Some(e) => format!("the per-point errors {e}, combined"),
             None => "none (no y_err)".to_string(),
         };
-        return Ok((
-            quantity_table(group, &[(name("value"), mean, err)], note)?,
-            None,
-            Vec::new(),
+        return Ok(Group {
+            table: quantity_table(group, &[(name("value"), mean, err)], note)?,
+            curve: None,
+            scan: Vec::new(),
             method,
-        ));
+            jackknife: None,
+        });
     }
     let mut method = covariance_method(p);
     let form = named_form(p)?;
+    let mut jackknife = None;
     let (rows, note, curve) = match fit_form(p, &x, &y, &s, &fixed_ref) {
         Ok(f) => {
+            let mut refits = None;
             let mut rows: Vec<(String, f64, f64)> = if p.form == "drift" {
                 // Relative change of y across the x range, from the slope.
                 let span = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
@@ -465,10 +504,25 @@ fn fit_group(
                     .map(|(n, (v, e))| (name(n), *v, *e))
                     .collect()
             };
-            // Errors from independent replicas where the rows span several units.
+            // Errors from independent replicas where the rows span several units;
+            // numbers taken from other fits (`fixed_from`) are refitted on the same
+            // replicas, so that their share of the variance is counted.
+            let also = also_units(shifted);
+            let fixed_at = |left: pool::LeftOut| -> Vec<(String, f64)> {
+                fixed
+                    .iter()
+                    .map(|(n, v)| {
+                        let at = shifted
+                            .iter()
+                            .find(|(m, _)| m == n)
+                            .and_then(|(_, r)| r.get(&(left.unit.to_bits(), left.replica)));
+                        (n.clone(), at.copied().unwrap_or(*v))
+                    })
+                    .collect()
+            };
             if let Some((units, x_jk, y_jk)) = &jk {
                 let (rx, ry, rs) = &raw;
-                let refit = |xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
                     let keep: Vec<usize> = (0..xs.len())
                         .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
                         .collect();
@@ -484,20 +538,54 @@ fn fit_group(
                             }
                         })
                         .collect();
-                    let g = fit_form(p, &xk, &yk, &sk, &fixed_ref).ok()?;
+                    let fixed = fixed_at(left);
+                    let fixed: Vec<(&str, f64)> =
+                        fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                    let g = fit_form(p, &xk, &yk, &sk, &fixed).ok()?;
                     Some(reported(p, &xk, &yk, &g))
                 };
-                match pool::replica_jackknife(units, rx, ry, x_jk, y_jk, refit) {
-                    Some((errs, refits)) => {
-                        for (row, e) in rows.iter_mut().zip(errs) {
-                            row.2 = e;
+                match pool::replica_jackknife_with(units, rx, ry, x_jk, y_jk, &also, refit) {
+                    Some(j) => {
+                        for (row, e) in rows.iter_mut().zip(&j.errors) {
+                            row.2 = *e;
                         }
-                        method = jackknife_method(refits, !p.fixed_from.is_empty());
+                        method =
+                            jackknife_method(j.refits.len(), &from_note(&p.fixed_from, shifted));
+                        refits = Some(j.refits);
                     }
                     None => {
                         method.push_str(JK_IMPOSSIBLE);
                     }
                 }
+            } else if !also.is_empty() {
+                // Data without replica columns (e.g. xi from a fit per state
+                // point): their errors from the fit covariance, plus in quadrature
+                // the variance that the numbers taken from other fits bring.
+                let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    let fixed = fixed_at(left);
+                    let fixed: Vec<(&str, f64)> =
+                        fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                    let g = fit_form(p, xs, ys, &s, &fixed).ok()?;
+                    Some(reported(p, xs, ys, &g))
+                };
+                match pool::replica_jackknife_with(&[], &x, &y, &[], &[], &also, refit) {
+                    Some(j) => {
+                        for (row, e) in rows.iter_mut().zip(&j.errors) {
+                            row.2 = row.2.hypot(*e);
+                        }
+                        method.push_str(&format!(
+                            ", plus in quadrature the replica jackknife of {} ({} refits with the same replica left out there)",
+                            from_names(&p.fixed_from),
+                            j.refits.len()
+                        ));
+                        refits = Some(j.refits);
+                    }
+                    None => method.push_str(JK_IMPOSSIBLE),
+                }
+            }
+            if let Some(r) = refits {
+                let names: Vec<String> = rows.iter().map(|row| row.0.clone()).collect();
+                jackknife = Some(jackknife_table(group, &names, &r)?);
             }
             rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
             rows.push((name("points"), x.len() as f64, 0.0));
@@ -583,7 +671,77 @@ fn fit_group(
         }
         None => None,
     };
-    Ok((table, curve, scan, method))
+    Ok(Group {
+        table,
+        curve,
+        scan,
+        method,
+        jackknife,
+    })
+}
+
+/// What one fit of a group writes: its quantity table, its curve, its range
+/// scan, how its errors were estimated and its replica jackknife refits.
+struct Group {
+    table: RecordBatch,
+    curve: Option<RecordBatch>,
+    scan: Vec<RecordBatch>,
+    method: String,
+    jackknife: Option<RecordBatch>,
+}
+
+/// The units (with their replica counts) whose refits move the numbers taken
+/// from other fits.
+fn also_units(shifted: &[(String, Refits)]) -> Vec<(f64, usize)> {
+    let mut n: BTreeMap<u64, usize> = BTreeMap::new();
+    for (_, r) in shifted {
+        for &(u, k) in r.keys() {
+            let e = n.entry(u).or_default();
+            *e = (*e).max(k + 1);
+        }
+    }
+    n.into_iter().map(|(u, r)| (f64::from_bits(u), r)).collect()
+}
+
+/// "phi_c of power_law, ...": the numbers taken from other fits.
+fn from_names(from: &BTreeMap<String, FromQuantity>) -> String {
+    from.values()
+        .map(|f| format!("{} of {}", f.quantity, f.stage))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// [`JACKKNIFE_FILE`]: one row per refit and reported number.
+fn jackknife_table(
+    group: &[(String, f64)],
+    names: &[String],
+    refits: &[(pool::LeftOut, Vec<f64>)],
+) -> Result<RecordBatch> {
+    let (mut unit, mut replica, mut quantity, mut value) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (left, theta) in refits {
+        for (n, v) in names.iter().zip(theta) {
+            unit.push(left.unit);
+            replica.push(left.replica as f64);
+            quantity.push(n.clone());
+            value.push(*v);
+        }
+    }
+    let rows = value.len();
+    let mut cols: Vec<(String, ArrayRef)> = group
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                Arc::new(Float64Array::from(vec![*v; rows])) as ArrayRef,
+            )
+        })
+        .collect();
+    cols.push((pool::JK_UNIT.into(), Arc::new(Float64Array::from(unit))));
+    cols.push(("replica".into(), Arc::new(Float64Array::from(replica))));
+    cols.push(("quantity".into(), Arc::new(StringArray::from(quantity))));
+    cols.push(("value".into(), Arc::new(Float64Array::from(value))));
+    Ok(RecordBatch::try_from_iter(cols)?)
 }
 
 /// The range scan of one group: every window's fit as rows of `ranges.parquet`
@@ -665,15 +823,33 @@ fn covariance_method(p: &FitParams) -> String {
     }
 }
 
-fn jackknife_method(refits: usize, fixed_from: bool) -> String {
+fn jackknife_method(refits: usize, note: &str) -> String {
     format!(
-        "delete-one jackknife over replicas: refit with each replica of each state point left out ({refits} refits){}",
-        if fixed_from {
-            "; numbers taken from other fits held at their values"
-        } else {
-            ""
-        }
+        "delete-one jackknife over replicas: refit with each replica of each state point left out ({refits} refits){note}"
     )
+}
+
+/// How a collapse treats the measured xi it rescales with.
+const HELD: &str = "; numbers taken from other fits held at their values";
+
+/// What the jackknife of a fit did with the numbers it takes from other fits.
+fn from_note(from: &BTreeMap<String, FromQuantity>, shifted: &[(String, Refits)]) -> String {
+    let held: BTreeMap<String, FromQuantity> = from
+        .iter()
+        .filter(|(n, _)| !shifted.iter().any(|(m, _)| m == *n))
+        .map(|(n, f)| (n.clone(), f.clone()))
+        .collect();
+    let mut s = String::new();
+    if held.len() < from.len() {
+        s.push_str("; numbers taken from other fits refitted with the same replica left out");
+    }
+    if !held.is_empty() {
+        s.push_str(&format!(
+            "; {} held at its value (no replica jackknife there)",
+            from_names(&held)
+        ));
+    }
+    s
 }
 
 /// The numbers a fit reports, in the order of its quantity rows (`drift`: the
@@ -910,7 +1086,7 @@ impl StageKind for Collapse {
                     match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
                         Some((e, refits)) => {
                             dg = e[0];
-                            method = jackknife_method(refits, true);
+                            method = jackknife_method(refits, HELD);
                         }
                         None => method.push_str(JK_IMPOSSIBLE),
                     }
@@ -947,7 +1123,7 @@ impl StageKind for Collapse {
                     match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
                         Some((e, refits)) => {
                             (dg, dgx, dgc) = (e[0], e[1], e[2]);
-                            method = jackknife_method(refits, true);
+                            method = jackknife_method(refits, HELD);
                         }
                         None => method.push_str(JK_IMPOSSIBLE),
                     }
@@ -1166,7 +1342,7 @@ fn run_named(
                 match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
                     Some((e, refits)) => {
                         dq = e;
-                        method = jackknife_method(refits, true);
+                        method = jackknife_method(refits, HELD);
                     }
                     None => method.push_str(JK_IMPOSSIBLE),
                 }
@@ -1332,6 +1508,108 @@ mod tests {
             .unwrap()
             .path;
         assert_eq!(at.first().map(String::as_str), Some("ranges"), "{e:#}");
+    }
+
+    /// The output of a stage as an input artifact of stage `stage`; `skip`: a
+    /// file left out.
+    fn output_artifact(dir: &std::path::Path, stage: &str, out: &Output, skip: &str) -> Artifact {
+        let mut a = artifact(dir, stage, f64_batch(&[("x", vec![0.0])]).unwrap());
+        a.files.clear();
+        for (ext, bytes) in out.files.iter().filter(|(e, _)| *e != skip) {
+            let path = dir.join(format!("{stage}.{ext}"));
+            std::fs::write(&path, bytes).unwrap();
+            a.files.insert(ext.clone(), (String::new(), path));
+        }
+        a
+    }
+
+    /// chi4(tau_alpha) = A (phi_c - phi)^-gamma_chi with phi_c from the
+    /// tau_alpha fit of the same replicas (Fig. 15): synthetic replicas with known
+    /// truth, many realisations. Holding phi_c at its value in the refits quotes
+    /// less than half the true spread of gamma_chi; refitting it with the same
+    /// replica left out (the tau fit's `jackknife.parquet`) quotes the spread.
+    #[test]
+    fn a_number_taken_from_another_fit_is_refitted_on_the_same_replicas() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let phi = [0.60, 0.66, 0.70, 0.73, 0.75, 0.76, 0.77, 0.78];
+        let (phi_c, replicas, noise) = (0.80, 4, 0.15);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // Table of y = truth(phi) x lognormal noise per replica, pooled, with the
+        // replica jackknife columns; unit = state point.
+        let mut table = |y: &str, truth: &dyn Fn(f64) -> f64| -> RecordBatch {
+            let mut cols: Vec<(String, Vec<f64>)> = vec![
+                ("phi".into(), phi.to_vec()),
+                (y.into(), vec![]),
+                (format!("{y}_err"), vec![]),
+                (
+                    pool::JK_UNIT.into(),
+                    (1..=phi.len()).map(|u| u as f64).collect(),
+                ),
+            ];
+            let mut jk = vec![vec![]; replicas];
+            for &p in &phi {
+                let r: Vec<f64> = (0..replicas)
+                    .map(|_| {
+                        let z: f64 = StandardNormal.sample(&mut rng);
+                        truth(p) * (noise * z).exp()
+                    })
+                    .collect();
+                let (mean, std) = crate::analysis::stats::mean_std(&r);
+                cols[1].1.push(mean);
+                cols[2].1.push(std / (replicas as f64).sqrt());
+                for (k, jk) in jk.iter_mut().enumerate() {
+                    jk.push((mean * replicas as f64 - r[k]) / (replicas - 1) as f64);
+                }
+            }
+            for (k, v) in jk.into_iter().enumerate() {
+                cols.push((pool::jk_column(y, k), v));
+            }
+            let cols: Vec<(&str, Vec<f64>)> =
+                cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
+            f64_batch(&cols).unwrap()
+        };
+        let tau_fit =
+            yaml("{form: power_law_offset, data: tau, x: phi, y: tau_alpha, y_err: tau_alpha_err}");
+        let chi_fit = yaml(
+            "{form: power_law_offset, data: peaks, x: phi, y: chi4, y_err: chi4_err, \
+             fixed_from: {phi_c: {stage: power_law, quantity: phi_c}}, rename: {gamma: gamma_chi}}",
+        );
+        let (mut values, mut with, mut held) = (vec![], vec![], vec![]);
+        for _ in 0..60 {
+            let tau = table("tau_alpha", &|p| 0.05 * (phi_c - p).powf(-1.5));
+            let chi = table("chi4", &|p| 2.0 * (phi_c - p).powf(-0.8));
+            let tau = artifact(dir.path(), "tau", tau);
+            let out = Fit.run(&ctx, &tau_fit, &[tau]).unwrap();
+            assert!(out.files.contains_key(JACKKNIFE_FILE));
+            let peaks = artifact(dir.path(), "peaks", chi);
+            let gamma = |skip: &str| {
+                let source = output_artifact(dir.path(), "power_law", &out, skip);
+                let o = Fit.run(&ctx, &chi_fit, &[peaks.clone(), source]).unwrap();
+                let c = Columns::read_file(&[&artifact_of(dir.path(), &o)], "parquet").unwrap();
+                c.quantity("gamma_chi").unwrap()
+            };
+            let (v, e) = gamma("");
+            values.push(v);
+            with.push(e);
+            held.push(gamma(JACKKNIFE_FILE).1);
+        }
+        let (_, spread) = crate::analysis::stats::mean_std(&values);
+        let rms = |e: &[f64]| (e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64).sqrt();
+        let (with, held) = (rms(&with) / spread, rms(&held) / spread);
+        eprintln!("gamma_chi: quoted/spread {with:.2} refitted, {held:.2} held");
+        assert!(
+            (0.75..1.35).contains(&with),
+            "quoted/spread {with} (held: {held})"
+        );
+        assert!(held < 0.6, "quoted/spread with phi_c held {held}");
+    }
+
+    /// The main table of an output, as an artifact.
+    fn artifact_of(dir: &std::path::Path, out: &Output) -> Artifact {
+        output_artifact(dir, "out", out, JACKKNIFE_FILE)
     }
 
     /// The Gaussian draws its curve at its group's lag t, named after the columns.

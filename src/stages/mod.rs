@@ -9,6 +9,7 @@
 //!   scaling collapse.
 //! - [`join`]: two tables joined by key columns, with derived columns.
 //! - [`plot`]: a figure drawn from tables.
+//! - [`synthetic`]: synthetic data with known truth (the fits' stability map).
 //!
 //! Each kind names exactly the source modules it depends on, so editing a plot
 //! adapter never reruns a simulation.
@@ -18,6 +19,7 @@ pub mod fits;
 pub mod join;
 pub mod plot;
 pub mod simulate;
+pub mod synthetic;
 pub mod tables;
 
 use crate::pipeline::Registry;
@@ -38,6 +40,8 @@ pub fn register(r: &mut Registry) {
     r.register(fits::Collapse);
     r.register(join::Join);
     r.register(plot::Plot);
+    r.register(synthetic::SyntheticCoverage);
+    r.register(synthetic::SyntheticDivergence);
 }
 
 #[cfg(test)]
