@@ -34,3 +34,56 @@ pub fn power_law(data: Data<'_>) -> Result<FitResult, FitError> {
     f.form = FORM.into();
     Ok(f)
 }
+
+/// The linear-to-power-law crossover of paper I's v(F): y = mu x (1 + x/x_c)^(beta - 1),
+/// linear (slope mu) for x << x_c and mu x_c^(1 - beta) x^beta for x >> x_c.
+/// Parameters: `mu`, `x_c` (the crossover, where the two asymptotes meet), `beta`.
+///
+/// Start values: mu from the smallest x, beta from the straight log-log line
+/// through the upper half of the points, x_c where the two asymptotes cross.
+/// Needs x > 0, y > 0 and points on both sides of the crossover to be reliable:
+/// a crossover outside the range of x is reported as `unreliable`.
+pub fn crossover(data: Data<'_>, fixed: super::Fixed<'_>) -> Result<FitResult, FitError> {
+    const FORM: &str = "crossover";
+    data.validate(FORM, 3usize.saturating_sub(fixed.len()))?;
+    require_positive(FORM, "x", data.x)?;
+    require_positive(FORM, "y", data.y)?;
+    let mut order: Vec<usize> = (0..data.x.len()).collect();
+    order.sort_by(|&a, &b| data.x[a].total_cmp(&data.x[b]));
+    let (lo, hi) = (order[0], order[order.len() - 1]);
+    let mu = data.y[lo] / data.x[lo];
+    let upper = &order[order.len() / 2..];
+    let lx: Vec<f64> = upper.iter().map(|&i| data.x[i].ln()).collect();
+    let ly: Vec<f64> = upper.iter().map(|&i| data.y[i].ln()).collect();
+    let ones = vec![1.0; upper.len()];
+    let (beta, ln_a) = match line(Data::new(&lx, &ly, &ones)) {
+        Ok(f) if f.value("slope") < 0.95 => (f.value("slope"), f.value("intercept")),
+        _ => (0.5, (data.y[hi] / data.x[hi].sqrt()).ln()),
+    };
+    // mu x_c = A x_c^beta  =>  x_c = (A / mu)^(1 / (1 - beta)).
+    let x_c = ((ln_a - mu.ln()) / (1.0 - beta)).exp();
+    let x_c = x_c.clamp(data.x[lo], data.x[hi]);
+    let model = |x: f64, p: &[f64]| p[0] * x * (1.0 + x / p[1]).powf(p[2] - 1.0);
+    let bounds = vec![(0.0, f64::INFINITY), (0.0, f64::INFINITY), (-1.0, 3.0)];
+    let f = super::fit_form(
+        FORM,
+        &["mu", "x_c", "beta"],
+        &model,
+        data,
+        vec![mu, x_c, beta],
+        bounds,
+        fixed,
+    )?;
+    let xc = f.value("x_c");
+    if !(xc > data.x[lo] && xc < data.x[hi]) {
+        return Err(FitError::unreliable(
+            FORM,
+            format!(
+                "the crossover x_c = {xc:.3e} lies outside the data ({:.3e} to {:.3e}): \
+                 extend the range of x to both sides of it",
+                data.x[lo], data.x[hi]
+            ),
+        ));
+    }
+    Ok(f)
+}
