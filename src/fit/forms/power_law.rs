@@ -64,7 +64,10 @@ pub fn crossover(data: Data<'_>, fixed: super::Fixed<'_>) -> Result<FitResult, F
     let x_c = ((ln_a - mu.ln()) / (1.0 - beta)).exp();
     let x_c = x_c.clamp(data.x[lo], data.x[hi]);
     let model = |x: f64, p: &[f64]| p[0] * x * (1.0 + x / p[1]).powf(p[2] - 1.0);
-    let bounds = vec![(0.0, f64::INFINITY), (0.0, f64::INFINITY), (-1.0, 3.0)];
+    // x_c within the data: a crossover outside them is not determined (with
+    // beta ~ 1 the model is a line for any x_c), and the fit says so by ending
+    // on the bound.
+    let bounds = vec![(0.0, f64::INFINITY), (data.x[lo], data.x[hi]), (-1.0, 3.0)];
     let f = super::fit_form(
         FORM,
         &["mu", "x_c", "beta"],
@@ -86,4 +89,35 @@ pub fn crossover(data: Data<'_>, fixed: super::Fixed<'_>) -> Result<FitResult, F
         ));
     }
     Ok(f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossover_recovers_the_asymptotes_and_refuses_a_line() {
+        // v = 0.25 F (1 + F/30)^(0.55 - 1) over four decades, 2% errors: mu, F_c
+        // and beta come back within their errors' reach.
+        let x: Vec<f64> = (0..17).map(|i| 0.1 * 2f64.powi(i)).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .map(|&f| 0.25 * f * (1.0 + f / 30.0).powf(-0.45))
+            .collect();
+        let s: Vec<f64> = y.iter().map(|v| 0.02 * v).collect();
+        let f = crossover(Data::new(&x, &y, &s), &[]).unwrap();
+        assert!((f.value("mu") - 0.25).abs() < 1e-6, "{f:?}");
+        assert!((f.value("x_c") - 30.0).abs() < 1e-4, "{f:?}");
+        assert!((f.value("beta") - 0.55).abs() < 1e-6, "{f:?}");
+        // Linear response everywhere: no crossover in the data, no number.
+        let line: Vec<f64> = x.iter().map(|&f| 0.25 * f).collect();
+        let e = crossover(Data::new(&x, &line, &s), &[]).unwrap_err();
+        assert!(!e.to_string().is_empty());
+        // The crossover beyond the largest x: the fit must not invent one.
+        let late: Vec<f64> = x
+            .iter()
+            .map(|&f| 0.25 * f * (1.0 + f / 1e6).powf(-0.45))
+            .collect();
+        assert!(crossover(Data::new(&x, &late, &s), &[]).is_err());
+    }
 }
