@@ -907,7 +907,10 @@ fn intruder_kick_columns_follow_the_enskog_rate_and_the_drift() {
         drive,
         kick_rate_factor: k,
     };
-    let (slow, fast) = (drifting_intruder(|_| 0.0, 3), drifting_intruder(|_| 50.0, 3));
+    let (slow, fast) = (
+        drifting_intruder(|_| 0.0, 3),
+        drifting_intruder(|_| 50.0, 3),
+    );
     let row = |t: &Trajectory, k: f64| {
         intruder::velocity_table(&[t], &p(Some(k), Some(d.clone()))).unwrap()
     };
@@ -936,7 +939,10 @@ fn intruder_kick_columns_follow_the_enskog_rate_and_the_drift() {
     assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
     // Without the drive's T there is no Enskog rate: a clear error.
     let e = intruder::velocity_table(&[&slow], &p(Some(1e4), None)).unwrap_err();
-    assert!(e.to_string().contains("`kick_rate_factor` needs `drive"), "{e}");
+    assert!(
+        e.to_string().contains("`kick_rate_factor` needs `drive"),
+        "{e}"
+    );
     let e = intruder::velocity_table(&[&slow], &p(Some(0.0), Some(d.clone()))).unwrap_err();
     assert!(e.to_string().contains("must be positive"), "{e}");
 }
