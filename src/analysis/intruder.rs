@@ -37,6 +37,12 @@ pub struct VelocityParams {
     /// fraction, and the scaled columns of Fig. 5.
     #[serde(default)]
     pub drive: Option<DriveParams>,
+    /// With the force as kicks (`force_mode: kicks`): their rate in units of the
+    /// bath's Enskog rate, as in the simulation. Adds the kick interval `kick_dt`
+    /// and `collision_momentum` (needs `drive` for T), from which a join derives
+    /// how much of a collision's momentum one kick carries.
+    #[serde(default)]
+    pub kick_rate_factor: Option<f64>,
 }
 
 /// eps, gamma and T of the simulation, for Eq. (7) of paper I.
@@ -168,17 +174,35 @@ pub fn halves_agree(first: &Estimate, second: &Estimate) -> bool {
 /// The drive velocity v_dr = p_dr / m_eff of paper I (Eq. 7 with the Enskog rate
 /// of the bath at packing fraction `phi`; m_eff = m_s m_b / (m_s + m_b)).
 pub fn drive_velocity(traj: &Trajectory, phi: f64, d: &DriveParams) -> f64 {
-    let (radii, masses) = (&traj.radii[..2], &traj.masses[..2]);
-    let omega = crate::sim::enskog::collision_frequency(
-        phi,
-        radii,
-        masses,
-        &bath_fractions(traj),
-        d.temperature,
-    );
+    let masses = &traj.masses[..2];
+    let omega = bath_collision_rate(traj, phi, d.temperature);
     let p_dr =
         crate::sim::kicks::amplitude(d.eps, d.gamma, d.temperature, omega, masses[0], masses[1]);
     p_dr * (masses[0] + masses[1]) / (masses[0] * masses[1])
+}
+
+/// The bath's Enskog collision frequency per particle at packing fraction `phi`
+/// and temperature `t` (the intruder left out, as the simulation's driving and
+/// force kicks use it).
+fn bath_collision_rate(traj: &Trajectory, phi: f64, t: f64) -> f64 {
+    crate::sim::enskog::collision_frequency(
+        phi,
+        &traj.radii[..2],
+        &traj.masses[..2],
+        &bath_fractions(traj),
+        t,
+    )
+}
+
+/// The momentum one collision exchanges with the intruder, as a scale: the
+/// reduced mass of the intruder and a mean bath disk times their relative speed,
+/// (v^2 + 2 T / m_red)^(1/2) (its drift v and the thermal speed at T).
+fn collision_momentum(traj: &Trajectory, species: u8, v: f64, t: f64) -> f64 {
+    let x = bath_fractions(traj);
+    let m_bath = x[0] * traj.masses[0] + x[1] * traj.masses[1];
+    let m0 = traj.masses[species as usize];
+    let m_red = m0 * m_bath / (m0 + m_bath);
+    m_red * (v * v + 2.0 * t / m_red).sqrt()
 }
 
 fn bath_fractions(traj: &Trajectory) -> [f64; 2] {
@@ -256,6 +280,22 @@ pub fn velocity_table(trajs: &[&Trajectory], p: &VelocityParams) -> Result<Recor
         cols.push(("v_over_vdr", vec![v.value / v_dr]));
         cols.push(("v_over_vdr_err", vec![v.err / v_dr]));
         cols.push(("vdr2_sqrt_eta", vec![v_dr * v_dr * eta.sqrt()]));
+    }
+    if let Some(k) = p.kick_rate_factor {
+        let Some(d) = &p.drive else {
+            bail!(
+                "parameter `kick_rate_factor` needs `drive: {{eps, gamma, temperature}}` (the kicks' interval is set by the bath's Enskog rate at T)"
+            );
+        };
+        if !(k.is_finite() && k > 0.0) {
+            bail!("parameter `kick_rate_factor` = {k} must be positive");
+        }
+        let omega = bath_collision_rate(t, packing_fraction(t), d.temperature);
+        cols.push(("kick_dt", vec![1.0 / (k * omega)]));
+        cols.push((
+            "collision_momentum",
+            vec![collision_momentum(t, p.species, v.value, d.temperature)],
+        ));
     }
     f64_batch(&cols)
 }

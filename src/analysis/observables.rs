@@ -373,7 +373,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "intruder_velocity",
-        describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta",
+        describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
         modules: &["analysis/intruder", "sim/enskog", "sim/kicks"],
         validate: |v| params::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {

@@ -612,6 +612,7 @@ fn intruder_velocity_and_mobility() {
         t_start: 10.0,
         blocks: 10,
         drive: None,
+        kick_rate_factor: None,
     };
     let v = intruder::stationary_velocity(&[&traj], &p).unwrap();
     assert!((v.value - 0.7).abs() < 4.0 * v.err && v.err < 0.02, "{v:?}");
@@ -829,6 +830,7 @@ fn velocity_row(traj: &Trajectory, drive: Option<intruder::DriveParams>) -> Reco
         t_start: 0.0,
         blocks: 10,
         drive,
+        kick_rate_factor: None,
     };
     intruder::velocity_table(&[traj], &p).unwrap()
 }
@@ -886,6 +888,63 @@ fn intruder_drive_velocity_is_eq7_of_paper_i() {
     assert!((first(&row, "v_dr") - v_dr).abs() < 1e-12);
     assert!((first(&row, "vdr2_sqrt_eta") - v_dr * v_dr * eta.sqrt()).abs() < 1e-12);
     assert!((first(&row, "v_over_vdr") - first(&row, "v") / v_dr).abs() < 1e-12);
+}
+
+#[test]
+fn intruder_kick_columns_follow_the_enskog_rate_and_the_drift() {
+    // The force-kick interval is 1 / (factor x the bath's Enskog rate) at the
+    // drive's T (the simulation's rule), and the collision momentum is the
+    // reduced mass times the relative speed: thermal at rest, ~ m_red v at speed.
+    let d = intruder::DriveParams {
+        eps: 0.9,
+        gamma: 1.0,
+        temperature: 1.0,
+    };
+    let p = |k: Option<f64>, drive: Option<intruder::DriveParams>| intruder::VelocityParams {
+        species: 2,
+        t_start: 0.0,
+        blocks: 10,
+        drive,
+        kick_rate_factor: k,
+    };
+    let (slow, fast) = (
+        drifting_intruder(|_| 0.0, 3),
+        drifting_intruder(|_| 50.0, 3),
+    );
+    let row = |t: &Trajectory, k: f64| {
+        intruder::velocity_table(&[t], &p(Some(k), Some(d.clone()))).unwrap()
+    };
+    let (a, b) = (row(&slow, 1e4), row(&slow, 1e2));
+    // Rate factor 100 times smaller: interval 100 times longer.
+    assert!((first(&b, "kick_dt") / first(&a, "kick_dt") - 100.0).abs() < 1e-9);
+    let v_dr = first(&a, "v_dr");
+    let eta = intruder::packing_fraction(&slow);
+    let omega = crate::sim::enskog::collision_frequency(
+        eta,
+        &[1.0, 1.25],
+        &[1.0, 25.0 / 16.0],
+        &[0.5, 0.5],
+        1.0,
+    );
+    assert!((first(&a, "kick_dt") * 1e4 * omega - 1.0).abs() < 1e-12);
+    assert!(v_dr > 0.0);
+    // 30 small and 30 large disks: mean bath mass (1 + 25/16) / 2, intruder 4.
+    let mb = (1.0 + 25.0 / 16.0) / 2.0;
+    let m_red = 4.0 * mb / (4.0 + mb);
+    let v0 = first(&a, "v");
+    let want = m_red * (v0 * v0 + 2.0 / m_red).sqrt();
+    assert!((first(&a, "collision_momentum") - want).abs() < 1e-12);
+    let c = row(&fast, 1e4);
+    let ratio = first(&c, "collision_momentum") / (m_red * 50.0);
+    assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
+    // Without the drive's T there is no Enskog rate: a clear error.
+    let e = intruder::velocity_table(&[&slow], &p(Some(1e4), None)).unwrap_err();
+    assert!(
+        e.to_string().contains("`kick_rate_factor` needs `drive"),
+        "{e}"
+    );
+    let e = intruder::velocity_table(&[&slow], &p(Some(0.0), Some(d.clone()))).unwrap_err();
+    assert!(e.to_string().contains("must be positive"), "{e}");
 }
 
 #[test]

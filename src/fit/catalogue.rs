@@ -128,6 +128,14 @@ pub static FORMS: &[Form] = &[
         fit: forms::log_normal,
         model: |p, _, n| p[0] * (-(n / p[1]).ln().powi(2) / (2.0 * p[2] * p[2])).exp(),
     },
+    Form {
+        name: "crossover",
+        describe: "y = mu x (1 + x/x_c)^(beta - 1): linear response below x_c, y ~ x^beta above (paper I, v(F))",
+        params: &["mu", "x_c", "beta"],
+        log_x: true,
+        fit: forms::crossover,
+        model: |p, _, x| p[0] * x * (1.0 + x / p[1]).powf(p[2] - 1.0),
+    },
 ];
 
 /// The form called `name`, or an error listing every form.

@@ -99,6 +99,12 @@ pub const EXAMPLES: &[Example] = &[
         x_range: (1.0, 1000.0),
         fixed: &[],
     },
+    Example {
+        form: "crossover",
+        truth: &[0.25, 30.0, 0.55],
+        x_range: (0.5, 2.6e5),
+        fixed: &[],
+    },
 ];
 
 impl Example {

@@ -10,7 +10,7 @@ mod singular;
 
 pub use distributions::{exponential_tail, gaussian_van_hove, log_normal};
 pub use oz::{oz, oz_quartic};
-pub use power_law::power_law;
+pub use power_law::{crossover, power_law};
 pub use relaxation::q_relaxation;
 pub use singular::{UNRELIABLE, on_last_point, power_law_offset, vft};
 
