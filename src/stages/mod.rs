@@ -9,6 +9,7 @@
 //!   scaling collapse.
 //! - [`join`]: two tables joined by key columns, with derived columns.
 //! - [`plot`]: a figure drawn from tables.
+//! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
 //!
 //! Each kind names exactly the source modules it depends on, so editing a plot
 //! adapter never reruns a simulation.
@@ -17,6 +18,7 @@ pub mod analyse;
 pub mod fits;
 pub mod join;
 pub mod plot;
+pub mod run_summary;
 pub mod simulate;
 pub mod tables;
 
@@ -38,6 +40,7 @@ pub fn register(r: &mut Registry) {
     r.register(fits::Collapse);
     r.register(join::Join);
     r.register(plot::Plot);
+    r.register(run_summary::RunSummary);
 }
 
 #[cfg(test)]
