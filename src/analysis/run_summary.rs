@@ -146,7 +146,6 @@ pub fn row(
         ("guard_activations", guard),
         ("guard_fraction", guard_fraction),
         ("guard_warning", f64::from(u8::from(warn))),
-        ("collapse_tc", cfg.collapse_tc),
         ("energy_drift", number(summary, "energy_balance_error")?),
         ("max_overlap", largest_overlap(traj)),
         ("box_side", lx.max(ly)),
