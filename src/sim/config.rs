@@ -539,3 +539,41 @@ impl SimConfig {
         [lx, lx * self.aspect]
     }
 }
+
+#[cfg(test)]
+mod precision_tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_box_holds_contact_precision_and_a_huge_box_is_refused() {
+        // Paper H's largest system: a box side of a few thousand radii, where
+        // f64 positions are good to ~1e-13.
+        let paper = SimConfig {
+            n: 4_000_000,
+            phi: 0.6,
+            ..SimConfig::default()
+        };
+        paper.validate().unwrap();
+        assert!(paper.box_precision() < 1e-12, "{}", paper.box_precision());
+        // A side beyond 2^20 radii rounds positions coarser than 1e-10.
+        let huge = SimConfig {
+            n: 100_000_000,
+            phi: 1e-4,
+            ..SimConfig::default()
+        };
+        assert!(huge.box_size()[0] > 1_048_576.0);
+        let e = format!("{:#}", huge.validate().unwrap_err());
+        assert!(
+            e.contains("float precision limit") && e.contains("n = 100000000"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_guard_warns_beyond_its_fraction_only() {
+        let cfg = SimConfig::default();
+        assert!(cfg.guard_warning(10, 10_000).is_none());
+        let w = cfg.guard_warning(200, 10_000).unwrap();
+        assert!(w.contains("guard_warn = 0.01") && w.contains("200 of 10000"), "{w}");
+    }
+}

@@ -265,3 +265,30 @@ fn compress(
     progress(Progress::new(Stage::Compress, e, t_end, clock));
     Ok(None)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Beyond the jam: `prepare` fails with the reached fraction (not a hang),
+    /// and `compression_limit` reports the same fraction.
+    #[test]
+    fn compressing_past_the_jam_fails_with_the_reached_fraction() {
+        let cfg = SimConfig {
+            n: 100,
+            phi: 0.85,
+            compression_rate: 0.1,
+            seed: 3,
+            ..SimConfig::default()
+        };
+        let e = format!("{:#}", prepare(&cfg, &|_| {}).err().unwrap());
+        assert!(e.contains("compression jammed at phi = 0.8"), "{e}");
+        let limit = compression_limit(&cfg, &|_| {}).unwrap();
+        assert!(limit.jammed && limit.reached > 0.8 && limit.reached < 0.85, "{limit:?}");
+        assert!(e.contains(&format!("{:.4}", limit.reached)), "{e}");
+        // Below the jam the limit is the request itself.
+        let easy = SimConfig { phi: 0.7, ..cfg };
+        let limit = compression_limit(&easy, &|_| {}).unwrap();
+        assert!(!limit.jammed && limit.reached == 0.7, "{limit:?}");
+    }
+}

@@ -9,12 +9,14 @@
 //!   scaling collapse.
 //! - [`join`]: two tables joined by key columns, with derived columns.
 //! - [`plot`]: a figure drawn from tables.
+//! - [`compression`]: how far the initial compression gets (stability maps).
 //! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
 //!
 //! Each kind names exactly the source modules it depends on, so editing a plot
 //! adapter never reruns a simulation.
 
 pub mod analyse;
+pub mod compression;
 pub mod fits;
 pub mod join;
 pub mod plot;
@@ -41,6 +43,7 @@ pub fn register(r: &mut Registry) {
     r.register(join::Join);
     r.register(plot::Plot);
     r.register(run_summary::RunSummary);
+    r.register(compression::Compression);
 }
 
 #[cfg(test)]

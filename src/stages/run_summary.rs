@@ -1,6 +1,6 @@
 //! `run_summary`: what one simulation measured about itself (T against its
 //! target, collision rate against Enskog, guard activations per collision,
-//! energy ledger, largest overlap) as a one-row table, for the stability maps.
+//! energy ledger, closest approach of two disks) as a one-row table, for the stability maps.
 
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
@@ -32,7 +32,7 @@ impl StageKind for RunSummary {
         "run_summary"
     }
     fn describe(&self) -> &str {
-        "one simulation's own measurements as a row: T vs target (T_held within `tolerance`), collision rate vs Enskog and paper H's 1.46 phi G_c, guard activations per collision (guard_warning), energy drift, largest overlap, float precision"
+        "one simulation's own measurements as a row: T vs target (T_held within `tolerance`), collision rate vs Enskog and paper H's 1.46 phi G_c, guard activations per collision (guard_warning), energy drift, closest approach (negative: overlap), float precision"
     }
     fn details(&self) -> String {
         "  parameters: tolerance (relative, default 0.02)\n  use: map: EXPERIMENT (one row per run), then a `table` gathering it\n  example:\n    - {name: runs, kind: run_summary, map: stability_drive_enskog, params: {tolerance: 0.02}}".into()
