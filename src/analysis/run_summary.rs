@@ -39,7 +39,9 @@ pub fn closest_gap(traj: &Trajectory) -> f64 {
     for f in &traj.frames {
         let n = f.x.len();
         let wrap = |v: f64, l: f64| v - l * (v / l).floor();
-        let pos: Vec<[f64; 2]> = (0..n).map(|i| [wrap(f.x[i], lx), wrap(f.y[i], ly)]).collect();
+        let pos: Vec<[f64; 2]> = (0..n)
+            .map(|i| [wrap(f.x[i], lx), wrap(f.y[i], ly)])
+            .collect();
         let mut cells: Vec<Vec<u32>> = vec![Vec::new(); ncx * ncy];
         let cell = |p: [f64; 2]| {
             (

@@ -574,6 +574,9 @@ mod precision_tests {
         let cfg = SimConfig::default();
         assert!(cfg.guard_warning(10, 10_000).is_none());
         let w = cfg.guard_warning(200, 10_000).unwrap();
-        assert!(w.contains("guard_warn = 0.01") && w.contains("200 of 10000"), "{w}");
+        assert!(
+            w.contains("guard_warn = 0.01") && w.contains("200 of 10000"),
+            "{w}"
+        );
     }
 }

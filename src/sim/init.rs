@@ -284,7 +284,10 @@ mod tests {
         let e = format!("{:#}", prepare(&cfg, &|_| {}).err().unwrap());
         assert!(e.contains("compression jammed at phi = 0.8"), "{e}");
         let limit = compression_limit(&cfg, &|_| {}).unwrap();
-        assert!(limit.jammed && limit.reached > 0.8 && limit.reached < 0.85, "{limit:?}");
+        assert!(
+            limit.jammed && limit.reached > 0.8 && limit.reached < 0.85,
+            "{limit:?}"
+        );
         assert!(e.contains(&format!("{:.4}", limit.reached)), "{e}");
         // Below the jam the limit is the request itself.
         let easy = SimConfig { phi: 0.7, ..cfg };
