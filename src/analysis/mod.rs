@@ -20,6 +20,7 @@ pub mod neighbours;
 pub mod observables;
 pub mod overlap;
 pub mod pool;
+pub mod run_summary;
 pub mod s4;
 pub mod stats;
 pub mod subbox;

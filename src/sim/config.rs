@@ -133,6 +133,10 @@ pub struct SimConfig {
     /// Collapse guard (TC model): a collision within `collapse_tc` of either disk's
     /// previous collision is elastic. 0 disables the guard.
     pub collapse_tc: f64,
+    /// The fraction of production collisions the guard may turn elastic before
+    /// the run warns (its summary's `warnings` and its log): beyond it the
+    /// dissipation, hence T, depends on `collapse_tc`.
+    pub guard_warn: f64,
     /// Ly / Lx.
     pub aspect: f64,
     pub seed: u64,
@@ -170,6 +174,7 @@ impl Default for SimConfig {
             drive: Drive::NeighbourPairs,
             kick_rate: KickRate::Balanced,
             collapse_tc: 1e-6,
+            guard_warn: 0.01,
             aspect: 1.0,
             seed: 0,
             relax_time: 100.0,
@@ -188,6 +193,20 @@ impl Default for SimConfig {
             intruder: None,
         }
     }
+}
+
+/// How far apart two disks at contact may be misplaced by rounding (units of
+/// the small radius): the engine finds contacts to about this precision.
+pub const CONTACT_PRECISION: f64 = 1e-10;
+
+/// Speed (units of sqrt(T/m1)) below which practically every disk moves: the
+/// Maxwellian tail beyond 6 thermal speeds holds a fraction exp(-18) of the disks.
+const FAST_SPEED: f64 = 6.0;
+
+/// The spacing of f64 numbers near `x` (one unit in the last place).
+pub fn ulp(x: f64) -> f64 {
+    let x = x.abs();
+    f64::from_bits(x.to_bits() + 1) - x
 }
 
 fn finite_in(name: &str, v: f64, lo: f64, hi: f64, what: &str) -> Result<()> {
@@ -262,6 +281,13 @@ impl SimConfig {
             0.0,
             1.0,
             "must be in [0, 1]",
+        )?;
+        finite_in(
+            "guard_warn",
+            self.guard_warn,
+            0.0,
+            1.0,
+            "the fraction of collisions must be in [0, 1]",
         )?;
         finite_in(
             "aspect",
@@ -423,7 +449,61 @@ impl SimConfig {
                 }
             }
         }
+        self.check_precision()?;
         Ok(())
+    }
+
+    /// The simulated time at the end of the run: the longest compression (from
+    /// phi = 0.3), relaxation and production.
+    pub fn last_time(&self) -> f64 {
+        let compress = (1.0 - (0.3f64 / self.phi).min(1.0).sqrt()) / self.compression_rate;
+        compress + self.relax_time + self.schedule.end()
+    }
+
+    /// The rounding of a position (units of the small radius): half a spacing
+    /// of f64 coordinates at the far side of the box.
+    pub fn box_precision(&self) -> f64 {
+        let [lx, ly] = self.box_size();
+        0.5 * ulp(lx.max(ly))
+    }
+
+    /// The rounding of a contact through the clock: the distance a fast disk
+    /// covers in half a spacing of f64 times at the run's last time (event
+    /// times are rounded to it; without friction the clock is never rebased).
+    pub fn clock_precision(&self) -> f64 {
+        let lightest = self
+            .species_masses()
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        0.5 * FAST_SPEED * (self.temperature / lightest).sqrt() * ulp(self.last_time())
+    }
+
+    /// Refuse a box so large that f64 positions cannot hold
+    /// [`CONTACT_PRECISION`]: contacts would be found at the wrong distance.
+    fn check_precision(&self) -> Result<()> {
+        let p = self.box_precision();
+        if p > CONTACT_PRECISION {
+            let [lx, ly] = self.box_size();
+            bail!(
+                "n = {}, phi = {} is beyond the float precision limit: positions in a box side of {:.4e} small radii are rounded to {p:.2e}, coarser than the contact precision {CONTACT_PRECISION:e}; f64 holds it for box sides below 2^20 = 1048576; use fewer disks or a higher phi",
+                self.n,
+                self.phi,
+                lx.max(ly),
+            );
+        }
+        Ok(())
+    }
+
+    /// The warning of a run whose collapse guard turned more than `guard_warn`
+    /// of its `collisions` elastic, if it did.
+    pub fn guard_warning(&self, activations: u64, collisions: u64) -> Option<String> {
+        let fraction = activations as f64 / collisions.max(1) as f64;
+        (fraction > self.guard_warn).then(|| {
+            format!(
+                "the collapse guard acted on {activations} of {collisions} collisions ({fraction:.3e}), more than guard_warn = {}: T and the dynamics depend on collapse_tc = {}",
+                self.guard_warn, self.collapse_tc
+            )
+        })
     }
 
     /// Radius of each species (small = 1; the intruder, if any, is species 2).
@@ -457,5 +537,46 @@ impl SimConfig {
             * ((self.n as f64 - nl) + nl * self.radius_ratio.powi(2) + intruder);
         let lx = (area / self.phi / self.aspect).sqrt();
         [lx, lx * self.aspect]
+    }
+}
+
+#[cfg(test)]
+mod precision_tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_box_holds_contact_precision_and_a_huge_box_is_refused() {
+        // Paper H's largest system: a box side of a few thousand radii, where
+        // f64 positions are good to ~1e-13.
+        let paper = SimConfig {
+            n: 4_000_000,
+            phi: 0.6,
+            ..SimConfig::default()
+        };
+        paper.validate().unwrap();
+        assert!(paper.box_precision() < 1e-12, "{}", paper.box_precision());
+        // A side beyond 2^20 radii rounds positions coarser than 1e-10.
+        let huge = SimConfig {
+            n: 100_000_000,
+            phi: 1e-4,
+            ..SimConfig::default()
+        };
+        assert!(huge.box_size()[0] > 1_048_576.0);
+        let e = format!("{:#}", huge.validate().unwrap_err());
+        assert!(
+            e.contains("float precision limit") && e.contains("n = 100000000"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_guard_warns_beyond_its_fraction_only() {
+        let cfg = SimConfig::default();
+        assert!(cfg.guard_warning(10, 10_000).is_none());
+        let w = cfg.guard_warning(200, 10_000).unwrap();
+        assert!(
+            w.contains("guard_warn = 0.01") && w.contains("200 of 10000"),
+            "{w}"
+        );
     }
 }

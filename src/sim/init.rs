@@ -138,6 +138,59 @@ const HOLD_MASS: f64 = 1e12;
 /// clock reads the time spent compressing. An intruder with a chosen start is
 /// held there (a huge mass) during the compression and left at rest.
 pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
+    let (mut e, s0, first_at) = random_start(cfg)?;
+    let masses = cfg.species_masses();
+    if s0 < 1.0
+        && let Some(phi) = compress(&mut e, cfg, s0, progress)?
+    {
+        bail!(
+            "compression jammed at phi = {phi:.4} before reaching phi = {} (n = {}, compression_rate = {}): the Lubachevsky-Stillinger compression cannot reach it at this rate; lower compression_rate or phi",
+            cfg.phi,
+            cfg.n,
+            cfg.compression_rate
+        );
+    }
+    if let Some(p) = first_at {
+        debug_assert!(p[0].is_finite());
+        e.release_intruder(masses[2]);
+    }
+    e.sort_by_cell();
+    Ok(e)
+}
+
+/// How far a Lubachevsky-Stillinger compression towards `cfg.phi` got.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Compression {
+    /// The packing fraction reached (`cfg.phi` unless it jammed).
+    pub reached: f64,
+    pub jammed: bool,
+    /// Simulated time spent compressing and collisions on the way.
+    pub time: f64,
+    pub collisions: u64,
+}
+
+/// Compress towards `cfg.phi` as [`prepare`] does, but report where a jam
+/// stopped it instead of failing: the compression limit of this rate and N.
+pub fn compression_limit(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Compression> {
+    cfg.validate()?;
+    let (mut e, s0, _) = random_start(cfg)?;
+    let jam = if s0 < 1.0 {
+        compress(&mut e, cfg, s0, progress)?
+    } else {
+        None
+    };
+    Ok(Compression {
+        reached: jam.unwrap_or(cfg.phi),
+        jammed: jam.is_some(),
+        time: e.time(),
+        collisions: e.stats.collisions,
+    })
+}
+
+/// Random disks at min(phi, 0.3), scaled by s0 (returned) and Maxwellian
+/// velocities; an intruder with a chosen start held there.
+#[allow(clippy::type_complexity)]
+fn random_start(cfg: &SimConfig) -> Result<(Engine, f64, Option<[f64; 2]>)> {
     let mut rng = rng_from_seed(cfg.seed);
     let radii = cfg.radii();
     let masses = cfg.species_masses();
@@ -178,18 +231,17 @@ pub fn prepare(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<Engine> {
     if first == 1 {
         e.set_intruder(0);
     }
-    if s0 < 1.0 {
-        compress(&mut e, cfg, s0, progress)?;
-    }
-    if let Some(p) = first_at {
-        debug_assert!(p[0].is_finite());
-        e.release_intruder(masses[2]);
-    }
-    e.sort_by_cell();
-    Ok(e)
+    Ok((e, s0, first_at))
 }
 
-fn compress(e: &mut Engine, cfg: &SimConfig, s0: f64, progress: &dyn Fn(Progress)) -> Result<()> {
+/// Grow the radii from `s0` to 1 at `compression_rate`; `Some(phi)` when the
+/// disks jammed at phi first (collisions pile up without the radii growing).
+fn compress(
+    e: &mut Engine,
+    cfg: &SimConfig,
+    s0: f64,
+    progress: &dyn Fn(Progress),
+) -> Result<Option<f64>> {
     let rate = cfg.compression_rate;
     e.set_growth(s0, rate);
     let t_end = e.time() + (1.0 - s0) / rate;
@@ -202,10 +254,7 @@ fn compress(e: &mut Engine, cfg: &SimConfig, s0: f64, progress: &dyn Fn(Progress
             progress(Progress::new(Stage::Compress, e, t_end, clock));
             if e.stats.collisions - c0 > 20_000 * n {
                 let phi_now = cfg.phi * e.scale().powi(2);
-                bail!(
-                    "compression jammed at phi = {phi_now:.4} before reaching phi = {}: lower compression_rate (now {rate})",
-                    cfg.phi
-                );
+                return Ok(Some(phi_now));
             }
         }
         // Collisions with growing radii heat the system: hold T = 1.
@@ -214,5 +263,35 @@ fn compress(e: &mut Engine, cfg: &SimConfig, s0: f64, progress: &dyn Fn(Progress
     e.set_growth(1.0, 0.0);
     set_temperature(e, 1.0);
     progress(Progress::new(Stage::Compress, e, t_end, clock));
-    Ok(())
+    Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Beyond the jam: `prepare` fails with the reached fraction (not a hang),
+    /// and `compression_limit` reports the same fraction.
+    #[test]
+    fn compressing_past_the_jam_fails_with_the_reached_fraction() {
+        let cfg = SimConfig {
+            n: 100,
+            phi: 0.85,
+            compression_rate: 0.1,
+            seed: 3,
+            ..SimConfig::default()
+        };
+        let e = format!("{:#}", prepare(&cfg, &|_| {}).err().unwrap());
+        assert!(e.contains("compression jammed at phi = 0.8"), "{e}");
+        let limit = compression_limit(&cfg, &|_| {}).unwrap();
+        assert!(
+            limit.jammed && limit.reached > 0.8 && limit.reached < 0.85,
+            "{limit:?}"
+        );
+        assert!(e.contains(&format!("{:.4}", limit.reached)), "{e}");
+        // Below the jam the limit is the request itself.
+        let easy = SimConfig { phi: 0.7, ..cfg };
+        let limit = compression_limit(&easy, &|_| {}).unwrap();
+        assert!(!limit.jammed && limit.reached == 0.7, "{limit:?}");
+    }
 }

@@ -10,14 +10,18 @@
 //! - [`join`]: two tables joined by key columns, with derived columns.
 //! - [`plot`]: a figure drawn from tables.
 //! - [`synthetic`]: synthetic data with known truth (the fits' stability map).
+//! - [`compression`]: how far the initial compression gets (stability maps).
+//! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
 //!
 //! Each kind names exactly the source modules it depends on, so editing a plot
 //! adapter never reruns a simulation.
 
 pub mod analyse;
+pub mod compression;
 pub mod fits;
 pub mod join;
 pub mod plot;
+pub mod run_summary;
 pub mod simulate;
 pub mod synthetic;
 pub mod tables;
@@ -42,6 +46,8 @@ pub fn register(r: &mut Registry) {
     r.register(plot::Plot);
     r.register(synthetic::SyntheticCoverage);
     r.register(synthetic::SyntheticDivergence);
+    r.register(run_summary::RunSummary);
+    r.register(compression::Compression);
 }
 
 #[cfg(test)]

@@ -274,6 +274,18 @@ impl StageKind for Simulate {
         // side record, so the summary file (and the digest) stays a pure function of
         // the parameters and a rerun is cut off early.
         let mut json = serde_json::to_value(&summary)?;
+        let warnings: Vec<String> = cfg
+            .guard_warning(summary.guard_activations, summary.collisions)
+            .into_iter()
+            .collect();
+        for w in &warnings {
+            ctx.log(format!("warning: {w}"));
+        }
+        if !warnings.is_empty()
+            && let Some(obj) = json.as_object_mut()
+        {
+            obj.insert("warnings".into(), serde_json::to_value(&warnings)?);
+        }
         let mut side = Map::new();
         if let Some(obj) = json.as_object_mut() {
             for k in MEASURED {

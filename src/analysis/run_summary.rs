@@ -1,0 +1,235 @@
+//! What a simulation measured about itself, as one table row: the stability
+//! maps of the simulator (docs/stability.md) read temperatures against their
+//! target, collision rates against the Enskog estimate, collapse-guard
+//! activations per collision, energy ledgers and overlaps from here.
+//!
+//! Inputs are a run's summary (the `simulate` stage's JSON, whose machine
+//! timings are not in it), its configuration and its frames.
+
+use anyhow::{Context, Result};
+use serde_json::Value;
+
+use crate::sim::SimConfig;
+use crate::sim::enskog;
+use crate::traj::Trajectory;
+
+/// Paper H's collision frequency, omega = 2.59 phi G_c / sqrt(pi) sqrt(T) =
+/// 1.46 phi G_c sqrt(T), with G_c taken as Henderson's one-species contact
+/// value (1 - 7 phi / 16) / (1 - phi)^2 (the paper does not define it further).
+pub fn paper_collision_rate(phi: f64, t: f64) -> f64 {
+    let g = (1.0 - 7.0 * phi / 16.0) / (1.0 - phi).powi(2);
+    2.59 / std::f64::consts::PI.sqrt() * phi * g * t.sqrt()
+}
+
+/// The closest approach of two disks in any frame, r_ij - sigma_ij (units of
+/// the small radius; negative: the largest overlap), from a cell list of width
+/// the largest contact distance.
+pub fn closest_gap(traj: &Trajectory) -> f64 {
+    let [lx, ly] = traj.box_size;
+    let rmax = traj.radii.iter().copied().fold(0.0, f64::max);
+    let w = 2.0 * rmax;
+    let (ncx, ncy) = (
+        ((lx / w).floor() as usize).max(1),
+        ((ly / w).floor() as usize).max(1),
+    );
+    let image = |d: f64, l: f64, periodic: bool| {
+        if periodic { d - l * (d / l).round() } else { d }
+    };
+    let mut worst = f64::INFINITY;
+    for f in &traj.frames {
+        let n = f.x.len();
+        let wrap = |v: f64, l: f64| v - l * (v / l).floor();
+        let pos: Vec<[f64; 2]> = (0..n)
+            .map(|i| [wrap(f.x[i], lx), wrap(f.y[i], ly)])
+            .collect();
+        let mut cells: Vec<Vec<u32>> = vec![Vec::new(); ncx * ncy];
+        let cell = |p: [f64; 2]| {
+            (
+                ((p[0] / lx * ncx as f64) as usize).min(ncx - 1),
+                ((p[1] / ly * ncy as f64) as usize).min(ncy - 1),
+            )
+        };
+        for (i, p) in pos.iter().enumerate() {
+            let (cx, cy) = cell(*p);
+            cells[cy * ncx + cx].push(i as u32);
+        }
+        for (i, p) in pos.iter().enumerate() {
+            let (cx, cy) = cell(*p);
+            let ri = traj.radii[traj.species[i] as usize];
+            // Every neighbouring cell once, also when the box is under 3 cells wide.
+            let mut seen = Vec::with_capacity(9);
+            for dy in [ncy - 1, 0, 1] {
+                for dx in [ncx - 1, 0, 1] {
+                    let c = ((cy + dy) % ncy) * ncx + (cx + dx) % ncx;
+                    if seen.contains(&c) {
+                        continue;
+                    }
+                    seen.push(c);
+                    for &j in &cells[c] {
+                        let j = j as usize;
+                        if j <= i {
+                            continue;
+                        }
+                        let dx = image(p[0] - pos[j][0], lx, traj.periodic[0]);
+                        let dy = image(p[1] - pos[j][1], ly, traj.periodic[1]);
+                        let sigma = ri + traj.radii[traj.species[j] as usize];
+                        worst = worst.min((dx * dx + dy * dy).sqrt() - sigma);
+                    }
+                }
+            }
+        }
+    }
+    worst
+}
+
+fn number(summary: &Value, key: &str) -> Result<f64> {
+    summary
+        .get(key)
+        .and_then(Value::as_f64)
+        .with_context(|| format!("the run summary has no number `{key}`"))
+}
+
+/// One run as named numbers. `tolerance` is the relative deviation of T from
+/// its target that still counts as held (column `T_held`).
+pub fn row(
+    summary: &Value,
+    cfg: &SimConfig,
+    traj: &Trajectory,
+    tolerance: f64,
+) -> Result<Vec<(&'static str, f64)>> {
+    let t = number(summary, "temperature")?;
+    let collisions = number(summary, "collisions")?;
+    let guard = number(summary, "guard_activations")?;
+    let rate = number(summary, "collision_rate")?;
+    let nb = cfg.n as f64;
+    let fractions = [1.0 - cfg.n_large() as f64 / nb, cfg.n_large() as f64 / nb];
+    let (radii, masses) = (cfg.radii(), cfg.species_masses());
+    let enskog_at =
+        |t: f64| enskog::collision_frequency(cfg.phi, &radii[..2], &masses[..2], &fractions, t);
+    let samples = summary
+        .get("series")
+        .and_then(Value::as_array)
+        .map_or(1, |s| s.len().max(1)) as f64;
+    let halves = summary
+        .get("temperature_halves")
+        .and_then(Value::as_array)
+        .context("the run summary has no `temperature_halves`")?;
+    let half = |k: usize| halves.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
+    let target = cfg.temperature;
+    let deviation = t / target - 1.0;
+    let guard_fraction = guard / collisions.max(1.0);
+    let warn = cfg.guard_warning(guard as u64, collisions as u64).is_some();
+    let [lx, ly] = cfg.box_size();
+    Ok(vec![
+        ("T", t),
+        // The sampled T fluctuates; its spread over the samples is an upper bound
+        // on the error of the mean (samples are correlated).
+        (
+            "T_err",
+            number(summary, "temperature_std")? / samples.sqrt(),
+        ),
+        ("T_target", target),
+        ("T_over_target", t / target),
+        ("T_deviation", deviation),
+        ("T_held", f64::from(u8::from(deviation.abs() <= tolerance))),
+        ("T_drift", half(1) - half(0)),
+        ("collision_rate", rate),
+        ("enskog_rate", enskog_at(t)),
+        ("rate_over_enskog", rate / enskog_at(t)),
+        ("paper_rate", paper_collision_rate(cfg.phi, t)),
+        ("rate_over_paper", rate / paper_collision_rate(cfg.phi, t)),
+        ("kick_rate", number(summary, "kick_rate")?),
+        (
+            "kick_over_enskog_target",
+            number(summary, "kick_rate")? / enskog_at(target),
+        ),
+        ("z", number(summary, "z")?),
+        ("collisions", collisions),
+        ("guard_activations", guard),
+        ("guard_fraction", guard_fraction),
+        ("guard_warning", f64::from(u8::from(warn))),
+        ("energy_drift", number(summary, "energy_balance_error")?),
+        ("closest_gap", closest_gap(traj)),
+        ("box_side", lx.max(ly)),
+        ("box_precision", cfg.box_precision()),
+        ("clock_precision", cfg.clock_precision()),
+        ("last_time", cfg.last_time()),
+    ])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::traj::Frame;
+
+    fn pair(dx: f64) -> Trajectory {
+        Trajectory {
+            box_size: [10.0, 10.0],
+            periodic: [true, true],
+            species: vec![0, 1],
+            radii: vec![1.0, 1.5],
+            masses: vec![1.0, 2.25],
+            frames: vec![Frame {
+                time: 0.0,
+                // Across the periodic boundary: 0.2 and 10 - dx + 0.2.
+                x: vec![0.2, 10.2 - dx],
+                y: vec![5.0, 5.0],
+                vx: vec![],
+                vy: vec![],
+            }],
+        }
+    }
+
+    #[test]
+    fn overlap_is_found_across_the_periodic_boundary() {
+        // Contact distance 2.5: at 2.4 they overlap by 0.1, at 3 the gap is 0.5.
+        assert!((closest_gap(&pair(2.4)) + 0.1).abs() < 1e-12);
+        assert!((closest_gap(&pair(3.0)) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_paper_rate_is_the_enskog_rate_of_one_species_within_its_prefactor() {
+        // One species of radius 1: omega_E = 2 n sigma g sqrt(pi T) with
+        // n = phi/pi, sigma = 2: 4 phi g / sqrt(pi), against the paper's 2.59.
+        let phi = 0.3;
+        let one = enskog::collision_frequency(phi, &[1.0], &[1.0], &[1.0], 1.0);
+        assert!((paper_collision_rate(phi, 1.0) / one - 2.59 / 4.0).abs() < 1e-12);
+    }
+}
+
+#[cfg(test)]
+mod limits {
+    use super::*;
+    use crate::sim::{KickRate, run};
+    use crate::traj::Schedule;
+
+    /// The dilute limit of the drive map: kicking at the Enskog rate holds
+    /// T = 1 within 2%, and the measured collision rate is Enskog's.
+    #[test]
+    fn dilute_driven_disks_hold_the_target_at_the_enskog_rate() {
+        let cfg = SimConfig {
+            n: 1000,
+            phi: 0.3,
+            eps: 0.9,
+            kick_rate: KickRate::Enskog { prefactor: 1.0 },
+            relax_time: 30.0,
+            schedule: Schedule {
+                start: 0.0,
+                origins: 1,
+                origin_spacing: 1.0,
+                lags: vec![100.0],
+            },
+            seed: 11,
+            ..SimConfig::default()
+        };
+        let (traj, summary) = run(&cfg, &|_| {}).unwrap();
+        let json = serde_json::to_value(&summary).unwrap();
+        let row: std::collections::BTreeMap<_, _> =
+            row(&json, &cfg, &traj, 0.02).unwrap().into_iter().collect();
+        assert!((row["T_over_target"] - 1.0).abs() < 0.02, "{row:?}");
+        assert_eq!(row["T_held"], 1.0);
+        assert!((row["rate_over_enskog"] - 1.0).abs() < 0.03, "{row:?}");
+        assert!(row["closest_gap"] > -1e-10, "{row:?}");
+        assert_eq!(row["guard_warning"], 0.0);
+    }
+}

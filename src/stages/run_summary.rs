@@ -1,0 +1,79 @@
+//! `run_summary`: what one simulation measured about itself (T against its
+//! target, collision rate against Enskog, guard activations per collision,
+//! energy ledger, closest approach of two disks) as a one-row table, for the stability maps.
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::simulate;
+use super::tables::trajectories;
+use crate::analysis::run_summary;
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::table::{f64_batch, to_parquet_bytes};
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Relative deviation of T from its target that still counts as held.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+}
+
+fn default_tolerance() -> f64 {
+    0.02
+}
+
+pub struct RunSummary;
+
+impl StageKind for RunSummary {
+    fn name(&self) -> &str {
+        "run_summary"
+    }
+    fn describe(&self) -> &str {
+        "one simulation's own measurements as a row: T vs target (T_held within `tolerance`), collision rate vs Enskog and paper H's 1.46 phi G_c, guard activations per collision (guard_warning), energy drift, closest approach (negative: overlap), float precision"
+    }
+    fn details(&self) -> String {
+        "  parameters: tolerance (relative, default 0.02)\n  use: map: EXPERIMENT (one row per run), then a `table` gathering it\n  example:\n    - {name: runs, kind: run_summary, map: stability_drive_enskog, params: {tolerance: 0.02}}".into()
+    }
+    fn modules(&self) -> &[&str] {
+        &[
+            "analysis/run_summary",
+            "sim/enskog",
+            "sim/config",
+            "stages/run_summary",
+            "stages/simulate",
+        ]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: Params = typed("run_summary", params)?;
+        if !(p.tolerance.is_finite() && p.tolerance > 0.0) {
+            bail!(
+                "run_summary: `tolerance` = {} must be a finite number > 0",
+                p.tolerance
+            );
+        }
+        Ok(())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: Params = typed("run_summary", params)?;
+        let sims: Vec<&Artifact> = inputs.iter().filter(|a| a.kind == "simulate").collect();
+        let [sim] = sims.as_slice() else {
+            bail!(
+                "run_summary: needs exactly one simulation (map: EXPERIMENT), got {}",
+                sims.len()
+            );
+        };
+        let summary: Value = serde_json::from_slice(&sim.read("json")?)
+            .with_context(|| format!("run_summary: the summary of {}", sim.label))?;
+        let (_, cfg) = simulate::config(&sim.params)?;
+        let traj = trajectories("run_summary", std::slice::from_ref(*sim))?;
+        let row = run_summary::row(&summary, &cfg, &traj[0], p.tolerance)?;
+        let cols: Vec<(&str, Vec<f64>)> = row.into_iter().map(|(k, v)| (k, vec![v])).collect();
+        Ok(Output::single(
+            "parquet",
+            to_parquet_bytes(&[f64_batch(&cols)?], &[])?,
+        ))
+    }
+}
