@@ -189,7 +189,8 @@ fn momentum_follows_eq_11_with_force_and_kicks() {
     assert!(e.stats.kicks > 5000, "{:?}", e.stats);
 }
 
-/// Energy ledger: KE(t) - KE(0) = injected - dissipated - friction + work of F,
+/// Energy ledger: KE(t) - KE(0) = injected - dissipated - friction + work of F
+/// + the lifts of the resting-contact rule,
 /// to 1e-9 relative, with and without friction.
 #[test]
 fn energy_ledger_with_the_work_of_the_force_closes() {
@@ -203,7 +204,8 @@ fn energy_ledger_with_the_work_of_the_force_closes() {
         let ledger = (s.injected - s0.injected)
             - (s.dissipated - s0.dissipated)
             - (s.friction - s0.friction)
-            + (s.work - s0.work);
+            + (s.work - s0.work)
+            + (s.lifted - s0.lifted);
         assert!(
             ((ke - ke0) - ledger).abs() < 1e-9 * ke.max(ke0),
             "gamma {gamma}: dKE {} ledger {ledger} ({s:?})",

@@ -98,6 +98,24 @@ impl Engine {
         0.0
     }
 
+    /// The separation speed (clock units) after the pulled intruder hits a
+    /// disk, from `s` (its rebound, -e g): the force presses the pair back
+    /// together at the rate a = -(F/m0) n_x (n the unit vector from the disk
+    /// to the intruder, `nx` its x part from the first of the pair, the
+    /// intruder when `first`), so a rebound that would return within
+    /// [`WALL_REST_TIME`] (2 s / a) is lifted to s = a WALL_REST_TIME / 2:
+    /// the pair then meets at most once per WALL_REST_TIME under the force.
+    #[inline]
+    pub(super) fn lift_rebound(&self, first: bool, nx: f64, s: f64) -> f64 {
+        let a = (if first { -nx } else { nx }) * self.pull.accel;
+        let lam = self.lambda();
+        if a > 0.0 && 2.0 * s * lam < a * WALL_REST_TIME {
+            0.5 * a * WALL_REST_TIME / lam
+        } else {
+            s
+        }
+    }
+
     /// Pull the intruder with force `force` along +x from now on (0: a
     /// passive disk). Needs the neighbour lists (radii fixed, 5 x 5 cells).
     pub fn set_force(&mut self, force: f64) -> anyhow::Result<()> {
