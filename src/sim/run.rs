@@ -487,7 +487,8 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         energy_injected: injected,
         energy_dissipated: dissipated,
         energy_friction: friction,
-        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction + work + lifted)).abs()
+        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction + work + lifted))
+            .abs()
             / ke1,
         gamma: cfg.gamma,
         kick_amplitude: p_dr,

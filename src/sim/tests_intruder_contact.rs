@@ -67,7 +67,10 @@ fn pressed_intruder_finishes_within_an_event_bound() {
         let c = channel(500, phi, force, seed, relax, time);
         let s = bounded(&c, 5_000_000);
         let i = s.intruder.clone().unwrap();
-        let what = format!("phi {phi} F {force}: {} collisions, {} lifts", s.collisions, i.lifts);
+        let what = format!(
+            "phi {phi} F {force}: {} collisions, {} lifts",
+            s.collisions, i.lifts
+        );
         assert!(
             s.collision_rate < 2.0 * s.enskog_collision_rate,
             "{what}: rate {} vs Enskog {}",
@@ -75,9 +78,17 @@ fn pressed_intruder_finishes_within_an_event_bound() {
             s.enskog_collision_rate
         );
         assert!((i.lifts as f64) < 0.1 * s.collisions as f64, "{what}");
-        assert!(s.energy_balance_error < 1e-9, "{what}: {}", s.energy_balance_error);
+        assert!(
+            s.energy_balance_error < 1e-9,
+            "{what}: {}",
+            s.energy_balance_error
+        );
         assert!(i.energy_lifted >= 0.0, "{what}");
-        assert!(i.velocity[0] > 0.0 && i.velocity[0] < force / 4.0, "{what}: {:?}", i.velocity);
+        assert!(
+            i.velocity[0] > 0.0 && i.velocity[0] < force / 4.0,
+            "{what}: {:?}",
+            i.velocity
+        );
     }
 }
 
