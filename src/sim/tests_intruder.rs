@@ -54,6 +54,13 @@ pub(super) fn pulled(c: &SimConfig) -> Engine {
     e
 }
 
+/// Mean of `v` and its standard error from the spread (independent seeds).
+pub(super) fn mean_and_error(v: &[f64]) -> (f64, f64) {
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
+    (m, (var / v.len() as f64).sqrt())
+}
+
 /// The intruder (radius 2, mass 4) and a small disk far from its path, in a
 /// 100 x 100 periodic box.
 pub(super) fn lone(v0: [f64; 2]) -> Engine {

@@ -7,7 +7,7 @@
 //! events, agree with the force as kicks, and keep the ledgers exact.
 
 use super::config::{ForceMode, Intruder};
-use super::tests_intruder::{bath, pulled};
+use super::tests_intruder::{bath, mean_and_error, pulled};
 use super::{Drive, KickRate, Progress, RunSummary, SimConfig, run};
 use crate::traj::Schedule;
 
@@ -112,13 +112,8 @@ fn pressed_intruder_exact_and_kicks_agree() {
                 })
                 .collect()
         };
-        let stats = |v: &[f64]| {
-            let m = v.iter().sum::<f64>() / v.len() as f64;
-            let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
-            (m, (var / v.len() as f64).sqrt())
-        };
         let (exact, kicks) = (velocities(ForceMode::Exact), velocities(ForceMode::Kicks));
-        let ((me, se), (mk, sk)) = (stats(&exact), stats(&kicks));
+        let ((me, se), (mk, sk)) = (mean_and_error(&exact), mean_and_error(&kicks));
         eprintln!("phi {phi} F {force}: exact {me:.4} +- {se:.4}, kicks {mk:.4} +- {sk:.4}");
         assert!(
             (me - mk).abs() < 4.0 * (se * se + sk * sk).sqrt(),
