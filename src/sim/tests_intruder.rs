@@ -197,8 +197,8 @@ fn momentum_follows_eq_11_with_force_and_kicks() {
 }
 
 /// Energy ledger: KE(t) - KE(0) = injected - dissipated - friction + work of F
-/// + the lifts of the resting-contact rule,
-/// to 1e-9 relative, with and without friction.
+/// plus the lifts of the resting-contact rule, to 1e-9 relative, with and
+/// without friction.
 #[test]
 fn energy_ledger_with_the_work_of_the_force_closes() {
     for (gamma, force) in [(1.0, 100.0), (0.0, 10.0)] {

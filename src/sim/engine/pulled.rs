@@ -25,6 +25,12 @@
 //!   it a velocity along x. The same rule as the collapse guard of pair
 //!   collisions, on the wall: the bounce is given up when the next one would
 //!   come within a fixed short time.
+//! - The same time bounds the intruder's rebounds off a disk it presses on
+//!   ([`Engine::lift_rebound`]): without it the rebounds shrink until the
+//!   collapse guard makes them elastic at ~1e-11 and the pair collides every
+//!   ~1e-10 time units, so the run stops advancing. A rebound the force would
+//!   bring back within [`WALL_REST_TIME`] leaves at the speed that returns
+//!   then; the energy this adds is booked in `Stats::lifted`.
 
 use super::super::disk::{Disk, REPREDICT, SHELL, WALL};
 use super::super::intruder::{Pull, Root};
