@@ -44,6 +44,8 @@ mod tests_friction;
 #[cfg(test)]
 mod tests_intruder;
 #[cfg(test)]
+mod tests_intruder_contact;
+#[cfg(test)]
 mod tests_intruder_walls;
 #[cfg(test)]
 mod tests_walls;

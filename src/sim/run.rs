@@ -72,7 +72,8 @@ pub struct RunSummary {
     pub energy_dissipated: f64,
     /// Energy removed by viscous friction over production (exact, per event).
     pub energy_friction: f64,
-    /// |dE - (injected - dissipated - friction)| / E over production.
+    /// |dE - (injected - dissipated - friction + work + lifted)| / E over production
+    /// (work and lifted: the intruder's, see [`IntruderSummary`]).
     pub energy_balance_error: f64,
     /// Viscous friction rate gamma.
     pub gamma: f64,
@@ -86,7 +87,8 @@ pub struct RunSummary {
     pub cpu_seconds: f64,
     /// Production collisions per CPU second of production.
     pub collisions_per_second: f64,
-    /// All events (collisions, crossings, shell exits, kicks, stale) per CPU second of production.
+    /// All events (collisions, crossings, shell exits, kicks, stale, wall
+    /// collisions, re-predictions, force kicks) per CPU second of production.
     pub events_per_second: f64,
     pub peak_rss_bytes: u64,
     /// Bytes of simulator state per particle.
@@ -129,6 +131,13 @@ pub struct IntruderSummary {
     pub force_kicks: u64,
     #[serde(default)]
     pub force_kick_interval: f64,
+    /// Intruder-disk rebounds lifted to the minimum separation speed (the
+    /// exact force's resting-contact rule) over production, and the kinetic
+    /// energy they added (in the energy ledger).
+    #[serde(default)]
+    pub lifts: u64,
+    #[serde(default)]
+    pub energy_lifted: f64,
 }
 
 /// Takes samples of T and P at regular times while the engine advances.
@@ -409,6 +418,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     let dissipated = st.dissipated - before.dissipated;
     let friction = st.friction - before.friction;
     let work = st.work - before.work;
+    let lifted = st.lifted - before.lifted;
     let species_prod = &s.species[n_relax_samples..];
     let species_temperature = (0..masses.len())
         .map(|k| mean(&species_prod.iter().map(|v| v[k]).collect::<Vec<_>>()))
@@ -442,6 +452,8 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
                 } else {
                     0.0
                 },
+                lifts: st.lifts - before.lifts,
+                energy_lifted: lifted,
             })
         }
         _ => None,
@@ -475,7 +487,9 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         energy_injected: injected,
         energy_dissipated: dissipated,
         energy_friction: friction,
-        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction + work)).abs() / ke1,
+        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction + work + lifted))
+            .abs()
+            / ke1,
         gamma: cfg.gamma,
         kick_amplitude: p_dr,
         species_temperature,
@@ -488,6 +502,9 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
             st.cell_crossings - before.cell_crossings,
             st.stale_events - before.stale_events,
             st.shell_exits - before.shell_exits,
+            st.wall_collisions - before.wall_collisions,
+            st.repredicts - before.repredicts,
+            e.force_kicks() - force_kicks0,
         ]
         .iter()
         .sum::<u64>() as f64

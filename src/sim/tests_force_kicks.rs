@@ -6,7 +6,7 @@
 
 use super::config::{ForceMode, Intruder};
 use super::intruder::Pull;
-use super::tests_intruder::{bath, lone, quiet};
+use super::tests_intruder::{bath, lone, mean_and_error, quiet};
 use super::{init, run};
 
 /// Position error at time `t` of a lone intruder pushed by kicks every `dt`,
@@ -152,13 +152,8 @@ fn bath_kicks_agree_with_the_exact_force() {
             })
             .collect()
     };
-    let stats = |v: &[f64]| {
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
-        (m, (var / v.len() as f64).sqrt())
-    };
     let (exact, kicks) = (runs(ForceMode::Exact), runs(ForceMode::Kicks));
-    let ((me, se), (mk, sk)) = (stats(&exact), stats(&kicks));
+    let ((me, se), (mk, sk)) = (mean_and_error(&exact), mean_and_error(&kicks));
     eprintln!("exact {exact:?} kicks {kicks:?}");
     let err = (se * se + sk * sk).sqrt();
     assert!(me > 0.5 && me < 7.5, "{exact:?}");

@@ -206,7 +206,9 @@ fn chosen_start_between_four_walls() {
     );
     let s = e.stats;
     let ke = e.kinetic_energy();
-    let ledger = (s.injected - s0.injected) - (s.dissipated - s0.dissipated) + (s.work - s0.work);
+    let ledger = (s.injected - s0.injected) - (s.dissipated - s0.dissipated)
+        + (s.work - s0.work)
+        + (s.lifted - s0.lifted);
     assert!(
         ((ke - ke0) - ledger).abs() < 1e-9 * (ke.max(ke0) + s.work - s0.work),
         "dKE {} ledger {ledger}",

@@ -104,6 +104,11 @@ pub struct Stats {
     /// Re-prediction events (the root finder gave up, or nothing happened
     /// within the intruder's horizon).
     pub repredicts: u64,
+    /// Intruder-disk rebounds lifted to the minimum separation speed
+    /// ([`pulled::WALL_REST_TIME`]'s rule on disks) and the kinetic energy
+    /// the lifts added (exact, summed per lift).
+    pub lifts: u64,
+    pub lifted: f64,
 }
 
 /// A disk's pending event partner and its neighbour-list bookkeeping.
@@ -1040,7 +1045,17 @@ impl Engine {
         self.stats.guard_activations += u64::from(guarded);
         // Approach speed of the surfaces (-gn when radii are fixed).
         let g = gn - (a.radius + b.radius) * self.growth;
-        let imp = restitution::normal_impulse(mu, e, g);
+        let mut imp = restitution::normal_impulse(mu, e, g);
+        let mut lift = 0.0;
+        if i == self.pulled || j == self.pulled {
+            // The force may press the pair back together at once: the rebound
+            // speed -e g is lifted so that it returns no sooner than WALL_REST_TIME.
+            let s = self.lift_rebound(i == self.pulled, nx, -e * g);
+            if s != -e * g {
+                imp = mu * (g - s);
+                lift = 0.5 * mu * (s * s - e * e * g * g);
+            }
+        }
         let da = &mut self.d[i];
         da.vx -= imp / ma * nx;
         da.vy -= imp / ma * ny;
@@ -1054,9 +1069,13 @@ impl Engine {
         let lam = self.lambda();
         if self.clock.gamma > 0.0 {
             self.account_friction();
-            self.ke_u -= loss;
+            self.ke_u += lift - loss;
         }
         self.stats.dissipated += loss * (lam * lam);
+        if lift > 0.0 {
+            self.stats.lifts += 1;
+            self.stats.lifted += lift * (lam * lam);
+        }
         self.stats.virial += -imp * r * lam;
         self.stats.collisions += 1;
         self.last_collision[i] = t;

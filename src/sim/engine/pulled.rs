@@ -25,6 +25,12 @@
 //!   it a velocity along x. The same rule as the collapse guard of pair
 //!   collisions, on the wall: the bounce is given up when the next one would
 //!   come within a fixed short time.
+//! - The same time bounds the intruder's rebounds off a disk it presses on
+//!   ([`Engine::lift_rebound`]): without it the rebounds shrink until the
+//!   collapse guard makes them elastic at ~1e-11 and the pair collides every
+//!   ~1e-10 time units, so the run stops advancing. A rebound the force would
+//!   bring back within [`WALL_REST_TIME`] leaves at the speed that returns
+//!   then; the energy this adds is booked in `Stats::lifted`.
 
 use super::super::disk::{Disk, REPREDICT, SHELL, WALL};
 use super::super::intruder::{Pull, Root};
@@ -96,6 +102,24 @@ impl Engine {
         self.resting = true;
         self.stats.dissipated += 0.5 * self.mass(i) * v * v;
         0.0
+    }
+
+    /// The separation speed (clock units) after the pulled intruder hits a
+    /// disk, from `s` (its rebound, -e g): the force presses the pair back
+    /// together at the rate a = -(F/m0) n_x (n the unit vector from the disk
+    /// to the intruder, `nx` its x part from the first of the pair, the
+    /// intruder when `first`), so a rebound that would return within
+    /// [`WALL_REST_TIME`] (2 s / a) is lifted to s = a WALL_REST_TIME / 2:
+    /// the pair then meets at most once per WALL_REST_TIME under the force.
+    #[inline]
+    pub(super) fn lift_rebound(&self, first: bool, nx: f64, s: f64) -> f64 {
+        let a = (if first { -nx } else { nx }) * self.pull.accel;
+        let lam = self.lambda();
+        if a > 0.0 && 2.0 * s * lam < a * WALL_REST_TIME {
+            0.5 * a * WALL_REST_TIME / lam
+        } else {
+            s
+        }
     }
 
     /// Pull the intruder with force `force` along +x from now on (0: a
