@@ -12,6 +12,7 @@
 
 pub mod chi4;
 pub mod clusters;
+pub mod front;
 pub mod gr;
 pub mod intruder;
 pub mod lags;
