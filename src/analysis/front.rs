@@ -16,9 +16,9 @@ use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use serde::Deserialize;
 use std::sync::Arc;
 
-use super::check_trajectory;
 use super::intruder::{ProfileParams, compute_profile};
 use super::stats::jackknife_err;
+use super::{check_trajectory, frame_with_velocities};
 use crate::table::f64_batch;
 use crate::traj::{Frame, Trajectory};
 
@@ -38,22 +38,6 @@ pub struct FieldParams {
     /// Grid cells along x; cells are square, so Ly / (Lx / cells_x) rows (at least 1).
     #[serde(default = "default_cells_x")]
     pub cells_x: usize,
-}
-
-/// The frame of `traj` nearest to time `t`, with its velocities.
-fn frame_at(traj: &Trajectory, t: f64) -> Result<&Frame> {
-    let f = traj
-        .frames
-        .iter()
-        .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
-        .expect("checked non-empty");
-    if f.vx.len() != traj.n() {
-        bail!(
-            "the frame at t = {} has no velocities: set `record_velocities: true` in the experiment",
-            f.time
-        );
-    }
-    Ok(f)
 }
 
 fn check_all(trajs: &[&Trajectory]) -> Result<()> {
@@ -78,7 +62,10 @@ fn check_all(trajs: &[&Trajectory]) -> Result<()> {
 /// disks whose centre lies in it, in every replica). Main table `t, x, y, vx, vy`
 /// (cell centres; empty cells are left out); second table `t, x, y` the
 /// intruder's position averaged over replicas.
-pub fn velocity_field(trajs: &[&Trajectory], p: &FieldParams) -> Result<(RecordBatch, RecordBatch)> {
+pub fn velocity_field(
+    trajs: &[&Trajectory],
+    p: &FieldParams,
+) -> Result<(RecordBatch, RecordBatch)> {
     check_all(trajs)?;
     if p.cells_x == 0 {
         bail!("parameter `cells_x` must be at least 1");
@@ -97,7 +84,7 @@ pub fn velocity_field(trajs: &[&Trajectory], p: &FieldParams) -> Result<(RecordB
         let mut acc = vec![[0.0; 3]; nx * ny];
         let (mut xi, mut yi, mut time) = (0.0, 0.0, 0.0);
         for traj in trajs {
-            let f = frame_at(traj, t)?;
+            let f = frame_with_velocities(traj, t)?;
             time += f.time;
             for i in 0..traj.n() {
                 let s = traj.species[i];
@@ -249,17 +236,16 @@ pub fn disk_area_in(c: [f64; 2], r: f64, [x0, x1]: [f64; 2], [y0, y1]: [f64; 2])
     if xc - r >= x0 && xc + r <= x1 && yc - r >= y0 && yc + r <= y1 {
         return std::f64::consts::PI * r * r;
     }
-    // x = xc - r cos(theta), theta in [0, pi]: dx = r sin(theta) dtheta and the
-    // chord's half length is r sin(theta).
+    // x = xc - r cos(theta): dx = r sin(theta) dtheta and the chord's half
+    // length is r sin(theta); theta runs over the part of [0, pi] inside
+    // [x0, x1], so the integrand has no jump (only kinks where y clips).
     const STEPS: usize = 400;
-    let dtheta = std::f64::consts::PI / STEPS as f64;
+    let angle = |x: f64| ((xc - x) / r).clamp(-1.0, 1.0).acos();
+    let (th0, th1) = (angle(x0), angle(x1));
+    let dtheta = (th1 - th0) / STEPS as f64;
     let mut area = 0.0;
     for k in 0..STEPS {
-        let th = (k as f64 + 0.5) * dtheta;
-        let x = xc - r * th.cos();
-        if x < x0 || x > x1 {
-            continue;
-        }
+        let th = th0 + (k as f64 + 0.5) * dtheta;
         let half = r * th.sin();
         let len = ((yc + half).min(y1) - (yc - half).max(y0)).max(0.0);
         area += len * r * th.sin() * dtheta;
@@ -411,7 +397,7 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
         let profiles = px.chunks(bins).map(<[f64]>::to_vec).collect();
         let eta_wall = times
             .iter()
-            .map(|&t| frame_at(traj, t).map(|f| wall_packing(traj, f, w)))
+            .map(|&t| frame_with_velocities(traj, t).map(|f| wall_packing(traj, f, w)))
             .collect::<Result<Vec<_>>>()?;
         reps.push(Replica { profiles, eta_wall });
     }
@@ -445,14 +431,8 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
             "quantity",
             Arc::new(StringArray::from(names.to_vec())) as ArrayRef,
         ),
-        (
-            "value",
-            Arc::new(Float64Array::from(value)) as ArrayRef,
-        ),
-        (
-            "error",
-            Arc::new(Float64Array::from(error)) as ArrayRef,
-        ),
+        ("value", Arc::new(Float64Array::from(value)) as ArrayRef),
+        ("error", Arc::new(Float64Array::from(error)) as ArrayRef),
         (
             "note",
             Arc::new(StringArray::from(vec![note; 4])) as ArrayRef,
@@ -550,7 +530,10 @@ mod tests {
                 let xf = 10.0 + 20.0 * t;
                 let mut x: Vec<f64> = pos.iter().map(|p| p[0]).collect();
                 x[0] += t;
-                let vx = pos.iter().map(|p| if p[0] < xf { 1.0 } else { 0.0 }).collect();
+                let vx = pos
+                    .iter()
+                    .map(|p| if p[0] < xf { 1.0 } else { 0.0 })
+                    .collect();
                 Frame {
                     time: t,
                     x,
@@ -656,6 +639,6 @@ mod tests {
             f.vx.clear();
         }
         let e = format!("{:#}", front(&[&t], &params()).err().unwrap());
-        assert!(e.contains("record_velocities"), "{e}");
+        assert!(e.contains("no velocities"), "{e}");
     }
 }

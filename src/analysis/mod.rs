@@ -101,6 +101,23 @@ pub fn squared_displacements(f0: &Frame, f1: &Frame) -> Vec<f64> {
         .collect()
 }
 
+/// The frame of `traj` nearest to time `t`, which must hold velocities
+/// (profiles and fields of momentum); `traj` has frames (checked).
+pub fn frame_with_velocities(traj: &Trajectory, t: f64) -> Result<&Frame> {
+    let f = traj
+        .frames
+        .iter()
+        .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
+        .expect("checked non-empty");
+    if f.vx.len() != traj.n() {
+        bail!(
+            "the frame at t = {} has no velocities: set `record_velocities: true` in the experiment",
+            f.time
+        );
+    }
+    Ok(f)
+}
+
 /// Position folded into the box [0, L) along a periodic axis; unchanged otherwise.
 #[inline]
 pub fn fold(x: f64, l: f64, periodic: bool) -> f64 {

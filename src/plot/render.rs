@@ -564,7 +564,13 @@ fn draw_series<DB: DrawingBackend>(
 
 /// A line from `a` to `b` (pixels) with a filled head at `b` scaled to its
 /// length (at most a marker's size), so short vectors stay arrows.
-fn arrow<DB: DrawingBackend>(area: &Area<DB>, a: P, b: P, color: RGBColor, sz: Sizes) -> Result<()> {
+fn arrow<DB: DrawingBackend>(
+    area: &Area<DB>,
+    a: P,
+    b: P,
+    color: RGBColor,
+    sz: Sizes,
+) -> Result<()> {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let len = dx.hypot(dy);
     if len < 0.5 {
