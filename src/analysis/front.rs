@@ -262,7 +262,9 @@ fn wall_packing(traj: &Trajectory, f: &Frame, w: &WallRegion) -> f64 {
     let area: f64 = (0..traj.n())
         .map(|i| {
             let r = traj.radii[traj.species[i] as usize];
-            disk_area_in([f.x[i], f.y[i]], r, xr, yr)
+            let x = super::fold(f.x[i], lx, traj.periodic[0]);
+            let y = super::fold(f.y[i], ly, traj.periodic[1]);
+            disk_area_in([x, y], r, xr, yr)
         })
         .sum();
     area / ((xr[1] - xr[0]) * (yr[1] - yr[0]))
