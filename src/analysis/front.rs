@@ -345,7 +345,8 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
         );
     }
     for (name, [lo, hi]) in [("fit", p.fit), ("compact", p.compact)] {
-        if !(lo < hi) {
+        // NaN-safe: a NaN bound is refused too.
+        if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
             bail!("parameter `{name}` = [{lo}, {hi}] must be an interval t_min < t_max");
         }
     }
