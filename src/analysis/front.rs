@@ -474,6 +474,7 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::tests::col;
     use arrow_array::Array;
     use std::f64::consts::PI;
 
@@ -554,16 +555,6 @@ mod tests {
             masses: vec![1.0, 1.0, 4.0],
             frames,
         }
-    }
-
-    fn col(b: &RecordBatch, name: &str) -> Vec<f64> {
-        b.column_by_name(name)
-            .unwrap()
-            .as_any()
-            .downcast_ref::<Float64Array>()
-            .unwrap()
-            .values()
-            .to_vec()
     }
 
     fn params() -> FrontParams {
