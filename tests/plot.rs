@@ -33,6 +33,7 @@ fn series(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
         color: None,
         marker: Marker::Circle,
         radius: None,
+        arrows: None,
     }
 }
 

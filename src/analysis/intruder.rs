@@ -386,17 +386,7 @@ pub fn compute_profile(traj: &Trajectory, p: &ProfileParams) -> Result<RecordBat
     let dx = lx / p.bins as f64;
     let mut cols: [Vec<f64>; 3] = Default::default();
     for &t in &p.times {
-        let f = traj
-            .frames
-            .iter()
-            .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
-            .expect("checked non-empty");
-        if f.vx.len() != traj.n() {
-            bail!(
-                "the frame at t = {} has no velocities: record velocities to get Px(x)",
-                f.time
-            );
-        }
+        let f = super::frame_with_velocities(traj, t)?;
         let mut px = vec![0.0; p.bins];
         for i in 0..traj.n() {
             let s = traj.species[i];

@@ -12,6 +12,7 @@
 
 pub mod chi4;
 pub mod clusters;
+pub mod front;
 pub mod gr;
 pub mod intruder;
 pub mod lags;
@@ -99,6 +100,23 @@ pub fn squared_displacements(f0: &Frame, f1: &Frame) -> Vec<f64> {
         .zip(f1.x.iter().zip(&f1.y))
         .map(|((x0, y0), (x1, y1))| (x1 - x0).powi(2) + (y1 - y0).powi(2))
         .collect()
+}
+
+/// The frame of `traj` nearest to time `t`, which must hold velocities
+/// (profiles and fields of momentum); `traj` has frames (checked).
+pub fn frame_with_velocities(traj: &Trajectory, t: f64) -> Result<&Frame> {
+    let f = traj
+        .frames
+        .iter()
+        .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
+        .expect("checked non-empty");
+    if f.vx.len() != traj.n() {
+        bail!(
+            "the frame at t = {} has no velocities: set `record_velocities: true` in the experiment",
+            f.time
+        );
+    }
+    Ok(f)
 }
 
 /// Position folded into the box [0, L) along a periodic axis; unchanged otherwise.

@@ -17,7 +17,7 @@ use serde::de::DeserializeOwned;
 use serde_json::Value;
 
 use super::pool::{self, Errors};
-use super::{chi4, clusters, gr, intruder, lags, msd, overlap, s4, van_hove};
+use super::{chi4, clusters, front, gr, intruder, lags, msd, overlap, s4, van_hove};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
 
@@ -411,6 +411,36 @@ pub static OBSERVABLES: &[Observable] = &[
         modules: &["analysis/intruder"],
         validate: |v| params::<intruder::ProfileParams>("momentum_profile", v).map(drop),
         compute: |t, v| per_replica("momentum_profile", t, v, intruder::compute_profile),
+    },
+    Observable {
+        name: "velocity_field",
+        describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
+        modules: &["analysis/front"],
+        validate: |v| params::<front::FieldParams>("velocity_field", v).map(drop),
+        compute: |t, v| {
+            let p: front::FieldParams = params("velocity_field", v)?;
+            let (main, intruder) = front::velocity_field(t, &p)?;
+            Ok(Tables {
+                main,
+                extra: vec![("intruder.parquet", intruder)],
+                errors: Errors::Mean { replicas: t.len() },
+            })
+        },
+    },
+    Observable {
+        name: "front",
+        describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
+        modules: &["analysis/front", "analysis/intruder"],
+        validate: |v| params::<front::FrontParams>("front", v).map(drop),
+        compute: |t, v| {
+            let p: front::FrontParams = params("front", v)?;
+            let [main, positions, lines] = front::front(t, &p)?;
+            Ok(Tables {
+                main,
+                extra: vec![("positions.parquet", positions), ("lines.parquet", lines)],
+                errors: Errors::ReplicaJackknife { replicas: t.len() },
+            })
+        },
     },
 ];
 

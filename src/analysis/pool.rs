@@ -24,6 +24,9 @@ pub enum Errors {
     SeedToSeed { replicas: usize },
     /// One replica: the observable's own errors over its time origins.
     OneReplica,
+    /// Delete-one jackknife over replicas of the whole chain (e.g. profile,
+    /// moments, slopes), computed by the observable.
+    ReplicaJackknife { replicas: usize },
     /// No error columns: a plain mean over replicas.
     Mean { replicas: usize },
     /// No error columns: one row per object (cluster, path point) of every replica.
@@ -50,6 +53,9 @@ impl Errors {
             }
             Errors::Rows { replicas } => {
                 format!("no error columns: one row per object of each of {replicas} replica(s)")
+            }
+            Errors::ReplicaJackknife { replicas } => {
+                format!("delete-one jackknife over {replicas} replicas")
             }
             Errors::OneReplica => {
                 "one replica: errors over its time origins, as the observable defines them"

@@ -687,6 +687,16 @@ fn every_kind_runs_from_json_parameters() {
             json!({"lag_min": 0.5, "lag_max": 10.0}),
             "D",
         ),
+        (
+            "velocity_field",
+            json!({"times": [1.0], "cells_x": 5}),
+            "vx",
+        ),
+        (
+            "front",
+            json!({"bin": 2.0, "fit": [0.0, 10.0], "compact": [0.0, 10.0], "wall": {"width": 5.0}}),
+            "value",
+        ),
     ];
     assert_eq!(cases.len(), observables::OBSERVABLES.len());
     for (kind, params, column) in cases {

@@ -425,7 +425,7 @@ fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P>
     for s in &p.series {
         let pts = f.points(s);
         samples.extend(pts.iter().flatten());
-        if !matches!(s.style, Style::Points | Style::Disks) {
+        if !matches!(s.style, Style::Points | Style::Disks | Style::Arrows) {
             for piece in clip_polyline(&pts, &r) {
                 for w in piece.windows(2) {
                     let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
@@ -538,6 +538,17 @@ fn draw_series<DB: DrawingBackend>(
         }
         return Ok(());
     }
+    if s.style == Style::Arrows {
+        let vectors = s.arrows.as_deref().unwrap_or(&[]);
+        for ((&x, &y), &[dx, dy]) in s.x.iter().zip(&s.y).zip(vectors) {
+            if let (Some(a), Some(b)) = (f.at(x, y), f.at(x + dx, y + dy))
+                && r.contains(a)
+            {
+                arrow(area, a, b, color, sz)?;
+            }
+        }
+        return Ok(());
+    }
     if s.style != Style::Points {
         for piece in clip_polyline(&pts, &r) {
             stroke(area, &piece, color, sz.line, s.dashed, sz)?;
@@ -548,6 +559,34 @@ fn draw_series<DB: DrawingBackend>(
             marker(area, s.marker, q, sz.marker, color)?;
         }
     }
+    Ok(())
+}
+
+/// A line from `a` to `b` (pixels) with a filled head at `b` scaled to its
+/// length (at most a marker's size), so short vectors stay arrows.
+fn arrow<DB: DrawingBackend>(
+    area: &Area<DB>,
+    a: P,
+    b: P,
+    color: RGBColor,
+    sz: Sizes,
+) -> Result<()> {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len = dx.hypot(dy);
+    if len < 0.5 {
+        return Ok(());
+    }
+    polyline(area, &[a, b], color, 1)?;
+    let head = (0.35 * len).min(sz.marker);
+    let (ux, uy) = (dx / len, dy / len);
+    let base = (b.0 - head * ux, b.1 - head * uy);
+    let half = 0.5 * head;
+    let tri = vec![
+        px(b),
+        px((base.0 - half * uy, base.1 + half * ux)),
+        px((base.0 + half * uy, base.1 - half * ux)),
+    ];
+    area.draw(&Polygon::new(tri, color.filled())).map_err(err)?;
     Ok(())
 }
 
@@ -679,7 +718,7 @@ fn draw_legend<DB: DrawingBackend>(
         let color = rgb(s
             .color
             .unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
-        if !matches!(s.style, Style::Points | Style::Disks) {
+        if !matches!(s.style, Style::Points | Style::Disks | Style::Arrows) {
             stroke(
                 area,
                 &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
@@ -689,7 +728,10 @@ fn draw_legend<DB: DrawingBackend>(
                 sz,
             )?;
         }
-        if s.style != Style::Line {
+        if s.style == Style::Arrows {
+            let y = row_y;
+            arrow(area, (x_sample, y), (x_sample + lb.sample, y), color, sz)?;
+        } else if s.style != Style::Line {
             marker(
                 area,
                 s.marker,

@@ -97,6 +97,10 @@ pub struct Series {
     /// Per-point radius in data units (style `disks`: disks drawn to scale).
     #[serde(default)]
     pub radius: Option<Vec<f64>>,
+    /// Per-point vector [dx, dy] in data units (style `arrows`: an arrow from
+    /// each point to point + vector, e.g. a velocity field).
+    #[serde(default)]
+    pub arrows: Option<Vec<[f64; 2]>>,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -111,6 +115,9 @@ pub enum Style {
     /// Filled disks of the series' `radius` (x-axis units), e.g. a configuration.
     #[serde(rename = "disks")]
     Disks,
+    /// Arrows of the series' `arrows` vectors (a quiver plot).
+    #[serde(rename = "arrows")]
+    Arrows,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

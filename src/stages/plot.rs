@@ -102,6 +102,18 @@ pub struct Layer {
     /// Column of disk radii (style `disks`).
     #[serde(default)]
     pub radius: Option<String>,
+    /// Vector columns of style `arrows` and the data units per unit of them.
+    #[serde(default)]
+    pub arrows: Option<ArrowColumns>,
+}
+
+/// The arrows of a quiver layer: from (x, y) to (x + scale dx, y + scale dy).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArrowColumns {
+    pub dx: String,
+    pub dy: String,
+    pub scale: f64,
 }
 
 fn default_file() -> String {
@@ -159,6 +171,25 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             layer.from
         );
     }
+    if (layer.style == Style::Arrows) != layer.arrows.is_some() {
+        anyhow::bail!(
+            "plot: layer from '{}': style `arrows` and `arrows: {{dx: COLUMN, dy: COLUMN, scale: S}}` go together",
+            layer.from
+        );
+    }
+    let arrows = match &layer.arrows {
+        Some(a) => {
+            if !(a.scale.is_finite() && a.scale > 0.0) {
+                anyhow::bail!(
+                    "plot: layer from '{}': arrows.scale = {} must be a finite number > 0",
+                    layer.from,
+                    a.scale
+                );
+            }
+            Some((c.col(&a.dx)?, c.col(&a.dy)?, a.scale))
+        }
+        None => None,
+    };
     let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
     for &i in &rows {
         let key = g.map(|g| g[i]).unwrap_or(0.0);
@@ -185,6 +216,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             color: layer.color,
             marker: layer.marker,
             radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
+            arrows: arrows.map(|(dx, dy, k)| idx.iter().map(|&i| [k * dx[i], k * dy[i]]).collect()),
         });
     }
     Ok(out)

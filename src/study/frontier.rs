@@ -260,6 +260,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                         color: None,
                         marker: Marker::Circle,
                         radius: None,
+                        arrows: None,
                     }
                 })
                 .collect();
