@@ -223,8 +223,13 @@ pub fn joint(checked: &[(&Golden, f64)]) -> Joint {
         if dup || goodness_of_fit(&q.quantity) || !(q.std.is_finite() && q.std > 0.0) {
             continue;
         }
-        seen.push(&q.values);
+        // A number most seeds could not give (too few for its own spread)
+        // keeps its band but stays out: it would make the threshold infinite.
         let n = q.values.iter().filter(|x| x.is_finite()).count();
+        if n < 6 {
+            continue;
+        }
+        seen.push(&q.values);
         n_seeds = n_seeds.min(n);
         // A NaN value fails its band already; here it counts as far out.
         let z = if v.is_finite() {
@@ -527,6 +532,16 @@ mod tests {
         assert!(joint(&off(0.5)).chi2 < j.threshold);
         let twice: Vec<(&Golden, f64)> = vec![(&gs[0], gs[0].mean), (&gs[0], gs[0].mean)];
         assert_eq!(joint(&twice).terms, 1);
+        // A number only three seeds could give stays out of the joint test
+        // and leaves its threshold finite.
+        let mut v = vec![f64::NAN; 10];
+        v[..3].copy_from_slice(&[1.0, 2.0, 3.0]);
+        let sparse = golden("f", "sparse", &seeds, &v, 4.0, 0.01);
+        let mut with = off(2.2);
+        with.push((&sparse, sparse.mean));
+        let js = joint(&with);
+        assert_eq!(js.terms, 20);
+        assert!(js.threshold.is_finite() && js.chi2 > js.threshold, "{js:?}");
     }
 
     /// A seed whose fit failed (NaN) is left out of the band, written as
