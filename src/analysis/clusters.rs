@@ -406,19 +406,24 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
 mod tests {
     use super::*;
 
-    /// Free flight over t = 1: a disk is slow when its speed is below a, fast above
-    /// 3a; each carries its species' radius and a position inside the box.
-    #[test]
-    fn snapshot_classes_follow_the_displacement() {
-        let traj = crate::analysis::synthetic::ballistic(400, [20.0, 20.0], &[0.0, 1.0], 3);
-        let p = Params {
+    /// Mobility classes at a = 0.6 and 3a over the single lag t = 1.
+    fn unit_lag_params(per_decade: usize) -> Params {
+        Params {
             a: 0.6,
             fast_factor: 3.0,
             lags: vec![1.0],
             cutoffs: None,
             rel_tol: 1e-6,
-            per_decade: 5,
-        };
+            per_decade,
+        }
+    }
+
+    /// Free flight over t = 1: a disk is slow when its speed is below a, fast above
+    /// 3a; each carries its species' radius and a position inside the box.
+    #[test]
+    fn snapshot_classes_follow_the_displacement() {
+        let traj = crate::analysis::synthetic::ballistic(400, [20.0, 20.0], &[0.0, 1.0], 3);
+        let p = unit_lag_params(5);
         let b = compute_snapshot(&traj, &p).unwrap();
         let col = |n: &str| crate::analysis::tests::col(&b, n);
         let (x, y, r, class) = (col("x"), col("y"), col("radius"), col("class"));
@@ -455,14 +460,7 @@ mod tests {
             ("spans", vec![0.0, 0.0, 0.0, 1.0, 0.0]),
         ])
         .unwrap();
-        let p = Params {
-            a: 0.6,
-            fast_factor: 3.0,
-            lags: vec![1.0],
-            cutoffs: None,
-            rel_tol: 1e-6,
-            per_decade: 10,
-        };
+        let p = unit_lag_params(10);
         let b = sizes_table(&rows, &p).unwrap();
         let col = |n: &str| crate::analysis::tests::col(&b, n);
         let (kind, nc, pr, sp, big) = (
