@@ -22,7 +22,9 @@ pub struct ParamSpread {
     pub mean: f64,
     pub min: f64,
     pub max: f64,
-    /// Standard deviation of the values between ranges (0 for one range).
+    /// Standard deviation of the values between ranges; NaN when fewer than
+    /// two ranges fit (one window has no spread to measure, and a 0 would read
+    /// as a fit that does not depend on its range).
     pub std: f64,
     /// Largest statistical error of a single fit, to compare the spread with.
     pub max_stderr: f64,
@@ -72,7 +74,11 @@ pub fn range_scan(
             let v: Vec<f64> = ok.iter().map(|f| f.params[j]).collect();
             let n = v.len() as f64;
             let mean = v.iter().sum::<f64>() / n;
-            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+            let var = if v.len() < 2 {
+                f64::NAN
+            } else {
+                v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)
+            };
             ParamSpread {
                 name: first.names[j].clone(),
                 mean,

@@ -792,11 +792,21 @@ fn scan_ranges(
         windows.push(quantity_table(&key, &quantities, &why)?);
     }
     match &scan {
-        Ok(s) => rows.extend(
-            s.spread
-                .iter()
-                .map(|sp| (format!("{}_range_std", name(&sp.name)), sp.std, f64::NAN)),
-        ),
+        Ok(s) => {
+            rows.extend(
+                s.spread
+                    .iter()
+                    .map(|sp| (format!("{}_range_std", name(&sp.name)), sp.std, f64::NAN)),
+            );
+            let fitted = s.fits.iter().filter(|f| f.result.is_ok()).count();
+            if fitted < 2 {
+                let sep = if note.is_empty() { "" } else { "; " };
+                note.push_str(&format!(
+                    "{sep}range scan: only {fitted} of {} windows fit, so no spread (NaN)",
+                    s.fits.len()
+                ));
+            }
+        }
         Err(e) => {
             rows.extend(
                 form.params
@@ -1484,6 +1494,19 @@ mod tests {
             assert!(v[i].is_nan() && np[i] == 1.0, "{} {}", v[i], np[i]);
             assert!(note[i].starts_with("fit failed:"), "{}", note[i]);
         }
+        // One window that fits has no spread: NaN and a note, not a 0 that
+        // would read as a fit independent of its range.
+        let params = yaml(
+            "{form: power_law, data: data, x: x, y: exact, y_err: exact_err, \
+             rename: {exponent: slope}, ranges: [[1, 10], [50, 50.5]]}",
+        );
+        let one = Fit.run(&ctx, &params, &inputs).unwrap();
+        assert!(std_of(&one).is_nan(), "{}", std_of(&one));
+        let (_, notes) = quantities(&one.files["parquet"]);
+        assert!(
+            notes.iter().any(|n| n.contains("only 1 of 2 windows fit")),
+            "{notes:?}"
+        );
         // Bad windows and scans of no form are refused before anything runs.
         let e = Fit
             .validate(&yaml(
