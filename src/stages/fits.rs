@@ -558,31 +558,32 @@ fn fit_group(
                     })
                     .collect()
             };
+            // One refit with replica `left.replica` of unit `left.unit` left out,
+            // the numbers taken from other fits at the same replica.
+            let (rx, ry, rs) = &raw;
+            let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                let keep: Vec<usize> = (0..xs.len())
+                    .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
+                    .collect();
+                let (xk, yk) = (pick(xs, &keep), pick(ys, &keep));
+                let fill = s.iter().cloned().fold(0.0, f64::max);
+                let sk: Vec<f64> = keep
+                    .iter()
+                    .map(|&i| {
+                        if rs[i].is_finite() && rs[i] > 0.0 {
+                            rs[i]
+                        } else {
+                            fill
+                        }
+                    })
+                    .collect();
+                let fixed = fixed_at(left);
+                let fixed: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                let g = fit_form(p, &xk, &yk, &sk, &fixed).ok()?;
+                Some(reported(p, &xk, &yk, &g))
+            };
             if let Some((units, x_jk, y_jk)) = &jk {
-                let (rx, ry, rs) = &raw;
-                let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                    let keep: Vec<usize> = (0..xs.len())
-                        .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
-                        .collect();
-                    let (xk, yk) = (pick(xs, &keep), pick(ys, &keep));
-                    let fill = s.iter().cloned().fold(0.0, f64::max);
-                    let sk: Vec<f64> = keep
-                        .iter()
-                        .map(|&i| {
-                            if rs[i].is_finite() && rs[i] > 0.0 {
-                                rs[i]
-                            } else {
-                                fill
-                            }
-                        })
-                        .collect();
-                    let fixed = fixed_at(left);
-                    let fixed: Vec<(&str, f64)> =
-                        fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-                    let g = fit_form(p, &xk, &yk, &sk, &fixed).ok()?;
-                    Some(reported(p, &xk, &yk, &g))
-                };
-                match pool::replica_jackknife_with(units, rx, ry, x_jk, y_jk, &also, refit) {
+                match pool::replica_jackknife_with(units, rx, ry, x_jk, y_jk, &also, &refit) {
                     Some(j) => {
                         for (row, e) in rows.iter_mut().zip(&j.errors) {
                             row.2 = *e;
@@ -631,36 +632,15 @@ fn fit_group(
             // points (xi against phi, the collapse) refits them on the same
             // replicas instead of holding them at their values.
             let samples = one_unit.as_ref().map(|(unit, y_jk)| {
-                let (rx, _, rs) = &raw;
-                let fill = s.iter().cloned().fold(0.0, f64::max);
                 let per_replica = y_jk
                     .iter()
                     .enumerate()
                     .map(|(k, ys)| {
-                        let keep: Vec<usize> = (0..rx.len())
-                            .filter(|&i| rx[i].is_finite() && ys[i].is_finite())
-                            .collect();
-                        let (xk, yk) = (pick(rx, &keep), pick(ys, &keep));
-                        let sk: Vec<f64> = keep
-                            .iter()
-                            .map(|&i| {
-                                if rs[i].is_finite() && rs[i] > 0.0 {
-                                    rs[i]
-                                } else {
-                                    fill
-                                }
-                            })
-                            .collect();
-                        let fixed = fixed_at(pool::LeftOut {
+                        let left = pool::LeftOut {
                             unit: *unit,
                             replica: k,
-                        });
-                        let fixed: Vec<(&str, f64)> =
-                            fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-                        fit_form(p, &xk, &yk, &sk, &fixed)
-                            .ok()
-                            .map(|g| reported(p, &xk, &yk, &g))
-                            .unwrap_or_default()
+                        };
+                        refit(left, rx, ys).unwrap_or_default()
                     })
                     .collect();
                 (*unit, per_replica)
