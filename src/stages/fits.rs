@@ -413,6 +413,7 @@ impl StageKind for Fit {
             }
         }
         let method = methods.join("; ");
+        let tables = same_columns(tables)?;
         let mut out = Output::single(
             "parquet",
             to_parquet_bytes(&tables, &[(ERROR_METHOD, method.as_str())])?,
@@ -428,6 +429,35 @@ impl StageKind for Fit {
         }
         Ok(out)
     }
+}
+
+/// The groups' quantity tables with one set of columns: a group whose rows carry
+/// no replica samples (other units, a refit impossible) lacks the `value_jkK`
+/// columns of the others; they are NaN there.
+fn same_columns(tables: Vec<RecordBatch>) -> Result<Vec<RecordBatch>> {
+    let Some(widest) = tables.iter().max_by_key(|t| t.num_columns()).cloned() else {
+        return Ok(tables);
+    };
+    let schema = widest.schema();
+    tables
+        .into_iter()
+        .map(|t| {
+            if t.schema() == schema {
+                return Ok(t);
+            }
+            let cols: Vec<(String, ArrayRef)> = schema
+                .fields()
+                .iter()
+                .map(|f| {
+                    let c = t.column_by_name(f.name()).cloned().unwrap_or_else(|| {
+                        Arc::new(Float64Array::from(vec![f64::NAN; t.num_rows()])) as ArrayRef
+                    });
+                    (f.name().clone(), c)
+                })
+                .collect();
+            Ok(RecordBatch::try_from_iter(cols)?)
+        })
+        .collect()
 }
 
 /// The inputs holding the data: from stage `data`, or every input when they all
@@ -486,12 +516,18 @@ fn fit_group(
         Some(e) => pick(c.col(e)?, rows),
         None => vec![1.0; rows.len()],
     };
-    let jk = replica_columns(c, rows, &p.x, &p.y);
+    // The replica jackknife runs over the rows the fit uses: a row without a
+    // value (a state point whose own fit failed) has no replica samples either.
+    let used: Vec<usize> = (0..rows.len())
+        .filter(|&i| x[i].is_finite() && y[i].is_finite())
+        .collect();
+    let used_rows = pick_rows(rows, &used);
+    let jk = replica_columns(c, &used_rows, &p.x, &p.y);
     let one_unit = match jk {
-        None => unit_columns(c, rows, &p.x, &p.y),
+        None => unit_columns(c, &used_rows, &p.x, &p.y),
         Some(_) => None,
     };
-    let raw = (x.clone(), y.clone(), s.clone());
+    let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
     let (x, y, s) = clean(ctx, x, y, s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
@@ -950,6 +986,11 @@ fn replica_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<Repl
         return None;
     }
     Some((units, x_jk, y_jk))
+}
+
+/// The entries `at` of a list of row indices.
+fn pick_rows(rows: &[usize], at: &[usize]) -> Vec<usize> {
+    at.iter().map(|&i| rows[i]).collect()
 }
 
 /// The replica samples of rows that all come from one unit (one state point's
@@ -1817,6 +1858,39 @@ mod tests {
             (db - expected).abs() < 1e-6 * expected,
             "error {db}, expected {expected}"
         );
+    }
+
+    /// A grouped fit where one group's fit fails (too few points): the groups
+    /// with replica samples and the failed one still make one table, the failed
+    /// one's samples NaN.
+    #[test]
+    fn groups_with_and_without_replica_samples_make_one_table() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let line = |d: f64| vec![1.0, 1.0 + 0.1 * (2.0 + d), 1.0 + 0.2 * (2.0 + d), 1.0];
+        let s4 = f64_batch(&[
+            ("phi", vec![0.70, 0.70, 0.70, 0.76]),
+            ("q", vec![0.0, 0.1, 0.2, 0.1]),
+            ("S4", line(0.0)),
+            ("S4_err", vec![0.01; 4]),
+            (pool::JK_UNIT, vec![11.0, 11.0, 11.0, 12.0]),
+            ("S4_jk0", line(1.0)),
+            ("S4_jk1", line(-1.0)),
+        ])
+        .unwrap();
+        let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
+        let out = Fit
+            .run(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
+            .unwrap();
+        let c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet").unwrap();
+        let (phi, q, jk0) = (
+            c.col("phi").unwrap(),
+            &c.str["quantity"],
+            c.col("value_jk0").unwrap(),
+        );
+        let at = |p: f64, name: &str| (0..c.rows).find(|&i| phi[i] == p && q[i] == name).unwrap();
+        assert!((jk0[at(0.70, "slope")] - 3.0).abs() < 1e-9);
+        assert!(jk0[at(0.76, "slope")].is_nan());
     }
 
     /// Fig. 19's collapse with the measured xi: where the data carry xi's
