@@ -44,6 +44,10 @@ fn quoted_errors_cover_the_seed_to_seed_scatter() {
         ("fig4", "tau_alpha_076"),
         ("fig4", "tau_alpha_078"),
         ("fig15", "tau4_exponent"),
+        // The tau_alpha fits across state points (replica jackknife).
+        ("fig4", "phi_c"),
+        ("fig4", "phi_0"),
+        ("fig4", "gamma_tau"),
     ] {
         let (cov, ratio) = covered(&g, figure, quantity);
         assert!(
