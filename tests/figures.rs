@@ -560,6 +560,37 @@ fn s4_q_zero_is_chi4_and_fit_tables_join_as_columns() {
         assert!(x[i].is_nan() || (inv_err[i] - xe[i] / (x[i] * x[i])).abs() <= 1e-12 * inv_err[i]);
     }
     assert!(x.iter().any(|v| v.is_finite()), "{x:?}");
+    // S4 carries replica samples, so xi per phi carries its OZ refits with each
+    // replica left out, under the unit of tau_alpha's runs: a fit of xi across
+    // phi refits xi and phi_c on the same replicas.
+    let (jk0, jk1) = (column(&xi, "xi_jk0"), column(&xi, "xi_jk1"));
+    let tau = ws.results.join("s4fig/tau_table.parquet");
+    let (tau_phi, tau_unit) = (column(&tau, "phi"), column(&tau, "jk_unit"));
+    let oz = ws.results.join("s4fig/oz.parquet");
+    for (p, u) in column(&oz, "phi").iter().zip(column(&oz, "jk_unit")) {
+        let j = tau_phi.iter().position(|t| t == p).unwrap();
+        assert_eq!(
+            u, tau_unit[j],
+            "phi {p}: the OZ fit's unit is not tau_alpha's"
+        );
+    }
+    for i in 0..4 {
+        if x[i].is_finite() && jk0[i].is_finite() && jk1[i].is_finite() {
+            assert!(
+                jk0[i] != jk1[i] && jk0[i] > 0.0 && jk1[i] > 0.0,
+                "phi {}: {} {}",
+                phis[i],
+                jk0[i],
+                jk1[i]
+            );
+        }
+    }
+    assert!(
+        jk0.iter()
+            .zip(&jk1)
+            .any(|(a, b)| a.is_finite() && b.is_finite()),
+        "{jk0:?} {jk1:?}"
+    );
     // A divergence 0.005 beyond the last phi (steps of 0.04): the compare verdict
     // is `unreliable` with the reason, however wide the tolerance.
     let c = read_compare(&ws.results.join("s4fig")).unwrap();

@@ -49,6 +49,10 @@ pub struct CoverageArgs {
     /// Suffix of the output file: results/coverage-PROFILE[-LABEL].json.
     #[arg(long, default_value = "")]
     pub label: String,
+    /// Read the per-seed values and quoted errors recorded in this golden file
+    /// (`repro regress --record`) instead of building the seeds.
+    #[arg(long)]
+    pub golden: Option<PathBuf>,
     #[command(flatten)]
     pub variant: VariantArgs,
 }
@@ -160,30 +164,35 @@ fn or_ci_figures(root: &std::path::Path, ids: &[String]) -> Result<Vec<String>> 
 }
 
 fn coverage(a: CoverageArgs) -> Result<()> {
-    let ids = or_ci_figures(&a.variant.root, &a.ids)?;
-    let per_seed = golden::seed_numbers(
-        &a.variant.root,
-        &a.variant.experiment,
-        &a.profile,
-        &ids,
-        &a.seeds,
-        &Variant {
-            set: settings(&a.variant.set)?,
-            ..Variant::default()
-        },
-        &options(a.variant.jobs),
-    )?;
-    let rows: Vec<crate::study::coverage::Coverage> = per_seed
-        .iter()
-        .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
-        .collect();
+    let rows: Vec<crate::study::coverage::Coverage> = if let Some(path) = &a.golden {
+        let g = GoldenFile::read(path)?;
+        crate::study::coverage::from_golden(&g, &a.ids)
+    } else {
+        let ids = or_ci_figures(&a.variant.root, &a.ids)?;
+        let per_seed = golden::seed_numbers(
+            &a.variant.root,
+            &a.variant.experiment,
+            &a.profile,
+            &ids,
+            &a.seeds,
+            &Variant {
+                set: settings(&a.variant.set)?,
+                ..Variant::default()
+            },
+            &options(a.variant.jobs),
+        )?;
+        per_seed
+            .iter()
+            .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
+            .collect()
+    };
     println!(
-        "| figure | quantity | seeds | mean | seed-to-seed spread | rms quoted error | quoted / spread | coverage |"
+        "| figure | quantity | seeds | mean | seed-to-seed spread | rms quoted error | quoted / spread | median quoted / spread | coverage |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for c in &rows {
         println!(
-            "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.2} | {:.0}% |",
+            "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.2} | {:.2} | {:.0}% |",
             c.figure,
             c.quantity,
             c.seeds,
@@ -191,6 +200,7 @@ fn coverage(a: CoverageArgs) -> Result<()> {
             c.spread,
             c.quoted,
             c.ratio,
+            c.median_ratio,
             100.0 * c.coverage
         );
     }

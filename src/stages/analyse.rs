@@ -162,6 +162,11 @@ fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[&Node]) -> Result<(
     Ok(())
 }
 
+/// Observables with time-block errors that also get replica samples: S4, whose
+/// OZ fit per state point gives the xi that the xi fits and the collapse of
+/// Fig. 19 refit with one replica left out.
+const TIME_BLOCKS_WITH_REPLICA_SAMPLES: &[&str] = &["s4"];
+
 /// The replica jackknife columns (`X_jk0`, ..., `jk_unit`; `pool::with_replica_samples`)
 /// of an observable pooled over 2 to `MAX_JK_REPLICAS` replicas: the same
 /// observable with each replica left out, so that a fit downstream can refit
@@ -176,10 +181,11 @@ fn replica_samples(
     tables: &mut crate::analysis::observables::Tables,
 ) -> Result<()> {
     use crate::analysis::pool::{self, Errors};
-    let pooled = matches!(
-        tables.errors,
-        Errors::Jackknife { .. } | Errors::SeedToSeed { .. }
-    );
+    let pooled = match tables.errors {
+        Errors::Jackknife { .. } | Errors::SeedToSeed { .. } => true,
+        Errors::TimeBlocks { .. } => TIME_BLOCKS_WITH_REPLICA_SAMPLES.contains(&obs.name),
+        _ => false,
+    };
     if !pooled || refs.len() < 2 || refs.len() > pool::MAX_JK_REPLICAS {
         return Ok(());
     }

@@ -179,6 +179,28 @@ fn quantity_table(
     rows: &[(String, f64, f64)],
     note: &str,
 ) -> Result<RecordBatch> {
+    quantity_table_with(group, rows, note, None)
+}
+
+/// Replica samples of a fit on the rows of one unit: the unit and, per replica
+/// k, every reported number refitted with replica k left out.
+type UnitSamples = (f64, Vec<Vec<f64>>);
+
+/// Column of a fit table holding each quantity refitted with replica k left
+/// out (`join` turns it into `NAME_jkK`).
+fn value_jk(k: usize) -> String {
+    pool::jk_column("value", k)
+}
+
+/// [`quantity_table`] with the replica samples of a fit on one unit's rows:
+/// `jk_unit` and `value_jk0 ..` (NaN for rows without a refit, such as the
+/// reduced chi-square).
+fn quantity_table_with(
+    group: &[(String, f64)],
+    rows: &[(String, f64, f64)],
+    note: &str,
+    samples: Option<&UnitSamples>,
+) -> Result<RecordBatch> {
     let mut cols: Vec<(String, ArrayRef)> = group
         .iter()
         .map(|(k, v)| {
@@ -211,6 +233,18 @@ fn quantity_table(
     ])?;
     for (f, c) in rest.schema().fields().iter().zip(rest.columns()) {
         cols.push((f.name().clone(), c.clone()));
+    }
+    if let Some((unit, per_replica)) = samples {
+        cols.push((
+            pool::JK_UNIT.to_string(),
+            Arc::new(Float64Array::from(vec![*unit; rows.len()])),
+        ));
+        for (k, v) in per_replica.iter().enumerate() {
+            let v: Vec<f64> = (0..rows.len())
+                .map(|i| v.get(i).copied().unwrap_or(f64::NAN))
+                .collect();
+            cols.push((value_jk(k), Arc::new(Float64Array::from(v))));
+        }
     }
     Ok(RecordBatch::try_from_iter(cols)?)
 }
@@ -379,6 +413,7 @@ impl StageKind for Fit {
             }
         }
         let method = methods.join("; ");
+        let tables = same_columns(tables)?;
         let mut out = Output::single(
             "parquet",
             to_parquet_bytes(&tables, &[(ERROR_METHOD, method.as_str())])?,
@@ -394,6 +429,35 @@ impl StageKind for Fit {
         }
         Ok(out)
     }
+}
+
+/// The groups' quantity tables with one set of columns: a group whose rows carry
+/// no replica samples (other units, a refit impossible) lacks the `value_jkK`
+/// columns of the others; they are NaN there.
+fn same_columns(tables: Vec<RecordBatch>) -> Result<Vec<RecordBatch>> {
+    let Some(widest) = tables.iter().max_by_key(|t| t.num_columns()).cloned() else {
+        return Ok(tables);
+    };
+    let schema = widest.schema();
+    tables
+        .into_iter()
+        .map(|t| {
+            if t.schema() == schema {
+                return Ok(t);
+            }
+            let cols: Vec<(String, ArrayRef)> = schema
+                .fields()
+                .iter()
+                .map(|f| {
+                    let c = t.column_by_name(f.name()).cloned().unwrap_or_else(|| {
+                        Arc::new(Float64Array::from(vec![f64::NAN; t.num_rows()])) as ArrayRef
+                    });
+                    (f.name().clone(), c)
+                })
+                .collect();
+            Ok(RecordBatch::try_from_iter(cols)?)
+        })
+        .collect()
 }
 
 /// The inputs holding the data: from stage `data`, or every input when they all
@@ -452,8 +516,18 @@ fn fit_group(
         Some(e) => pick(c.col(e)?, rows),
         None => vec![1.0; rows.len()],
     };
-    let jk = replica_columns(c, rows, &p.x, &p.y);
-    let raw = (x.clone(), y.clone(), s.clone());
+    // The replica jackknife runs over the rows the fit uses: a row without a
+    // value (a state point whose own fit failed) has no replica samples either.
+    let used: Vec<usize> = (0..rows.len())
+        .filter(|&i| x[i].is_finite() && y[i].is_finite())
+        .collect();
+    let used_rows = pick_rows(rows, &used);
+    let jk = replica_columns(c, &used_rows, &p.x, &p.y);
+    let one_unit = match jk {
+        None => unit_columns(c, &used_rows, &p.x, &p.y),
+        Some(_) => None,
+    };
+    let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
     let (x, y, s) = clean(ctx, x, y, s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
@@ -487,7 +561,7 @@ fn fit_group(
     let mut method = covariance_method(p);
     let form = named_form(p)?;
     let mut jackknife = None;
-    let (rows, note, curve) = match fit_form(p, &x, &y, &s, &fixed_ref) {
+    let (rows, note, curve, samples) = match fit_form(p, &x, &y, &s, &fixed_ref) {
         Ok(f) => {
             let mut refits = None;
             let mut rows: Vec<(String, f64, f64)> = if p.form == "drift" {
@@ -520,31 +594,32 @@ fn fit_group(
                     })
                     .collect()
             };
+            // One refit with replica `left.replica` of unit `left.unit` left out,
+            // the numbers taken from other fits at the same replica.
+            let (rx, ry, rs) = &raw;
+            let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                let keep: Vec<usize> = (0..xs.len())
+                    .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
+                    .collect();
+                let (xk, yk) = (pick(xs, &keep), pick(ys, &keep));
+                let fill = s.iter().cloned().fold(0.0, f64::max);
+                let sk: Vec<f64> = keep
+                    .iter()
+                    .map(|&i| {
+                        if rs[i].is_finite() && rs[i] > 0.0 {
+                            rs[i]
+                        } else {
+                            fill
+                        }
+                    })
+                    .collect();
+                let fixed = fixed_at(left);
+                let fixed: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                let g = fit_form(p, &xk, &yk, &sk, &fixed).ok()?;
+                Some(reported(p, &xk, &yk, &g))
+            };
             if let Some((units, x_jk, y_jk)) = &jk {
-                let (rx, ry, rs) = &raw;
-                let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                    let keep: Vec<usize> = (0..xs.len())
-                        .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
-                        .collect();
-                    let (xk, yk) = (pick(xs, &keep), pick(ys, &keep));
-                    let fill = s.iter().cloned().fold(0.0, f64::max);
-                    let sk: Vec<f64> = keep
-                        .iter()
-                        .map(|&i| {
-                            if rs[i].is_finite() && rs[i] > 0.0 {
-                                rs[i]
-                            } else {
-                                fill
-                            }
-                        })
-                        .collect();
-                    let fixed = fixed_at(left);
-                    let fixed: Vec<(&str, f64)> =
-                        fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-                    let g = fit_form(p, &xk, &yk, &sk, &fixed).ok()?;
-                    Some(reported(p, &xk, &yk, &g))
-                };
-                match pool::replica_jackknife_with(units, rx, ry, x_jk, y_jk, &also, refit) {
+                match pool::replica_jackknife_with(units, rx, ry, x_jk, y_jk, &also, &refit) {
                     Some(j) => {
                         for (row, e) in rows.iter_mut().zip(&j.errors) {
                             row.2 = *e;
@@ -587,6 +662,25 @@ fn fit_group(
                 let names: Vec<String> = rows.iter().map(|row| row.0.clone()).collect();
                 jackknife = Some(jackknife_table(group, &names, &r)?);
             }
+            // A fit on one unit's rows (the OZ fit of one state point's S4
+            // over q) takes no error from two replicas, but carries its numbers
+            // refitted with each replica left out, so that a fit across state
+            // points (xi against phi, the collapse) refits them on the same
+            // replicas instead of holding them at their values.
+            let samples = one_unit.as_ref().map(|(unit, y_jk)| {
+                let per_replica = y_jk
+                    .iter()
+                    .enumerate()
+                    .map(|(k, ys)| {
+                        let left = pool::LeftOut {
+                            unit: *unit,
+                            replica: k,
+                        };
+                        refit(left, rx, ys).unwrap_or_default()
+                    })
+                    .collect();
+                (*unit, per_replica)
+            });
             rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
             rows.push((name("points"), x.len() as f64, 0.0));
             let curve = p.curve.as_ref().map(|cs| {
@@ -617,7 +711,7 @@ fn fit_group(
                 };
                 (xs, ys)
             });
-            (rows, f.warnings.join("; "), curve)
+            (rows, f.warnings.join("; "), curve, samples)
         }
         Err(e) => {
             let msg = format!("{e:#}");
@@ -635,6 +729,7 @@ fn fit_group(
                 rows,
                 format!("fit failed: {msg}"),
                 p.curve.as_ref().map(|_| (vec![], vec![])),
+                None,
             )
         }
     };
@@ -651,7 +746,7 @@ fn fit_group(
         )?,
         _ => Vec::new(),
     };
-    let table = quantity_table(group, &rows, &note)?;
+    let table = quantity_table_with(group, &rows, &note, samples.as_ref())?;
     let curve = match curve {
         Some((cx, cy)) => {
             let n = cx.len();
@@ -841,6 +936,8 @@ fn jackknife_method(refits: usize, note: &str) -> String {
 
 /// How a collapse treats the measured xi it rescales with.
 const HELD: &str = "; numbers taken from other fits held at their values";
+const XI_REFITTED: &str =
+    "; the measured xi of the state point refitted with the same replica left out";
 
 /// What the jackknife of a fit did with the numbers it takes from other fits.
 fn from_note(from: &BTreeMap<String, FromQuantity>, shifted: &[(String, Refits)]) -> String {
@@ -899,6 +996,30 @@ fn replica_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<Repl
         return None;
     }
     Some((units, x_jk, y_jk))
+}
+
+/// The entries `at` of a list of row indices.
+fn pick_rows(rows: &[usize], at: &[usize]) -> Vec<usize> {
+    at.iter().map(|&i| rows[i]).collect()
+}
+
+/// The replica samples of rows that all come from one unit (one state point's
+/// S4 over q): that unit and the leave-one-out columns of y. None unless every
+/// row has the same finite unit, y has at least two samples and x none (x is a
+/// key such as q or t).
+fn unit_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<(f64, Vec<Vec<f64>>)> {
+    let units = pick(c.col(pool::JK_UNIT).ok()?, rows);
+    let unit = *units.first()?;
+    if !unit.is_finite() || units.iter().any(|u| u.to_bits() != unit.to_bits()) {
+        return None;
+    }
+    if c.col(&pool::jk_column(x, 0)).is_ok() {
+        return None;
+    }
+    let y_jk: Vec<Vec<f64>> = (0..pool::MAX_JK_REPLICAS)
+        .map_while(|k| c.col(&pool::jk_column(y, k)).ok().map(|v| pick(v, rows)))
+        .collect();
+    (y_jk.len() >= 2).then_some((unit, y_jk))
 }
 
 /// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
@@ -1061,14 +1182,53 @@ impl StageKind for Collapse {
             &["g", "gamma_xi"]
         };
         let bounds: Vec<(f64, f64)> = fitted.iter().map(|k| p.bounds[*k]).collect();
-        let by_xi = measured.clone();
-        let rescale = move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
-            let l = match &by_xi {
-                Some(m) => m[&cv.param.to_bits()],
-                None => xi(phi_c, cv.param, q[1]),
-            };
-            let f = l.powf(-q[0]);
-            (x.sqrt() / l, y * f, s * f)
+        // The measured xi of each curve with one replica of one unit left out
+        // (`XI_jkK` with `jk_unit`, from a fit per state point that carries
+        // them): the refits rescale with it, so that xi's share of the variance
+        // is counted rather than held at its value.
+        let measured_jk: Option<BTreeMap<(u64, usize), (u64, f64)>> = match &p.xi {
+            Some(col) => {
+                let b = c.col(&p.curve_by)?;
+                let units = c.col(pool::JK_UNIT).ok();
+                let samples: Vec<&[f64]> = (0..pool::MAX_JK_REPLICAS)
+                    .map_while(|k| c.col(&pool::jk_column(col, k)).ok())
+                    .collect();
+                units.filter(|_| samples.len() >= 2).map(|u| {
+                    let mut m = BTreeMap::new();
+                    for i in 0..c.rows {
+                        for (k, v) in samples.iter().enumerate() {
+                            m.entry((u[i].to_bits(), k))
+                                .or_insert((b[i].to_bits(), v[i]));
+                        }
+                    }
+                    m
+                })
+            }
+            None => None,
+        };
+        let rescale_with = |by_xi: Option<BTreeMap<u64, f64>>| {
+            move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+                let l = match &by_xi {
+                    Some(m) => m[&cv.param.to_bits()],
+                    None => xi(phi_c, cv.param, q[1]),
+                };
+                let f = l.powf(-q[0]);
+                (x.sqrt() / l, y * f, s * f)
+            }
+        };
+        let rescale = rescale_with(measured.clone());
+        // The measured xi with replica `left` of its unit left out.
+        let xi_left_out = |left: pool::LeftOut| -> Option<BTreeMap<u64, f64>> {
+            let mut m = measured.clone()?;
+            if let Some((curve, v)) = measured_jk
+                .as_ref()
+                .and_then(|j| j.get(&(left.unit.to_bits(), left.replica)))
+                && v.is_finite()
+                && *v > 0.0
+            {
+                m.insert(*curve, *v);
+            }
+            Some(m)
         };
         let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
             Err(anyhow::anyhow!(
@@ -1082,21 +1242,37 @@ impl StageKind for Collapse {
         let (rows, note, best) = match result {
             Ok(r) if measured.is_some() => {
                 let (g, mut dg) = r.get("g").expect("named");
-                // Errors from refits with one replica of one phi left out; the
-                // measured xi is held at its value.
+                // Errors from refits with one replica of one phi left out, in
+                // chi4P and, where the data carry its replica samples, in the
+                // measured xi of that phi (else xi is held at its value).
                 if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
-                    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                        collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
+                    let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                        let curves = curves_of(ys);
+                        let rescale = rescale_with(xi_left_out(left));
+                        collapse::best(&curves, fitted, &bounds, &rescale)
                             .map_err(|e| {
                                 ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
                             })
                             .ok()
                             .map(|b| vec![b[0]])
                     };
-                    match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
-                        Some((e, refits)) => {
-                            dg = e[0];
-                            method = jackknife_method(refits, HELD);
+                    match pool::replica_jackknife_with(
+                        &units,
+                        &x_all,
+                        &y_all,
+                        &[],
+                        &y_jk,
+                        &[],
+                        refit,
+                    ) {
+                        Some(j) => {
+                            dg = j.errors[0];
+                            let note = if measured_jk.is_some() {
+                                XI_REFITTED
+                            } else {
+                                HELD
+                            };
+                            method = jackknife_method(j.refits.len(), note);
                         }
                         None => method.push_str(JK_IMPOSSIBLE),
                     }
@@ -1628,6 +1804,175 @@ mod tests {
             "quoted/spread {with} (held: {held})"
         );
         assert!(held < 0.6, "quoted/spread with phi_c held {held}");
+    }
+
+    /// A fit per state point on the rows of one unit (xi from the OZ fit of
+    /// one phi's S4 over q) carries its numbers refitted with each replica left
+    /// out; `join` turns them into `NAME_jkK` beside `jk_unit`, so that a fit
+    /// across state points (xi against phi) takes its error from the replicas.
+    #[test]
+    fn a_fit_per_state_point_carries_its_replica_refits_through_the_join() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let states = [(0.70, 2.0, 11.0), (0.73, 3.0, 12.0), (0.76, 4.0, 13.0)];
+        let (mut q, mut phi, mut unit) = (vec![], vec![], vec![]);
+        for &(p, _, u) in &states {
+            for x in [0.1, 0.2, 0.3, 0.4] {
+                q.push(x);
+                phi.push(p);
+                unit.push(u);
+            }
+        }
+        // Per phi the pooled line has slope 2, 3, 4; replica 0 left out gives
+        // slope +1, replica 1 left out slope -1.
+        let line = |q: &[f64], phi: &[f64], d: f64| -> Vec<f64> {
+            q.iter()
+                .zip(phi)
+                .map(|(q, p)| {
+                    let b = states.iter().find(|s| s.0 == *p).unwrap().1;
+                    1.0 + (b + d) * q
+                })
+                .collect()
+        };
+        let s4 = f64_batch(&[
+            ("phi", phi.clone()),
+            ("q", q.clone()),
+            ("S4", line(&q, &phi, 0.0)),
+            ("S4_err", vec![0.01; 12]),
+            (pool::JK_UNIT, unit.clone()),
+            ("S4_jk0", line(&q, &phi, 1.0)),
+            ("S4_jk1", line(&q, &phi, -1.0)),
+        ])
+        .unwrap();
+        let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
+        let out = Fit
+            .run(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
+            .unwrap();
+        let fitted = output_artifact(dir.path(), "oz", &out, JACKKNIFE_FILE);
+        let tau = f64_batch(&[
+            ("phi", vec![0.70, 0.73, 0.76]),
+            ("tau_alpha", vec![2.5, 3.6, 6.3]),
+            (pool::JK_UNIT, vec![11.0, 12.0, 13.0]),
+        ])
+        .unwrap();
+        let join = yaml("{left: tau, right: oz, on: [phi]}");
+        let joined = crate::stages::join::Join
+            .run(&ctx, &join, &[artifact(dir.path(), "tau", tau), fitted])
+            .unwrap();
+        let c = Columns::read_file(&[&artifact_of(dir.path(), &joined)], "parquet").unwrap();
+        let near = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-9);
+        assert!(near(c.col("slope").unwrap(), &[2.0, 3.0, 4.0]));
+        assert!(near(c.col("slope_jk0").unwrap(), &[3.0, 4.0, 5.0]));
+        assert!(near(c.col("slope_jk1").unwrap(), &[1.0, 2.0, 3.0]));
+        assert!(near(c.col("intercept_jk0").unwrap(), &[1.0; 3]));
+        assert_eq!(c.col(pool::JK_UNIT).unwrap(), &[11.0, 12.0, 13.0]);
+        // Downstream the slope across phi has a replica jackknife error: a
+        // state's slope moves by +-1 per replica left out, the fitted slope by
+        // +-(phi - mean phi) / Sxx, zero for the middle state.
+        let across = yaml("{form: line, data: xi_table, x: phi, y: slope, y_err: slope_err}");
+        let xi_table = output_artifact(dir.path(), "xi_table", &joined, "");
+        let o = Fit.run(&ctx, &across, &[xi_table]).unwrap();
+        let c = Columns::read_file(&[&artifact_of(dir.path(), &o)], "parquet").unwrap();
+        let (b, db) = c.quantity("slope").unwrap();
+        assert!((b - 1.0 / 0.03).abs() < 1e-6, "slope {b}");
+        // Per end state (R - 1)/R sum_k (theta_k - mean)^2 = (0.03 / Sxx)^2.
+        let expected = 2.0f64.sqrt() * 0.03 / (2.0 * 0.03 * 0.03);
+        assert!(
+            (db - expected).abs() < 1e-6 * expected,
+            "error {db}, expected {expected}"
+        );
+    }
+
+    /// A grouped fit where one group's fit fails (too few points): the groups
+    /// with replica samples and the failed one still make one table, the failed
+    /// one's samples NaN.
+    #[test]
+    fn groups_with_and_without_replica_samples_make_one_table() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let line = |d: f64| vec![1.0, 1.0 + 0.1 * (2.0 + d), 1.0 + 0.2 * (2.0 + d), 1.0];
+        let s4 = f64_batch(&[
+            ("phi", vec![0.70, 0.70, 0.70, 0.76]),
+            ("q", vec![0.0, 0.1, 0.2, 0.1]),
+            ("S4", line(0.0)),
+            ("S4_err", vec![0.01; 4]),
+            (pool::JK_UNIT, vec![11.0, 11.0, 11.0, 12.0]),
+            ("S4_jk0", line(1.0)),
+            ("S4_jk1", line(-1.0)),
+        ])
+        .unwrap();
+        let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
+        let out = Fit
+            .run(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
+            .unwrap();
+        let c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet").unwrap();
+        let (phi, q, jk0) = (
+            c.col("phi").unwrap(),
+            &c.str["quantity"],
+            c.col("value_jk0").unwrap(),
+        );
+        let at = |p: f64, name: &str| (0..c.rows).find(|&i| phi[i] == p && q[i] == name).unwrap();
+        assert!((jk0[at(0.70, "slope")] - 3.0).abs() < 1e-9);
+        assert!(jk0[at(0.76, "slope")].is_nan());
+    }
+
+    /// Fig. 19's collapse with the measured xi: where the data carry xi's
+    /// replica samples, the refits rescale with the xi of the same replica left
+    /// out. Here chi4P is the same in every replica, so only xi can give g an
+    /// error: held at its value it gives none.
+    #[test]
+    fn the_collapse_refits_the_measured_xi_on_the_same_replicas() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let (g, sizes) = (1.5, [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0]);
+        let states = [(0.70, 2.0, 1.0), (0.74, 3.0, 2.0), (0.78, 4.5, 3.0)];
+        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for &(phi, xi, unit) in &states {
+            for &n in &sizes {
+                let u: f64 = f64::sqrt(n) / xi;
+                let chi = xi.powf(g) * u.powf(1.2) / (1.0 + u.powf(1.2));
+                for (k, v) in [
+                    ("phi", phi),
+                    ("N", n),
+                    ("chi4P", chi),
+                    ("chi4P_err", 0.02 * chi),
+                    ("chi4P_jk0", chi),
+                    ("chi4P_jk1", chi),
+                    (pool::JK_UNIT, unit),
+                    ("xi", xi),
+                    ("xi_jk0", xi * 1.1),
+                    ("xi_jk1", xi * 0.9),
+                ] {
+                    cols.entry(k).or_default().push(v);
+                }
+            }
+        }
+        let run = |skip: &[&str]| -> (f64, f64, String) {
+            let b: Vec<(&str, Vec<f64>)> = cols
+                .iter()
+                .filter(|(k, _)| !skip.contains(k))
+                .map(|(k, v)| (*k, v.clone()))
+                .collect();
+            let data = artifact(dir.path(), "peaks_xi", f64_batch(&b).unwrap());
+            let params = yaml(
+                "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi,                  bounds: {g: [0.2, 4.0]}}",
+            );
+            let out = Collapse.run(&ctx, &params, &[data]).unwrap();
+            let a = artifact_of(dir.path(), &out);
+            let (_, meta) =
+                crate::table::read_parquet_bytes(std::fs::read(&a.files["parquet"].1).unwrap())
+                    .unwrap();
+            let c = Columns::read_file(&[&a], "parquet").unwrap();
+            let (v, e) = c.quantity("gamma_chi_over_gamma_xi").unwrap();
+            (v, e, format!("{meta:?}"))
+        };
+        let (v, e, method) = run(&[]);
+        assert!((v - g).abs() < 0.02, "g = {v}");
+        assert!(e > 0.05, "error of g {e} with xi refitted ({method})");
+        assert!(method.contains("measured xi"), "{method}");
+        let (v_held, e_held, _) = run(&["xi_jk0", "xi_jk1"]);
+        assert_eq!(v_held, v);
+        assert!(e_held < 1e-6, "error of g {e_held} with xi held");
     }
 
     /// The main table of an output, as an artifact.

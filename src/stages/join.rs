@@ -10,6 +10,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, inputs_of};
+use crate::analysis::pool;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::to_parquet_bytes;
@@ -93,11 +94,31 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
             .collect();
         out.f64.insert("unreliable".into(), flag);
     }
+    // A fit on one unit's rows carries its numbers refitted with each replica
+    // left out (`value_jkK`): they become `NAME_jkK` beside `jk_unit`, the
+    // replica jackknife columns a fit across the groups reads.
+    let samples: Vec<&Vec<f64>> = (0..pool::MAX_JK_REPLICAS)
+        .map_while(|k| c.f64.get(&pool::jk_column("value", k)))
+        .collect();
+    if let (Some(units), false) = (c.f64.get(pool::JK_UNIT), samples.is_empty()) {
+        out.f64.insert(
+            pool::JK_UNIT.into(),
+            firsts.iter().map(|&j| units[j]).collect(),
+        );
+    }
     for i in 0..c.rows {
+        let jk = samples
+            .iter()
+            .enumerate()
+            .filter(|_| c.f64.contains_key(pool::JK_UNIT))
+            .map(|(k, v)| (pool::jk_column(&names[i], k), v[i]));
         for (col, v) in [
             (names[i].clone(), value[i]),
             (format!("{}_err", names[i]), error[i]),
-        ] {
+        ]
+        .into_iter()
+        .chain(jk)
+        {
             if on.contains(&col) {
                 bail!(
                     "join: fit table of {} reports a quantity '{col}', which is also a key",

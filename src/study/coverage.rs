@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::golden::GoldenFile;
 use super::results::Fitted;
 use crate::analysis::stats::mean_std;
 
@@ -25,6 +26,10 @@ pub struct Coverage {
     pub coverage: f64,
     /// quoted / spread.
     pub ratio: f64,
+    /// Median quoted error / spread: the typical seed's error, which a few seeds
+    /// quoting huge errors (a refit jumping to another minimum) cannot inflate.
+    #[serde(default)]
+    pub median_ratio: f64,
 }
 
 /// Coverage of one quantity from its per-seed values and quoted errors; None
@@ -41,6 +46,14 @@ pub fn coverage(figure: &str, quantity: &str, per_seed: &[Fitted]) -> Option<Cov
     let (mean, spread) = mean_std(&values);
     let n = ok.len() as f64;
     let quoted = (ok.iter().map(|f| f.error * f.error).sum::<f64>() / n).sqrt();
+    let mut errors: Vec<f64> = ok.iter().map(|f| f.error).collect();
+    errors.sort_by(f64::total_cmp);
+    let m = errors.len();
+    let median = if m % 2 == 1 {
+        errors[m / 2]
+    } else {
+        0.5 * (errors[m / 2 - 1] + errors[m / 2])
+    };
     let covered = ok
         .iter()
         .filter(|f| (f.value - mean).abs() <= f.error)
@@ -54,7 +67,28 @@ pub fn coverage(figure: &str, quantity: &str, per_seed: &[Fitted]) -> Option<Cov
         quoted,
         coverage: covered / n,
         ratio: quoted / spread,
+        median_ratio: median / spread,
     })
+}
+
+/// Coverage of every key number a golden file recorded with per-seed quoted
+/// errors (`repro regress --record`), restricted to the figures `ids` if any:
+/// the same table as building the seeds again, without a run.
+pub fn from_golden(g: &GoldenFile, ids: &[String]) -> Vec<Coverage> {
+    g.quantities
+        .iter()
+        .filter(|q| ids.is_empty() || ids.contains(&q.figure))
+        .filter(|q| q.errors.len() == q.values.len())
+        .filter_map(|q| {
+            let per_seed: Vec<Fitted> = q
+                .values
+                .iter()
+                .zip(&q.errors)
+                .map(|(&value, &error)| Fitted { value, error })
+                .collect();
+            coverage(&q.figure, &q.quantity, &per_seed)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -72,10 +106,44 @@ mod tests {
         let honest = coverage("f", "q", &[f(-1.0, 1.0), f(0.0, 1.0), f(1.0, 1.0)]).unwrap();
         assert_eq!(honest.coverage, 1.0);
         assert!((honest.ratio - 1.0).abs() < 1e-12);
+        // One seed quoting a huge error inflates the rms, not the median.
+        let tail = coverage("f", "q", &[f(-1.0, 0.1), f(0.0, 0.1), f(1.0, 3.0)]).unwrap();
+        assert!((tail.ratio - (9.02f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert!((tail.median_ratio - 0.1).abs() < 1e-12);
         let small = coverage("f", "q", &[f(-1.0, 0.1), f(0.0, 0.1), f(1.0, 0.1)]).unwrap();
         assert!((small.coverage - 1.0 / 3.0).abs() < 1e-12);
         assert!((small.ratio - 0.1).abs() < 1e-12);
         // Seeds without an error are left out; one seed is not enough.
         assert!(coverage("f", "q", &[f(1.0, f64::NAN), f(2.0, 0.5)]).is_none());
+    }
+
+    #[test]
+    fn a_golden_file_gives_the_coverage_of_its_recorded_seeds() {
+        use crate::study::golden::Golden;
+        let q = |figure: &str, errors: Vec<f64>| Golden {
+            figure: figure.into(),
+            quantity: "x".into(),
+            seeds: vec![1, 2, 3],
+            values: vec![-1.0, 0.0, 1.0],
+            errors,
+            mean: 0.0,
+            std: 1.0,
+            band: [-4.0, 4.0],
+        };
+        let g = GoldenFile {
+            profile: "ci".into(),
+            how: String::new(),
+            sigmas: 4.0,
+            relative_floor: 0.01,
+            seeds: vec![1, 2, 3],
+            ungated: vec![],
+            // fig_b was recorded without per-seed errors: no row.
+            quantities: vec![q("fig_a", vec![0.1; 3]), q("fig_b", vec![])],
+        };
+        let all = from_golden(&g, &[]);
+        assert_eq!(all.len(), 1);
+        assert!((all[0].coverage - 1.0 / 3.0).abs() < 1e-12);
+        assert!((all[0].ratio - 0.1).abs() < 1e-12);
+        assert!(from_golden(&g, &["fig_b".to_string()]).is_empty());
     }
 }
