@@ -202,13 +202,21 @@ pub const JOINT_FALSE_ALARM: f64 = 0.001;
 /// radius ratio) moves many numbers by a fraction of their band each; their
 /// squares add up. Numbers identical to one already counted in every seed (phi_c
 /// of the one tau_alpha fit, published by three figures) count once;
-/// goodness-of-fit numbers not at all.
+/// goodness-of-fit numbers not at all. Each term is capped at
+/// `JOINT_TERM_CAP`: a number beyond 4 sigma already fails its own band, and
+/// the joint test is for many small shifts. Without the cap one heavy-tailed
+/// fit (fig23's B at eps = 0.7, a seed where intruder-fig5's crossover fit
+/// fails) fired it at 3 of the 10 recorded seeds left out in turn; with it, at
+/// none (docs/accuracy.md).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Joint {
     pub chi2: f64,
     pub terms: usize,
     pub threshold: f64,
 }
+
+/// Largest contribution of one key number to the joint sum (4 sigma squared).
+pub const JOINT_TERM_CAP: f64 = 16.0;
 
 pub fn joint(checked: &[(&Golden, f64)]) -> Joint {
     let mut seen: Vec<&[f64]> = Vec::new();
@@ -237,7 +245,7 @@ pub fn joint(checked: &[(&Golden, f64)]) -> Joint {
         } else {
             10.0
         };
-        chi2 += z * z;
+        chi2 += (z * z).min(JOINT_TERM_CAP);
         terms += 1;
     }
     Joint {
@@ -530,6 +538,13 @@ mod tests {
         assert_eq!(j.terms, 20);
         assert!(j.chi2 > j.threshold, "{j:?}");
         assert!(joint(&off(0.5)).chi2 < j.threshold);
+        // One number far out (a fit that jumped) fails its band, not the
+        // joint test: its term is capped at 4 sigma squared.
+        let mut one_far = off(0.5);
+        one_far[0].1 = gs[0].mean + 40.0 * gs[0].std;
+        let jf = joint(&one_far);
+        assert!(jf.chi2 < jf.threshold, "{jf:?}");
+        assert!((jf.chi2 - joint(&off(0.5)).chi2 - (16.0 - 0.25)).abs() < 1e-9);
         let twice: Vec<(&Golden, f64)> = vec![(&gs[0], gs[0].mean), (&gs[0], gs[0].mean)];
         assert_eq!(joint(&twice).terms, 1);
         // A number only three seeds could give stays out of the joint test
