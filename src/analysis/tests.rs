@@ -1088,7 +1088,13 @@ fn every_intruder_column_is_described() {
     );
     let mut names: Vec<String> = tables
         .iter()
-        .flat_map(|b| b.schema().fields().iter().map(|f| f.name().clone()).collect::<Vec<_>>())
+        .flat_map(|b| {
+            b.schema()
+                .fields()
+                .iter()
+                .map(|f| f.name().clone())
+                .collect::<Vec<_>>()
+        })
         .collect();
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
     for k in 1..=6 {
@@ -1100,7 +1106,10 @@ fn every_intruder_column_is_described() {
             }
         }
     }
-    assert!(names.iter().any(|n| n == "kick_over_collision"), "{names:?}");
+    assert!(
+        names.iter().any(|n| n == "kick_over_collision"),
+        "{names:?}"
+    );
     for n in &names {
         assert!(
             crate::table::columns::describe(n).is_some(),
