@@ -272,26 +272,8 @@ impl StageKind for Join {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pipeline::graph::StageId;
+    use crate::stages::fits::tests::artifact;
     use crate::table::f64_batch;
-
-    fn artifact(dir: &std::path::Path, stage: &str, b: RecordBatch) -> Artifact {
-        let path = dir.join(format!("{stage}.parquet"));
-        std::fs::write(&path, to_parquet_bytes(&[b], &[]).unwrap()).unwrap();
-        Artifact {
-            label: stage.into(),
-            ids: vec![StageId {
-                figure: Some("test".into()),
-                stage: stage.into(),
-                point: Default::default(),
-            }],
-            kind: "table".into(),
-            point: Default::default(),
-            params: Value::Null,
-            digest: String::new(),
-            files: [("parquet".to_string(), (String::new(), path))].into(),
-        }
-    }
 
     /// `propagate_errors`: a ratio and a product of independent numbers carry
     /// the first-order error (relative errors added in quadrature; a column
