@@ -597,6 +597,29 @@ mod tests {
         assert!((xl[0] - 0.5 * (10.0 + 20.0 * 0.5)).abs() < 0.5, "{}", xl[0]);
     }
 
+    /// Every column the front and field tables publish has a unit and a
+    /// description (src/table/columns.rs).
+    #[test]
+    fn every_front_column_is_described() {
+        let times: Vec<f64> = (0..31).map(|k| k as f64 * 0.1).collect();
+        let t = plateau(&times, 0.0);
+        let p = FieldParams {
+            times: vec![1.0],
+            cells_x: 8,
+        };
+        let (field, intruder) = velocity_field(&[&t, &t], &p).unwrap();
+        let [main, positions, lines] = front(&[&t, &t, &t], &params()).unwrap();
+        for b in [&field, &intruder, &main, &positions, &lines] {
+            for f in b.schema().fields() {
+                assert!(
+                    crate::table::columns::describe(f.name()).is_some(),
+                    "column `{}` has no row in src/table/columns.rs",
+                    f.name()
+                );
+            }
+        }
+    }
+
     #[test]
     fn velocity_field_averages_cells_and_marks_the_intruder() {
         let t = plateau(&[0.0, 1.0], -0.5);

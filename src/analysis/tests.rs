@@ -1041,3 +1041,79 @@ fn aging_tau_alpha_error_is_the_replica_jackknife() {
         "identical replicas: {same:?}"
     );
 }
+
+/// Every column paper I's intruder analyses write, and every column the intruder
+/// pipelines derive in their joins (`derive: - {name: ...}`), has a unit and a
+/// description in src/table/columns.rs.
+#[test]
+fn every_intruder_column_is_described() {
+    let d = intruder::DriveParams {
+        eps: 0.9,
+        gamma: 1.0,
+        temperature: 1.0,
+    };
+    let traj = drifting_intruder(|_| 0.5, 3);
+    let p = intruder::VelocityParams {
+        species: 2,
+        t_start: 0.0,
+        blocks: 10,
+        drive: Some(d),
+        kick_rate_factor: Some(1e4),
+    };
+    let mut tables = vec![
+        intruder::velocity_table(&[&traj], &p).unwrap(),
+        intruder::compute_path(&traj, &p).unwrap(),
+        intruder::diffusion_table(
+            &[&traj, &traj],
+            &intruder::DiffusionParams {
+                species: 2,
+                lag_min: 1.0,
+                lag_max: 10.0,
+            },
+        )
+        .unwrap(),
+    ];
+    let mut moving = ballistic(200, [20.0, 10.0], &[0.0], 3);
+    moving.frames[0].vx.iter_mut().for_each(|v| *v = 1.0);
+    tables.push(
+        intruder::compute_profile(
+            &moving,
+            &intruder::ProfileParams {
+                times: vec![0.0],
+                bins: 4,
+                exclude_species: None,
+            },
+        )
+        .unwrap(),
+    );
+    let mut names: Vec<String> = tables
+        .iter()
+        .flat_map(|b| {
+            b.schema()
+                .fields()
+                .iter()
+                .map(|f| f.name().clone())
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    for k in 1..=6 {
+        let text = std::fs::read_to_string(dir.join(format!("intruder-fig{k}.yaml"))).unwrap();
+        let spec: serde_json::Value = serde_saphyr::from_str(&text).unwrap();
+        for stage in spec["stages"].as_array().unwrap() {
+            for dv in stage["params"]["derive"].as_array().into_iter().flatten() {
+                names.push(dv["name"].as_str().unwrap().to_string());
+            }
+        }
+    }
+    assert!(
+        names.iter().any(|n| n == "kick_over_collision"),
+        "{names:?}"
+    );
+    for n in &names {
+        assert!(
+            crate::table::columns::describe(n).is_some(),
+            "column `{n}` has no row in src/table/columns.rs"
+        );
+    }
+}

@@ -109,7 +109,8 @@ pub struct FrontierArgs {
 #[derive(Args, Debug)]
 pub struct VariantArgs {
     /// Profile parameters to change (KEY=VALUE, e.g. eps=0.88 for a deliberate
-    /// physics change, overlap_spacing_tau=0.5 for overlapping time origins);
+    /// physics change, overlap_spacing_tau=0.5 for overlapping time origins), or
+    /// a grid axis's values (grid.AXIS=[...], e.g. grid.force=[1000,10000]);
     /// regress then checks that variant, built in a temporary directory.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,

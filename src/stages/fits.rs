@@ -1565,13 +1565,13 @@ fn run_named(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::pipeline::graph::StageId;
     use arrow_array::Array;
 
     /// A table artifact of stage `stage`, written under `dir`.
-    fn artifact(dir: &std::path::Path, stage: &str, b: RecordBatch) -> Artifact {
+    pub(crate) fn artifact(dir: &std::path::Path, stage: &str, b: RecordBatch) -> Artifact {
         let path = dir.join(format!("{stage}.parquet"));
         std::fs::write(&path, to_parquet_bytes(&[b], &[]).unwrap()).unwrap();
         Artifact {

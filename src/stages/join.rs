@@ -28,6 +28,11 @@ pub struct Derived {
     pub a: String,
     #[serde(default)]
     pub b: String,
+    /// With `divide` or `multiply`: also `NAME_err`, the first-order error of
+    /// independent `a` and `b` from their `a_err` and `b_err` columns (a
+    /// missing one counts as exact): |NAME| ((a_err/a)^2 + (b_err/b)^2)^(1/2).
+    #[serde(default)]
+    pub propagate_errors: bool,
 }
 
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -145,7 +150,7 @@ impl StageKind for Join {
         "rows of `left` with the matching row of `right` by key columns `on`, plus derived columns"
     }
     fn details(&self) -> String {
-        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b} or {name, op: reciprocal, a}]\n\
+        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b} or {name, op: reciprocal, a}]; with divide or multiply, propagate_errors: true adds NAME_err from a_err, b_err (independent, first order)\n\
          example: {name: d_vs_tau, kind: join, gather: [msd_fit, tau_table], params: {left: msd_fit, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}}"
             .into()
     }
@@ -164,6 +169,13 @@ impl StageKind for Join {
                     d.name,
                     d.op,
                     OPS.join(", ")
+                );
+            }
+            if d.propagate_errors && !matches!(d.op.as_str(), "divide" | "multiply") {
+                bail!(
+                    "join: derived column '{}': `propagate_errors` works with op divide or multiply, not '{}'",
+                    d.name,
+                    d.op
                 );
             }
             if (d.op == "reciprocal") != d.b.is_empty() {
@@ -242,7 +254,7 @@ impl StageKind for Join {
                 continue;
             }
             let (a, b) = (get(&d.a)?, get(&d.b)?);
-            let v = a
+            let v: Vec<f64> = a
                 .iter()
                 .zip(&b)
                 .map(|(x, y)| match d.op.as_str() {
@@ -252,6 +264,19 @@ impl StageKind for Join {
                     _ => x.sqrt() / y,
                 })
                 .collect();
+            if d.propagate_errors {
+                let rel = |col: &str, vals: &[f64]| -> Vec<f64> {
+                    match f64s.get(&format!("{col}_err")) {
+                        Some(e) => vals.iter().zip(e).map(|(x, e)| e / x).collect(),
+                        None => vec![0.0; vals.len()],
+                    }
+                };
+                let (ra, rb) = (rel(&d.a, &a), rel(&d.b, &b));
+                let err = (0..v.len())
+                    .map(|i| v[i].abs() * ra[i].hypot(rb[i]))
+                    .collect();
+                f64s.insert(format!("{}_err", d.name), err);
+            }
             f64s.insert(d.name.clone(), v);
         }
         for (k, v) in f64s {
@@ -262,5 +287,66 @@ impl StageKind for Join {
         }
         let b = RecordBatch::try_from_iter(cols)?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::fits::tests::artifact;
+    use crate::table::f64_batch;
+
+    /// `propagate_errors`: a ratio and a product of independent numbers carry
+    /// the first-order error (relative errors added in quadrature; a column
+    /// without `_err` is exact); without it no `_err` column appears, and an op
+    /// that cannot propagate is refused by name.
+    #[test]
+    fn ratios_and_products_propagate_independent_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let left = f64_batch(&[
+            ("phi", vec![0.6, 0.775]),
+            ("v", vec![3.0, 8.0]),
+            ("v_err", vec![0.3, 0.4]),
+            ("dt", vec![0.5, 0.25]),
+        ])
+        .unwrap();
+        let right = f64_batch(&[
+            ("phi", vec![0.775, 0.6]),
+            ("v_hot", vec![4.0, 2.0]),
+            ("v_hot_err", vec![0.3, 0.1]),
+        ])
+        .unwrap();
+        let inputs = [
+            artifact(dir.path(), "cold", left),
+            artifact(dir.path(), "hot", right),
+        ];
+        let params: Value = serde_saphyr::from_str(
+            "{left: cold, right: hot, on: [phi], derive: [\
+             {name: ratio, op: divide, a: v, b: v_hot, propagate_errors: true}, \
+             {name: impulse, op: multiply, a: v, b: dt, propagate_errors: true}, \
+             {name: plain, op: divide, a: v, b: v_hot}]}",
+        )
+        .unwrap();
+        Join.validate(&params).unwrap();
+        let ctx = StageCtx::new(0, "join".into(), None);
+        let out = Join.run(&ctx, &params, &inputs).unwrap();
+        let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        let col = |n: &str| c.col(n).unwrap().to_vec();
+        // phi 0.6: 3 / 2 with 10% and 5% relative errors.
+        let (r, re) = (col("ratio"), col("ratio_err"));
+        assert_eq!(r, vec![1.5, 2.0]);
+        assert!((re[0] - 1.5 * (0.1f64.powi(2) + 0.05f64.powi(2)).sqrt()).abs() < 1e-12);
+        assert!((re[1] - 2.0 * (0.05f64.powi(2) + 0.075f64.powi(2)).sqrt()).abs() < 1e-12);
+        // dt has no error: the product's relative error is v's.
+        let ie = col("impulse_err");
+        assert!((ie[0] - 1.5 * 0.1).abs() < 1e-12 && (ie[1] - 2.0 * 0.05).abs() < 1e-12);
+        assert!(!c.f64.contains_key("plain_err"));
+        let bad: Value = serde_saphyr::from_str(
+            "{left: cold, right: hot, on: [phi], derive: [{name: l, op: ln_times, a: v, b: dt, propagate_errors: true}]}",
+        )
+        .unwrap();
+        let e = Join.validate(&bad).unwrap_err().to_string();
+        assert!(e.contains("'l'") && e.contains("propagate_errors"), "{e}");
     }
 }

@@ -265,8 +265,9 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                 })
                 .collect();
             let paper = mine.first().map(|r| r.paper).unwrap_or(f64::NAN);
-            // Show the paper's value even when every configuration misses it.
-            let (lo, hi) = mine.iter().fold((paper, paper), |(lo, hi), r| {
+            let tol = mine.first().map(|r| r.tolerance).unwrap_or(f64::NAN);
+            // Show the paper's band even when every configuration misses it.
+            let (lo, hi) = mine.iter().fold((paper - tol, paper + tol), |(lo, hi), r| {
                 (lo.min(r.mean - r.spread), hi.max(r.mean + r.spread))
             });
             let pad = 0.08 * (hi - lo).max(1e-9);
@@ -286,12 +287,28 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                     from_zero: false,
                 },
                 series,
-                hlines: vec![RefLine {
-                    at: paper,
-                    label: "paper".into(),
-                    dashed: true,
-                    color: None,
-                }],
+                // The paper's value and its tolerance band: the distance to
+                // the paper reads off against the band, the spread as error bars.
+                hlines: vec![
+                    RefLine {
+                        at: paper,
+                        label: "paper".into(),
+                        dashed: true,
+                        color: Some(crate::plot::Color([0, 0, 0])),
+                    },
+                    RefLine {
+                        at: paper - tol,
+                        label: "paper ± tolerance".into(),
+                        dashed: true,
+                        color: None,
+                    },
+                    RefLine {
+                        at: paper + tol,
+                        label: String::new(),
+                        dashed: true,
+                        color: None,
+                    },
+                ],
                 vlines: vec![],
                 legend: Legend::Auto,
                 legend_title: String::new(),

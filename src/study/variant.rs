@@ -64,7 +64,25 @@ pub fn apply(cat: &mut Catalogue, experiment: &str, profile: &str, v: &Variant) 
         prof.params.insert("n".into(), Value::from(n));
     }
     for (k, x) in &v.set {
-        prof.params.insert(k.clone(), x.clone());
+        // `grid.AXIS` replaces the values of a grid axis (e.g. a force range);
+        // every other key is a profile parameter.
+        if let Some(axis) = k.strip_prefix("grid.") {
+            let axes: Vec<String> = prof.grid.keys().cloned().collect();
+            let values = x.as_array().filter(|a| !a.is_empty()).with_context(|| {
+                format!("--set {k}: give the axis' values as a YAML list, e.g. {k}=[1000, 10000]")
+            })?;
+            prof.grid
+                .get_mut(axis)
+                .with_context(|| {
+                    format!(
+                        "--set {k}: experiment '{experiment}' has no grid axis '{axis}' at profile '{profile}'; axes: {}",
+                        axes.join(", ")
+                    )
+                })?
+                .value = values.clone();
+        } else {
+            prof.params.insert(k.clone(), x.clone());
+        }
     }
     Ok(())
 }
@@ -171,6 +189,31 @@ mod tests {
             Value::from(0.9),
             "common params untouched"
         );
+    }
+
+    /// `grid.AXIS` replaces a grid axis' values (a force range for the frontier
+    /// of paper I's Fig. 5), not a parameter; a missing axis or a scalar is named.
+    #[test]
+    fn a_grid_setting_replaces_the_axis() {
+        let mut cat = catalogue();
+        let mut v = Variant::default();
+        let (k, x) = parse_setting("grid.phi=[0.7, 0.8]").unwrap();
+        v.set.insert(k, x);
+        apply(&mut cat, "e", "ci", &v).unwrap();
+        let p = &cat.experiments["e"].1.profiles["ci"].value;
+        assert_eq!(
+            p.grid["phi"].value,
+            vec![Value::from(0.7), Value::from(0.8)]
+        );
+        assert!(!p.params.contains_key("grid.phi"));
+        let mut v = Variant::default();
+        v.set.insert("grid.force".into(), Value::from(vec![1.0]));
+        let e = apply(&mut catalogue(), "e", "ci", &v).unwrap_err();
+        assert!(e.to_string().contains("no grid axis 'force'"), "{e}");
+        let mut v = Variant::default();
+        v.set.insert("grid.phi".into(), Value::from(0.7));
+        let e = apply(&mut catalogue(), "e", "ci", &v).unwrap_err();
+        assert!(e.to_string().contains("as a YAML list"), "{e}");
     }
 
     #[test]

@@ -114,7 +114,151 @@ const COLUMNS: &[(&str, &str, &str)] = &[
     ("v", "sqrt(T/m1)", "intruder velocity along x"),
     ("n_blocks", "1", "number of time blocks averaged"),
     ("x", "r1", "position along x"),
+    ("y", "r1", "position along y"),
     ("Px", "sqrt(m1 T)/r1^2", "momentum density along x"),
+    // Paper I: the pulled intruder and the compacted front (Figs. 1-6).
+    (
+        "force",
+        "T/r1",
+        "force pulling the intruder along x (paper I, Eq. 3)",
+    ),
+    (
+        "temperature",
+        "T",
+        "bath temperature the drive holds (paper I, Eq. 7)",
+    ),
+    (
+        "v_first",
+        "sqrt(T/m1)",
+        "intruder velocity over the first half of the time blocks",
+    ),
+    (
+        "v_second",
+        "sqrt(T/m1)",
+        "intruder velocity over the second half of the time blocks",
+    ),
+    (
+        "stationary",
+        "1",
+        "1 if v_first and v_second agree within three errors, else 0",
+    ),
+    ("snr", "1", "signal to noise ratio v / v_err"),
+    (
+        "v_bath",
+        "sqrt(T/m1)",
+        "centre-of-mass velocity of the bath along x (intruder left out)",
+    ),
+    (
+        "v_rel",
+        "sqrt(T/m1)",
+        "intruder velocity relative to the bath, v - v_bath",
+    ),
+    (
+        "mass_total",
+        "m1",
+        "mass of all particles (the bath drifts at F / (gamma mass_total), paper I Eq. 11)",
+    ),
+    (
+        "v_dr",
+        "sqrt(T/m1)",
+        "drive velocity p_dr / m_eff of paper I, Eq. 7",
+    ),
+    (
+        "v_over_vdr",
+        "1",
+        "intruder velocity over the drive velocity (paper I, Fig. 5)",
+    ),
+    (
+        "vdr2_sqrt_eta",
+        "T/m1",
+        "v_dr^2 eta^(1/2), the force scale of paper I, Fig. 5",
+    ),
+    (
+        "force_scaled",
+        "1",
+        "F / (v_dr^2 eta^(1/2)), the abscissa of paper I, Fig. 5",
+    ),
+    (
+        "kick_dt",
+        "r1 sqrt(m1/T)",
+        "interval between two force kicks, 1 / (kick_rate_factor omega_E)",
+    ),
+    (
+        "collision_momentum",
+        "sqrt(m1 T)",
+        "momentum one collision exchanges with the intruder, m_red (v^2 + 2T/m_red)^(1/2)",
+    ),
+    (
+        "kick_impulse",
+        "sqrt(m1 T)",
+        "impulse of one force kick, F kick_dt",
+    ),
+    (
+        "kick_over_collision",
+        "1",
+        "kick impulse over a collision's momentum (fits keep <= 0.01: the kicks resolve the force)",
+    ),
+    (
+        "v_hot",
+        "sqrt(T/m1)",
+        "intruder velocity at T = 1 at the same (eta, F)",
+    ),
+    (
+        "v_cold_over_hot",
+        "1",
+        "intruder velocity at T = 0.04 over that at T = 1 (paper I, Fig. 6)",
+    ),
+    ("mobility", "r1 sqrt(m1/T)/m1", "intruder mobility v / F"),
+    (
+        "force_times_mu_einstein",
+        "sqrt(T/m1)",
+        "velocity the Einstein mobility predicts, F D / T_x",
+    ),
+    (
+        "D",
+        "r1^2/(r1 sqrt(m1/T))",
+        "intruder diffusion coefficient along x at F = 0",
+    ),
+    (
+        "T_x",
+        "T",
+        "intruder kinetic temperature along x, m0 <vx^2>",
+    ),
+    (
+        "mu_einstein",
+        "r1 sqrt(m1/T)/m1",
+        "mobility the Einstein relation predicts, D / T_x",
+    ),
+    (
+        "vx",
+        "sqrt(T/m1)",
+        "velocity along x (cell average in velocity fields)",
+    ),
+    (
+        "vy",
+        "sqrt(T/m1)",
+        "velocity along y (cell average in velocity fields)",
+    ),
+    (
+        "x_cm",
+        "r1",
+        "centre of the compacted front: mean x weighted by the positive part of Px",
+    ),
+    (
+        "Px_cm",
+        "sqrt(m1 T)/r1^2",
+        "mean momentum density profile Px at the front centre x_cm (to mark it)",
+    ),
+    (
+        "width",
+        "r1",
+        "width of the front from the second moment of x weighted by the positive part of Px",
+    ),
+    (
+        "eta_wall",
+        "1",
+        "packing fraction of the strip at the far wall (the compacted bath, paper I Fig. 1)",
+    ),
     (
         "multiple",
         "1",
