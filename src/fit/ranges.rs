@@ -15,16 +15,18 @@ pub struct RangeFit {
     pub result: Result<FitResult, String>,
 }
 
-/// Spread of one parameter over the ranges whose fit succeeded.
+/// Spread of one parameter over the ranges whose fit succeeded (each distinct
+/// set of points once).
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamSpread {
     pub name: String,
     pub mean: f64,
     pub min: f64,
     pub max: f64,
-    /// Standard deviation of the values between ranges; NaN when fewer than
-    /// two ranges fit (one window has no spread to measure, and a 0 would read
-    /// as a fit that does not depend on its range).
+    /// Standard deviation of the values between ranges with distinct point
+    /// sets; NaN when fewer than two such ranges fit (one window has no spread
+    /// to measure, and a 0 would read as a fit that does not depend on its
+    /// range).
     pub std: f64,
     /// Largest statistical error of a single fit, to compare the spread with.
     pub max_stderr: f64,
@@ -58,7 +60,23 @@ pub fn range_scan(
             }
         })
         .collect();
-    let ok: Vec<&FitResult> = fits.iter().filter_map(|f| f.result.as_ref().ok()).collect();
+    // Windows that select the same points give the same fit: the spread is
+    // taken over distinct point sets, so two such windows do not read as a fit
+    // independent of its range.
+    let mut sets: Vec<Vec<u64>> = Vec::new();
+    let ok: Vec<&FitResult> = fits
+        .iter()
+        .filter_map(|f| {
+            let r = f.result.as_ref().ok()?;
+            let (x, _, _) = data.window(f.lo, f.hi);
+            let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+            if sets.contains(&key) {
+                return None;
+            }
+            sets.push(key);
+            Some(r)
+        })
+        .collect();
     let Some(first) = ok.first() else {
         let why: Vec<String> = fits
             .iter()

@@ -893,11 +893,10 @@ fn scan_ranges(
                     .iter()
                     .map(|sp| (format!("{}_range_std", name(&sp.name)), sp.std, f64::NAN)),
             );
-            let fitted = s.fits.iter().filter(|f| f.result.is_ok()).count();
-            if fitted < 2 {
+            if s.spread.iter().any(|sp| sp.std.is_nan()) {
                 let sep = if note.is_empty() { "" } else { "; " };
                 note.push_str(&format!(
-                    "{sep}range scan: only {fitted} of {} windows fit, so no spread (NaN)",
+                    "{sep}range scan: fewer than two of the {} windows fit distinct sets of points, so no spread (NaN)",
                     s.fits.len()
                 ));
             }
@@ -1678,9 +1677,18 @@ pub(crate) mod tests {
         );
         let one = Fit.run(&ctx, &params, &inputs).unwrap();
         assert!(std_of(&one).is_nan(), "{}", std_of(&one));
+        // Two windows around the same points are one window.
+        let params = yaml(
+            "{form: power_law, data: data, x: x, y: cross, y_err: cross_err, \
+             rename: {exponent: slope}, ranges: [[0.99, 10.5], [0.999, 10.6]]}",
+        );
+        let same = Fit.run(&ctx, &params, &inputs).unwrap();
+        assert!(std_of(&same).is_nan(), "{}", std_of(&same));
         let (_, notes) = quantities(&one.files["parquet"]);
         assert!(
-            notes.iter().any(|n| n.contains("only 1 of 2 windows fit")),
+            notes
+                .iter()
+                .any(|n| n.contains("fewer than two of the 2 windows")),
             "{notes:?}"
         );
         // Bad windows and scans of no form are refused before anything runs.
