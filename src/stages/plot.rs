@@ -113,7 +113,53 @@ pub struct Layer {
 pub struct ArrowColumns {
     pub dx: String,
     pub dy: String,
-    pub scale: f64,
+    pub scale: ArrowScale,
+}
+
+/// Data units per unit of the vector columns: a number, or `auto`, which makes
+/// the layer's longest arrow 0.9 of its grid spacing (the smallest step between
+/// distinct x or y of its points), so that a field on a grid reads the same in
+/// a small box and a large one.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum ArrowScale {
+    Fixed(f64),
+    Named(AutoScale),
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum AutoScale {
+    Auto,
+}
+
+/// The smallest positive step between distinct values of `v` at `rows`.
+fn grid_step(v: &[f64], rows: &[usize]) -> Option<f64> {
+    let mut u: Vec<f64> = rows
+        .iter()
+        .map(|&i| v[i])
+        .filter(|x| x.is_finite())
+        .collect();
+    u.sort_by(f64::total_cmp);
+    u.dedup();
+    u.windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .min_by(f64::total_cmp)
+}
+
+/// The scale of `auto`: the longest arrow at `rows` spans 0.9 grid steps.
+fn auto_arrow_scale(x: &[f64], y: &[f64], dx: &[f64], dy: &[f64], rows: &[usize]) -> Option<f64> {
+    let step = match (grid_step(x, rows), grid_step(y, rows)) {
+        (Some(a), Some(b)) => a.min(b),
+        (a, b) => a.or(b)?,
+    };
+    let longest = rows
+        .iter()
+        .map(|&i| dx[i].hypot(dy[i]))
+        .filter(|l| l.is_finite())
+        .fold(0.0, f64::max);
+    (longest > 0.0).then(|| 0.9 * step / longest)
 }
 
 fn default_file() -> String {
@@ -179,14 +225,19 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     }
     let arrows = match &layer.arrows {
         Some(a) => {
-            if !(a.scale.is_finite() && a.scale > 0.0) {
-                anyhow::bail!(
-                    "plot: layer from '{}': arrows.scale = {} must be a finite number > 0",
-                    layer.from,
-                    a.scale
-                );
-            }
-            Some((c.col(&a.dx)?, c.col(&a.dy)?, a.scale))
+            let (dx, dy) = (c.col(&a.dx)?, c.col(&a.dy)?);
+            let k = match a.scale {
+                ArrowScale::Fixed(k) if k.is_finite() && k > 0.0 => k,
+                ArrowScale::Fixed(k) => anyhow::bail!(
+                    "plot: layer from '{}': arrows.scale = {k} must be a finite number > 0 or `auto`",
+                    layer.from
+                ),
+                // No grid or no motion: the arrows are drawn at length zero.
+                ArrowScale::Named(AutoScale::Auto) => {
+                    auto_arrow_scale(x, y, dx, dy, &rows).unwrap_or(1.0)
+                }
+            };
+            Some((dx, dy, k))
         }
         None => None,
     };
@@ -300,5 +351,34 @@ mod tests {
         assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
         assert_eq!(super::legend_number(29.333), "29");
         assert_eq!(super::legend_number(0.785), "0.785");
+    }
+
+    /// `scale: auto` makes the longest arrow 0.9 of the grid step (here the
+    /// x step 2 of a 3 x 2 grid with y step 3; the longest vector is 5 long),
+    /// and is read from YAML beside a number; `scale: 0` is refused.
+    #[test]
+    fn auto_arrow_scale_fits_the_longest_arrow_in_a_grid_cell() {
+        use super::{ArrowColumns, ArrowScale, AutoScale, auto_arrow_scale};
+        let x = [0.0, 2.0, 4.0, 0.0, 2.0, 4.0];
+        let y = [1.0, 1.0, 1.0, 4.0, 4.0, 4.0];
+        let dx = [3.0, 0.0, 1.0, -1.0, 0.0, 0.0];
+        let dy = [4.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+        let rows: Vec<usize> = (0..6).collect();
+        let k = auto_arrow_scale(&x, &y, &dx, &dy, &rows).unwrap();
+        assert!((k - 0.9 * 2.0 / 5.0).abs() < 1e-12, "{k}");
+        // Without the longest arrow the others grow to fill the cell.
+        let k3 = auto_arrow_scale(&x, &y, &dx, &dy, &rows[1..]).unwrap();
+        assert!((k3 - 0.9 * 2.0 / 1.0).abs() < 1e-12, "{k3}");
+        assert!(auto_arrow_scale(&x, &y, &[0.0; 6], &[0.0; 6], &rows).is_none());
+        // As a stage reads its parameters: YAML, then JSON values.
+        let read = |s: &str| {
+            let v: serde_json::Value = serde_saphyr::from_str(s).unwrap();
+            serde_json::from_value::<ArrowColumns>(v)
+        };
+        let a = read("{dx: vx, dy: vy, scale: auto}").unwrap();
+        assert_eq!(a.scale, ArrowScale::Named(AutoScale::Auto));
+        let a = read("{dx: vx, dy: vy, scale: 2.5}").unwrap();
+        assert_eq!(a.scale, ArrowScale::Fixed(2.5));
+        assert!(read("{dx: vx, dy: vy, scale: big}").is_err());
     }
 }

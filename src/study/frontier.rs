@@ -317,11 +317,12 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
         })
         .collect();
     let n = panels.len().max(1) as u32;
+    // Room for a legend of labelled configurations beside the data.
     Figure {
         title: String::new(),
         panels,
         columns: None,
-        width: 480 * n,
+        width: 640 * n,
         height: 400,
     }
 }
