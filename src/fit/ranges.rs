@@ -48,28 +48,29 @@ pub fn range_scan(
     if ranges.is_empty() {
         return Err(FitError::invalid("range_scan", "no fit ranges given"));
     }
-    let fits: Vec<RangeFit> = ranges
+    // Each window's fit, and the points it selected.
+    let (fits, points): (Vec<RangeFit>, Vec<Vec<u64>>) = ranges
         .iter()
         .map(|&(lo, hi)| {
             let (x, y, s) = data.window(lo, hi);
-            RangeFit {
+            let fit = RangeFit {
                 lo,
                 hi,
                 points: x.len(),
                 result: fit(Data::new(&x, &y, &s)).map_err(|e| e.to_string()),
-            }
+            };
+            (fit, x.iter().map(|v| v.to_bits()).collect())
         })
-        .collect();
+        .unzip();
     // Windows that select the same points give the same fit: the spread is
     // taken over distinct point sets, so two such windows do not read as a fit
     // independent of its range.
-    let mut sets: Vec<Vec<u64>> = Vec::new();
+    let mut sets: Vec<&Vec<u64>> = Vec::new();
     let ok: Vec<&FitResult> = fits
         .iter()
-        .filter_map(|f| {
+        .zip(&points)
+        .filter_map(|(f, key)| {
             let r = f.result.as_ref().ok()?;
-            let (x, _, _) = data.window(f.lo, f.hi);
-            let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
             if sets.contains(&key) {
                 return None;
             }

@@ -120,17 +120,29 @@ pub struct ArrowColumns {
 /// the layer's longest arrow 0.9 of its grid spacing (the smallest step between
 /// distinct x or y of its points), so that a field on a grid reads the same in
 /// a small box and a large one.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ArrowScale {
     Fixed(f64),
     Named(AutoScale),
 }
 
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AutoScale {
     Auto,
+}
+
+/// A number or `auto`; anything else is refused saying so (an untagged enum
+/// would only say that no variant matched).
+impl<'de> Deserialize<'de> for ArrowScale {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        match Value::deserialize(d)? {
+            Value::Number(n) => Ok(ArrowScale::Fixed(n.as_f64().unwrap_or(f64::NAN))),
+            Value::String(s) if s == "auto" => Ok(ArrowScale::Named(AutoScale::Auto)),
+            other => Err(serde::de::Error::custom(format!(
+                "arrows.scale must be a number > 0 or `auto`, not {other}"
+            ))),
+        }
+    }
 }
 
 /// The smallest positive step between distinct values of `v` at `rows`.
@@ -380,5 +392,12 @@ mod tests {
         let a = read("{dx: vx, dy: vy, scale: 2.5}").unwrap();
         assert_eq!(a.scale, ArrowScale::Fixed(2.5));
         assert!(read("{dx: vx, dy: vy, scale: big}").is_err());
+        let e = read("{dx: vx, dy: vy, scale: big}")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("arrows.scale must be a number > 0 or `auto`"),
+            "{e}"
+        );
     }
 }
