@@ -167,7 +167,7 @@ pub const MAX_JK_REPLICAS: usize = 8;
 /// `full` with the replica jackknife columns: `jk_unit` = `unit`, and for every
 /// float column X that some sample changes (not keys such as t or N, not `X_err`,
 /// not counts `n_*`), `X_jk0 .. X_jk{R-1}` from `samples[k]`, the same table
-/// computed with replica k left out. None when a sample's shape differs from
+/// computed with replica k left out, and `X_err_jkK` where X has an error column. None when a sample's shape differs from
 /// `full` (e.g. a replica realising other lags): then no fit can use them.
 pub fn with_replica_samples(
     full: &RecordBatch,
@@ -204,6 +204,14 @@ pub fn with_replica_samples(
         }
         for (k, s) in samples.iter().enumerate() {
             out.push((jk_column(name, k), s.column(i).clone()));
+        }
+        // The sample's own per-point errors: a fit weighting by `X_err` refits
+        // each sample with its own weights (`X_err_jkK`).
+        let err = format!("{name}_err");
+        if let Some((j, _)) = schema.column_with_name(&err) {
+            for (k, s) in samples.iter().enumerate() {
+                out.push((jk_column(&err, k), s.column(j).clone()));
+            }
         }
     }
     Ok(Some(RecordBatch::try_from_iter(out)?))

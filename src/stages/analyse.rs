@@ -19,6 +19,7 @@ use serde_json::Value;
 
 use super::tables::{Columns, inputs_of, trajectories};
 use crate::analysis::lags;
+use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
 use crate::analysis::observables::{OBSERVABLES, Observable};
 use crate::pipeline::canon::param_error;
 use crate::pipeline::graph::Node;
@@ -80,6 +81,37 @@ fn split(name: &str, params: &Value) -> Result<Split> {
         unit,
         at,
     })
+}
+
+/// The measured time of stage `u.from` with each replica left out
+/// (`COLUMN_jkK`), when it was measured on the same replicas as this analysis
+/// (same `jk_unit`): the replica samples of an analysis at multiples of it then
+/// use the time measured without the same replica, so that its share of the
+/// variance is counted. None otherwise.
+fn measured_samples(name: &str, u: &TimeUnit, inputs: &[Artifact], unit: f64) -> Option<Vec<f64>> {
+    let arts = inputs_of(name, inputs, &u.from).ok()?;
+    let cols = Columns::read(&arts).ok()?;
+    let same = cols.col(JK_UNIT).ok()?.iter().all(|v| v.to_bits() == unit.to_bits());
+    if !same {
+        return None;
+    }
+    let v: Vec<f64> = (0..MAX_JK_REPLICAS)
+        .map_while(|k| cols.col(&jk_column(&u.column, k)).ok()?.first().copied())
+        .collect();
+    v.iter().all(|x| x.is_finite() && *x > 0.0).then_some(v)
+}
+
+/// The jackknife unit of an analysis: named by its gathered trajectories'
+/// digests, so that every analysis of the same runs shares it.
+fn replica_unit(inputs: &[Artifact]) -> f64 {
+    let mut digests: Vec<&str> = inputs
+        .iter()
+        .filter(|a| a.kind == "simulate")
+        .map(|a| a.digest.as_str())
+        .collect();
+    digests.sort_unstable();
+    let h = blake3::hash(digests.concat().as_bytes());
+    (u64::from_le_bytes(h.as_bytes()[..8].try_into().expect("8 bytes")) >> 16) as f64
 }
 
 /// The measured time from the input of stage `u.from`: one finite value.
@@ -170,14 +202,15 @@ const TIME_BLOCKS_WITH_REPLICA_SAMPLES: &[&str] = &["s4"];
 /// The replica jackknife columns (`X_jk0`, ..., `jk_unit`; `pool::with_replica_samples`)
 /// of an observable pooled over 2 to `MAX_JK_REPLICAS` replicas: the same
 /// observable with each replica left out, so that a fit downstream can refit
-/// without it (`pool::replica_jackknife`). The unit is named by the gathered
-/// trajectories' digests: every analysis of the same runs shares it.
+/// without it (`pool::replica_jackknife`). `params[k]` are the observable's
+/// parameters for the sample without replica k (the lags of `at` from the time
+/// measured without it); one entry serves every sample.
 fn replica_samples(
     ctx: &StageCtx,
     obs: &Observable,
     refs: &[&Trajectory],
-    params: &Value,
-    inputs: &[Artifact],
+    params: &[Value],
+    unit: f64,
     tables: &mut crate::analysis::observables::Tables,
 ) -> Result<()> {
     use crate::analysis::pool::{self, Errors};
@@ -189,21 +222,13 @@ fn replica_samples(
     if !pooled || refs.len() < 2 || refs.len() > pool::MAX_JK_REPLICAS {
         return Ok(());
     }
-    let mut digests: Vec<&str> = inputs
-        .iter()
-        .filter(|a| a.kind == "simulate")
-        .map(|a| a.digest.as_str())
-        .collect();
-    digests.sort_unstable();
-    let h = blake3::hash(digests.concat().as_bytes());
-    let unit = (u64::from_le_bytes(h.as_bytes()[..8].try_into().expect("8 bytes")) >> 16) as f64;
     let mut samples = Vec::with_capacity(refs.len());
     for k in 0..refs.len() {
         let others: Vec<&Trajectory> = (0..refs.len())
             .filter(|&j| j != k)
             .map(|j| refs[j])
             .collect();
-        samples.push((obs.compute)(&others, params)?);
+        samples.push((obs.compute)(&others, &params[k.min(params.len() - 1)])?);
     }
     let mains: Vec<RecordBatch> = samples.iter().map(|s| s.main.clone()).collect();
     match pool::with_replica_samples(&tables.main, &mains, unit)? {
@@ -321,14 +346,23 @@ impl StageKind for Analyse {
             .transpose()?;
         let mut obs = s.observable;
         let mut at_table = None;
+        let jk_unit = replica_unit(inputs);
+        let mut sample_obs = Vec::new();
         if let (Some(at), Some((unit, u))) = (&s.at, unit) {
             let rel_tol = obs
                 .get("rel_tol")
                 .and_then(Value::as_f64)
                 .unwrap_or(crate::analysis::DEFAULT_REL_TOL);
             let recorded = lags::every_origin(&refs, None, rel_tol)?.unwrap_or_default();
-            let r = lags::in_units(&recorded, unit, &u.column, at, rel_tol)
-                .with_context(|| format!("{name}: `at`"))?;
+            let at_lags = |unit: f64| -> Result<(Vec<lags::InUnits>, Vec<f64>)> {
+                let r = lags::in_units(&recorded, unit, &u.column, at, rel_tol)
+                    .with_context(|| format!("{name}: `at`"))?;
+                let mut chosen: Vec<f64> = r.iter().map(|x| x.lag).collect();
+                chosen.sort_by(f64::total_cmp);
+                chosen.dedup();
+                Ok((r, chosen))
+            };
+            let (r, chosen) = at_lags(unit)?;
             for x in &r {
                 ctx.log(format!(
                     "{} {} = {:.6} -> recorded lag {:.6} ({:+.2}%)",
@@ -339,10 +373,7 @@ impl StageKind for Analyse {
                     100.0 * x.rel_diff
                 ));
             }
-            let mut chosen: Vec<f64> = r.iter().map(|x| x.lag).collect();
-            chosen.sort_by(f64::total_cmp);
-            chosen.dedup();
-            obs["lags"] = Value::from(chosen);
+            obs["lags"] = Value::from(chosen.clone());
             at_table = Some(f64_batch(&[
                 ("multiple", r.iter().map(|x| x.multiple).collect()),
                 ("requested", r.iter().map(|x| x.requested).collect()),
@@ -350,9 +381,36 @@ impl StageKind for Analyse {
                 ("rel_diff", r.iter().map(|x| x.rel_diff).collect()),
                 (u.column.as_str(), vec![unit; r.len()]),
             ])?);
+            // Samples at the lags of the time measured without the same replica
+            // (the same number of lags, else the time is held for all of them).
+            if let Some(units) = measured_samples(name, u, inputs, jk_unit)
+                && units.len() == refs.len()
+            {
+                let per: Vec<Vec<f64>> = units
+                    .iter()
+                    .map(|&v| at_lags(v).map(|(_, c)| c))
+                    .collect::<Result<_>>()?;
+                if per.iter().all(|c| c.len() == chosen.len()) {
+                    sample_obs = per
+                        .into_iter()
+                        .map(|c| {
+                            let mut o = obs.clone();
+                            o["lags"] = Value::from(c);
+                            o
+                        })
+                        .collect();
+                    ctx.log(format!(
+                        "replica samples at the lags of {} measured with the same replica left out",
+                        u.column
+                    ));
+                }
+            }
+        }
+        if sample_obs.is_empty() {
+            sample_obs.push(obs.clone());
         }
         let mut tables = (self.obs.compute)(&refs, &obs)?;
-        replica_samples(ctx, self.obs, &refs, &obs, inputs, &mut tables)?;
+        replica_samples(ctx, self.obs, &refs, &sample_obs, jk_unit, &mut tables)?;
         if let Some((unit, u)) = unit {
             tables.main = with_scaled_t(tables.main, unit, &u.column)?;
         }

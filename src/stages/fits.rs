@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use serde::Deserialize;
 use serde_json::Value;
@@ -392,8 +392,7 @@ impl StageKind for Fit {
         if groups.is_empty() {
             groups.insert(vec![], vec![]);
         }
-        let (mut tables, mut curves, mut scans, mut methods, mut jackknives) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut fitted = Vec::new();
         for (key, rows) in groups {
             let group: Vec<(String, f64)> = p
                 .group_by
@@ -403,7 +402,12 @@ impl StageKind for Fit {
                 .collect();
             let mut fixed = fixed.clone();
             fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
-            let g = fit_group(ctx, &p, &c, &rows, &group, &fixed, &shifted)?;
+            fitted.push(fit_group(ctx, &p, &c, &rows, &group, &fixed, &shifted)?);
+        }
+        let pooled = pool_one_unit_errors(&mut fitted)?;
+        let (mut tables, mut curves, mut scans, mut methods, mut jackknives) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for g in fitted {
             tables.push(g.table);
             curves.extend(g.curve);
             scans.extend(g.scan);
@@ -412,7 +416,7 @@ impl StageKind for Fit {
                 methods.push(g.method);
             }
         }
-        let method = methods.join("; ");
+        let method = methods.join("; ") + pooled.as_deref().unwrap_or("");
         let tables = same_columns(tables)?;
         let mut out = Output::single(
             "parquet",
@@ -523,10 +527,7 @@ fn fit_group(
         .collect();
     let used_rows = pick_rows(rows, &used);
     let jk = replica_columns(c, &used_rows, &p.x, &p.y);
-    let one_unit = match jk {
-        None => unit_columns(c, &used_rows, &p.x, &p.y),
-        Some(_) => None,
-    };
+    let one_unit = unit_columns(c, &used_rows, &p.x, &p.y);
     let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
     let (x, y, s) = clean(ctx, x, y, s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
@@ -556,11 +557,13 @@ fn fit_group(
             scan: Vec::new(),
             method,
             jackknife: None,
+            pooled: None,
         });
     }
     let mut method = covariance_method(p);
     let form = named_form(p)?;
     let mut jackknife = None;
+    let mut pooled = None;
     let (rows, note, curve, samples) = match fit_form(p, &x, &y, &s, &fixed_ref) {
         Ok(f) => {
             let mut refits = None;
@@ -597,20 +600,45 @@ fn fit_group(
             // One refit with replica `left.replica` of unit `left.unit` left out,
             // the numbers taken from other fits at the same replica.
             let (rx, ry, rs) = &raw;
+            // Only where every row comes from the one unit: all weights then
+            // change together. Across units the sample's larger errors would
+            // down-weight the unit left out and damp its refit's shift.
+            let s_jk: Vec<Vec<f64>> = match (&p.y_err, &jk) {
+                (Some(e), Some((_, _, y_jk))) if one_unit.is_some() => {
+                    let v = jk_samples(c, &used_rows, e);
+                    if v.len() == y_jk.len() { v } else { Vec::new() }
+                }
+                _ => Vec::new(),
+            };
+            // A replica sample passes the same `where` on x and y as the pooled
+            // data (e.g. P > 0 of a tail: a bin one replica never reached).
+            let passes = |col: &str, v: f64| p.filter.get(col).is_none_or(|c| c.accepts(v));
             let refit = |left: pool::LeftOut, xs: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
                 let keep: Vec<usize> = (0..xs.len())
-                    .filter(|&i| xs[i].is_finite() && ys[i].is_finite())
+                    .filter(|&i| {
+                        xs[i].is_finite()
+                            && ys[i].is_finite()
+                            && passes(&p.x, xs[i])
+                            && passes(&p.y, ys[i])
+                    })
                     .collect();
                 let (xk, yk) = (pick(xs, &keep), pick(ys, &keep));
                 let fill = s.iter().cloned().fold(0.0, f64::max);
+                // The rows of the unit left out carry the per-point errors of
+                // that sample, so that each refit is the whole estimator (its
+                // weights included) applied to the data without the replica.
+                let own = s_jk.get(left.replica);
+                let err = |i: usize| match (own, &jk) {
+                    (Some(e), Some((units, _, _))) if units[i].to_bits() == left.unit.to_bits() => {
+                        e[i]
+                    }
+                    _ => rs[i],
+                };
                 let sk: Vec<f64> = keep
                     .iter()
                     .map(|&i| {
-                        if rs[i].is_finite() && rs[i] > 0.0 {
-                            rs[i]
-                        } else {
-                            fill
-                        }
+                        let e = err(i);
+                        if e.is_finite() && e > 0.0 { e } else { fill }
                     })
                     .collect();
                 let fixed = fixed_at(left);
@@ -621,6 +649,9 @@ fn fit_group(
             if let Some((units, x_jk, y_jk)) = &jk {
                 match pool::replica_jackknife_with(units, rx, ry, x_jk, y_jk, &also, &refit) {
                     Some(j) => {
+                        if one_unit.is_some() && also.is_empty() {
+                            pooled = Some(rows.iter().map(|r| r.2).zip(j.errors.clone()).collect());
+                        }
                         for (row, e) in rows.iter_mut().zip(&j.errors) {
                             row.2 = *e;
                         }
@@ -772,6 +803,7 @@ fn fit_group(
         scan,
         method,
         jackknife,
+        pooled,
     })
 }
 
@@ -783,6 +815,80 @@ struct Group {
     scan: Vec<RecordBatch>,
     method: String,
     jackknife: Option<RecordBatch>,
+    /// A fit on one unit's rows with a replica jackknife: per fitted number,
+    /// (covariance error, jackknife error), for [`pool_one_unit_errors`].
+    pooled: Option<Vec<(f64, f64)>>,
+}
+
+/// Fits on one state point each (a curve over lags, bins or q) whose replica
+/// jackknife has R - 1 degrees of freedom: every such fit of the stage quotes
+/// its covariance error times f, per fitted number f^2 = the mean over those
+/// fits of (jackknife / covariance)^2. The scale then rests on G (R - 1)
+/// degrees of freedom, and the errors keep the covariance's smooth dependence
+/// on the state point: a fit downstream weighting by them (beta against tau0,
+/// xi against phi) is not steered by one-degree-of-freedom noise. With one such
+/// fit this is its jackknife error. Returns the method line, if any fit took part.
+fn pool_one_unit_errors(groups: &mut [Group]) -> Result<Option<String>> {
+    let with: Vec<usize> = (0..groups.len())
+        .filter(|&g| groups[g].pooled.is_some())
+        .collect();
+    if with.is_empty() {
+        return Ok(None);
+    }
+    let n = with
+        .iter()
+        .map(|&g| groups[g].pooled.as_ref().map_or(0, Vec::len))
+        .max()
+        .unwrap_or(0);
+    let factor: Vec<f64> = (0..n)
+        .map(|p| {
+            let r2: Vec<f64> = with
+                .iter()
+                .filter_map(|&g| groups[g].pooled.as_ref()?.get(p).copied())
+                .filter(|(cov, jk)| cov.is_finite() && *cov > 0.0 && jk.is_finite())
+                .map(|(cov, jk)| (jk / cov).powi(2))
+                .collect();
+            (r2.iter().sum::<f64>() / r2.len() as f64).sqrt()
+        })
+        .collect();
+    for &g in &with {
+        let pairs = groups[g].pooled.take().unwrap_or_default();
+        let errors: Vec<f64> = pairs
+            .iter()
+            .zip(&factor)
+            .map(|(&(cov, jk), f)| {
+                if cov.is_finite() && cov > 0.0 && f.is_finite() {
+                    cov * f
+                } else {
+                    jk
+                }
+            })
+            .collect();
+        groups[g].table = with_errors(&groups[g].table, &errors)?;
+    }
+    Ok(Some(format!(
+        "; the {} fit(s) on one state point each quote their covariance error times sqrt(mean over them of (jackknife / covariance)^2)",
+        with.len()
+    )))
+}
+
+/// `table` with the first `errors.len()` entries of its `error` column replaced.
+fn with_errors(table: &RecordBatch, errors: &[f64]) -> Result<RecordBatch> {
+    let schema = table.schema();
+    let (i, _) = schema
+        .column_with_name("error")
+        .context("a quantity table has an `error` column")?;
+    let old = table
+        .column(i)
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .context("`error` is a float column")?;
+    let new: Vec<f64> = (0..old.len())
+        .map(|k| errors.get(k).copied().unwrap_or(old.value(k)))
+        .collect();
+    let mut cols = table.columns().to_vec();
+    cols[i] = Arc::new(Float64Array::from(new));
+    Ok(RecordBatch::try_new(schema, cols)?)
 }
 
 /// The units (with their replica counts) whose refits move the numbers taken
@@ -973,24 +1079,17 @@ fn reported(p: &FitParams, x: &[f64], y: &[f64], f: &FitResult) -> Vec<f64> {
 
 /// The replica jackknife inputs of `rows` (`pool::with_replica_samples`): unit
 /// per row, and the leave-one-out columns of x (empty when x is a key such as
-/// phi) and y. None unless y has them and the rows span at least two units: on
-/// one state point a few replicas give one or two degrees of freedom, fewer than
-/// the per-point errors have.
+/// phi) and y. None unless y has them. Rows of one state point (a curve over
+/// lags, bins or q) count too: R replicas give only R - 1 degrees of freedom,
+/// but the per-point errors of such a curve's correlated points make a fit
+/// covariance 3 to 30 times too small (docs/accuracy.md).
 type Replicas = (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>);
 fn replica_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<Replicas> {
     let units = pick(c.col(pool::JK_UNIT).ok()?, rows);
-    let mut distinct = units.clone();
-    distinct.sort_by(f64::total_cmp);
-    distinct.dedup();
-    if distinct.len() < 2 || distinct.iter().any(|u| !u.is_finite()) {
+    if units.is_empty() || units.iter().any(|u| !u.is_finite()) {
         return None;
     }
-    let samples = |name: &str| -> Vec<Vec<f64>> {
-        (0..pool::MAX_JK_REPLICAS)
-            .map_while(|k| c.col(&pool::jk_column(name, k)).ok().map(|v| pick(v, rows)))
-            .collect()
-    };
-    let (x_jk, y_jk) = (samples(x), samples(y));
+    let (x_jk, y_jk) = (jk_samples(c, rows, x), jk_samples(c, rows, y));
     if y_jk.len() < 2 || !(x_jk.is_empty() || x_jk.len() == y_jk.len()) {
         return None;
     }
@@ -1015,10 +1114,15 @@ fn unit_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<(f64, V
     if c.col(&pool::jk_column(x, 0)).is_ok() {
         return None;
     }
-    let y_jk: Vec<Vec<f64>> = (0..pool::MAX_JK_REPLICAS)
-        .map_while(|k| c.col(&pool::jk_column(y, k)).ok().map(|v| pick(v, rows)))
-        .collect();
+    let y_jk = jk_samples(c, rows, y);
     (y_jk.len() >= 2).then_some((unit, y_jk))
+}
+
+/// The replica samples `NAME_jk0 ..` of column `name` at `rows` (none if absent).
+fn jk_samples(c: &Columns, rows: &[usize], name: &str) -> Vec<Vec<f64>> {
+    (0..pool::MAX_JK_REPLICAS)
+        .map_while(|k| c.col(&pool::jk_column(name, k)).ok().map(|v| pick(v, rows)))
+        .collect()
 }
 
 /// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
