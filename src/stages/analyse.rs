@@ -19,8 +19,8 @@ use serde_json::Value;
 
 use super::tables::{Columns, inputs_of, trajectories};
 use crate::analysis::lags;
-use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
 use crate::analysis::observables::{OBSERVABLES, Observable};
+use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
 use crate::pipeline::canon::param_error;
 use crate::pipeline::graph::Node;
 use crate::pipeline::{Artifact, Output, Registry, StageCtx, StageKind};
@@ -91,7 +91,11 @@ fn split(name: &str, params: &Value) -> Result<Split> {
 fn measured_samples(name: &str, u: &TimeUnit, inputs: &[Artifact], unit: f64) -> Option<Vec<f64>> {
     let arts = inputs_of(name, inputs, &u.from).ok()?;
     let cols = Columns::read(&arts).ok()?;
-    let same = cols.col(JK_UNIT).ok()?.iter().all(|v| v.to_bits() == unit.to_bits());
+    let same = cols
+        .col(JK_UNIT)
+        .ok()?
+        .iter()
+        .all(|v| v.to_bits() == unit.to_bits());
     if !same {
         return None;
     }

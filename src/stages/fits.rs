@@ -527,7 +527,7 @@ fn fit_group(
         .collect();
     let used_rows = pick_rows(rows, &used);
     let jk = replica_columns(c, &used_rows, &p.x, &p.y);
-    let one_unit = unit_columns(c, &used_rows, &p.x, &p.y);
+    let one_unit = unit_columns(c, &used_rows, &p.y);
     let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
     let (x, y, s) = clean(ctx, x, y, s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
@@ -547,10 +547,31 @@ fn fit_group(
         } else {
             ""
         };
-        let method = match &p.y_err {
+        let mut method = match &p.y_err {
             Some(e) => format!("the per-point errors {e}, combined"),
             None => "none (no y_err)".to_string(),
         };
+        // Rows of one unit with replica samples: the replica jackknife of the
+        // value counts what per-point errors miss (the lag of `at` moving with
+        // the measured tau_alpha); with few replicas it is noisy, so the larger
+        // of the two is quoted.
+        let mut err = err;
+        if let Some((_, y_jk)) = &one_unit {
+            let per: Vec<f64> = y_jk
+                .iter()
+                .map(|v| {
+                    let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+                    f.iter().sum::<f64>() / f.len() as f64
+                })
+                .collect();
+            let r = per.len() as f64;
+            let m = per.iter().sum::<f64>() / r;
+            let jk = ((r - 1.0) / r * per.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt();
+            if jk.is_finite() && !(jk <= err) {
+                err = jk;
+                method = format!("delete-one jackknife over {} replicas (larger than {method})", y_jk.len());
+            }
+        }
         return Ok(Group {
             table: quantity_table(group, &[(name("value"), mean, err)], note)?,
             curve: None,
@@ -688,6 +709,53 @@ fn fit_group(
                     }
                     None => method.push_str(JK_IMPOSSIBLE),
                 }
+            } else if let Some(replica) = object_replicas(c, &used_rows) {
+                // One row per object (cluster) of every replica: refit with the
+                // rows of each replica left out. Objects of one replica share
+                // its frames, so they are not independent points.
+                let mut labels = replica.clone();
+                labels.sort_by(f64::total_cmp);
+                labels.dedup();
+                let thetas: Option<Vec<Vec<f64>>> = labels
+                    .iter()
+                    .map(|&r| {
+                        let ys: Vec<f64> = ry
+                            .iter()
+                            .zip(&replica)
+                            .map(|(&y, &k)| if k == r { f64::NAN } else { y })
+                            .collect();
+                        let left = pool::LeftOut {
+                            unit: f64::NAN,
+                            replica: 0,
+                        };
+                        refit(left, rx, &ys)
+                    })
+                    .collect();
+                match thetas {
+                    Some(t) => {
+                        let n = t.len() as f64;
+                        let errors: Vec<f64> = (0..t[0].len())
+                            .map(|q| {
+                                let mean = t.iter().map(|v| v[q]).sum::<f64>() / n;
+                                ((n - 1.0) / n * t.iter().map(|v| (v[q] - mean).powi(2)).sum::<f64>())
+                                    .sqrt()
+                            })
+                            .collect();
+                        if also.is_empty() {
+                            pooled = Some(rows.iter().map(|r| r.2).zip(errors.clone()).collect());
+                        }
+                        for (row, e) in rows.iter_mut().zip(&errors) {
+                            row.2 = *e;
+                        }
+                        method = format!(
+                            "delete-one jackknife over replicas: refit with the rows of each of {} replicas left out",
+                            labels.len()
+                        );
+                    }
+                    None => method.push_str(
+                        " (the jackknife over the rows' replicas was not possible: a refit failed)",
+                    ),
+                }
             }
             if let Some(r) = refits {
                 let names: Vec<String> = rows.iter().map(|row| row.0.clone()).collect();
@@ -707,7 +775,11 @@ fn fit_group(
                             unit: *unit,
                             replica: k,
                         };
-                        refit(left, rx, ys).unwrap_or_default()
+                        let xs = match &jk {
+                            Some((_, x_jk, _)) if x_jk.len() == y_jk.len() => &x_jk[k],
+                            _ => rx,
+                        };
+                        refit(left, xs, ys).unwrap_or_default()
                     })
                     .collect();
                 (*unit, per_replica)
@@ -1096,6 +1168,17 @@ fn replica_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<Repl
     Some((units, x_jk, y_jk))
 }
 
+/// The `replica` of rows that are objects of several replicas (clusters of
+/// every replica, `Errors::Rows`), when there are at least two replicas among
+/// them; None for tables without the column.
+fn object_replicas(c: &Columns, rows: &[usize]) -> Option<Vec<f64>> {
+    let r = pick(c.col("replica").ok()?, rows);
+    let mut d = r.clone();
+    d.sort_by(f64::total_cmp);
+    d.dedup();
+    (d.len() >= 2 && d.iter().all(|v| v.is_finite())).then_some(r)
+}
+
 /// The entries `at` of a list of row indices.
 fn pick_rows(rows: &[usize], at: &[usize]) -> Vec<usize> {
     at.iter().map(|&i| rows[i]).collect()
@@ -1103,15 +1186,12 @@ fn pick_rows(rows: &[usize], at: &[usize]) -> Vec<usize> {
 
 /// The replica samples of rows that all come from one unit (one state point's
 /// S4 over q): that unit and the leave-one-out columns of y. None unless every
-/// row has the same finite unit, y has at least two samples and x none (x is a
-/// key such as q or t).
-fn unit_columns(c: &Columns, rows: &[usize], x: &str, y: &str) -> Option<(f64, Vec<Vec<f64>>)> {
+/// row has the same finite unit and y has at least two samples (x may have its
+/// own: the lags of `at` in units of a time measured without the replica).
+fn unit_columns(c: &Columns, rows: &[usize], y: &str) -> Option<(f64, Vec<Vec<f64>>)> {
     let units = pick(c.col(pool::JK_UNIT).ok()?, rows);
     let unit = *units.first()?;
     if !unit.is_finite() || units.iter().any(|u| u.to_bits() != unit.to_bits()) {
-        return None;
-    }
-    if c.col(&pool::jk_column(x, 0)).is_ok() {
         return None;
     }
     let y_jk = jk_samples(c, rows, y);
@@ -1916,6 +1996,192 @@ pub(crate) mod tests {
             "quoted/spread {with} (held: {held})"
         );
         assert!(held < 0.6, "quoted/spread with phi_c held {held}");
+    }
+
+    /// The fitted numbers of a fit's output: (quantity, value, error) by name.
+    fn fitted(dir: &std::path::Path, out: &Output) -> Columns {
+        Columns::read_file(&[&artifact_of(dir, out)], "parquet").unwrap()
+    }
+
+    /// A curve on one state point whose replicas differ as a whole (an offset
+    /// and a slope per replica, shared by every point) while each point's
+    /// error counts only the small independent part: the fit covariance says
+    /// the slope is known far better than it is; the replica jackknife says
+    /// how well. 60 realisations, 4 replicas, 10 points.
+    #[test]
+    fn a_fit_on_one_state_point_takes_its_error_from_the_replicas() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let (replicas, shared, own) = (4usize, 0.2, 0.01);
+        let x: Vec<f64> = (0..10).map(f64::from).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let fit = yaml("{form: line, data: c, x: lag, y: Q, y_err: Q_err}");
+        let (mut values, mut jk, mut cov) = (vec![], vec![], vec![]);
+        for _ in 0..60 {
+            let mut z = || -> f64 { StandardNormal.sample(&mut rng) };
+            let curves: Vec<Vec<f64>> = (0..replicas)
+                .map(|_| {
+                    let (a, b) = (shared * z(), shared * z());
+                    x.iter()
+                        .map(|x| 1.0 + a + (2.0 + b) * x + own * z())
+                        .collect()
+                })
+                .collect();
+            let mean = |skip: Option<usize>| -> Vec<f64> {
+                let n = replicas - usize::from(skip.is_some());
+                (0..x.len())
+                    .map(|i| {
+                        (0..replicas)
+                            .filter(|&r| Some(r) != skip)
+                            .map(|r| curves[r][i])
+                            .sum::<f64>()
+                            / n as f64
+                    })
+                    .collect()
+            };
+            let mut cols: Vec<(String, Vec<f64>)> = vec![
+                ("lag".into(), x.clone()),
+                ("Q".into(), mean(None)),
+                (
+                    "Q_err".into(),
+                    vec![own / (replicas as f64).sqrt(); x.len()],
+                ),
+            ];
+            let plain = {
+                let c: Vec<(&str, Vec<f64>)> =
+                    cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
+                f64_batch(&c).unwrap()
+            };
+            cols.push((pool::JK_UNIT.into(), vec![7.0; x.len()]));
+            for k in 0..replicas {
+                cols.push((pool::jk_column("Q", k), mean(Some(k))));
+            }
+            let c: Vec<(&str, Vec<f64>)> =
+                cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
+            let with = f64_batch(&c).unwrap();
+            let o = Fit
+                .run(&ctx, &fit, &[artifact(dir.path(), "c", with)])
+                .unwrap();
+            let (v, e) = fitted(dir.path(), &o).quantity("slope").unwrap();
+            values.push(v);
+            jk.push(e);
+            let o = Fit
+                .run(&ctx, &fit, &[artifact(dir.path(), "c", plain)])
+                .unwrap();
+            cov.push(fitted(dir.path(), &o).quantity("slope").unwrap().1);
+        }
+        let (_, spread) = crate::analysis::stats::mean_std(&values);
+        let rms = |e: &[f64]| (e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64).sqrt();
+        let (jk, cov) = (rms(&jk) / spread, rms(&cov) / spread);
+        eprintln!("slope: quoted/spread {jk:.2} jackknife, {cov:.3} covariance");
+        assert!((0.75..1.35).contains(&jk), "jackknife quoted/spread {jk}");
+        assert!(cov < 0.2, "covariance quoted/spread {cov}");
+    }
+
+    /// Fits on one state point each (one per phi) quote their covariance
+    /// error times one factor per fitted number, from the mean square of
+    /// jackknife / covariance over the stage's fits: two lines whose two
+    /// replicas move the slope by +-0.1 and +-0.3, same points and errors,
+    /// both quote sqrt((0.1^2 + 0.3^2) / 2).
+    #[test]
+    fn one_state_point_fits_pool_their_jackknife_scale() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let q = [0.1, 0.2, 0.3, 0.4];
+        let (mut x, mut phi, mut unit, mut y, mut y0, mut y1) =
+            (vec![], vec![], vec![], vec![], vec![], vec![]);
+        for (p, d, u) in [(0.70, 0.1, 1.0), (0.76, 0.3, 2.0)] {
+            for &v in &q {
+                x.push(v);
+                phi.push(p);
+                unit.push(u);
+                y.push(1.0 + 2.0 * v);
+                y0.push(1.0 + (2.0 + d) * v);
+                y1.push(1.0 + (2.0 - d) * v);
+            }
+        }
+        let t = f64_batch(&[
+            ("phi", phi),
+            ("q", x),
+            ("S4", y),
+            ("S4_err", vec![0.01; 8]),
+            (pool::JK_UNIT, unit),
+            ("S4_jk0", y0),
+            ("S4_jk1", y1),
+        ])
+        .unwrap();
+        let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
+        let out = Fit
+            .run(&ctx, &fit, &[artifact(dir.path(), "s4", t)])
+            .unwrap();
+        let c = fitted(dir.path(), &out);
+        let want = ((0.1f64.powi(2) + 0.3f64.powi(2)) / 2.0).sqrt();
+        let (phi, name, err) = (
+            c.col("phi").unwrap(),
+            &c.str["quantity"],
+            c.col("error").unwrap(),
+        );
+        for p in [0.70, 0.76] {
+            let i = (0..c.rows)
+                .find(|&i| phi[i] == p && name[i] == "slope")
+                .unwrap();
+            assert!(
+                (err[i] - want).abs() < 1e-9,
+                "phi {p}: error {} want {want}",
+                err[i]
+            );
+        }
+    }
+
+    /// Each replica sample of a fit on one state point is refitted with its
+    /// own per-point errors (`y_err_jkK`) and passes the fit's `where` on y:
+    /// sample 0's last two points carry huge errors (it barely saw them), so
+    /// its refit follows the first four; sample 1 has an empty bin (P = 0)
+    /// that `P > 0` drops, where a log fit would fail.
+    #[test]
+    fn replica_samples_are_refitted_with_their_own_errors_and_the_fits_where() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let dx = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let tail = |x0: f64| -> Vec<f64> { dx.iter().map(|x: &f64| (-x / x0).exp()).collect() };
+        let mut p0 = tail(1.2);
+        p0[4] *= 5.0;
+        p0[5] *= 5.0;
+        let mut p1 = tail(0.8);
+        p1[5] = 0.0;
+        let rel = |p: &[f64], r: f64| -> Vec<f64> { p.iter().map(|v| r * v).collect() };
+        let mut e0 = rel(&p0, 0.01);
+        e0[4] = 100.0;
+        e0[5] = 100.0;
+        let t = f64_batch(&[
+            ("dx", dx.to_vec()),
+            ("P", tail(1.0)),
+            ("P_err", rel(&tail(1.0), 0.01)),
+            (pool::JK_UNIT, vec![3.0; 6]),
+            ("P_jk0", p0),
+            ("P_jk1", p1.clone()),
+            ("P_err_jk0", e0),
+            ("P_err_jk1", rel(&p1, 0.01)),
+        ])
+        .unwrap();
+        let fit = yaml(
+            "{form: exponential_tail, data: vh, x: dx, y: P, y_err: P_err, where: {P: {min: 1.0e-10}}}",
+        );
+        let out = Fit
+            .run(&ctx, &fit, &[artifact(dir.path(), "vh", t)])
+            .unwrap();
+        let c = fitted(dir.path(), &out);
+        let i = (0..c.rows).find(|&i| c.str["quantity"][i] == "x0").unwrap();
+        let (jk0, jk1) = (
+            c.col("value_jk0").unwrap()[i],
+            c.col("value_jk1").unwrap()[i],
+        );
+        assert!((jk0 - 1.2).abs() < 1e-3, "sample 0 refit x0 = {jk0}");
+        assert!((jk1 - 0.8).abs() < 1e-6, "sample 1 refit x0 = {jk1}");
+        let err = c.col("error").unwrap()[i];
+        assert!((err - (jk0 - jk1).abs() / 2.0).abs() < 1e-9, "error {err}");
     }
 
     /// A fit per state point on the rows of one unit (xi from the OZ fit of
