@@ -385,7 +385,7 @@ mod tests {
     }
 
     #[test]
-    fn replica_columns_skip_keys_errors_and_counts() {
+    fn replica_columns_skip_keys_and_counts_and_carry_each_samples_errors() {
         let t = |q: f64| {
             crate::table::f64_batch(&[
                 ("t", vec![1.0, 2.0]),
@@ -406,7 +406,17 @@ mod tests {
             .collect();
         assert_eq!(
             names,
-            ["t", "Q", "Q_err", "n_origins", JK_UNIT, "Q_jk0", "Q_jk1"]
+            [
+                "t",
+                "Q",
+                "Q_err",
+                "n_origins",
+                JK_UNIT,
+                "Q_jk0",
+                "Q_jk1",
+                "Q_err_jk0",
+                "Q_err_jk1"
+            ]
         );
         let short = crate::table::f64_batch(&[("t", vec![1.0])]).unwrap();
         assert!(
