@@ -134,6 +134,49 @@ pub struct FitParams {
     /// the main table gains `<parameter>_range_std`, its spread between windows.
     #[serde(default)]
     pub ranges: Vec<(f64, f64)>,
+    /// `relative`: where the model does not describe the points within their
+    /// errors (reduced chi^2 > 1, e.g. curves of several eta that collapse only
+    /// roughly), a relative model scatter s_m |y| is added in quadrature to every
+    /// point's error, s_m chosen so that the reduced chi^2 is 1. Without it the
+    /// few points with the smallest errors set the fit, and which points those
+    /// are changes from seed to seed. The table gains `scatter` (s_m); its
+    /// `reduced_chi2` stays that of the errors alone.
+    #[serde(default)]
+    pub scatter: Option<String>,
+}
+
+/// The relative model scatter s_m that brings the fit's reduced chi^2 to 1
+/// (`scatter: relative`), 0 when it is at most 1 already: bisection in
+/// log s_m over [1e-6, 10] (the reduced chi^2 falls as s_m grows).
+/// Returns s_m and the reduced chi^2 with the errors alone.
+fn relative_scatter(
+    p: &FitParams,
+    x: &[f64],
+    y: &[f64],
+    s: &[f64],
+    fixed: &[(&str, f64)],
+) -> Result<(f64, f64)> {
+    let chi2 = |m: f64| -> Result<f64> {
+        let sm: Vec<f64> = s.iter().zip(y).map(|(e, v)| e.hypot(m * v.abs())).collect();
+        Ok(fit_form(p, x, y, &sm, fixed)?.reduced_chi2)
+    };
+    let alone = chi2(0.0)?;
+    if alone <= 1.0 {
+        return Ok((0.0, alone));
+    }
+    let (mut lo, mut hi) = (1e-6f64.ln(), 10f64.ln());
+    if chi2(hi.exp())? > 1.0 {
+        return Ok((hi.exp(), alone));
+    }
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if chi2(mid.exp())? > 1.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok((hi.exp(), alone))
 }
 
 /// The named form of `p`, or None for `drift` (a line) and `value` (no fit).
@@ -361,6 +404,13 @@ impl StageKind for Fit {
                 p.form
             );
         }
+        if let Some(sc) = &p.scatter
+            && (sc != "relative" || p.y_err.is_none() || form.is_none())
+        {
+            bail!(
+                "fit: `scatter: {sc}`: the only model scatter is `relative`, for a named form with `y_err` (without y_err the errors are scaled to the scatter already)"
+            );
+        }
         for (lo, hi) in &p.ranges {
             if !(lo.is_finite() && hi.is_finite() && lo < hi) {
                 bail!(
@@ -531,6 +581,17 @@ fn fit_group(
     let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
     let (x, y, s) = clean(ctx, x, y, s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
+    // fit, its refits and its range scan then weight by the widened errors.
+    let scatter = match &p.scatter {
+        Some(_) => relative_scatter(p, &x, &y, &s, &fixed_ref).ok(),
+        None => None,
+    };
+    let widen = |e: f64, v: f64| match scatter {
+        Some((m, _)) if m > 0.0 => e.hypot(m * v.abs()),
+        _ => e,
+    };
+    let s: Vec<f64> = s.iter().zip(&y).map(|(&e, &v)| widen(e, v)).collect();
     let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
     if p.form == "value" {
         let k = y.len() as f64;
@@ -659,7 +720,7 @@ fn fit_group(
                     .iter()
                     .map(|&i| {
                         let e = err(i);
-                        if e.is_finite() && e > 0.0 { e } else { fill }
+                        widen(if e.is_finite() && e > 0.0 { e } else { fill }, ys[i])
                     })
                     .collect();
                 let fixed = fixed_at(left);
@@ -784,8 +845,22 @@ fn fit_group(
                     .collect();
                 (*unit, per_replica)
             });
-            rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
-            rows.push((name("points"), x.len() as f64, 0.0));
+            match scatter {
+                Some((m, alone)) => {
+                    rows.push((name("reduced_chi2"), alone, f64::NAN));
+                    rows.push((name("points"), x.len() as f64, 0.0));
+                    rows.push((name("scatter"), m, f64::NAN));
+                    if m > 0.0 {
+                        method.push_str(&format!(
+                            "; each point's error widened by a relative model scatter {m:.3} |y| in quadrature (reduced chi2 {alone:.1} -> 1)"
+                        ));
+                    }
+                }
+                None => {
+                    rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
+                    rows.push((name("points"), x.len() as f64, 0.0));
+                }
+            }
             let curve = p.curve.as_ref().map(|cs| {
                 let lo = cs
                     .x_min
@@ -1672,13 +1747,25 @@ fn run_named(
     };
     let curves = curves_of(&y_all);
     let bounds: Vec<(f64, f64)> = r.fitted.iter().map(|k| p.bounds[*k]).collect();
-    let rescale = |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
-        let at = At {
-            param: cv.param,
-            phi_c,
-            columns: columns_of(cv.param),
-        };
-        (r.map)(q, &at, x, y, s)
+    let columns_of = &columns_of;
+    let rescale_at = |phi_c: f64| {
+        move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+            let at = At {
+                param: cv.param,
+                phi_c,
+                columns: columns_of(cv.param),
+            };
+            (r.map)(q, &at, x, y, s)
+        }
+    };
+    let rescale = rescale_at(phi_c);
+    // phi_c with each replica of each unit left out, where its fit carries
+    // refits (`jackknife.parquet`): the collapse is redone with it, so that
+    // phi_c's share of the variance is counted (N* of the cluster cut-off
+    // moves most with phi_c at the densest points).
+    let phi_c_refits = match &p.phi_c_from {
+        Some(f) if r.needs_phi_c && !r.fitted.is_empty() => f.jackknife("collapse", inputs)?,
+        _ => None,
     };
     let result: Result<(Vec<f64>, Vec<f64>, f64)> =
         if r.needs_phi_c && curves.iter().any(|cv| cv.param >= phi_c) {
@@ -1698,20 +1785,55 @@ fn run_named(
     let mut method = "fit covariance of the collapse".to_string();
     let (rows, note, best) = match result {
         Ok((q, mut dq, s)) => {
-            if !r.fitted.is_empty()
-                && let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y)
-            {
-                let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                    collapse::best(&curves_of(ys), r.fitted, &bounds, &rescale)
+            let jk = replica_columns(&c, &rows_in, &p.x, &p.y);
+            let also = match &phi_c_refits {
+                Some(refits) => also_units(&[("phi_c".to_string(), refits.clone())]),
+                None => Vec::new(),
+            };
+            if !r.fitted.is_empty() && (jk.is_some() || !also.is_empty()) {
+                let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    let pc = phi_c_refits
+                        .as_ref()
+                        .and_then(|m| m.get(&(left.unit.to_bits(), left.replica)))
+                        .copied()
+                        .unwrap_or(phi_c);
+                    let curves = curves_of(ys);
+                    if r.needs_phi_c && curves.iter().any(|cv| cv.param >= pc) {
+                        return None;
+                    }
+                    collapse::best(&curves, r.fitted, &bounds, &rescale_at(pc))
                         .map_err(|e| {
                             ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
                         })
                         .ok()
                 };
-                match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
-                    Some((e, refits)) => {
-                        dq = e;
-                        method = jackknife_method(refits, HELD);
+                let (units, y_jk) = match &jk {
+                    Some((u, _, y)) => (u.clone(), y.clone()),
+                    None => (Vec::new(), Vec::new()),
+                };
+                let from = match &p.phi_c_from {
+                    Some(f) if !also.is_empty() => format!(
+                        "; phi_c ({} of {}) refitted with the same replica left out",
+                        f.quantity, f.stage
+                    ),
+                    _ => HELD.to_string(),
+                };
+                match pool::replica_jackknife_with(&units, &x_all, &y_all, &[], &y_jk, &also, refit)
+                {
+                    Some(j) if jk.is_some() => {
+                        dq = j.errors;
+                        method = jackknife_method(j.refits.len(), &from);
+                    }
+                    Some(j) => {
+                        // Rows without replica samples (cluster sizes): the
+                        // covariance error, plus in quadrature phi_c's share.
+                        for (d, e) in dq.iter_mut().zip(&j.errors) {
+                            *d = d.hypot(*e);
+                        }
+                        method.push_str(&format!(
+                            ", plus in quadrature the replica jackknife of phi_c ({} refits of the collapse with phi_c from the same replica left out)",
+                            j.refits.len()
+                        ));
                     }
                     None => method.push_str(JK_IMPOSSIBLE),
                 }
@@ -1996,6 +2118,149 @@ pub(crate) mod tests {
             "quoted/spread {with} (held: {held})"
         );
         assert!(held < 0.6, "quoted/spread with phi_c held {held}");
+    }
+
+    /// The cluster cut-off collapse (Fig. 13) takes phi_c from the tau_alpha
+    /// fit: its refits with a replica left out move N* = (phi_c - phi)^(-1/rho)
+    /// most at the densest points, so rho's error must count them. Curves that
+    /// collapse exactly (covariance error tiny) and a tau fit whose two
+    /// replicas disagree: rho's value is the same either way, its error grows
+    /// far beyond the covariance's when the refits are used.
+    #[test]
+    fn the_cluster_collapse_counts_the_replica_spread_of_phi_c() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let (phi_c, kappa, rho): (f64, f64, f64) = (0.80, 1.8, 1.63);
+        let phis = [0.62, 0.66, 0.70, 0.73, 0.75, 0.76, 0.77, 0.78];
+        // tau_alpha per phi from two replicas 10% apart, alternating in sign.
+        let (mut tau, mut t0, mut t1) = (vec![], vec![], vec![]);
+        for (i, p) in phis.iter().enumerate() {
+            let t = 0.05 * (phi_c - p).powf(-1.5);
+            let d = if i % 2 == 0 { 0.1 } else { -0.1 };
+            tau.push(t);
+            t0.push(t * (1.0 + d));
+            t1.push(t * (1.0 - d));
+        }
+        let tau_table = f64_batch(&[
+            ("phi", phis.to_vec()),
+            ("tau_alpha", tau.clone()),
+            ("tau_alpha_err", tau.iter().map(|t| 0.1 * t).collect()),
+            (pool::JK_UNIT, (1..=phis.len()).map(|u| u as f64).collect()),
+            ("tau_alpha_jk0", t0),
+            ("tau_alpha_jk1", t1),
+        ])
+        .unwrap();
+        let tau_fit =
+            yaml("{form: power_law_offset, data: tau, x: phi, y: tau_alpha, y_err: tau_alpha_err}");
+        let out = Fit
+            .run(&ctx, &tau_fit, &[artifact(dir.path(), "tau", tau_table)])
+            .unwrap();
+        let fitted_phi_c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet")
+            .unwrap()
+            .quantity("phi_c")
+            .unwrap()
+            .0;
+        // P(Nc) = Nc^-kappa exp(-Nc / N*), N* from the fitted phi_c: an exact collapse.
+        let (mut phi, mut nc, mut p, mut e) = (vec![], vec![], vec![], vec![]);
+        for &f in &phis[..7] {
+            let n_star = (fitted_phi_c - f).powf(-1.0 / rho);
+            for k in 0..12 {
+                let n = 2f64.powf(0.5 * k as f64);
+                let v = n.powf(-kappa) * (-n / n_star).exp();
+                phi.push(f);
+                nc.push(n);
+                p.push(v);
+                e.push(0.01 * v);
+            }
+        }
+        let sizes = artifact(
+            dir.path(),
+            "sizes",
+            f64_batch(&[("phi", phi), ("Nc", nc), ("P", p), ("P_err", e)]).unwrap(),
+        );
+        let collapse = yaml(
+            "{rescaling: cluster_cutoff, data: sizes, x: Nc, y: P, y_err: P_err, curve_by: phi, \
+             phi_c_from: {stage: power_law, quantity: phi_c}, bounds: {kappa: [1.0, 3.0], rho: [0.5, 5.0]}}",
+        );
+        let rho_of = |skip: &str| {
+            let source = output_artifact(dir.path(), "power_law", &out, skip);
+            let o = Collapse
+                .run(&ctx, &collapse, &[sizes.clone(), source])
+                .unwrap();
+            let (_, meta) = crate::table::read_parquet_bytes(o.files["parquet"].clone()).unwrap();
+            let method = meta
+                .into_iter()
+                .find(|(k, _)| k == ERROR_METHOD)
+                .map(|(_, v)| v)
+                .unwrap_or_default();
+            let c = fitted(dir.path(), &o);
+            (c.quantity("rho").unwrap(), method)
+        };
+        let ((v_held, e_held), _) = rho_of(JACKKNIFE_FILE);
+        let ((v, e), method) = rho_of("");
+        assert!((v_held - rho).abs() < 0.03, "rho {v_held}");
+        assert_eq!(v.to_bits(), v_held.to_bits(), "the value does not change");
+        assert!(e > 5.0 * e_held, "rho error {e} with phi_c refitted, {e_held} held");
+        assert!(method.contains("phi_c"), "error method: {method}");
+    }
+
+    /// `scatter: relative` on points that scatter 20% about a power law with
+    /// errors of 0.1% (reduced chi^2 in the thousands): the fit is the same as
+    /// one told the widened errors sqrt(e^2 + (s_m y)^2) directly, whose reduced
+    /// chi^2 is 1; the table keeps the reduced chi^2 of the errors alone. A
+    /// scatter other than `relative`, or without `y_err`, is refused.
+    #[test]
+    fn a_relative_model_scatter_brings_the_reduced_chi2_to_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "scatter".into(), None);
+        let x: Vec<f64> = (0..12).map(|i| 10f64.powf(0.25 * i as f64)).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, x)| 2.0 * x.powf(0.5) * if i % 2 == 0 { 1.2 } else { 0.8 })
+            .collect();
+        let e: Vec<f64> = y.iter().map(|v| 1e-3 * v).collect();
+        let data = |e: Vec<f64>| {
+            artifact(
+                dir.path(),
+                "v",
+                f64_batch(&[("F", x.clone()), ("v", y.clone()), ("v_err", e)]).unwrap(),
+            )
+        };
+        let with = fitted(
+            dir.path(),
+            &Fit.run(
+                &ctx,
+                &yaml("{form: power_law, x: F, y: v, y_err: v_err, scatter: relative}"),
+                &[data(e.clone())],
+            )
+            .unwrap(),
+        );
+        let m = with.quantity("scatter").unwrap().0;
+        assert!((0.1..0.4).contains(&m), "scatter {m}");
+        assert!(with.quantity("reduced_chi2").unwrap().0 > 1000.0);
+        let widened: Vec<f64> = e.iter().zip(&y).map(|(e, v)| e.hypot(m * v)).collect();
+        let direct = fitted(
+            dir.path(),
+            &Fit.run(
+                &ctx,
+                &yaml("{form: power_law, x: F, y: v, y_err: v_err}"),
+                &[data(widened)],
+            )
+            .unwrap(),
+        );
+        assert!((direct.quantity("reduced_chi2").unwrap().0 - 1.0).abs() < 1e-6);
+        for q in ["A", "exponent"] {
+            let (a, b) = (with.quantity(q).unwrap(), direct.quantity(q).unwrap());
+            assert!((a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9, "{q}: {a:?} {b:?}");
+        }
+        for bad in [
+            "{form: power_law, x: F, y: v, y_err: v_err, scatter: absolute}",
+            "{form: power_law, x: F, y: v, scatter: relative}",
+        ] {
+            let err = Fit.validate(&yaml(bad)).unwrap_err().to_string();
+            assert!(err.contains("scatter"), "{bad}: {err}");
+        }
     }
 
     /// The fitted numbers of a fit's output: (quantity, value, error) by name.
