@@ -628,7 +628,7 @@ fn fit_group(
             let r = per.len() as f64;
             let m = per.iter().sum::<f64>() / r;
             let jk = ((r - 1.0) / r * per.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt();
-            if jk.is_finite() && !(jk <= err) {
+            if jk.is_finite() && (err.is_nan() || jk > err) {
                 err = jk;
                 method = format!("delete-one jackknife over {} replicas (larger than {method})", y_jk.len());
             }
