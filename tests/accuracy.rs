@@ -48,6 +48,16 @@ fn quoted_errors_cover_the_seed_to_seed_scatter() {
         ("fig4", "phi_c"),
         ("fig4", "phi_0"),
         ("fig4", "gamma_tau"),
+        // Fits on one state point each (Eq. 8 per phi, the van Hove Gaussian),
+        // scaled over a stage's fits, and the fits across them.
+        ("fig6", "beta_exponent"),
+        ("fig6", "A_beta"),
+        ("fig8", "D_gauss"),
+        // Paper I: velocities with replica samples; Fig. 5's fits of a rough
+        // collapse with a relative model scatter.
+        ("intruder-fig6", "v_ratio_0775"),
+        ("intruder-fig5", "beta"),
+        ("intruder-fig5", "beta_collapse"),
     ] {
         let (cov, ratio) = covered(&g, figure, quantity);
         assert!(
