@@ -146,8 +146,10 @@ pub struct FitParams {
 }
 
 /// The relative model scatter s_m that brings the fit's reduced chi^2 to 1
-/// (`scatter: relative`), 0 when it is at most 1 already: bisection in
-/// log s_m over [1e-6, 10] (the reduced chi^2 falls as s_m grows).
+/// (`scatter: relative`), 0 when it is at most 1 already: doubling from 1e-3
+/// until the reduced chi^2 falls to 1 (capped at 10), then bisection in log
+/// s_m (the reduced chi^2 falls as s_m grows). Growing from small s_m keeps
+/// away from errors so large that a nonlinear fit no longer converges.
 /// Returns s_m and the reduced chi^2 with the errors alone.
 fn relative_scatter(
     p: &FitParams,
@@ -156,18 +158,25 @@ fn relative_scatter(
     s: &[f64],
     fixed: &[(&str, f64)],
 ) -> Result<(f64, f64)> {
+    // A fit that fails on the way (a parameter on its bound while a few
+    // precise points still dominate) counts as a scatter too small.
     let chi2 = |m: f64| -> Result<f64> {
         let sm: Vec<f64> = s.iter().zip(y).map(|(e, v)| e.hypot(m * v.abs())).collect();
-        Ok(fit_form(p, x, y, &sm, fixed)?.reduced_chi2)
+        Ok(fit_form(p, x, y, &sm, fixed).map_or(f64::INFINITY, |f| f.reduced_chi2))
     };
     let alone = chi2(0.0)?;
     if alone <= 1.0 {
         return Ok((0.0, alone));
     }
-    let (mut lo, mut hi) = (1e-6f64.ln(), 10f64.ln());
-    if chi2(hi.exp())? > 1.0 {
-        return Ok((hi.exp(), alone));
+    let (mut lo, mut hi) = (0.0, 1e-3);
+    while chi2(hi)? > 1.0 {
+        if hi >= 10.0 {
+            fit_form(p, x, y, &s.iter().zip(y).map(|(e, v)| e.hypot(hi * v.abs())).collect::<Vec<_>>(), fixed)?;
+            return Ok((hi, alone));
+        }
+        (lo, hi) = (hi, 2.0 * hi);
     }
+    let (mut lo, mut hi) = (if lo > 0.0 { lo } else { 1e-6 }.ln(), hi.ln());
     for _ in 0..50 {
         let mid = 0.5 * (lo + hi);
         if chi2(mid.exp())? > 1.0 {
@@ -584,7 +593,13 @@ fn fit_group(
     // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
     // fit, its refits and its range scan then weight by the widened errors.
     let scatter = match &p.scatter {
-        Some(_) => relative_scatter(p, &x, &y, &s, &fixed_ref).ok(),
+        Some(_) => match relative_scatter(p, &x, &y, &s, &fixed_ref) {
+            Ok(m) => Some(m),
+            Err(e) => {
+                ctx.log(format!("no relative model scatter: a fit on the way failed: {e:#}"));
+                None
+            }
+        },
         None => None,
     };
     let widen = |e: f64, v: f64| match scatter {
@@ -859,6 +874,12 @@ fn fit_group(
                 None => {
                     rows.push((name("reduced_chi2"), f.reduced_chi2, f64::NAN));
                     rows.push((name("points"), x.len() as f64, 0.0));
+                    if p.scatter.is_some() {
+                        rows.push((name("scatter"), f64::NAN, f64::NAN));
+                        method.push_str(
+                            "; no relative model scatter: a fit while searching for it failed (the errors alone)",
+                        );
+                    }
                 }
             }
             let curve = p.curve.as_ref().map(|cs| {
