@@ -145,6 +145,11 @@ pub struct FitParams {
     pub scatter: Option<String>,
 }
 
+/// Errors `s` widened by a relative model scatter `m |y|` in quadrature.
+fn widened(s: &[f64], y: &[f64], m: f64) -> Vec<f64> {
+    s.iter().zip(y).map(|(e, v)| e.hypot(m * v.abs())).collect()
+}
+
 /// The relative model scatter s_m that brings the fit's reduced chi^2 to 1
 /// (`scatter: relative`), 0 when it is at most 1 already: doubling from 1e-3
 /// until the reduced chi^2 falls to 1 (capped at 10), then bisection in log
@@ -160,26 +165,26 @@ fn relative_scatter(
 ) -> Result<(f64, f64)> {
     // A fit that fails on the way (a parameter on its bound while a few
     // precise points still dominate) counts as a scatter too small.
-    let chi2 = |m: f64| -> Result<f64> {
-        let sm: Vec<f64> = s.iter().zip(y).map(|(e, v)| e.hypot(m * v.abs())).collect();
-        Ok(fit_form(p, x, y, &sm, fixed).map_or(f64::INFINITY, |f| f.reduced_chi2))
+    let chi2 = |m: f64| {
+        fit_form(p, x, y, &widened(s, y, m), fixed).map_or(f64::INFINITY, |f| f.reduced_chi2)
     };
-    let alone = chi2(0.0)?;
+    let alone = chi2(0.0);
     if alone <= 1.0 {
         return Ok((0.0, alone));
     }
     let (mut lo, mut hi) = (0.0, 1e-3);
-    while chi2(hi)? > 1.0 {
+    while chi2(hi) > 1.0 {
         if hi >= 10.0 {
-            fit_form(p, x, y, &s.iter().zip(y).map(|(e, v)| e.hypot(hi * v.abs())).collect::<Vec<_>>(), fixed)?;
+            // Still above 1 at the cap: usable only if the fit converges there.
+            fit_form(p, x, y, &widened(s, y, hi), fixed)?;
             return Ok((hi, alone));
         }
         (lo, hi) = (hi, 2.0 * hi);
     }
-    let (mut lo, mut hi) = (if lo > 0.0 { lo } else { 1e-6 }.ln(), hi.ln());
+    let (mut lo, mut hi) = (lo.max(1e-6).ln(), hi.ln());
     for _ in 0..50 {
         let mid = 0.5 * (lo + hi);
-        if chi2(mid.exp())? > 1.0 {
+        if chi2(mid.exp()) > 1.0 {
             lo = mid;
         } else {
             hi = mid;
@@ -596,17 +601,17 @@ fn fit_group(
         Some(_) => match relative_scatter(p, &x, &y, &s, &fixed_ref) {
             Ok(m) => Some(m),
             Err(e) => {
-                ctx.log(format!("no relative model scatter: a fit on the way failed: {e:#}"));
+                ctx.log(format!(
+                    "no relative model scatter: a fit on the way failed: {e:#}"
+                ));
                 None
             }
         },
         None => None,
     };
-    let widen = |e: f64, v: f64| match scatter {
-        Some((m, _)) if m > 0.0 => e.hypot(m * v.abs()),
-        _ => e,
-    };
-    let s: Vec<f64> = s.iter().zip(&y).map(|(&e, &v)| widen(e, v)).collect();
+    let m_scatter = scatter.map_or(0.0, |(m, _)| m);
+    let widen = |e: f64, v: f64| e.hypot(m_scatter * v.abs());
+    let s = widened(&s, &y, m_scatter);
     let name = |n: &str| p.rename.get(n).cloned().unwrap_or_else(|| n.to_string());
     if p.form == "value" {
         let k = y.len() as f64;
@@ -645,7 +650,10 @@ fn fit_group(
             let jk = ((r - 1.0) / r * per.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt();
             if jk.is_finite() && (err.is_nan() || jk > err) {
                 err = jk;
-                method = format!("delete-one jackknife over {} replicas (larger than {method})", y_jk.len());
+                method = format!(
+                    "delete-one jackknife over {} replicas (larger than {method})",
+                    y_jk.len()
+                );
             }
         }
         return Ok(Group {
@@ -813,8 +821,9 @@ fn fit_group(
                         let errors: Vec<f64> = (0..t[0].len())
                             .map(|q| {
                                 let mean = t.iter().map(|v| v[q]).sum::<f64>() / n;
-                                ((n - 1.0) / n * t.iter().map(|v| (v[q] - mean).powi(2)).sum::<f64>())
-                                    .sqrt()
+                                ((n - 1.0) / n
+                                    * t.iter().map(|v| (v[q] - mean).powi(2)).sum::<f64>())
+                                .sqrt()
                             })
                             .collect();
                         if also.is_empty() {
@@ -2221,7 +2230,10 @@ pub(crate) mod tests {
         let ((v, e), method) = rho_of("");
         assert!((v_held - rho).abs() < 0.03, "rho {v_held}");
         assert_eq!(v.to_bits(), v_held.to_bits(), "the value does not change");
-        assert!(e > 5.0 * e_held, "rho error {e} with phi_c refitted, {e_held} held");
+        assert!(
+            e > 5.0 * e_held,
+            "rho error {e} with phi_c refitted, {e_held} held"
+        );
         assert!(method.contains("phi_c"), "error method: {method}");
     }
 
@@ -2273,7 +2285,10 @@ pub(crate) mod tests {
         assert!((direct.quantity("reduced_chi2").unwrap().0 - 1.0).abs() < 1e-6);
         for q in ["A", "exponent"] {
             let (a, b) = (with.quantity(q).unwrap(), direct.quantity(q).unwrap());
-            assert!((a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9, "{q}: {a:?} {b:?}");
+            assert!(
+                (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
+                "{q}: {a:?} {b:?}"
+            );
         }
         for bad in [
             "{form: power_law, x: F, y: v, y_err: v_err, scatter: absolute}",
