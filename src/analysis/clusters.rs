@@ -318,18 +318,101 @@ pub fn compute_sizes(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 /// [`compute_sizes`] from cluster rows of [`compute`] (of one replica, or of several
 /// concatenated: the distribution of all their clusters).
 pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
-    let col = |name: &str| -> Vec<f64> {
-        rows.column_by_name(name)
-            .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
-            .map(|a| a.values().to_vec())
-            .expect("column written by compute")
+    sizes_of(rows, p, |_| true)
+}
+
+/// [`sizes_table`] of concatenated replicas (`replica` column) again with each
+/// replica left out, on the rows of `full` (the table of all of them): the
+/// replica jackknife samples of P(Nc), from the cluster rows already found. A
+/// bin that the others leave empty has P = NaN there (a fit refitting the sample
+/// then skips it). The lags are those of `full`.
+pub fn sizes_left_out(
+    rows: &RecordBatch,
+    p: &Params,
+    full: &RecordBatch,
+) -> Result<Vec<RecordBatch>> {
+    use arrow_array::Int64Array;
+    let replica: Vec<i64> = rows
+        .column_by_name("replica")
+        .and_then(|c| c.as_any().downcast_ref::<Int64Array>())
+        .map(|a| a.values().to_vec())
+        .ok_or_else(|| anyhow::anyhow!("cluster rows without a `replica` column"))?;
+    let mut distinct = replica.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let key = |b: &RecordBatch| -> Vec<[u64; 3]> {
+        let c = |n: &str| float_col(b, n);
+        let (t, k, n) = (c("t"), c("kind"), c("Nc"));
+        (0..b.num_rows())
+            .map(|i| [t[i].to_bits(), k[i].to_bits(), n[i].to_bits()])
+            .collect()
     };
+    let want = key(full);
+    distinct
+        .iter()
+        .map(|&r| {
+            let s = sizes_of(rows, p, |i| replica[i] != r)?;
+            let have: std::collections::HashMap<[u64; 3], usize> = key(&s)
+                .into_iter()
+                .enumerate()
+                .map(|(i, k)| (k, i))
+                .collect();
+            // Per (t, kind): the spanning clusters of the others.
+            let span: std::collections::HashMap<[u64; 2], (f64, f64)> = {
+                let (t, k) = (float_col(&s, "t"), float_col(&s, "kind"));
+                let (n, big) = (
+                    float_col(&s, "n_spanning"),
+                    float_col(&s, "largest_spanning"),
+                );
+                (0..s.num_rows())
+                    .map(|i| ([t[i].to_bits(), k[i].to_bits()], (n[i], big[i])))
+                    .collect()
+            };
+            let mut cols: Vec<(String, Vec<f64>)> = full
+                .schema()
+                .fields()
+                .iter()
+                .map(|f| (f.name().clone(), Vec::with_capacity(full.num_rows())))
+                .collect();
+            for w in &want {
+                let at = have.get(w).copied();
+                let spanning = span.get(&[w[0], w[1]]).copied().unwrap_or((0.0, 0.0));
+                for (name, v) in cols.iter_mut() {
+                    v.push(match (name.as_str(), at) {
+                        ("t", _) => f64::from_bits(w[0]),
+                        ("kind", _) => f64::from_bits(w[1]),
+                        ("Nc", _) => f64::from_bits(w[2]),
+                        ("n_spanning", _) => spanning.0,
+                        ("largest_spanning", _) => spanning.1,
+                        ("n_clusters", None) => 0.0,
+                        (_, None) => f64::NAN,
+                        (n, Some(i)) => float_col(&s, n)[i],
+                    });
+                }
+            }
+            let named: Vec<(&str, Vec<f64>)> =
+                cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
+            f64_batch(&named)
+        })
+        .collect()
+}
+
+fn float_col(b: &RecordBatch, name: &str) -> Vec<f64> {
+    b.column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<arrow_array::Float64Array>())
+        .map(|a| a.values().to_vec())
+        .expect("column written by compute")
+}
+
+/// [`sizes_table`] of the cluster rows `keep` accepts.
+fn sizes_of(rows: &RecordBatch, p: &Params, keep: impl Fn(usize) -> bool) -> Result<RecordBatch> {
+    let col = |name: &str| float_col(rows, name);
     let (t, kind, nc, spans) = (col("t"), col("kind"), col("Nc"), col("spans"));
     let mut cols: [Vec<f64>; 8] = Default::default();
     for &lag in &p.lags {
         for k in [0.0, 1.0] {
             let here: Vec<usize> = (0..t.len())
-                .filter(|&i| kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
+                .filter(|&i| keep(i) && kind[i] == k && (t[i] - lag).abs() <= p.rel_tol * lag)
                 .collect();
             // A cluster that wraps around the box has no finite size: the box, not
             // phi, cuts it off. It is left out of P(Nc) and counted beside it.
@@ -484,5 +567,49 @@ mod tests {
         assert!((pe[slow[1]] - pr[slow[1]]).abs() < 1e-12);
         let fast: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 1.0).collect();
         assert!(fast.iter().all(|&i| sp[i] == 0.0 && big[i] == 0.0));
+    }
+
+    /// The leave-one-out tables of P(Nc) are those of the other replicas' clusters
+    /// on the full table's bins, NaN where the others have none.
+    #[test]
+    fn leaving_a_replica_out_recounts_the_others_clusters_on_the_same_bins() {
+        use arrow_array::{ArrayRef, Int64Array};
+        let floats = f64_batch(&[
+            ("t", vec![1.0; 5]),
+            ("t0", vec![0.0; 5]),
+            ("kind", vec![0.0; 5]),
+            ("Nc", vec![1.0, 1.0, 2.0, 1.0, 5.0]),
+            ("Rg", vec![0.0; 5]),
+            ("spans", vec![0.0; 5]),
+        ])
+        .unwrap();
+        let mut cols: Vec<(String, ArrayRef)> = vec![(
+            "replica".into(),
+            std::sync::Arc::new(Int64Array::from(vec![0, 0, 0, 1, 1])) as ArrayRef,
+        )];
+        for (f, c) in floats.schema().fields().iter().zip(floats.columns()) {
+            cols.push((f.name().clone(), c.clone()));
+        }
+        let rows = RecordBatch::try_from_iter(cols).unwrap();
+        let p = unit_lag_params(10);
+        let full = sizes_table(&rows, &p).unwrap();
+        let out = sizes_left_out(&rows, &p, &full).unwrap();
+        assert_eq!(out.len(), 2);
+        let col = |b: &RecordBatch, n: &str| crate::analysis::tests::col(b, n);
+        // Bins of sizes 1, 2 and 5.
+        assert_eq!(col(&full, "Nc").len(), 3);
+        // Without replica 0: sizes 1 and 5, half each; no cluster of size 2.
+        let (nc, pr) = (col(&out[0], "Nc"), col(&out[0], "P"));
+        assert_eq!(nc, col(&full, "Nc"));
+        // (The bin of 5 holds several integers: P is per integer, so its ratio to
+        // the full table's P is that of the fractions, 1/2 against 1/5.)
+        let full_p = col(&full, "P");
+        assert!((pr[0] - 0.5).abs() < 1e-12 && pr[1].is_nan());
+        assert!((pr[2] - 2.5 * full_p[2]).abs() < 1e-12);
+        assert_eq!(col(&out[0], "n_clusters"), vec![1.0, 0.0, 1.0]);
+        // Without replica 1: sizes 1, 1, 2; none of size 5.
+        let pr = col(&out[1], "P");
+        assert!((pr[0] - 2.0 / 3.0).abs() < 1e-12 && (pr[1] - 1.0 / 3.0).abs() < 1e-12);
+        assert!(pr[2].is_nan());
     }
 }

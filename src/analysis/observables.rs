@@ -27,6 +27,10 @@ pub struct Tables {
     pub main: RecordBatch,
     pub extra: Vec<(&'static str, RecordBatch)>,
     pub errors: Errors,
+    /// The main table with each replica left out, when the observable derives
+    /// them from its per-replica pieces (cheaper than the analysis stage's
+    /// recomputation on the other replicas); empty otherwise.
+    pub left_out: Vec<RecordBatch>,
 }
 
 impl Tables {
@@ -35,6 +39,7 @@ impl Tables {
             main,
             extra: Vec::new(),
             errors,
+            left_out: Vec::new(),
         }
     }
 }
@@ -247,6 +252,7 @@ pub static OBSERVABLES: &[Observable] = &[
                 main,
                 extra: vec![("tau.parquet", tau)],
                 errors: Errors::Mean { replicas: t.len() },
+                left_out: Vec::new(),
             })
         },
     },
@@ -358,7 +364,16 @@ pub static OBSERVABLES: &[Observable] = &[
             let p: clusters::Params = params("cluster_sizes", v)?;
             let rows = concat("cluster_sizes", t, v, clusters::compute)?;
             let b = clusters::sizes_table(&rows, &p)?;
-            Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
+            // Clusters of one time origin, and of overlapping origins, are not
+            // independent: the fits of P(Nc) take their errors from the replicas.
+            let left_out = if t.len() >= 2 {
+                clusters::sizes_left_out(&rows, &p, &b)?
+            } else {
+                Vec::new()
+            };
+            let mut tables = Tables::one(b, Errors::Rows { replicas: t.len() });
+            tables.left_out = left_out;
+            Ok(tables)
         },
     },
     Observable {
@@ -424,6 +439,7 @@ pub static OBSERVABLES: &[Observable] = &[
                 main,
                 extra: vec![("intruder.parquet", intruder)],
                 errors: Errors::Mean { replicas: t.len() },
+                left_out: Vec::new(),
             })
         },
     },
@@ -439,6 +455,7 @@ pub static OBSERVABLES: &[Observable] = &[
                 main,
                 extra: vec![("positions.parquet", positions), ("lines.parquet", lines)],
                 errors: Errors::ReplicaJackknife { replicas: t.len() },
+                left_out: Vec::new(),
             })
         },
     },

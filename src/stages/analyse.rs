@@ -224,9 +224,21 @@ fn replica_samples(
     let pooled = match tables.errors {
         Errors::Jackknife { .. } | Errors::SeedToSeed { .. } => true,
         Errors::TimeBlocks { .. } => TIME_BLOCKS_WITH_REPLICA_SAMPLES.contains(&obs.name),
-        _ => false,
+        _ => !tables.left_out.is_empty(),
     };
     if !pooled || refs.len() < 2 || refs.len() > pool::MAX_JK_REPLICAS {
+        return Ok(());
+    }
+    if !tables.left_out.is_empty() {
+        // Derived by the observable (at the full table's lags).
+        let left_out = std::mem::take(&mut tables.left_out);
+        match pool::with_replica_samples(&tables.main, &left_out, unit)? {
+            Some(b) => tables.main = b,
+            None => ctx.log(format!(
+                "{}: a replica left out changes the table's shape: no replica jackknife columns",
+                obs.name
+            )),
+        }
         return Ok(());
     }
     let mut samples = Vec::with_capacity(refs.len());
