@@ -210,9 +210,9 @@ const COLUMNS: &[(&str, &str, &str)] = &[
     ),
     ("mobility", "r1 sqrt(m1/T)/m1", "intruder mobility v / F"),
     (
-        "force_times_mu_einstein",
-        "sqrt(T/m1)",
-        "velocity the Einstein mobility predicts, F D / T_x",
+        "mu_over_einstein",
+        "1",
+        "small-F mobility over the Einstein mobility D / T_x at F = 0 (1 in linear response)",
     ),
     (
         "D",
