@@ -53,11 +53,17 @@ fn quoted_errors_cover_the_seed_to_seed_scatter() {
         ("fig6", "beta_exponent"),
         ("fig6", "A_beta"),
         ("fig8", "D_gauss"),
+        ("fig8", "x0_078_tau"),
+        // Fits of P(Nc) with replica samples of the histogram.
+        ("fig12", "minus_kappa"),
+        ("fig14", "sigma"),
         // Paper I: velocities with replica samples; Fig. 5's fits of a rough
         // collapse with a relative model scatter.
         ("intruder-fig6", "v_ratio_0775"),
         ("intruder-fig5", "beta"),
         ("intruder-fig5", "beta_collapse"),
+        // A ratio of two independent measurements (mu from F > 0, mu_E at F = 0).
+        ("intruder-fig3", "mu_over_einstein_030"),
     ] {
         let (cov, ratio) = covered(&g, figure, quantity);
         assert!(
