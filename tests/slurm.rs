@@ -95,6 +95,20 @@ fn files(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
     m
 }
 
+/// The ci sweep with 2 replicas instead of its 6: the test compares the two
+/// executors, and a third of the runs keeps it short.
+fn two_replicas_at_ci(spec: &Path) {
+    let text = std::fs::read_to_string(spec).unwrap();
+    let ci = text.find("\n  ci:").expect("eps09.yaml has a ci profile");
+    let at = ci
+        + text[ci..]
+            .find("replicas: ")
+            .expect("its ci profile sets replicas");
+    let end = at + text[at..].find('\n').unwrap();
+    let text = format!("{}replicas: 2{}", &text[..at], &text[end..]);
+    std::fs::write(spec, text).unwrap();
+}
+
 #[test]
 fn a_ci_figure_built_through_slurm_equals_the_local_build() {
     if !slurm_available("a_ci_figure_built_through_slurm_equals_the_local_build") {
@@ -107,6 +121,7 @@ fn a_ci_figure_built_through_slurm_equals_the_local_build() {
     for r in [&local, &remote] {
         copy_dir(&project.join("experiments"), &r.join("experiments"));
         copy_dir(&project.join("pipelines"), &r.join("pipelines"));
+        two_replicas_at_ci(&r.join("experiments/eps09.yaml"));
     }
     let o = run(repro()
         .args(["figure", "fig4", "--profile", "ci", "--root"])
@@ -130,7 +145,7 @@ fn a_ci_figure_built_through_slurm_equals_the_local_build() {
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
     assert!(t.contains("submitted Slurm job"), "{t}");
-    // The 16 simulations of the sweep went out as one array.
+    // The 16 simulations of the sweep (8 phi, 2 replicas) went out as one array.
     assert!(t.contains(": 16 simulate stage(s)"), "{t}");
     // Every stage's output: the same objects under the same keys, byte for byte.
     let a = files(&local.join(".repro/store/objects"));
