@@ -16,17 +16,34 @@ use std::time::{Duration, Instant};
 static SERIAL: Mutex<()> = Mutex::new(());
 
 fn slurm_available(test: &str) -> bool {
-    let ok = Command::new("sinfo")
-        .args(["--noheader", "--format=%T"])
-        .output()
-        .is_ok_and(|o| {
-            o.status.success()
-                && String::from_utf8_lossy(&o.stdout).lines().any(|l| {
-                    ["idle", "mixed", "allocated"]
-                        .iter()
-                        .any(|s| l.starts_with(s))
-                })
-        });
+    let state = || -> Option<String> {
+        let o = Command::new("sinfo")
+            .args(["--noheader", "--format=%T"])
+            .output()
+            .ok()?;
+        o.status
+            .success()
+            .then(|| String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    let usable = |s: &str| {
+        s.lines().any(|l| {
+            ["idle", "mixed", "allocated"]
+                .iter()
+                .any(|u| l.starts_with(u))
+        })
+    };
+    // A node still cleaning up after another test's killed or timed-out job
+    // reports another state (`completing`) for a few seconds: wait for it, up to
+    // a minute. Without Slurm (sinfo fails) there is nothing to wait for.
+    let mut ok = false;
+    let start = Instant::now();
+    while let Some(s) = state() {
+        ok = usable(&s);
+        if ok || start.elapsed() > Duration::from_secs(60) {
+            break;
+        }
+        std::thread::sleep(Duration::from_secs(1));
+    }
     if !ok {
         if std::env::var("REPRO_REQUIRE_SLURM").is_ok_and(|v| v == "1") {
             panic!("{test}: REPRO_REQUIRE_SLURM=1 but no Slurm node accepts jobs (sinfo)");
