@@ -368,16 +368,21 @@ pub fn sizes_left_out(
                     .map(|i| ([t[i].to_bits(), k[i].to_bits()], (n[i], big[i])))
                     .collect()
             };
-            let mut cols: Vec<(String, Vec<f64>)> = full
+            // (name, the sample's column, the column on full's rows)
+            let mut cols: Vec<(String, Vec<f64>, Vec<f64>)> = full
                 .schema()
                 .fields()
                 .iter()
-                .map(|f| (f.name().clone(), Vec::with_capacity(full.num_rows())))
+                .map(|f| {
+                    let name = f.name().clone();
+                    let own = float_col(&s, &name);
+                    (name, own, Vec::with_capacity(full.num_rows()))
+                })
                 .collect();
             for w in &want {
                 let at = have.get(w).copied();
                 let spanning = span.get(&[w[0], w[1]]).copied().unwrap_or((0.0, 0.0));
-                for (name, v) in cols.iter_mut() {
+                for (name, own, v) in cols.iter_mut() {
                     v.push(match (name.as_str(), at) {
                         ("t", _) => f64::from_bits(w[0]),
                         ("kind", _) => f64::from_bits(w[1]),
@@ -386,12 +391,14 @@ pub fn sizes_left_out(
                         ("largest_spanning", _) => spanning.1,
                         ("n_clusters", None) => 0.0,
                         (_, None) => f64::NAN,
-                        (n, Some(i)) => float_col(&s, n)[i],
+                        (_, Some(i)) => own[i],
                     });
                 }
             }
-            let named: Vec<(&str, Vec<f64>)> =
-                cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
+            let named: Vec<(&str, Vec<f64>)> = cols
+                .iter_mut()
+                .map(|(n, _, v)| (n.as_str(), std::mem::take(v)))
+                .collect();
             f64_batch(&named)
         })
         .collect()

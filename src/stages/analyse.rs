@@ -229,27 +229,21 @@ fn replica_samples(
     if !pooled || refs.len() < 2 || refs.len() > pool::MAX_JK_REPLICAS {
         return Ok(());
     }
-    if !tables.left_out.is_empty() {
-        // Derived by the observable (at the full table's lags).
-        let left_out = std::mem::take(&mut tables.left_out);
-        match pool::with_replica_samples(&tables.main, &left_out, unit)? {
-            Some(b) => tables.main = b,
-            None => ctx.log(format!(
-                "{}: a replica left out changes the table's shape: no replica jackknife columns",
-                obs.name
-            )),
+    // The observable's own samples (main table only, at the full table's lags),
+    // else the observable recomputed on the other replicas.
+    let mut samples = Vec::new();
+    let mains: Vec<RecordBatch> = if tables.left_out.is_empty() {
+        for k in 0..refs.len() {
+            let others: Vec<&Trajectory> = (0..refs.len())
+                .filter(|&j| j != k)
+                .map(|j| refs[j])
+                .collect();
+            samples.push((obs.compute)(&others, &params[k.min(params.len() - 1)])?);
         }
-        return Ok(());
-    }
-    let mut samples = Vec::with_capacity(refs.len());
-    for k in 0..refs.len() {
-        let others: Vec<&Trajectory> = (0..refs.len())
-            .filter(|&j| j != k)
-            .map(|j| refs[j])
-            .collect();
-        samples.push((obs.compute)(&others, &params[k.min(params.len() - 1)])?);
-    }
-    let mains: Vec<RecordBatch> = samples.iter().map(|s| s.main.clone()).collect();
+        samples.iter().map(|s| s.main.clone()).collect()
+    } else {
+        std::mem::take(&mut tables.left_out)
+    };
     match pool::with_replica_samples(&tables.main, &mains, unit)? {
         Some(b) => tables.main = b,
         None => ctx.log(format!(
@@ -268,6 +262,7 @@ fn replica_samples(
             })
             .collect();
         if let Some(extra) = extra
+            && !extra.is_empty()
             && let Some(with) = pool::with_replica_samples(b, &extra, unit)?
         {
             *b = with;
