@@ -18,6 +18,7 @@ use serde_json::Value;
 
 use super::pool::{self, Errors};
 use super::{chi4, clusters, front, gr, intruder, lags, msd, overlap, s4, van_hove};
+use crate::pipeline::registry::typed;
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
 
@@ -58,21 +59,15 @@ pub struct Observable {
     pub compute: fn(&[&Trajectory], &Value) -> Result<Tables>,
 }
 
-/// Typed parameters of observable `name`: unknown keys and wrong types name it.
-pub fn params<T: DeserializeOwned>(name: &str, v: &Value) -> Result<T> {
-    serde_json::from_value(v.clone())
-        .map_err(|e| anyhow::anyhow!("parameters of analysis `{name}`: {e}"))
-}
-
 /// The lags realised by every time origin when none are requested.
 fn overlap_params(name: &str, trajs: &[&Trajectory], v: &Value) -> Result<overlap::Params> {
-    let mut p: overlap::Params = params(name, v)?;
+    let mut p: overlap::Params = typed(name, v)?;
     p.lags = lags::every_origin(trajs, p.lags.take(), p.rel_tol)?;
     Ok(p)
 }
 
 fn chi4_params(name: &str, v: &Value) -> Result<chi4::Params> {
-    let p: chi4::Params = params(name, v)?;
+    let p: chi4::Params = typed(name, v)?;
     if p.n.is_empty() {
         bail!(
             "parameters of analysis `{name}`: `n` (sub-box particle numbers) is empty; give at least one, e.g. n: [100, 400]"
@@ -101,7 +96,7 @@ fn per_replica<P: DeserializeOwned>(
     v: &Value,
     f: fn(&Trajectory, &P) -> Result<RecordBatch>,
 ) -> Result<Tables> {
-    let p: P = params(name, v)?;
+    let p: P = typed(name, v)?;
     let tables = trajs.iter().map(|t| f(t, &p)).collect::<Result<Vec<_>>>()?;
     let (main, errors) = pool::seed_to_seed(&tables)?;
     Ok(Tables::one(main, errors))
@@ -114,7 +109,7 @@ fn concat<P: DeserializeOwned>(
     v: &Value,
     f: fn(&Trajectory, &P) -> Result<RecordBatch>,
 ) -> Result<RecordBatch> {
-    let p: P = params(name, v)?;
+    let p: P = typed(name, v)?;
     let mut out = Vec::new();
     for (r, t) in trajs.iter().enumerate() {
         let b = f(t, &p)?;
@@ -200,7 +195,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "overlap",
         describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
         modules: OVERLAP,
-        validate: |v| params::<overlap::Params>("overlap", v).map(drop),
+        validate: |v| typed::<overlap::Params>("overlap", v).map(drop),
         compute: |t, v| {
             let p = overlap_params("overlap", t, v)?;
             let (lag, q, n) = overlap::q_curve(t, &p)?;
@@ -217,7 +212,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "tau_alpha",
         describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
         modules: OVERLAP,
-        validate: |v| params::<overlap::Params>("tau_alpha", v).map(drop),
+        validate: |v| typed::<overlap::Params>("tau_alpha", v).map(drop),
         compute: |t, v| {
             let p = overlap_params("tau_alpha", t, v)?;
             let tau = overlap::tau_alpha(t, &p)?;
@@ -233,9 +228,9 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "q_levels",
         describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
         modules: OVERLAP,
-        validate: |v| params::<overlap::LevelParams>("q_levels", v).map(drop),
+        validate: |v| typed::<overlap::LevelParams>("q_levels", v).map(drop),
         compute: |t, v| {
-            let mut p: overlap::LevelParams = params("q_levels", v)?;
+            let mut p: overlap::LevelParams = typed("q_levels", v)?;
             p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
             Ok(Tables::one(overlap::q_levels(t, &p)?, jackknife(t)))
         },
@@ -244,7 +239,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "aging",
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
         modules: OVERLAP,
-        validate: |v| params::<overlap::Params>("aging", v).map(drop),
+        validate: |v| typed::<overlap::Params>("aging", v).map(drop),
         compute: |t, v| {
             let p = overlap_params("aging", t, v)?;
             let (main, tau) = overlap::aging(t, &p)?;
@@ -280,9 +275,9 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "s4",
         describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
         modules: &["analysis/s4", "analysis/lags", "analysis/stats"],
-        validate: |v| params::<s4::Params>("s4", v).map(drop),
+        validate: |v| typed::<s4::Params>("s4", v).map(drop),
         compute: |t, v| {
-            let p: s4::Params = params("s4", v)?;
+            let p: s4::Params = typed("s4", v)?;
             let b = s4::compute_pooled(t, &p)?;
             Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
         },
@@ -291,9 +286,9 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "msd",
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
         modules: &["analysis/msd", "analysis/lags", "analysis/stats"],
-        validate: |v| params::<msd::Params>("msd", v).map(drop),
+        validate: |v| typed::<msd::Params>("msd", v).map(drop),
         compute: |t, v| {
-            let mut p: msd::Params = params("msd", v)?;
+            let mut p: msd::Params = typed("msd", v)?;
             p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
             let tables = t
                 .iter()
@@ -313,9 +308,9 @@ pub static OBSERVABLES: &[Observable] = &[
             "analysis/stats",
             "analysis/subbox",
         ],
-        validate: |v| params::<msd::DiffusionParams>("diffusion", v).map(drop),
+        validate: |v| typed::<msd::DiffusionParams>("diffusion", v).map(drop),
         compute: |t, v| {
-            let p: msd::DiffusionParams = params("diffusion", v)?;
+            let p: msd::DiffusionParams = typed("diffusion", v)?;
             Ok(Tables::one(msd::diffusion(t, &p)?, jackknife(t)))
         },
     },
@@ -323,14 +318,14 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "van_hove",
         describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
         modules: &["analysis/van_hove", "analysis/lags", "analysis/stats"],
-        validate: |v| params::<van_hove::Params>("van_hove", v).map(drop),
+        validate: |v| typed::<van_hove::Params>("van_hove", v).map(drop),
         compute: |t, v| per_replica("van_hove", t, v, van_hove::compute),
     },
     Observable {
         name: "gr",
         describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
         modules: &["analysis/gr", "analysis/neighbours"],
-        validate: |v| params::<gr::Params>("gr", v).map(drop),
+        validate: |v| typed::<gr::Params>("gr", v).map(drop),
         compute: |t, v| per_replica("gr", t, v, gr::compute),
     },
     Observable {
@@ -342,7 +337,7 @@ pub static OBSERVABLES: &[Observable] = &[
             "analysis/neighbours",
             "analysis/lags",
         ],
-        validate: |v| params::<clusters::Params>("clusters", v).map(drop),
+        validate: |v| typed::<clusters::Params>("clusters", v).map(drop),
         compute: |t, v| {
             let b = concat("clusters", t, v, clusters::compute)?;
             // Nc is a particle count here (a bin centre in `cluster_sizes`).
@@ -359,9 +354,9 @@ pub static OBSERVABLES: &[Observable] = &[
             "analysis/neighbours",
             "analysis/lags",
         ],
-        validate: |v| params::<clusters::Params>("cluster_sizes", v).map(drop),
+        validate: |v| typed::<clusters::Params>("cluster_sizes", v).map(drop),
         compute: |t, v| {
-            let p: clusters::Params = params("cluster_sizes", v)?;
+            let p: clusters::Params = typed("cluster_sizes", v)?;
             let rows = concat("cluster_sizes", t, v, clusters::compute)?;
             let b = clusters::sizes_table(&rows, &p)?;
             // Clusters of one time origin, and of overlapping origins, are not
@@ -380,7 +375,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "mobility_snapshot",
         describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
         modules: &["analysis/clusters", "analysis/lags"],
-        validate: |v| params::<clusters::Params>("mobility_snapshot", v).map(drop),
+        validate: |v| typed::<clusters::Params>("mobility_snapshot", v).map(drop),
         compute: |t, v| {
             let b = concat("mobility_snapshot", t, v, clusters::compute_snapshot)?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
@@ -390,9 +385,9 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_velocity",
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
         modules: &["analysis/intruder", "sim/enskog", "sim/kicks"],
-        validate: |v| params::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
+        validate: |v| typed::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {
-            let p: intruder::VelocityParams = params("intruder_velocity", v)?;
+            let p: intruder::VelocityParams = typed("intruder_velocity", v)?;
             let b = intruder::velocity_table(t, &p)?;
             Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
         },
@@ -401,7 +396,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_path",
         describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
         modules: &["analysis/intruder"],
-        validate: |v| params::<intruder::VelocityParams>("intruder_path", v).map(drop),
+        validate: |v| typed::<intruder::VelocityParams>("intruder_path", v).map(drop),
         compute: |t, v| {
             let b = concat("intruder_path", t, v, intruder::compute_path)?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
@@ -411,9 +406,9 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_diffusion",
         describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
         modules: &["analysis/intruder"],
-        validate: |v| params::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
+        validate: |v| typed::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
         compute: |t, v| {
-            let p: intruder::DiffusionParams = params("intruder_diffusion", v)?;
+            let p: intruder::DiffusionParams = typed("intruder_diffusion", v)?;
             Ok(Tables::one(
                 intruder::diffusion_table(t, &p)?,
                 Errors::Rows { replicas: t.len() },
@@ -424,16 +419,16 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "momentum_profile",
         describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
         modules: &["analysis/intruder"],
-        validate: |v| params::<intruder::ProfileParams>("momentum_profile", v).map(drop),
+        validate: |v| typed::<intruder::ProfileParams>("momentum_profile", v).map(drop),
         compute: |t, v| per_replica("momentum_profile", t, v, intruder::compute_profile),
     },
     Observable {
         name: "velocity_field",
         describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
         modules: &["analysis/front"],
-        validate: |v| params::<front::FieldParams>("velocity_field", v).map(drop),
+        validate: |v| typed::<front::FieldParams>("velocity_field", v).map(drop),
         compute: |t, v| {
-            let p: front::FieldParams = params("velocity_field", v)?;
+            let p: front::FieldParams = typed("velocity_field", v)?;
             let (main, intruder) = front::velocity_field(t, &p)?;
             Ok(Tables {
                 main,
@@ -447,9 +442,9 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "front",
         describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
         modules: &["analysis/front", "analysis/intruder"],
-        validate: |v| params::<front::FrontParams>("front", v).map(drop),
+        validate: |v| typed::<front::FrontParams>("front", v).map(drop),
         compute: |t, v| {
-            let p: front::FrontParams = params("front", v)?;
+            let p: front::FrontParams = typed("front", v)?;
             let [main, positions, lines] = front::front(t, &p)?;
             Ok(Tables {
                 main,

@@ -18,7 +18,8 @@ use anyhow::Result;
 use super::canon::{canonical, diff_params, hash_fields};
 use super::graph::{Graph, Node};
 use super::progress::{self, Progress};
-use super::registry::{Artifact, Registry, StageCtx};
+use super::registry::Registry;
+use super::stage::{Artifact, StageCtx};
 use super::store::{Entry, Found, Store};
 
 /// How to run.
@@ -274,7 +275,13 @@ fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
 /// `tau09_table`); the consumer sees only the names its own figures gave it
 /// (and experiment names), so `from: tau_table` in fig23 never picks eps09's
 /// table up when fig4 is planned in the same run.
-pub(crate) fn artifact(store: &Store, consumer: &Node, node: &Node, e: &Entry) -> Artifact {
+pub(crate) fn artifact(
+    store: &Store,
+    reg: &Registry,
+    consumer: &Node,
+    node: &Node,
+    e: &Entry,
+) -> Artifact {
     let mine = |f: &Option<String>| {
         f.is_none()
             || consumer
@@ -290,7 +297,7 @@ pub(crate) fn artifact(store: &Store, consumer: &Node, node: &Node, e: &Entry) -
             .filter(|id| mine(&id.figure))
             .cloned()
             .collect(),
-        kind: node.kind.clone(),
+        kind: node.source_kind(reg),
         point: node.point.clone(),
         params: node.params.clone(),
         digest: e.digest.clone(),
@@ -308,7 +315,7 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     for &j in &node.inputs {
         let r = sh.results[j].lock().unwrap();
         match r.as_ref().and_then(|r| r.entry.as_ref()) {
-            Some(e) => inputs.push(artifact(sh.store, node, &sh.graph.nodes[j], e)),
+            Some(e) => inputs.push(artifact(sh.store, sh.reg, node, &sh.graph.nodes[j], e)),
             None => {
                 return StageResult {
                     outcome: Outcome::Skipped {
@@ -374,7 +381,7 @@ pub(crate) fn compute(
     node: &Node,
     key: String,
     inputs: &[Artifact],
-    sink: Option<super::registry::ProgressSink>,
+    sink: Option<super::stage::ProgressSink>,
 ) -> std::result::Result<Entry, (String, Vec<String>)> {
     let fingerprint = reg.fingerprint(&node.kind);
     let kind = match reg.get(&node.kind) {

@@ -14,38 +14,12 @@ use anyhow::Result;
 use serde_json::Value;
 use serde_saphyr::Spanned;
 
-use super::canon::{Point, canonical, derive_seed, hash_fields, point_label};
+use super::canon::{Point, canonical, derive_seed, hash_fields};
 use super::registry::Registry;
 use super::spec;
 use super::spec::{Catalogue, ExperimentSpec, PROFILES, PipelineSpec, SpecError, StageSpec};
-
-/// Which declared stage an instance is: a stage of a figure's pipeline at one
-/// point of its sweep, or one simulation of an experiment. Code that needs "the
-/// stage called `tau`" matches on these fields, never on the label text.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct StageId {
-    /// The figure whose pipeline declares the stage (`fig4`); `None` for an
-    /// experiment's simulations.
-    pub figure: Option<String>,
-    /// The stage's name in its pipeline (`tau`), or the experiment's name (`eps09`).
-    pub stage: String,
-    /// Grid and sweep values of the instance (empty for a single instance).
-    pub point: Point,
-}
-
-impl std::fmt::Display for StageId {
-    /// The readable label: `fig4/tau[phi=0.6]`, `fig4/taufit`, `eps09[phi=0.6,replica=0]`.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if let Some(fig) = &self.figure {
-            write!(f, "{fig}/")?;
-        }
-        write!(f, "{}", self.stage)?;
-        if !self.point.is_empty() {
-            write!(f, "[{}]", point_label(&self.point))?;
-        }
-        Ok(())
-    }
-}
+pub use super::stage::StageId;
+use super::stage::{PlannedInput, SourceKind};
 
 /// One stage instance.
 #[derive(Debug, Clone)]
@@ -73,6 +47,24 @@ pub struct Node {
 impl Node {
     pub fn label(&self) -> &str {
         &self.labels[0]
+    }
+
+    /// This node as an input of a stage being planned.
+    pub fn planned(&self, reg: &Registry) -> PlannedInput<'_> {
+        PlannedInput {
+            kind: self.source_kind(reg),
+            ids: &self.ids,
+            params: &self.params,
+            file: &self.origin.0,
+        }
+    }
+
+    /// Its kind as its consumers see it: the name and what its output holds.
+    pub fn source_kind(&self, reg: &Registry) -> SourceKind {
+        SourceKind {
+            name: self.kind.clone(),
+            holds: reg.holds(&self.kind),
+        }
     }
 }
 
@@ -485,8 +477,10 @@ impl Planner<'_> {
                     };
                     self.validate(&st.kind, &p).map_err(locate)?;
                     // What the stage asks of its planned inputs (lags long enough, ...).
-                    let upstream: Vec<&Node> =
-                        inputs.iter().map(|&n| &self.graph.nodes[n]).collect();
+                    let upstream: Vec<PlannedInput> = inputs
+                        .iter()
+                        .map(|&n| self.graph.nodes[n].planned(self.reg))
+                        .collect();
                     self.reg
                         .get(&st.kind)?
                         .check_inputs(&Value::Object(p.clone()), &upstream)

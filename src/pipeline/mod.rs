@@ -2,9 +2,11 @@
 //!
 //! - [`spec`]: the typed YAML specs (experiments, pipelines) and located errors.
 //! - [`graph`]: expansion of specs into one DAG of stage instances, shared nodes merged.
-//! - [`registry`]: the [`StageKind`] trait and the registry of kinds with their code
-//!   fingerprints; [`kinds`] the framework's own kinds (`table`, `compare`); `toy`
-//!   test-only kinds (unit tests and the `toy-kinds` feature). The library's kinds
+//! - [`stage`]: the [`StageKind`] trait and what a kind sees (its inputs when
+//!   planned and when run, its context, its output, the work it plans);
+//!   [`registry`]: the registry of kinds with their code fingerprints; [`kinds`]
+//!   the framework's own kind (`table`); `toy` test-only kinds (unit tests and
+//!   the `toy-kinds` feature). The library's kinds
 //!   are registered by whoever assembles the registry (`stages::registry()`): this
 //!   module imports nothing from `stages`.
 //! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
@@ -23,6 +25,7 @@ pub mod publish;
 pub mod registry;
 pub mod slurm;
 pub mod spec;
+pub mod stage;
 pub mod store;
 #[cfg(any(test, feature = "toy-kinds"))]
 pub mod toy;
@@ -34,8 +37,9 @@ use anyhow::{Result, bail};
 
 pub use exec::{Outcome, RunOptions, RunReport, State};
 pub use graph::Graph;
-pub use registry::{Artifact, Output, Registry, StageCtx, StageKind};
+pub use registry::Registry;
 pub use spec::{Catalogue, DEFAULT_PROFILE, SpecError};
+pub use stage::{Artifact, Output, StageCtx, StageKind};
 pub use store::{GcReport, Store, VerifyReport};
 
 /// Where specs, results and the store live.

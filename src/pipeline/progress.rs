@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
-use super::registry::ProgressSink;
+use super::stage::ProgressSink;
 
 /// Seconds between two plain lines about one running stage: `REPRO_HEARTBEAT_S`,
 /// default 30.

@@ -1,52 +1,19 @@
-//! Stage kinds: what a stage does, registered by name.
+//! The registry: the stage kinds ([`StageKind`]) the planner and the executors
+//! know, by name, with their code fingerprints; and the typed parameter decoder
+//! every kind (and every observable) reads its parameters with.
 //!
-//! A kind is a pure function of (its canonical parameters, its input artifacts, the
-//! seed): the cache relies on that. Each kind names the source modules that
-//! implement it; their build-time fingerprints are part of every stage key, so an
-//! edit to the simulator reruns simulations and an edit to a plot reruns only plots.
+//! The framework's own kinds are registered by [`Registry::framework`] (in
+//! [`super::kinds`], which builds on this file).
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 
-use super::canon::{ParamError, Point, hash_fields};
-use super::graph::{Node, StageId};
-
-/// One kind of stage (simulate, chi4, table, fit, plot, ...).
-pub trait StageKind: Send + Sync {
-    /// Name used in specs (`kind: chi4`).
-    fn name(&self) -> &str;
-    /// One line for `--help`-like listings.
-    fn describe(&self) -> &str {
-        ""
-    }
-    /// What one stage of this kind produces with these parameters, for
-    /// `results/ID/README.md` (a fit names its form and equation).
-    fn explain(&self, _params: &Value) -> String {
-        self.describe().to_string()
-    }
-    /// More lines for `repro kinds`: parameters, forms, an example.
-    fn details(&self) -> String {
-        String::new()
-    }
-    /// The source modules implementing this kind (folders or files under `src/`).
-    fn modules(&self) -> &[&str];
-    /// Check parameters before anything runs; the error says what is valid.
-    fn validate(&self, params: &Value) -> Result<()>;
-    /// Check at plan time what these parameters ask of the planned inputs (their
-    /// kinds and parameters), e.g. that an experiment's lags reach a requested
-    /// time; before anything runs, so `--dry-run` reports it too. A
-    /// [`ParamError`] is located at its key in the stage's YAML.
-    fn check_inputs(&self, _params: &Value, _inputs: &[&Node]) -> Result<()> {
-        Ok(())
-    }
-    /// Produce this stage's files from its parameters and inputs.
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output>;
-}
+use super::canon::{ParamError, hash_fields};
+use super::stage::{Holds, StageKind, Work};
 
 /// Deserialize a kind's parameters into a typed struct (use
 /// `#[serde(deny_unknown_fields)]` on it). The error is a [`ParamError`] naming the
@@ -101,111 +68,6 @@ pub fn param_keys(validate: impl Fn(&Value) -> Result<()>) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// The files a stage produced, named by extension (`parquet`, `svg`, `png`, ...).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Output {
-    pub files: BTreeMap<String, Vec<u8>>,
-    /// Measurements of the run (CPU seconds, speeds, memory): kept with the cache
-    /// entry and provenance, not part of the output digest.
-    pub side: Option<Value>,
-}
-
-impl Output {
-    /// An output of one file.
-    pub fn single(ext: &str, bytes: Vec<u8>) -> Self {
-        Output::default().with(ext, bytes)
-    }
-    /// Add one file.
-    pub fn with(mut self, ext: &str, bytes: Vec<u8>) -> Self {
-        self.files.insert(ext.to_string(), bytes);
-        self
-    }
-    /// Attach the side record.
-    pub fn with_side(mut self, side: Value) -> Self {
-        self.side = Some(side);
-        self
-    }
-}
-
-/// An upstream stage's result as seen by a downstream stage.
-#[derive(Debug, Clone)]
-pub struct Artifact {
-    /// Readable label of the producing stage (`eps09[phi=0.78,replica=0]`).
-    pub label: String,
-    /// Which declared stages produced it (several when figures share the stage).
-    pub ids: Vec<StageId>,
-    /// Kind of the producing stage.
-    pub kind: String,
-    /// Grid and sweep values of the producing stage (become table columns).
-    pub point: Point,
-    /// Canonical parameters of the producing stage.
-    pub params: Value,
-    /// Hash of all its files (what the downstream key depends on).
-    pub digest: String,
-    /// Its files: extension -> (blake3 hex, path in the store).
-    pub files: BTreeMap<String, (String, PathBuf)>,
-}
-
-impl Artifact {
-    /// Whether this input was produced by a stage named `stage` (a pipeline stage's
-    /// name or an experiment's name).
-    pub fn is_from(&self, stage: &str) -> bool {
-        self.ids.iter().any(|id| id.stage == stage)
-    }
-
-    /// Bytes of the file with extension `ext`.
-    pub fn read(&self, ext: &str) -> Result<Vec<u8>> {
-        let (_, path) = self.files.get(ext).with_context(|| {
-            format!(
-                "input {} has no '{ext}' file (it has: {})",
-                self.label,
-                self.files.keys().cloned().collect::<Vec<_>>().join(", ")
-            )
-        })?;
-        std::fs::read(path).with_context(|| format!("reading {} of {}", path.display(), self.label))
-    }
-}
-
-/// Where a running stage reports progress; `None` when not drawing bars.
-pub type ProgressSink = Arc<dyn Fn(f64, f64, &str) + Send + Sync>;
-
-/// What a running stage gets besides its parameters and inputs.
-pub struct StageCtx {
-    /// Seed of this stage: the `seed` parameter when present (simulations: derived
-    /// from master seed, point and replica), else a hash of the stage recipe.
-    pub seed: u64,
-    /// Readable label of this stage.
-    pub label: String,
-    log: Mutex<Vec<String>>,
-    progress: Option<ProgressSink>,
-}
-
-impl StageCtx {
-    pub fn new(seed: u64, label: String, progress: Option<ProgressSink>) -> Self {
-        StageCtx {
-            seed,
-            label,
-            log: Mutex::new(Vec::new()),
-            progress,
-        }
-    }
-    /// Append a line to this stage's log (kept with the cache entry and shown on failure).
-    pub fn log(&self, line: impl Into<String>) {
-        self.log.lock().unwrap().push(line.into());
-    }
-    /// Report progress: `done` out of `total` (e.g. simulated time), with a message
-    /// such as events per second. Cheap when no bar is drawn.
-    pub fn progress(&self, done: f64, total: f64, message: &str) {
-        if let Some(p) = &self.progress {
-            p(done, total, message);
-        }
-    }
-    /// The log lines so far.
-    pub fn take_log(&self) -> Vec<String> {
-        std::mem::take(&mut *self.log.lock().unwrap())
-    }
-}
-
 struct Registered {
     kind: Arc<dyn StageKind>,
     fingerprint: String,
@@ -256,16 +118,6 @@ impl Registry {
         Registry::default()
     }
 
-    /// The framework's own kinds (`table`, `compare`). The kinds of the library
-    /// (simulate, analyses, fits, plots) are added by whoever assembles the
-    /// registry (`stages::registry()`): the framework does not know them.
-    pub fn framework() -> Self {
-        let mut r = Registry::new();
-        r.register(super::kinds::Table);
-        r.register(super::kinds::Compare);
-        r
-    }
-
     /// Add a kind; its fingerprint comes from its modules. Replaces a kind of the
     /// same name. Panics when the kind names a module that does not exist under
     /// `src/` (a programming error every test that builds the registry catches).
@@ -311,6 +163,19 @@ impl Registry {
             .unwrap_or("")
     }
 
+    /// What the output of kind `name` holds ([`Holds::Results`] if unknown).
+    pub fn holds(&self, name: &str) -> Holds {
+        self.kinds
+            .get(name)
+            .map_or(Holds::default(), |r| r.kind.holds())
+    }
+
+    /// What a stage of kind `name` with parameters `params` is planned to do
+    /// (`None` if the kind plans nothing or is unknown).
+    pub fn work(&self, name: &str, params: &Value) -> Option<Work> {
+        self.kinds.get(name)?.kind.plan(params)
+    }
+
     /// Names of all registered kinds.
     pub fn names(&self) -> Vec<String> {
         self.kinds.keys().cloned().collect()
@@ -320,6 +185,7 @@ impl Registry {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::stage::{Artifact, Output, StageCtx};
 
     #[test]
     fn an_unknown_module_is_an_error_not_a_constant() {

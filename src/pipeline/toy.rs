@@ -13,7 +13,8 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::canon::param_error;
-use super::registry::{Artifact, Output, Registry, StageCtx, StageKind, typed};
+use super::registry::{Registry, typed};
+use super::stage::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, read_parquet_bytes, to_parquet_bytes};
 
 /// Register every toy kind.

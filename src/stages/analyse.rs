@@ -22,7 +22,7 @@ use crate::analysis::lags;
 use crate::analysis::observables::{OBSERVABLES, Observable};
 use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
 use crate::pipeline::canon::param_error;
-use crate::pipeline::graph::Node;
+use crate::pipeline::stage::{Holds, PlannedInput};
 use crate::pipeline::{Artifact, Output, Registry, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
 use crate::traj::Trajectory;
@@ -110,7 +110,7 @@ fn measured_samples(name: &str, u: &TimeUnit, inputs: &[Artifact], unit: f64) ->
 fn replica_unit(inputs: &[Artifact]) -> f64 {
     let mut digests: Vec<&str> = inputs
         .iter()
-        .filter(|a| a.kind == "simulate")
+        .filter(|a| a.kind.holds == Holds::Trajectory)
         .map(|a| a.digest.as_str())
         .collect();
     digests.sort_unstable();
@@ -170,19 +170,19 @@ fn with_scaled_t(b: RecordBatch, unit: f64, column: &str) -> Result<RecordBatch>
 /// must lie within the lags that each gathered simulation's run-length rule
 /// records, in units of its estimate tau_guess (the measured time is not known
 /// before the run; the run-time refusal against it stays the last guard).
-fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[&Node]) -> Result<()> {
+fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[PlannedInput]) -> Result<()> {
     let Some(want) = at.iter().copied().reduce(f64::max) else {
         return Ok(());
     };
     let ruled = inputs
         .iter()
-        .filter(|n| n.kind == "simulate" && n.params.get("lag_max_tau").is_some());
+        .filter(|n| n.kind.holds == Holds::Trajectory && n.params.get("lag_max_tau").is_some());
     for n in ruled {
         let (rule, cfg) = super::simulate::config(&n.params)?;
         let reach = cfg.schedule.lags.last().copied().unwrap_or(0.0) / rule.tau_guess.at(cfg.phi);
         if want > reach * (1.0 + 1e-9) {
             let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());
-            let file = n.origin.0.display();
+            let file = n.file.display();
             return Err(param_error(
                 &["at"],
                 format!(
@@ -341,7 +341,7 @@ impl StageKind for Analyse {
         }
         (self.obs.validate)(&obs)
     }
-    fn check_inputs(&self, params: &Value, inputs: &[&Node]) -> Result<()> {
+    fn check_inputs(&self, params: &Value, inputs: &[PlannedInput]) -> Result<()> {
         let s = split(self.obs.name, params)?;
         let (Some(at), Some(u)) = (&s.at, &s.unit) else {
             return Ok(());

@@ -1,13 +1,15 @@
 //! The real stage kinds: thin adapters from the pipeline framework to the library.
 //!
 //! - [`simulate`]: one seeded simulation (one replica at one packing fraction) with
-//!   run lengths set in units of an estimated tau_alpha(phi).
+//!   run lengths set in units of an estimated tau_alpha(phi); [`simulate_cost`]
+//!   what one is planned to cost.
 //! - [`analyse`]: every observable of `src/analysis` (Q(t), tau_alpha, aging, chi4,
 //!   S4, MSD, van Hove, g_ab, clusters, intruder, ...) as a stage kind of its name,
 //!   pooling the gathered replicas.
 //! - [`fits`]: fits of a table column (power law, VFT, ...) and the finite-size
 //!   scaling collapse.
 //! - [`join`]: two tables joined by key columns, with derived columns.
+//! - [`compare`]: fitted numbers against the paper's values, with a verdict.
 //! - [`plot`]: a figure drawn from tables.
 //! - [`synthetic`]: synthetic data with known truth (the fits' stability map).
 //! - [`compression`]: how far the initial compression gets (stability maps).
@@ -17,19 +19,21 @@
 //! adapter never reruns a simulation.
 
 pub mod analyse;
+pub mod compare;
 pub mod compression;
 pub mod fits;
 pub mod join;
 pub mod plot;
 pub mod run_summary;
 pub mod simulate;
+pub mod simulate_cost;
 pub mod synthetic;
 pub mod tables;
 
 use crate::pipeline::Registry;
 
-/// The registry the binary runs with: the framework's kinds (`table`, `compare`)
-/// and every kind of the library.
+/// The registry the binary runs with: the framework's kind (`table`) and every
+/// kind of the library.
 pub fn registry() -> Registry {
     let mut r = Registry::framework();
     register(&mut r);
@@ -43,6 +47,7 @@ pub fn register(r: &mut Registry) {
     r.register(fits::Fit);
     r.register(fits::Collapse);
     r.register(join::Join);
+    r.register(compare::Compare);
     r.register(plot::Plot);
     r.register(synthetic::SyntheticCoverage);
     r.register(synthetic::SyntheticDivergence);

@@ -10,6 +10,7 @@ use super::simulate;
 use super::tables::trajectories;
 use crate::analysis::run_summary;
 use crate::pipeline::registry::typed;
+use crate::pipeline::stage::Holds;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
 
@@ -58,7 +59,10 @@ impl StageKind for RunSummary {
     }
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: Params = typed("run_summary", params)?;
-        let sims: Vec<&Artifact> = inputs.iter().filter(|a| a.kind == "simulate").collect();
+        let sims: Vec<&Artifact> = inputs
+            .iter()
+            .filter(|a| a.kind.holds == Holds::Trajectory)
+            .collect();
         let [sim] = sims.as_slice() else {
             bail!(
                 "run_summary: needs exactly one simulation (map: EXPERIMENT), got {}",

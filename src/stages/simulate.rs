@@ -20,8 +20,10 @@ use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
+use super::simulate_cost::planned_work;
 use crate::pipeline::canon::{ParamError, param_error};
 use crate::pipeline::registry::typed;
+use crate::pipeline::stage::{Holds, Work};
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::sim::{self, SimConfig};
 use crate::traj::Schedule;
@@ -247,6 +249,12 @@ impl StageKind for Simulate {
     }
     fn validate(&self, params: &Value) -> Result<()> {
         config(params).map(|_| ())
+    }
+    fn holds(&self) -> Holds {
+        Holds::Trajectory
+    }
+    fn plan(&self, params: &Value) -> Option<Work> {
+        config(params).ok().map(|(_, cfg)| planned_work(&cfg))
     }
     fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
         let (_, cfg) = config(params)?;

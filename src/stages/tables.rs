@@ -8,11 +8,15 @@ use arrow_array::{Array, Float64Array, Int64Array, RecordBatch, StringArray};
 use serde::Deserialize;
 
 use crate::pipeline::Artifact;
+use crate::pipeline::stage::Holds;
 use crate::traj::Trajectory;
 
 /// Every input that is a simulated trajectory, decoded.
 pub fn trajectories(kind: &str, inputs: &[Artifact]) -> Result<Vec<Trajectory>> {
-    let sims: Vec<&Artifact> = inputs.iter().filter(|a| a.kind == "simulate").collect();
+    let sims: Vec<&Artifact> = inputs
+        .iter()
+        .filter(|a| a.kind.holds == Holds::Trajectory)
+        .collect();
     if sims.is_empty() {
         bail!(
             "{kind}: no simulated trajectory among the inputs ({}); gather a `simulate` experiment",

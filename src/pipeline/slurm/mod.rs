@@ -31,7 +31,7 @@ use super::registry::Registry;
 use super::spec::Catalogue;
 use super::store::{Entry, Found, Store};
 use super::{FigureRun, Workspace, needed_nodes, publish};
-use plan::{Estimator, Resources, Settings};
+use plan::{Resources, Settings};
 use state::{JobRecord, JobState};
 
 /// How to run on Slurm.
@@ -78,7 +78,6 @@ pub fn run_figures(
     ids: &[String],
     profile: &str,
     opts: &SlurmOptions,
-    est: Estimator,
 ) -> Result<FigureRun> {
     let ws = Workspace {
         root: absolute(&ws.root)?,
@@ -97,7 +96,6 @@ pub fn run_figures(
         store: &store,
         opts,
         settings: &settings,
-        est,
     }
     .run(&nodes)?;
     for fig in &graph.figures {
@@ -115,7 +113,6 @@ struct Driver<'a> {
     store: &'a Store,
     opts: &'a SlurmOptions,
     settings: &'a [Settings],
-    est: Estimator<'a>,
 }
 
 fn now() -> u64 {
@@ -323,7 +320,9 @@ impl Driver<'_> {
                 .map(|&k| {
                     let (i, _, inputs) = &ready[k];
                     plan::resources(
-                        (self.est)(&g.nodes[*i]).as_ref(),
+                        self.reg
+                            .work(&g.nodes[*i].kind, &g.nodes[*i].params)
+                            .as_ref(),
                         input_bytes(self.store, inputs),
                         settings,
                     )
@@ -462,7 +461,7 @@ pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
                 store_dir.display()
             )
         })?;
-        inputs.push(exec::artifact(&store, node, &graph.nodes[j], &e));
+        inputs.push(exec::artifact(&store, reg, node, &graph.nodes[j], &e));
     }
     let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
     let mine = stage_key(
@@ -574,7 +573,6 @@ pub fn dry_run(
     ids: &[String],
     profile: &str,
     force: &[String],
-    est: Estimator,
 ) -> Result<String> {
     let cat = Catalogue::load(&ws.root)?;
     let (graph, st) = super::figure_status(ws, reg, ids, profile, force)?;
@@ -582,6 +580,7 @@ pub fn dry_run(
     let store = Store::open(&ws.store)?;
     let mut groups: BTreeMap<(String, String), Vec<(usize, Resources)>> = BTreeMap::new();
     let mut cached = 0;
+    let work = |n: &Node| reg.work(&n.kind, &n.params);
     for (i, s) in &st {
         let node = &graph.nodes[*i];
         let key = match s {
@@ -603,11 +602,11 @@ pub fn dry_run(
                 };
                 match d {
                     Some(e) => input_bytes(&store, std::slice::from_ref(&e)),
-                    None => (est)(&graph.nodes[j]).map_or(0, |w| w.n * w.frames * 16),
+                    None => work(&graph.nodes[j]).map_or(0, |w| w.n * w.frames * 16),
                 }
             })
             .sum();
-        let r = plan::resources((est)(node).as_ref(), bytes, &settings[*i]);
+        let r = plan::resources(work(node).as_ref(), bytes, &settings[*i]);
         let s = serde_json::to_string(&settings[*i].sbatch_args())?;
         groups.entry((key, s)).or_default().push((*i, r));
     }
@@ -624,7 +623,7 @@ pub fn dry_run(
             sargs
         );
         for (i, r) in members {
-            let w = (est)(&graph.nodes[*i]);
+            let w = work(&graph.nodes[*i]);
             let work = w.map_or(String::new(), |w| {
                 format!("N = {}, {:.3e} collisions, ", w.n, w.collisions)
             });

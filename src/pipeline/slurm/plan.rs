@@ -7,22 +7,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::super::graph::{Graph, Node};
+use super::super::graph::Graph;
 use super::super::spec::{Catalogue, SlurmSpec, SpecError};
-
-/// What one simulation is planned to do (from its parameters, before it runs).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Work {
-    /// Disks.
-    pub n: u64,
-    /// Planned collisions (compression, relaxation and production).
-    pub collisions: f64,
-    /// Frames the trajectory keeps in memory until it is written.
-    pub frames: u64,
-}
-
-/// Estimates the work of a stage; `None` for stages that are not simulations.
-pub type Estimator<'a> = &'a (dyn Fn(&Node) -> Option<Work> + Sync);
+use super::super::stage::Work;
 
 /// Engine memory per disk, measured at N = 10^4 to 4 x 10^6: 195-198 bytes
 /// (docs/measurements.md, 2026-11-22).

@@ -1,0 +1,248 @@
+//! What a stage kind is and what it sees: the [`StageKind`] trait, a stage's
+//! [`Output`], its inputs as [`Artifact`]s when it runs and as [`PlannedInput`]s
+//! when it is planned, the [`StageCtx`] it runs in, and the [`Work`] a kind plans.
+//!
+//! A kind is a pure function of (its canonical parameters, its input artifacts, the
+//! seed): the cache relies on that. Each kind names the source modules that
+//! implement it; their build-time fingerprints are part of every stage key, so an
+//! edit to the simulator reruns simulations and an edit to a plot reruns only plots.
+//!
+//! This file depends on nothing else of the framework but [`super::canon`]: the
+//! graph and the registry build on it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use anyhow::{Context, Result};
+use serde_json::Value;
+
+use super::canon::{Point, point_label};
+
+/// One kind of stage (simulate, chi4, table, fit, plot, ...).
+pub trait StageKind: Send + Sync {
+    /// Name used in specs (`kind: chi4`).
+    fn name(&self) -> &str;
+    /// One line for `--help`-like listings.
+    fn describe(&self) -> &str {
+        ""
+    }
+    /// What one stage of this kind produces with these parameters, for
+    /// `results/ID/README.md` (a fit names its form and equation).
+    fn explain(&self, _params: &Value) -> String {
+        self.describe().to_string()
+    }
+    /// More lines for `repro kinds`: parameters, forms, an example.
+    fn details(&self) -> String {
+        String::new()
+    }
+    /// The source modules implementing this kind (folders or files under `src/`).
+    fn modules(&self) -> &[&str];
+    /// Check parameters before anything runs; the error says what is valid.
+    fn validate(&self, params: &Value) -> Result<()>;
+    /// Check at plan time what these parameters ask of the planned inputs (their
+    /// kinds and parameters), e.g. that an experiment's lags reach a requested
+    /// time; before anything runs, so `--dry-run` reports it too. A
+    /// [`ParamError`](super::canon::ParamError) is located at its key in the stage's YAML.
+    fn check_inputs(&self, _params: &Value, _inputs: &[PlannedInput]) -> Result<()> {
+        Ok(())
+    }
+    /// What this kind's output holds, for consumers that need a kind of content.
+    fn holds(&self) -> Holds {
+        Holds::Results
+    }
+    /// What one stage with these (valid) parameters is planned to do, for the
+    /// executors' resource requests; `None` for a stage too small to plan.
+    fn plan(&self, _params: &Value) -> Option<Work> {
+        None
+    }
+    /// Produce this stage's files from its parameters and inputs.
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output>;
+}
+
+/// What a kind's output holds, declared by the kind ([`StageKind::holds`]) so that
+/// consumers look for a kind of content, never for a kind by its name.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Holds {
+    /// Tables, figures or anything else a consumer picks by the stage that made it.
+    #[default]
+    Results,
+    /// A simulated trajectory (`parquet`) with its run summary (`json`) and the
+    /// run's parameters.
+    Trajectory,
+}
+
+/// What one stage is planned to do (from its parameters, before it runs): what
+/// the executors size its resources by (Slurm's memory and time limit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Work {
+    /// Disks.
+    pub n: u64,
+    /// Planned collisions (compression, relaxation and production).
+    pub collisions: f64,
+    /// Frames the trajectory keeps in memory until it is written.
+    pub frames: u64,
+}
+
+/// Which declared stage an instance is: a stage of a figure's pipeline at one
+/// point of its sweep, or one simulation of an experiment. Code that needs "the
+/// stage called `tau`" matches on these fields, never on the label text.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StageId {
+    /// The figure whose pipeline declares the stage (`fig4`); `None` for an
+    /// experiment's simulations.
+    pub figure: Option<String>,
+    /// The stage's name in its pipeline (`tau`), or the experiment's name (`eps09`).
+    pub stage: String,
+    /// Grid and sweep values of the instance (empty for a single instance).
+    pub point: Point,
+}
+
+impl std::fmt::Display for StageId {
+    /// The readable label: `fig4/tau[phi=0.6]`, `fig4/taufit`, `eps09[phi=0.6,replica=0]`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(fig) = &self.figure {
+            write!(f, "{fig}/")?;
+        }
+        write!(f, "{}", self.stage)?;
+        if !self.point.is_empty() {
+            write!(f, "[{}]", point_label(&self.point))?;
+        }
+        Ok(())
+    }
+}
+
+/// The kind of the stage an input comes from: its name (for messages) and what
+/// its output holds (asked of the registry when the input is handed over).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SourceKind {
+    pub name: String,
+    pub holds: Holds,
+}
+
+impl From<&str> for SourceKind {
+    /// A kind that declares no particular content ([`Holds::Results`]).
+    fn from(name: &str) -> Self {
+        SourceKind {
+            name: name.to_string(),
+            holds: Holds::default(),
+        }
+    }
+}
+
+/// A planned input stage as a kind sees it at plan time ([`StageKind::check_inputs`]).
+#[derive(Debug, Clone)]
+pub struct PlannedInput<'a> {
+    pub kind: SourceKind,
+    /// Which declared stages it is.
+    pub ids: &'a [StageId],
+    /// Its canonical parameters.
+    pub params: &'a Value,
+    /// The spec file that declares it.
+    pub file: &'a Path,
+}
+
+/// The files a stage produced, named by extension (`parquet`, `svg`, `png`, ...).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Output {
+    pub files: BTreeMap<String, Vec<u8>>,
+    /// Measurements of the run (CPU seconds, speeds, memory): kept with the cache
+    /// entry and provenance, not part of the output digest.
+    pub side: Option<Value>,
+}
+
+impl Output {
+    /// An output of one file.
+    pub fn single(ext: &str, bytes: Vec<u8>) -> Self {
+        Output::default().with(ext, bytes)
+    }
+    /// Add one file.
+    pub fn with(mut self, ext: &str, bytes: Vec<u8>) -> Self {
+        self.files.insert(ext.to_string(), bytes);
+        self
+    }
+    /// Attach the side record.
+    pub fn with_side(mut self, side: Value) -> Self {
+        self.side = Some(side);
+        self
+    }
+}
+
+/// An upstream stage's result as seen by a downstream stage.
+#[derive(Debug, Clone)]
+pub struct Artifact {
+    /// Readable label of the producing stage (`eps09[phi=0.78,replica=0]`).
+    pub label: String,
+    /// Which declared stages produced it (several when figures share the stage).
+    pub ids: Vec<StageId>,
+    /// Kind of the producing stage.
+    pub kind: SourceKind,
+    /// Grid and sweep values of the producing stage (become table columns).
+    pub point: Point,
+    /// Canonical parameters of the producing stage.
+    pub params: Value,
+    /// Hash of all its files (what the downstream key depends on).
+    pub digest: String,
+    /// Its files: extension -> (blake3 hex, path in the store).
+    pub files: BTreeMap<String, (String, PathBuf)>,
+}
+
+impl Artifact {
+    /// Whether this input was produced by a stage named `stage` (a pipeline stage's
+    /// name or an experiment's name).
+    pub fn is_from(&self, stage: &str) -> bool {
+        self.ids.iter().any(|id| id.stage == stage)
+    }
+
+    /// Bytes of the file with extension `ext`.
+    pub fn read(&self, ext: &str) -> Result<Vec<u8>> {
+        let (_, path) = self.files.get(ext).with_context(|| {
+            format!(
+                "input {} has no '{ext}' file (it has: {})",
+                self.label,
+                self.files.keys().cloned().collect::<Vec<_>>().join(", ")
+            )
+        })?;
+        std::fs::read(path).with_context(|| format!("reading {} of {}", path.display(), self.label))
+    }
+}
+
+/// Where a running stage reports progress; `None` when not drawing bars.
+pub type ProgressSink = Arc<dyn Fn(f64, f64, &str) + Send + Sync>;
+
+/// What a running stage gets besides its parameters and inputs.
+pub struct StageCtx {
+    /// Seed of this stage: the `seed` parameter when present (simulations: derived
+    /// from master seed, point and replica), else a hash of the stage recipe.
+    pub seed: u64,
+    /// Readable label of this stage.
+    pub label: String,
+    log: Mutex<Vec<String>>,
+    progress: Option<ProgressSink>,
+}
+
+impl StageCtx {
+    pub fn new(seed: u64, label: String, progress: Option<ProgressSink>) -> Self {
+        StageCtx {
+            seed,
+            label,
+            log: Mutex::new(Vec::new()),
+            progress,
+        }
+    }
+    /// Append a line to this stage's log (kept with the cache entry and shown on failure).
+    pub fn log(&self, line: impl Into<String>) {
+        self.log.lock().unwrap().push(line.into());
+    }
+    /// Report progress: `done` out of `total` (e.g. simulated time), with a message
+    /// such as events per second. Cheap when no bar is drawn.
+    pub fn progress(&self, done: f64, total: f64, message: &str) {
+        if let Some(p) = &self.progress {
+            p(done, total, message);
+        }
+    }
+    /// The log lines so far.
+    pub fn take_log(&self) -> Vec<String> {
+        std::mem::take(&mut *self.log.lock().unwrap())
+    }
+}

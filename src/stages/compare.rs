@@ -1,0 +1,200 @@
+//! `compare`: our fitted numbers against the paper's, with a verdict each.
+
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray};
+use serde::Deserialize;
+use serde_json::Value;
+
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::table::{read_parquet_bytes, to_parquet_bytes};
+
+/// `compare`: one row per paper value: quantity, ours, ours_err, paper, tolerance,
+/// verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
+/// says its data cannot support the number, `missing`) and the reason.
+pub struct Compare;
+
+/// One number from the paper to check.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PaperValue {
+    quantity: String,
+    value: f64,
+    /// Largest accepted |ours - paper|.
+    tolerance: f64,
+    /// A qualitative claim instead of a number: `above` (the paper states the
+    /// quantity exceeds `value`; agree when ours > value + tolerance) or `below`.
+    #[serde(default)]
+    claim: Option<Claim>,
+    /// With `claim`: compare with this other quantity of ours instead of `value`
+    /// (e.g. a tail length that grows with phi: x0 at 0.78 above x0 at 0.60).
+    #[serde(default)]
+    than: Option<String>,
+}
+
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum Claim {
+    Above,
+    Below,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CompareParams {
+    paper: Vec<PaperValue>,
+    /// Why this profile cannot reach a paper value (quantity -> explanation), set
+    /// per profile in the spec. A disagreeing quantity listed here gets the verdict
+    /// `out_of_reach` and the explanation in `reason`, so a small run says honestly
+    /// that it is too small rather than that the physics is wrong.
+    #[serde(default)]
+    out_of_reach: std::collections::BTreeMap<String, String>,
+}
+
+/// A column of `b` as f64 or strings, with a clear error.
+fn f64_col<'a>(b: &'a RecordBatch, name: &str, label: &str) -> Result<&'a Float64Array> {
+    b.column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+        .with_context(|| format!("input {label} has no float column '{name}' (fit tables need quantity, value, error)"))
+}
+
+fn str_col<'a>(b: &'a RecordBatch, name: &str, label: &str) -> Result<&'a StringArray> {
+    b.column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<StringArray>())
+        .with_context(|| format!("input {label} has no string column '{name}' (fit tables need quantity, value, error)"))
+}
+
+impl StageKind for Compare {
+    fn name(&self) -> &str {
+        "compare"
+    }
+    fn describe(&self) -> &str {
+        "compare fitted quantities (tables quantity/value/error) with the paper's values"
+    }
+    fn modules(&self) -> &[&str] {
+        &["table", "stages/compare"]
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: CompareParams = typed("compare", params)?;
+        for q in p.out_of_reach.keys() {
+            if !p.paper.iter().any(|v| &v.quantity == q) {
+                bail!("compare: out_of_reach names '{q}', which is not one of the paper values");
+            }
+        }
+        for v in &p.paper {
+            if v.than.is_some() && v.claim.is_none() {
+                bail!(
+                    "compare: '{}' names `than` without a `claim` (above or below)",
+                    v.quantity
+                );
+            }
+            if !(v.tolerance >= 0.0 && v.tolerance.is_finite()) {
+                bail!(
+                    "compare: tolerance of '{}' must be a finite number >= 0, got {}",
+                    v.quantity,
+                    v.tolerance
+                );
+            }
+        }
+        Ok(())
+    }
+    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: CompareParams = typed("compare", params)?;
+        // (quantity, value, error, note); a note saying `unreliable` (a fit that
+        // ran but whose numbers its data cannot support) makes the verdict.
+        let mut ours: Vec<(String, f64, f64, String)> = Vec::new();
+        for a in inputs {
+            for b in read_parquet_bytes(a.read("parquet")?)?.0 {
+                let (q, v, e) = (
+                    str_col(&b, "quantity", &a.label)?,
+                    f64_col(&b, "value", &a.label)?,
+                    f64_col(&b, "error", &a.label)?,
+                );
+                let note = str_col(&b, "note", &a.label).ok();
+                for r in 0..b.num_rows() {
+                    let n = note.map_or(String::new(), |n| n.value(r).to_string());
+                    ours.push((q.value(r).to_string(), v.value(r), e.value(r), n));
+                }
+            }
+        }
+        let (mut q, mut o, mut oe, mut pv, mut tol, mut verdict, mut reason) =
+            (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        for pval in &p.paper {
+            let found = ours.iter().find(|(name, ..)| *name == pval.quantity);
+            let (v, e, ver, why) = match found {
+                None => (
+                    f64::NAN,
+                    f64::NAN,
+                    "missing",
+                    format!("no input reports '{}'", pval.quantity),
+                ),
+                Some((_, v, e, note)) if note.contains("unreliable") => {
+                    let why = match p.out_of_reach.get(&pval.quantity) {
+                        Some(reach) => format!("{note}; {reach}"),
+                        None => note.clone(),
+                    };
+                    (*v, *e, "unreliable", why)
+                }
+                Some(&(_, v, e, _)) => {
+                    let d = (v - pval.value).abs();
+                    if let Some(c) = pval.claim {
+                        let (bound, name) = match &pval.than {
+                            Some(q) => (
+                                ours.iter().find(|o| &o.0 == q).map_or(f64::NAN, |o| o.1),
+                                q.clone(),
+                            ),
+                            None => (pval.value, pval.value.to_string()),
+                        };
+                        let (ok, op) = match c {
+                            Claim::Above => (v > bound + pval.tolerance, ">"),
+                            Claim::Below => (v < bound - pval.tolerance, "<"),
+                        };
+                        let why = format!(
+                            "paper states {op} {name} (margin {}); ours {v} against {bound}",
+                            pval.tolerance
+                        );
+                        match (ok, p.out_of_reach.get(&pval.quantity)) {
+                            (true, _) => (v, e, "agree", why),
+                            (false, Some(r)) => (v, e, "out_of_reach", format!("{r}; {why}")),
+                            (false, None) => (v, e, "disagree", why),
+                        }
+                    } else if d <= pval.tolerance {
+                        (
+                            v,
+                            e,
+                            "agree",
+                            format!("|{v} - {}| = {d:.3e} <= {}", pval.value, pval.tolerance),
+                        )
+                    } else {
+                        let miss = format!("|{v} - {}| = {d:.3e} > {}", pval.value, pval.tolerance);
+                        match p.out_of_reach.get(&pval.quantity) {
+                            Some(why) => (v, e, "out_of_reach", format!("{why}; {miss}")),
+                            None => (v, e, "disagree", miss),
+                        }
+                    }
+                }
+            };
+            q.push(pval.quantity.clone());
+            o.push(v);
+            oe.push(e);
+            // A claim against another quantity shows that quantity as the paper's bound.
+            let other = pval.than.as_ref().map(|q| ours.iter().find(|o| &o.0 == q));
+            pv.push(other.map_or(pval.value, |o| o.map_or(f64::NAN, |o| o.1)));
+            tol.push(pval.tolerance);
+            verdict.push(ver.to_string());
+            reason.push(why);
+        }
+        let b = RecordBatch::try_from_iter([
+            ("quantity", Arc::new(StringArray::from(q)) as ArrayRef),
+            ("ours", Arc::new(Float64Array::from(o))),
+            ("ours_err", Arc::new(Float64Array::from(oe))),
+            ("paper", Arc::new(Float64Array::from(pv))),
+            ("tolerance", Arc::new(Float64Array::from(tol))),
+            ("verdict", Arc::new(StringArray::from(verdict))),
+            ("reason", Arc::new(StringArray::from(reason))),
+        ])?;
+        Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}
