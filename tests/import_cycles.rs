@@ -307,5 +307,7 @@ fn a_cycle_is_found_and_named() {
         Some(vec!["p".into()])
     );
     let code = non_test_code("use super::g;\n#[cfg(test)]\nmod tests {\n    use super::x;\n}\n");
-    assert_eq!(paths(&code), [path("super::g")]);
+    let mut found = paths(&code);
+    found.dedup();
+    assert_eq!(found, [path("super::g")]);
 }
