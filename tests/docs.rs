@@ -1,5 +1,7 @@
 //! The documentation agrees with itself and with the repository.
 //!
+//! - The README lists every subcommand of `repro --help`, and every `repro X`
+//!   a doc shows as code is a subcommand.
 //! - Every link of README.md and docs/*.md resolves to a file of the repository,
 //!   no doc points outside it, and every source path a doc names (`src/...`)
 //!   exists, so a moved module shows up as a doc to update.
@@ -16,6 +18,7 @@
 use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 const REPORT: &str = "docs/report-ci.md";
 const DATED_LOG: &str = "docs/measurements.md";
@@ -129,6 +132,86 @@ fn every_source_path_a_doc_names_exists() {
         missing.is_empty(),
         "source paths named in docs that do not exist:\n{}",
         missing.join("\n")
+    );
+}
+
+/// The subcommands `repro --help` lists (without `help`), and the hidden one the
+/// Slurm jobs run.
+fn subcommands() -> (Vec<String>, Vec<String>) {
+    let out = Command::new(env!("CARGO_BIN_EXE_repro"))
+        .arg("--help")
+        .output()
+        .expect("repro --help");
+    let help = String::from_utf8(out.stdout).expect("utf-8 help");
+    let listed = help
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .filter(|l| l.starts_with("  ") && !l.starts_with("   "))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|c| *c != "help")
+        .map(str::to_string)
+        .collect();
+    (listed, vec!["worker".to_string()])
+}
+
+/// The words after `repro ` in the code of `text`: backtick spans and indented lines.
+fn commands_shown(text: &str) -> Vec<(usize, String)> {
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let code: Vec<&str> = if line.starts_with("    ") {
+            vec![line]
+        } else {
+            line.split('`').skip(1).step_by(2).collect()
+        };
+        for span in code {
+            for (i, _) in span.match_indices("repro ") {
+                if span[..i]
+                    .chars()
+                    .next_back()
+                    .is_some_and(|c| c.is_ascii_alphanumeric() || matches!(c, '/' | '-' | '_'))
+                {
+                    continue;
+                }
+                let word: String = span[i + 6..]
+                    .chars()
+                    .take_while(|c| c.is_ascii_lowercase())
+                    .collect();
+                if !word.is_empty() {
+                    out.push((n + 1, word));
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_readme_lists_every_subcommand_and_docs_use_no_other() {
+    let (listed, hidden) = subcommands();
+    assert!(listed.len() >= 10, "repro --help lists {listed:?}");
+    let readme = fs::read_to_string(root().join("README.md")).expect("README.md");
+    let unlisted: Vec<&String> = listed
+        .iter()
+        .filter(|c| !readme.contains(&format!("`{c}")))
+        .collect();
+    assert!(unlisted.is_empty(), "README.md does not list: {unlisted:?}");
+    let mut unknown = Vec::new();
+    for (path, text) in docs() {
+        if path == DATED_LOG {
+            continue;
+        }
+        for (line, word) in commands_shown(&text) {
+            if !listed.contains(&word) && !hidden.contains(&word) {
+                unknown.push(format!("{path}:{line}: repro {word}"));
+            }
+        }
+    }
+    assert!(
+        unknown.is_empty(),
+        "docs show commands repro does not have:\n{}",
+        unknown.join("\n")
     );
 }
 
