@@ -1,7 +1,8 @@
 //! The documentation agrees with itself and with the repository.
 //!
-//! - The README lists every subcommand of `repro --help`, and every `repro X`
-//!   a doc shows as code is a subcommand.
+//! - The README stays under 8 KB, points to every docs/*.md and lists every
+//!   subcommand of `repro --help`; every `repro X` a doc shows as code is a
+//!   subcommand.
 //! - Every link of README.md and docs/*.md resolves to a file of the repository,
 //!   no doc points outside it, and every source path a doc names (`src/...`)
 //!   exists, so a moved module shows up as a doc to update.
@@ -212,6 +213,20 @@ fn the_readme_lists_every_subcommand_and_docs_use_no_other() {
         unknown.is_empty(),
         "docs show commands repro does not have:\n{}",
         unknown.join("\n")
+    );
+}
+
+#[test]
+fn the_readme_points_to_every_doc() {
+    let readme = fs::read_to_string(root().join("README.md")).expect("README.md");
+    let missing: Vec<String> = docs()
+        .into_iter()
+        .map(|(p, _)| p)
+        .filter(|p| p != "README.md" && !readme.contains(&format!("]({p})")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "README.md's reading list leaves out {missing:?}"
     );
 }
 
