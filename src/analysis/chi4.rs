@@ -182,3 +182,41 @@ pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
         ("chi4_tau_alpha_err", at_tau_err),
     ])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::lags;
+    use crate::analysis::synthetic::random_walk;
+    use crate::analysis::test_support::{col, schedule_times};
+
+    #[test]
+    fn chi4_peaks_table_reports_chi4_at_tau_alpha_inside_the_lags() {
+        let times = schedule_times(10, 60.0, 0.1, 50.0);
+        let traj = random_walk(800, [40.0, 40.0], &times, 0.05, 5);
+        let mut p = Params {
+            a: 0.6,
+            n: vec![100.0, 5000.0],
+            lags: None,
+            rel_tol: 1e-6,
+        };
+        clamp_sizes(&mut p, traj.n());
+        assert_eq!(p.n, vec![100.0, 800.0]);
+        p.lags = lags::every_origin(&[&traj], None, 1e-6).unwrap();
+        let b = peaks_table(&[&traj], &p).unwrap();
+        let ta = col(&b, "tau_alpha");
+        assert!(ta[0].is_finite() && ta[0] > 0.0);
+        let c = compute_pooled(&[&traj], &p).unwrap();
+        let (n, t, chi) = (col(&c, "N"), col(&c, "t"), col(&c, "chi4"));
+        let rows: Vec<usize> = (0..n.len()).filter(|&i| n[i] == 100.0).collect();
+        let ts: Vec<f64> = rows.iter().map(|&i| t[i]).collect();
+        let cs: Vec<f64> = rows.iter().map(|&i| chi[i]).collect();
+        let k = ts.partition_point(|&x| x <= ta[0]);
+        let (lo, hi) = (cs[k - 1].min(cs[k]), cs[k - 1].max(cs[k]));
+        let at = col(&b, "chi4_tau_alpha")[0];
+        assert!(
+            at >= lo - 1e-12 && at <= hi + 1e-12,
+            "{at} not in [{lo}, {hi}]"
+        );
+    }
+}

@@ -495,6 +495,8 @@ pub fn size_distribution(sizes: &[usize], per_decade: usize) -> Result<Vec<(f64,
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::test_support::col;
+    use crate::traj::{Frame, Trajectory};
 
     /// Mobility classes at a = 0.6 and 3a over the single lag t = 1.
     fn unit_lag_params(per_decade: usize) -> Params {
@@ -515,7 +517,7 @@ mod tests {
         let traj = crate::analysis::synthetic::ballistic(400, [20.0, 20.0], &[0.0, 1.0], 3);
         let p = unit_lag_params(5);
         let b = compute_snapshot(&traj, &p).unwrap();
-        let col = |n: &str| crate::analysis::tests::col(&b, n);
+        let col = |n: &str| col(&b, n);
         let (x, y, r, class) = (col("x"), col("y"), col("radius"), col("class"));
         assert_eq!(class.len(), 400);
         let f = &traj.frames[1];
@@ -552,7 +554,7 @@ mod tests {
         .unwrap();
         let p = unit_lag_params(10);
         let b = sizes_table(&rows, &p).unwrap();
-        let col = |n: &str| crate::analysis::tests::col(&b, n);
+        let col = |n: &str| col(&b, n);
         let (kind, nc, pr, sp, big) = (
             col("kind"),
             col("Nc"),
@@ -602,7 +604,7 @@ mod tests {
         let full = sizes_table(&rows, &p).unwrap();
         let out = sizes_left_out(&rows, &p, &full).unwrap();
         assert_eq!(out.len(), 2);
-        let col = |b: &RecordBatch, n: &str| crate::analysis::tests::col(b, n);
+        let col = |b: &RecordBatch, n: &str| col(b, n);
         // Bins of sizes 1, 2 and 5.
         assert_eq!(col(&full, "Nc").len(), 3);
         // Without replica 0: sizes 1 and 5, half each; no cluster of size 2.
@@ -618,5 +620,141 @@ mod tests {
         let pr = col(&out[1], "P");
         assert!((pr[0] - 2.0 / 3.0).abs() < 1e-12 && (pr[1] - 1.0 / 3.0).abs() < 1e-12);
         assert!(pr[2].is_nan());
+    }
+
+    fn one_frame(x: Vec<f64>, y: Vec<f64>, species: Vec<u8>, l: f64) -> Trajectory {
+        Trajectory {
+            box_size: [l, l],
+            periodic: [true, true],
+            species,
+            radii: vec![0.5, 0.7],
+            masses: vec![1.0, 2.0],
+            frames: vec![Frame {
+                time: 0.0,
+                x,
+                y,
+                vx: vec![],
+                vy: vec![],
+            }],
+        }
+    }
+
+    #[test]
+    fn hand_built_clusters_have_exact_sizes_and_rg() {
+        // A chain across the boundary (x = 19, 20 = 0, 21 = 1), two touching disks, an
+        // isolated disk, and a ring of 20 disks around the box (spans it).
+        let mut x = vec![19.0, 20.0, 21.0, 10.0, 11.0, 5.0];
+        let mut y = vec![5.0, 5.0, 5.0, 10.0, 10.0, 15.0];
+        for k in 0..20 {
+            x.push(k as f64);
+            y.push(18.0);
+        }
+        let n = x.len();
+        let traj = one_frame(x.clone(), y.clone(), vec![0; n], 20.0);
+        let cut = vec![vec![1.5, 1.5], vec![1.5, 1.5]];
+        let mut c = find_clusters(&traj, &x, &y, &vec![true; n], &cut).unwrap();
+        c.sort_by_key(|k| k.size);
+        assert_eq!(
+            c.iter().map(|k| k.size).collect::<Vec<_>>(),
+            vec![1, 2, 3, 20]
+        );
+        assert_eq!(c[0].rg, 0.0);
+        assert!((c[1].rg - 0.5).abs() < 1e-12);
+        assert!(
+            (c[2].rg - (2.0f64 / 3.0).sqrt()).abs() < 1e-12,
+            "{}",
+            c[2].rg
+        );
+        assert_eq!(
+            c.iter().map(|k| k.spans).collect::<Vec<_>>(),
+            vec![false, false, false, true]
+        );
+    }
+
+    /// O(N^2) reference: depth-first search with minimum-image bonds, unwrapping as it goes.
+    fn brute_clusters(traj: &Trajectory, cut: &[Vec<f64>]) -> Vec<(usize, f64)> {
+        let f = &traj.frames[0];
+        let l = traj.box_size[0];
+        let n = traj.n();
+        let img = |v: f64| v - l * (v / l).round();
+        let mut seen = vec![false; n];
+        let mut out = Vec::new();
+        for s in 0..n {
+            if seen[s] {
+                continue;
+            }
+            seen[s] = true;
+            let mut stack = vec![(s, [0.0, 0.0])];
+            let mut pos = Vec::new();
+            while let Some((i, p)) = stack.pop() {
+                pos.push(p);
+                for j in 0..n {
+                    let (dx, dy) = (img(f.x[j] - f.x[i]), img(f.y[j] - f.y[i]));
+                    let rc = cut[traj.species[i] as usize][traj.species[j] as usize];
+                    if !seen[j] && dx * dx + dy * dy < rc * rc {
+                        seen[j] = true;
+                        stack.push((j, [p[0] + dx, p[1] + dy]));
+                    }
+                }
+            }
+            let c = pos.len() as f64;
+            let mx = pos.iter().map(|p| p[0]).sum::<f64>() / c;
+            let my = pos.iter().map(|p| p[1]).sum::<f64>() / c;
+            let rg2 = pos
+                .iter()
+                .map(|p| (p[0] - mx).powi(2) + (p[1] - my).powi(2))
+                .sum::<f64>()
+                / c;
+            out.push((pos.len(), rg2.sqrt()));
+        }
+        out.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        out
+    }
+
+    #[test]
+    fn union_find_equals_brute_force_on_random_configurations() {
+        use rand::{RngExt, SeedableRng};
+        for seed in 0..4u64 {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let (n, l) = (600, 30.0);
+            let x: Vec<f64> = (0..n).map(|_| rng.random::<f64>() * l).collect();
+            let y: Vec<f64> = (0..n).map(|_| rng.random::<f64>() * l).collect();
+            let sp: Vec<u8> = (0..n).map(|_| rng.random_range(0..2u8)).collect();
+            let traj = one_frame(x.clone(), y.clone(), sp, l);
+            let cut = vec![vec![1.1, 1.3], vec![1.3, 1.5]];
+            let mut fast: Vec<(usize, f64)> = find_clusters(&traj, &x, &y, &vec![true; n], &cut)
+                .unwrap()
+                .iter()
+                .map(|c| {
+                    assert!(!c.spans);
+                    (c.size, c.rg)
+                })
+                .collect();
+            fast.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+            let slow = brute_clusters(&traj, &cut);
+            assert_eq!(fast.len(), slow.len(), "seed {seed}");
+            assert!(
+                fast.iter().any(|c| c.0 >= 5),
+                "seed {seed}: no sizeable cluster"
+            );
+            for (a, b) in fast.iter().zip(&slow) {
+                assert_eq!(a.0, b.0, "seed {seed}");
+                assert!(
+                    (a.1 - b.1).abs() < 1e-9,
+                    "seed {seed}: Rg {} vs {}",
+                    a.1,
+                    b.1
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn size_distribution_counts_integers_per_log_bin() {
+        let d = size_distribution(&[1, 1, 1, 2, 3, 10], 1).unwrap();
+        assert_eq!(d.len(), 2);
+        assert!((d[0].1 - 5.0 / (6.0 * 9.0)).abs() < 1e-15 && d[0].2 == 5);
+        assert!((d[1].1 - 1.0 / (6.0 * 90.0)).abs() < 1e-15 && d[1].2 == 1);
+        assert!((d[0].0 - 3.0).abs() < 1e-12);
     }
 }

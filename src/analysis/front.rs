@@ -474,7 +474,7 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::tests::col;
+    use crate::analysis::test_support::col;
     use arrow_array::Array;
     use std::f64::consts::PI;
 

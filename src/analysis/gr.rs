@@ -187,3 +187,38 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     let [a, b, r, g, rm] = cols;
     f64_batch(&[("a", a), ("b", b), ("r", r), ("g", g), ("r_min", rm)])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::synthetic::independent_slow;
+
+    #[test]
+    fn ideal_gas_g_is_one_and_minimum_is_found() {
+        let traj = independent_slow(3000, [50.0, 50.0], 5, 0.5, 1.0, 2);
+        let parts = partials(
+            &traj,
+            &Params {
+                r_max: 5.0,
+                bin: 0.1,
+                max_frames: 10,
+            },
+        )
+        .unwrap();
+        assert_eq!(parts.len(), 3);
+        for p in &parts {
+            let mean = p.g[10..].iter().sum::<f64>() / (p.g.len() - 10) as f64;
+            assert!((mean - 1.0).abs() < 0.02, "g_{}{} mean {mean}", p.a, p.b);
+        }
+        // A liquid-like g(r): main peak at 1, first minimum at 1.5 exactly.
+        let r: Vec<f64> = (0..400).map(|k| 0.5 + k as f64 * 0.01).collect();
+        let g: Vec<f64> = r
+            .iter()
+            .map(|&x| 1.0 + (-(x - 1.0)).exp() * (2.0 * PI * (x - 1.0)).cos())
+            .collect();
+        let m = first_minimum(&r, &g).unwrap();
+        // d/dr [e^-u cos 2 pi u] = 0 at tan(2 pi u) = -1 / (2 pi): u = 0.5 - atan(1/2pi)/2pi.
+        let u = 0.5 - (1.0 / (2.0 * PI)).atan() / (2.0 * PI);
+        assert!((m - (1.0 + u)).abs() < 0.011, "{m} vs {}", 1.0 + u);
+    }
+}

@@ -501,3 +501,323 @@ pub fn diffusion_table(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<Rec
         ("replicas", vec![trajs.len() as f64]),
     ])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::synthetic::{ballistic, random_walk};
+    use crate::analysis::test_support::{col, err_text, first};
+
+    #[test]
+    fn intruder_velocity_and_mobility() {
+        // An intruder drifting at v = 0.7 with small Brownian noise among bath particles.
+        let times: Vec<f64> = (0..=200).map(|k| k as f64 * 0.5).collect();
+        let mut traj = random_walk(50, [30.0, 30.0], &times, 0.01, 4);
+        traj.species[0] = 2;
+        traj.radii.push(2.0);
+        traj.masses.push(4.0);
+        for f in &mut traj.frames {
+            f.x[0] += 0.7 * f.time;
+        }
+        let p = VelocityParams {
+            species: 2,
+            t_start: 10.0,
+            blocks: 10,
+            drive: None,
+            kick_rate_factor: None,
+        };
+        let v = stationary_velocity(&[&traj], &p).unwrap();
+        assert!((v.value - 0.7).abs() < 4.0 * v.err && v.err < 0.02, "{v:?}");
+        let mu = mobility(&[(1.0, 0.5, 0.1), (2.0, 1.0, 0.1), (1e4, 3.0, 0.1)], 10.0).unwrap();
+        assert!((mu.value - 0.5).abs() < 1e-12);
+        assert!((mu.err - 0.1 / 5f64.sqrt()).abs() < 1e-12);
+        let e = err_text(compute_profile(
+            &traj,
+            &ProfileParams {
+                times: vec![1.0],
+                bins: 5,
+                exclude_species: Some(2),
+            },
+        ));
+        assert!(e.contains("no velocities"), "{e}");
+    }
+
+    #[test]
+    fn momentum_profile_of_uniform_flow() {
+        // Every particle moving at vx = 1: Px = total mass / area in every bin (on average),
+        // exactly total mass / area summed over bins times bin width.
+        let times = [0.0];
+        let mut traj = ballistic(1000, [20.0, 10.0], &times, 3);
+        for f in &mut traj.frames {
+            f.vx.iter_mut().for_each(|v| *v = 1.0);
+        }
+        let b = compute_profile(
+            &traj,
+            &ProfileParams {
+                times: vec![0.0],
+                bins: 4,
+                exclude_species: None,
+            },
+        )
+        .unwrap();
+        let px = col(&b, "Px");
+        let mass: f64 = traj.species.iter().map(|&s| traj.masses[s as usize]).sum();
+        let total: f64 = px.iter().sum::<f64>() * 5.0 * 10.0;
+        assert!((total - mass).abs() < 1e-9 * mass);
+    }
+
+    /// An intruder (species 2) drifting at `v(t)` with weak noise among random
+    /// walkers of paper I's bath species (radii 1 : 1.25, masses 1 : 25/16, 50:50).
+    fn drifting_intruder(v: impl Fn(f64) -> f64, seed: u64) -> Trajectory {
+        let times: Vec<f64> = (0..=400).map(|k| k as f64 * 0.25).collect();
+        let mut traj = random_walk(61, [30.0, 30.0], &times, 0.01, seed);
+        traj.radii = vec![1.0, 1.25, 2.0];
+        traj.masses = vec![1.0, 25.0 / 16.0, 4.0];
+        traj.species[0] = 2;
+        // x(t) = integral of v from 0 to t (trapezoids on a fine grid).
+        for f in &mut traj.frames {
+            let k = 1000;
+            let h = f.time / k as f64;
+            let x: f64 = (0..k)
+                .map(|j| 0.5 * h * (v(j as f64 * h) + v((j + 1) as f64 * h)))
+                .sum();
+            f.x[0] += x;
+        }
+        traj
+    }
+
+    fn velocity_row(traj: &Trajectory, drive: Option<DriveParams>) -> RecordBatch {
+        let p = VelocityParams {
+            species: 2,
+            t_start: 0.0,
+            blocks: 10,
+            drive,
+            kick_rate_factor: None,
+        };
+        velocity_table(&[traj], &p).unwrap()
+    }
+
+    #[test]
+    fn intruder_stationarity_flags_a_transient_and_reports_the_bath() {
+        // Steady drift: the halves agree, flagged stationary; the bath (random
+        // walkers) does not drift, so v_rel = v.
+        let steady = velocity_row(&drifting_intruder(|_| 0.5, 7), None);
+        assert_eq!(first(&steady, "stationary"), 1.0);
+        assert!((first(&steady, "v") - 0.5).abs() < 4.0 * first(&steady, "v_err"));
+        assert!(first(&steady, "v_bath").abs() < 4.0 * first(&steady, "v_bath_err"));
+        assert!((first(&steady, "v_rel") - first(&steady, "v")).abs() < 0.02);
+        assert!(
+            (first(&steady, "snr") - first(&steady, "v") / first(&steady, "v_err")).abs() < 1e-12
+        );
+        // 30 small, 30 large, the intruder (disk 0 was small).
+        let m = 30.0 + 30.0 * 25.0 / 16.0 + 4.0;
+        assert!(
+            (first(&steady, "mass_total") - m).abs() < 1e-9,
+            "{}",
+            first(&steady, "mass_total")
+        );
+        // A transient still running (v relaxing from 0 to 0.5 with time constant 30):
+        // the halves differ and the point is flagged, not silently averaged.
+        let relaxing = velocity_row(
+            &drifting_intruder(|t| 0.5 * (1.0 - (-t / 30.0).exp()), 7),
+            None,
+        );
+        assert_eq!(first(&relaxing, "stationary"), 0.0);
+        assert!(first(&relaxing, "v_second") > first(&relaxing, "v_first"));
+    }
+
+    #[test]
+    fn intruder_drive_velocity_is_eq7_of_paper_i() {
+        // v_dr = p_dr / m_eff with the golden p_dr of eps = 0.9, T = gamma = 1 at
+        // eta = 0.3, 0.6, 0.8 (Enskog rates 0.9423, 4.876, 22.82), m_eff = 25/41.
+        let traj = drifting_intruder(|_| 0.0, 1);
+        let d = DriveParams {
+            eps: 0.9,
+            gamma: 1.0,
+            temperature: 1.0,
+        };
+        for (eta, v) in [(0.3, 2.697), (0.6, 1.287), (0.8, 0.774)] {
+            let got = drive_velocity(&traj, eta, &d);
+            assert!((got - v).abs() < 2e-3, "eta {eta}: v_dr {got} vs {v}");
+        }
+        // The table's scaled columns of Fig. 5 at the box's own packing fraction.
+        let row = velocity_row(&traj, Some(d.clone()));
+        let eta = packing_fraction(&traj);
+        let v_dr = drive_velocity(&traj, eta, &d);
+        assert!((first(&row, "v_dr") - v_dr).abs() < 1e-12);
+        assert!((first(&row, "vdr2_sqrt_eta") - v_dr * v_dr * eta.sqrt()).abs() < 1e-12);
+        assert!((first(&row, "v_over_vdr") - first(&row, "v") / v_dr).abs() < 1e-12);
+    }
+
+    #[test]
+    fn intruder_kick_columns_follow_the_enskog_rate_and_the_drift() {
+        // The force-kick interval is 1 / (factor x the bath's Enskog rate) at the
+        // drive's T (the simulation's rule), and the collision momentum is the
+        // reduced mass times the relative speed: thermal at rest, ~ m_red v at speed.
+        let d = DriveParams {
+            eps: 0.9,
+            gamma: 1.0,
+            temperature: 1.0,
+        };
+        let p = |k: Option<f64>, drive: Option<DriveParams>| VelocityParams {
+            species: 2,
+            t_start: 0.0,
+            blocks: 10,
+            drive,
+            kick_rate_factor: k,
+        };
+        let (slow, fast) = (
+            drifting_intruder(|_| 0.0, 3),
+            drifting_intruder(|_| 50.0, 3),
+        );
+        let row =
+            |t: &Trajectory, k: f64| velocity_table(&[t], &p(Some(k), Some(d.clone()))).unwrap();
+        let (a, b) = (row(&slow, 1e4), row(&slow, 1e2));
+        // Rate factor 100 times smaller: interval 100 times longer.
+        assert!((first(&b, "kick_dt") / first(&a, "kick_dt") - 100.0).abs() < 1e-9);
+        let v_dr = first(&a, "v_dr");
+        let eta = packing_fraction(&slow);
+        let omega = crate::sim::enskog::collision_frequency(
+            eta,
+            &[1.0, 1.25],
+            &[1.0, 25.0 / 16.0],
+            &[0.5, 0.5],
+            1.0,
+        );
+        assert!((first(&a, "kick_dt") * 1e4 * omega - 1.0).abs() < 1e-12);
+        assert!(v_dr > 0.0);
+        // 30 small and 30 large disks: mean bath mass (1 + 25/16) / 2, intruder 4.
+        let mb = (1.0 + 25.0 / 16.0) / 2.0;
+        let m_red = 4.0 * mb / (4.0 + mb);
+        let v0 = first(&a, "v");
+        let want = m_red * (v0 * v0 + 2.0 / m_red).sqrt();
+        assert!((first(&a, "collision_momentum") - want).abs() < 1e-12);
+        let c = row(&fast, 1e4);
+        let ratio = first(&c, "collision_momentum") / (m_red * 50.0);
+        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
+        // Without the drive's T there is no Enskog rate: a clear error.
+        let e = velocity_table(&[&slow], &p(Some(1e4), None)).unwrap_err();
+        assert!(
+            e.to_string().contains("`kick_rate_factor` needs `drive"),
+            "{e}"
+        );
+        let e = velocity_table(&[&slow], &p(Some(0.0), Some(d.clone()))).unwrap_err();
+        assert!(e.to_string().contains("must be positive"), "{e}");
+    }
+
+    #[test]
+    fn intruder_diffusion_recovers_d_and_needs_a_lag_window() {
+        // A Brownian intruder with D = 0.3 (random-walk frames, no velocities: T_x NaN).
+        let times: Vec<f64> = (0..=600).map(|k| k as f64 * 0.5).collect();
+        let trajs: Vec<_> = (0..4)
+            .map(|s| {
+                let mut t = random_walk(20, [40.0, 40.0], &times, 0.3, 10 + s);
+                t.radii.push(2.0);
+                t.masses.push(4.0);
+                t.species[0] = 2;
+                t
+            })
+            .collect();
+        let refs: Vec<&Trajectory> = trajs.iter().collect();
+        let p = DiffusionParams {
+            species: 2,
+            lag_min: 1.0,
+            lag_max: 10.0,
+        };
+        let b = diffusion_table(&refs, &p).unwrap();
+        let get = |n: &str| first(&b, n);
+        let (d, e) = (get("D"), get("D_err"));
+        assert!((d - 0.3).abs() < 4.0 * e && e < 0.05, "D = {d} +- {e}");
+        assert!(get("T_x").is_nan());
+        let bad = DiffusionParams {
+            lag_min: 5.0,
+            lag_max: 5.0,
+            ..p.clone()
+        };
+        let msg = err_text(diffusion_table(&refs, &bad));
+        assert!(msg.contains("lag_min < lag_max"), "{msg}");
+        let none = DiffusionParams {
+            lag_min: 1000.0,
+            lag_max: 2000.0,
+            ..p
+        };
+        let msg = err_text(diffusion_table(&refs, &none));
+        assert!(msg.contains("fewer than three frame pairs"), "{msg}");
+    }
+
+    /// Every column paper I's intruder analyses write, and every column the intruder
+    /// pipelines derive in their joins (`derive: - {name: ...}`), has a unit and a
+    /// description in src/table/columns.rs.
+    #[test]
+    fn every_intruder_column_is_described() {
+        let d = DriveParams {
+            eps: 0.9,
+            gamma: 1.0,
+            temperature: 1.0,
+        };
+        let traj = drifting_intruder(|_| 0.5, 3);
+        let p = VelocityParams {
+            species: 2,
+            t_start: 0.0,
+            blocks: 10,
+            drive: Some(d),
+            kick_rate_factor: Some(1e4),
+        };
+        let mut tables = vec![
+            velocity_table(&[&traj], &p).unwrap(),
+            compute_path(&traj, &p).unwrap(),
+            diffusion_table(
+                &[&traj, &traj],
+                &DiffusionParams {
+                    species: 2,
+                    lag_min: 1.0,
+                    lag_max: 10.0,
+                },
+            )
+            .unwrap(),
+        ];
+        let mut moving = ballistic(200, [20.0, 10.0], &[0.0], 3);
+        moving.frames[0].vx.iter_mut().for_each(|v| *v = 1.0);
+        tables.push(
+            compute_profile(
+                &moving,
+                &ProfileParams {
+                    times: vec![0.0],
+                    bins: 4,
+                    exclude_species: None,
+                },
+            )
+            .unwrap(),
+        );
+        let mut names: Vec<String> = tables
+            .iter()
+            .flat_map(|b| {
+                b.schema()
+                    .fields()
+                    .iter()
+                    .map(|f| f.name().clone())
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+        for k in 1..=6 {
+            let text = std::fs::read_to_string(dir.join(format!("intruder-fig{k}.yaml"))).unwrap();
+            let spec: serde_json::Value = serde_saphyr::from_str(&text).unwrap();
+            for stage in spec["stages"].as_array().unwrap() {
+                for dv in stage["params"]["derive"].as_array().into_iter().flatten() {
+                    names.push(dv["name"].as_str().unwrap().to_string());
+                }
+            }
+        }
+        assert!(
+            names.iter().any(|n| n == "kick_over_collision"),
+            "{names:?}"
+        );
+        for n in &names {
+            assert!(
+                crate::table::columns::describe(n).is_some(),
+                "column `{n}` has no row in src/table/columns.rs"
+            );
+        }
+    }
+}

@@ -194,6 +194,7 @@ pub fn in_units(
 mod tests {
     use super::*;
     use crate::analysis::synthetic::random_walk;
+    use crate::analysis::test_support::{err_text, schedule_times};
     use crate::traj::Schedule;
 
     /// Origins 0.5 apart (from t = 3) fall two to a bin of length 1, per replica;
@@ -217,5 +218,53 @@ mod tests {
         assert_eq!(bins, vec![(1, 0), (1, 0), (1, 1), (1, 1), (1, 2)]);
         assert_eq!(origin_bins(&[&a, &b], 0.0)(&(0, 6)), (0, 6));
         assert_eq!(origin_bins(&[&a, &b], f64::NAN)(&(1, 4)), (1, 4));
+    }
+
+    #[test]
+    fn every_origin_lags_keep_only_lags_each_origin_realises() {
+        let times = schedule_times(4, 40.0, 0.1, 30.0);
+        let traj = random_walk(50, [30.0, 30.0], &times, 0.05, 3);
+        let lags = every_origin(&[&traj], None, 1e-6).unwrap().unwrap();
+        let all = select(&[&traj], None, 1e-6).unwrap();
+        assert!(!lags.is_empty() && lags.len() < all.len());
+        // Kept: lags with at least one pair per origin; dropped: the rest.
+        for l in &all {
+            let kept = lags.contains(&l.t);
+            assert_eq!(
+                l.pairs.len() >= 4,
+                kept,
+                "lag {} with {} pairs",
+                l.t,
+                l.pairs.len()
+            );
+        }
+        // A request is kept as given.
+        assert_eq!(
+            every_origin(&[&traj], Some(vec![1.0]), 1e-6).unwrap(),
+            Some(vec![1.0])
+        );
+    }
+
+    #[test]
+    fn times_in_units_of_tau_alpha_pick_the_nearest_lag_and_never_extrapolate() {
+        let lags = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0];
+        let tau = 1.1;
+        let r = in_units(&lags, tau, "tau_alpha", &[1.0, 0.1, 8.5], 1e-6).unwrap();
+        assert_eq!(r[0].lag, 1.0);
+        assert!((r[0].rel_diff - (1.0 / 1.1 - 1.0)).abs() < 1e-12);
+        assert_eq!(r[1].lag, 0.1);
+        assert!((r[1].requested - 0.11).abs() < 1e-12);
+        // 8.5 x 1.1 = 9.35: nearest in ln t is 10.
+        assert_eq!(r[2].lag, 10.0);
+        // 10 tau_alpha = 11 > 10: refused, with the numbers.
+        let e = err_text(in_units(&lags, tau, "tau_alpha", &[10.0], 1e-6));
+        assert!(
+            e.contains("10 tau_alpha") && e.contains("extrapolate"),
+            "{e}"
+        );
+        let e = err_text(in_units(&lags, tau, "tau_alpha", &[0.05], 1e-6));
+        assert!(e.contains("outside the recorded lags"), "{e}");
+        let e = err_text(in_units(&lags, f64::NAN, "tau_alpha", &[1.0], 1e-6));
+        assert!(e.contains("not a positive time"), "{e}");
     }
 }

@@ -26,6 +26,8 @@ pub mod s4;
 pub mod stats;
 pub mod subbox;
 pub mod synthetic;
+#[cfg(test)]
+pub(crate) mod test_support;
 pub mod van_hove;
 
 use anyhow::{Result, bail};
@@ -130,6 +132,3 @@ pub fn fold(x: f64, l: f64, periodic: bool) -> f64 {
         x
     }
 }
-
-#[cfg(test)]
-mod tests;

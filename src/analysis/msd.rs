@@ -270,18 +270,17 @@ pub fn diffusion(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBat
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::PI;
+
     use super::*;
-    use crate::analysis::synthetic::random_walk;
+    use crate::analysis::synthetic::{ballistic, random_walk};
+    use crate::analysis::test_support::{col, first, schedule_times};
+    use crate::analysis::van_hove;
     use crate::traj::Schedule;
 
+    /// Twelve origins 60 apart, each followed by lags from 0.1 to 60.
     fn times() -> Vec<f64> {
-        Schedule {
-            start: 0.0,
-            origins: 12,
-            origin_spacing: 60.0,
-            lags: Schedule::log_lags(0.1, 60.0, 8),
-        }
-        .times()
+        schedule_times(12, 60.0, 0.1, 60.0)
     }
 
     #[test]
@@ -297,7 +296,7 @@ mod tests {
                 rel_tol: 1e-6,
             };
             let b = diffusion(&[&traj], &p).unwrap();
-            let get = |n: &str| crate::analysis::tests::col(&b, n)[0];
+            let get = |n: &str| first(&b, n);
             let (dd, err, tau) = (get("D"), get("D_err"), get("tau_alpha"));
             // Q = 1 - exp(-a^2 / 4 D t) = 1/e: tau_alpha = a^2 / (4 D ln(e / (e - 1))).
             let exact_tau =
@@ -334,5 +333,110 @@ mod tests {
             e.contains("at least two lags") && e.contains("longest lag"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn random_walk_msd_is_4dt_and_van_hove_is_gaussian() {
+        let d = 0.25;
+        let times = schedule_times(10, 20.0, 0.1, 10.0);
+        let traj = random_walk(20_000, [140.0, 140.0], &times, d, 5);
+        let b = compute(
+            &traj,
+            &Params {
+                lags: Some(vec![0.1, 1.0, 10.0]),
+                fractions: vec![0.1],
+                rel_tol: 1e-6,
+            },
+        )
+        .unwrap();
+        let (t, sp, sel, m) = (
+            col(&b, "t"),
+            col(&b, "species"),
+            col(&b, "select"),
+            col(&b, "msd"),
+        );
+        for k in 0..t.len() {
+            let exact = 4.0 * d * t[k];
+            // |dr|^2 / 4Dt is Exp(1): fastest 10 % average 1 + ln 10, slowest 10 %
+            // 1 - q e^-q / (1 - e^-q) with q = ln(10/9).
+            let qs = (10f64 / 9.0).ln();
+            let factor = match sel[k] as i8 {
+                0 => 1.0,
+                1 => 1.0 + 10f64.ln(),
+                _ => 1.0 - qs * (-qs).exp() / (1.0 - (-qs).exp()),
+            };
+            let tol = if sel[k] == 0.0 { 0.02 } else { 0.04 };
+            assert!(
+                (m[k] / (exact * factor) - 1.0).abs() < tol,
+                "t = {} species {} select {}: {} vs {}",
+                t[k],
+                sp[k],
+                sel[k],
+                m[k],
+                exact * factor
+            );
+        }
+
+        let h = van_hove::compute(
+            &traj,
+            &van_hove::Params {
+                lags: vec![1.0],
+                bin: 0.05,
+                range: 5.0,
+                species: None,
+                rel_tol: 1e-6,
+            },
+        )
+        .unwrap();
+        let (dx, pdx) = (col(&h, "dx"), col(&h, "P"));
+        let var = 2.0 * d;
+        let bin = dx[1] - dx[0];
+        let norm: f64 = pdx.iter().sum::<f64>() * bin;
+        let second: f64 = dx.iter().zip(&pdx).map(|(x, p)| x * x * p).sum::<f64>() * bin;
+        assert!((norm - 1.0).abs() < 1e-3, "normalisation {norm}");
+        assert!(
+            (second / var - 1.0).abs() < 0.03,
+            "<dx^2> = {second}, expected {var}"
+        );
+        let centre = pdx[dx.len() / 2 - 1..dx.len() / 2 + 1].iter().sum::<f64>() / 2.0;
+        let gauss0 = 1.0 / (2.0 * PI * var).sqrt();
+        assert!(
+            (centre / gauss0 - 1.0).abs() < 0.03,
+            "P(0) = {centre}, Gaussian {gauss0}"
+        );
+    }
+
+    #[test]
+    fn ballistic_msd_is_v2_t2() {
+        let times = schedule_times(3, 5.0, 0.01, 3.0);
+        let traj = ballistic(500, [40.0, 40.0], &times, 9);
+        let f = &traj.frames[0];
+        let v2: f64 =
+            f.vx.iter()
+                .zip(&f.vy)
+                .map(|(a, b)| a * a + b * b)
+                .sum::<f64>()
+                / 500.0;
+        let b = compute(
+            &traj,
+            &Params {
+                lags: Some(vec![0.01, 3.0]),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        for ((t, s), m) in col(&b, "t")
+            .iter()
+            .zip(col(&b, "species"))
+            .zip(col(&b, "msd"))
+        {
+            if s < 0.0 {
+                assert!(
+                    (m / (v2 * t * t) - 1.0).abs() < 1e-9,
+                    "t = {t}: {m} vs {}",
+                    v2 * t * t
+                );
+            }
+        }
     }
 }

@@ -469,3 +469,124 @@ pub fn find(name: &str) -> Result<&'static Observable> {
         )
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::run;
+    use crate::analysis::synthetic::{ballistic, independent_slow};
+    use crate::analysis::test_support::{col, err_text, schedule_times};
+
+    #[test]
+    fn bad_parameters_are_clear_errors() {
+        let traj = independent_slow(100, [10.0, 10.0], 2, 0.5, 1.0, 1);
+        let e = err_text(overlap::compute(
+            &traj,
+            &overlap::Params {
+                a: 0.0,
+                ..Default::default()
+            },
+        ));
+        assert!(e.contains("`a`") && e.contains("> 0"), "{e}");
+        let e = err_text(chi4::compute(
+            &traj,
+            &chi4::Params {
+                a: 0.6,
+                n: vec![1e6],
+                lags: None,
+                rel_tol: 1e-6,
+            },
+        ));
+        assert!(e.contains("N = 1000000") && e.contains("(0, 100]"), "{e}");
+        let e = err_text(overlap::compute(
+            &traj,
+            &overlap::Params {
+                lags: Some(vec![3.7]),
+                ..Default::default()
+            },
+        ));
+        assert!(e.contains("lag 3.7") && e.contains("not realised"), "{e}");
+        let e = err_text(s4::compute(
+            &traj,
+            &s4::Params {
+                a: 0.6,
+                lags: vec![1.0],
+                q_max: 0.1,
+                dq: None,
+                tolerance: 1e-6,
+                rel_tol: 1e-6,
+            },
+        ));
+        assert!(e.contains("q_max"), "{e}");
+        let e = err_text(run(
+            "chi4",
+            serde_json::json!({"n": [10], "bogus": 1}),
+            &traj,
+        ));
+        assert!(e.contains("`chi4`") && e.contains("bogus"), "{e}");
+        let e = err_text(run("chi5", serde_json::json!({}), &traj));
+        assert!(e.contains("chi5") && e.contains("chi4_peaks"), "{e}");
+        // Every kind is dispatched (a missing arm would report an unknown kind).
+        for kind in OBSERVABLES.iter().map(|o| o.name) {
+            let e = format!(
+                "{:#}",
+                run(kind, serde_json::json!({"bogus": 1}), &traj).unwrap_err()
+            );
+            assert!(e.contains(&format!("`{kind}`")), "{kind}: {e}");
+        }
+    }
+
+    #[test]
+    fn every_kind_runs_from_json_parameters() {
+        use serde_json::json;
+        let times = schedule_times(4, 20.0, 0.1, 10.0);
+        let mut traj = ballistic(400, [30.0, 30.0], &times, 8);
+        traj.species[0] = 2;
+        traj.radii.push(2.0);
+        traj.masses.push(4.0);
+        let cut = json!([[1.2, 1.3, 2.0], [1.3, 1.5, 2.0], [2.0, 2.0, 2.5]]);
+        let cases = [
+            ("overlap", json!({"lags": [0.1, 1.0]}), "Q"),
+            ("tau_alpha", json!({"a": 0.6}), "tau_alpha"),
+            ("q_levels", json!({"levels": [0.6]}), "t_over_tau_alpha"),
+            ("diffusion", json!({"fit_min_tau": 1.0}), "D"),
+            ("aging", json!({"lags": [0.1, 1.0]}), "t0"),
+            ("chi4", json!({"n": [50, 100], "lags": [1.0]}), "chi4"),
+            ("chi4_peaks", json!({"n": [50]}), "tau4"),
+            ("s4", json!({"lags": [1.0], "q_max": 1.0}), "S4"),
+            ("msd", json!({"fractions": [0.1]}), "msd"),
+            ("van_hove", json!({"lags": [1.0]}), "P"),
+            ("gr", json!({"r_max": 5.0}), "g"),
+            ("clusters", json!({"lags": [1.0], "cutoffs": cut}), "Rg"),
+            ("cluster_sizes", json!({"lags": [1.0], "cutoffs": cut}), "P"),
+            ("mobility_snapshot", json!({"lags": [1.0]}), "class"),
+            ("intruder_velocity", json!({"blocks": 2}), "v"),
+            ("intruder_path", json!({}), "x"),
+            ("momentum_profile", json!({"times": [1.0], "bins": 6}), "Px"),
+            (
+                "intruder_diffusion",
+                json!({"lag_min": 0.5, "lag_max": 10.0}),
+                "D",
+            ),
+            (
+                "velocity_field",
+                json!({"times": [1.0], "cells_x": 5}),
+                "vx",
+            ),
+            (
+                "front",
+                json!({"bin": 2.0, "fit": [0.0, 10.0], "compact": [0.0, 10.0], "wall": {"width": 5.0}}),
+                "value",
+            ),
+        ];
+        assert_eq!(cases.len(), OBSERVABLES.len());
+        for (kind, params, column) in cases {
+            let b = run(kind, params, &traj).unwrap_or_else(|e| panic!("{kind}: {e:#}"));
+            assert!(b.num_rows() > 0, "{kind}: empty table");
+            assert!(
+                col(&b, column).iter().any(|v| v.is_finite()),
+                "{kind}: no finite {column}"
+            );
+        }
+    }
+}

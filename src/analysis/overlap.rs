@@ -397,9 +397,10 @@ pub fn aging(trajs: &[&Trajectory], p: &Params) -> Result<(RecordBatch, RecordBa
 }
 
 #[cfg(test)]
-mod level_tests {
+mod tests {
     use super::*;
     use crate::analysis::synthetic::random_walk;
+    use crate::analysis::test_support::{col, first, schedule_times};
     use crate::traj::Schedule;
 
     /// A random walk obeys superposition exactly: Q = 1 - exp(-a^2 / 4 D t), so
@@ -424,7 +425,7 @@ mod level_tests {
                 rel_tol: 1e-6,
             };
             let b = q_levels(&[&traj], &p).unwrap();
-            let get = |n: &str| crate::analysis::tests::col(&b, n)[0];
+            let get = |n: &str| first(&b, n);
             let (r, err) = (get("t_over_tau_alpha"), get("t_over_tau_alpha_err"));
             assert!(err > 0.0 && err < 0.05 * exact, "error {err}");
             assert!(
@@ -495,6 +496,105 @@ mod level_tests {
         assert!(
             (0.75..1.5).contains(&r_new),
             "binned errors / spread = {r_new}"
+        );
+    }
+
+    #[test]
+    fn tau_alpha_matches_the_random_walk_overlap() {
+        // Q(t) = P(|dr| < a) = 1 - exp(-a^2 / 4Dt): Q = 1/e at a^2 / (4 D ln(e / (e - 1))).
+        let (d, a) = (0.05, 0.6);
+        let exact = a * a / (4.0 * d * (std::f64::consts::E / (std::f64::consts::E - 1.0)).ln());
+        let times = schedule_times(20, 40.0, 0.1, 30.0);
+        let traj = random_walk(3000, [60.0, 60.0], &times, d, 21);
+        let p = Params {
+            a,
+            ..Default::default()
+        };
+        let lags = Schedule::log_lags(0.1, 30.0, 8);
+        let p = Params {
+            lags: Some(lags),
+            ..p
+        };
+        let tau = tau_alpha(&[&traj], &p).unwrap();
+        eprintln!("tau_alpha = {} +- {}, exact {exact}", tau.value, tau.err);
+        assert!(tau.err > 0.0 && tau.err < 0.02 * exact);
+        assert!((tau.value - exact).abs() < 0.03 * exact);
+
+        // Aging check: every origin gives its own curve; the stationary walk shows none.
+        let (_, ag) = aging(&[&traj], &p).unwrap();
+        let per_origin = col(&ag, "tau_alpha");
+        let finite: Vec<f64> = per_origin
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
+        assert!(finite.len() >= 20);
+        assert!(
+            finite.iter().all(|v| (v - exact).abs() < 0.1 * exact),
+            "{finite:?}"
+        );
+    }
+
+    #[test]
+    fn aging_of_identical_replicas_is_the_single_replica_curve() {
+        // Averaging a replica with itself changes nothing; only true origins are kept.
+        let times = schedule_times(5, 40.0, 0.1, 30.0);
+        let traj = random_walk(500, [30.0, 30.0], &times, 0.05, 3);
+        let p = Params::default();
+        let one = aging_curves(&[&traj], &p).unwrap();
+        let two = aging_curves(&[&traj, &traj], &p).unwrap();
+        assert_eq!(one.len(), 5, "one curve per time origin");
+        for (a, b) in one.iter().zip(&two) {
+            assert_eq!(a.0, b.0);
+            assert_eq!(a.1, b.1);
+            for (x, y) in a.2.iter().zip(&b.2) {
+                assert!((x - y).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn aging_tau_alpha_error_is_the_replica_jackknife() {
+        // One waiting time is one origin per replica: leaving one of two replicas out
+        // leaves the other, so the jackknife error is half the two replicas' difference.
+        let times = schedule_times(5, 40.0, 0.1, 30.0);
+        let slow = random_walk(2000, [50.0, 50.0], &times, 0.05, 3);
+        let fast = random_walk(2000, [50.0, 50.0], &times, 0.1, 4);
+        let p = Params {
+            lags: Some(Schedule::log_lags(0.1, 30.0, 8)),
+            ..Default::default()
+        };
+        let tau_of = |trajs: &[&Trajectory]| {
+            let (_, ag) = aging(trajs, &p).unwrap();
+            (col(&ag, "tau_alpha"), col(&ag, "tau_alpha_err"))
+        };
+        let (ts, es) = tau_of(&[&slow]);
+        let (tf, _) = tau_of(&[&fast]);
+        let (tb, eb) = tau_of(&[&slow, &fast]);
+        assert!(
+            es.iter().all(|e| e.is_nan()),
+            "one replica has no error: {es:?}"
+        );
+        let mut checked = 0;
+        for i in 0..tb.len() {
+            if !(ts[i].is_finite() && tf[i].is_finite()) {
+                continue;
+            }
+            let want = (ts[i] - tf[i]).abs() / 2.0;
+            assert!(
+                want > 0.0 && (eb[i] - want).abs() < 1e-9 * want,
+                "{} vs {want}",
+                eb[i]
+            );
+            // The slower walk relaxes later; the pooled tau lies between the two.
+            assert!(ts[i] > tf[i] && tb[i] < ts[i] && tb[i] > tf[i]);
+            checked += 1;
+        }
+        assert_eq!(checked, 5);
+        let (_, same) = tau_of(&[&slow, &slow]);
+        assert!(
+            same.iter().all(|&e| e == 0.0),
+            "identical replicas: {same:?}"
         );
     }
 }

@@ -545,24 +545,40 @@ pub fn direct_w(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::chi4;
-    use crate::analysis::synthetic::oz_slow;
+    use crate::analysis::synthetic::{independent_slow, oz_slow};
+    use crate::analysis::test_support::col;
+    use crate::analysis::{chi4, overlap, squared_displacements};
 
-    use crate::analysis::tests::col;
+    /// S4 at the single lag t = 1 for wave numbers up to `q_max`.
+    fn unit_lag(q_max: f64, tolerance: f64) -> Params {
+        Params {
+            a: 0.6,
+            lags: vec![1.0],
+            q_max,
+            dq: None,
+            tolerance,
+            rel_tol: 1e-6,
+        }
+    }
+
+    /// The overlap table at the single lag t = 1, the other parameters default.
+    fn overlap_at_unit_lag(traj: &Trajectory) -> RecordBatch {
+        overlap::compute(
+            traj,
+            &overlap::Params {
+                lags: Some(vec![1.0]),
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    }
 
     /// Fig. 16: the q = 0 point of S4 is Eq. 15 with W(0) = N_slow, i.e. chi4 of the
     /// whole system (Eq. 14 with one box), on correlated (OZ) slow particles.
     #[test]
     fn q_zero_point_is_chi4_of_the_whole_system() {
         let traj = oz_slow(4000, 60.0, 60, 3.0, 0.5, 0.2, 30, 5);
-        let p = Params {
-            a: 0.6,
-            lags: vec![1.0],
-            q_max: 1.0,
-            dq: None,
-            tolerance: 1e-6,
-            rel_tol: 1e-6,
-        };
+        let p = unit_lag(1.0, 1e-6);
         let s = compute(&traj, &p).unwrap();
         let (q, s4) = (col(&s, "q"), col(&s, "S4"));
         assert_eq!(q[0], 0.0, "first row is q = 0");
@@ -589,5 +605,165 @@ mod tests {
         );
         let zero = s4_zero(&traj, &p).unwrap();
         assert_eq!(zero[0].1.s4[0], s4[0]);
+    }
+
+    #[test]
+    fn independent_particles_give_q_chi4_s4_equal_p() {
+        let p = 0.3;
+        let traj = independent_slow(20_000, [141.0, 141.0], 40, p, 1.0, 7);
+        let q = overlap_at_unit_lag(&traj);
+        let (qv, qe) = (col(&q, "Q")[0], col(&q, "Q_err")[0]);
+        assert!((qv - p).abs() < 4.0 * qe && qe < 0.01, "Q = {qv} +- {qe}");
+
+        // Grand-canonical sub-boxes: slow counts are Poisson, so chi4 = p.
+        let c = chi4::compute(
+            &traj,
+            &chi4::Params {
+                a: 0.6,
+                n: vec![50.0, 200.0],
+                lags: Some(vec![1.0]),
+                rel_tol: 1e-6,
+            },
+        )
+        .unwrap();
+        for (chi, e) in col(&c, "chi4").iter().zip(col(&c, "chi4_err")) {
+            assert!(
+                (chi - p).abs() < 4.0 * e && e < 0.03 * p,
+                "chi4 = {chi} +- {e}"
+            );
+        }
+
+        let s = s4(&traj, &unit_lag(1.0, 1e-6)).unwrap();
+        let sh = &s[0].1;
+        let mut weighted = 0.0;
+        let mut total = 0.0;
+        for k in 0..sh.q.len() {
+            assert!(
+                (sh.s4[k] - p).abs() < 5.0 * sh.s4_err[k],
+                "shell q = {}: S4 = {} +- {}",
+                sh.q[k],
+                sh.s4[k],
+                sh.s4_err[k]
+            );
+            weighted += sh.s4[k] * sh.n_vectors[k] as f64;
+            total += sh.n_vectors[k] as f64;
+        }
+        // ~ 40 origins x 1000 vectors: the overall mean is known to ~0.5 %.
+        assert!(
+            (weighted / total - p).abs() < 0.02 * p,
+            "mean S4 = {}",
+            weighted / total
+        );
+    }
+
+    #[test]
+    fn nufft_equals_the_direct_sum() {
+        let traj = independent_slow(400, [23.0, 17.0], 1, 0.5, 1.0, 3);
+        let (f0, f1) = (&traj.frames[0], &traj.frames[1]);
+        let c: Vec<f64> = squared_displacements(f0, f1)
+            .iter()
+            .map(|&d| if d < 0.36 { 1.0 } else { 0.0 })
+            .collect();
+        let lat = Lattice::new(traj.box_size, 4.0);
+        let direct = direct_w(&lat, traj.box_size, &f0.x, &f0.y, &c);
+        let nufft = Nufft::new(traj.box_size, lat.modes, 1e-14).unwrap();
+        let full = nufft.transform(&f0.x, &f0.y, &c);
+        let ny = 2 * lat.modes[1] + 1;
+        let norm: f64 = c.iter().sum();
+        let mut worst: f64 = 0.0;
+        for (v, &(m, n)) in lat.mn.iter().enumerate() {
+            let w = full[m as usize * ny + (n + lat.modes[1] as i64) as usize];
+            worst = worst.max((w - direct[v]).norm() / norm);
+            // S4 per vector |W|^2 / N, relative.
+            let (a, b) = (w.norm_sqr(), direct[v].norm_sqr());
+            assert!(
+                (a - b).abs() <= 1e-10 * b.max(1e-3 * norm),
+                "q = {}: {a} vs {b}",
+                lat.q[v]
+            );
+        }
+        assert!(worst < 1e-12, "worst relative error {worst}");
+        // The default tolerance 1e-6 holds too.
+        let coarse = Nufft::new(traj.box_size, lat.modes, 1e-6).unwrap();
+        let fc = coarse.transform(&f0.x, &f0.y, &c);
+        for (v, &(m, n)) in lat.mn.iter().enumerate() {
+            let w = fc[m as usize * ny + (n + lat.modes[1] as i64) as usize];
+            assert!((w - direct[v]).norm() < 1e-6 * norm);
+        }
+    }
+
+    #[test]
+    fn oz_field_recovers_xi_and_s4_tends_to_chi4() {
+        // h = L / grid = 0.5 keeps the nearest-grid-point window (xi^2 -> xi^2 + h^2 / 12)
+        // negligible; 240 origins keep the statistical error of xi near 2 %.
+        let (l, xi, p0) = (200.0, 4.0, 0.5);
+        let traj = oz_slow(40_000, l, 400, xi, p0, 0.18, 240, 11);
+        let s = s4(&traj, &unit_lag(0.5, 1e-8)).unwrap();
+        let sh = &s[0].1;
+        let q = overlap_at_unit_lag(&traj);
+        let background = col(&q, "Q")[0];
+        // Test helper, not library code (the OZ fit lives in src/fit): weighted linear
+        // regression of 1 / (S4 - p) against q^2 for q xi <= 2. Weights from a model, not
+        // from the noisy data (that would bias the fit): first unweighted per vector, then
+        // var(1/excess) ~ S4^2 / (n excess^4) of the first model.
+        let regress = |model: Option<(f64, f64)>| {
+            let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for k in 0..sh.q.len() {
+                if sh.q[k] * xi > 2.0 {
+                    continue;
+                }
+                let (x, y) = (sh.q2[k], 1.0 / (sh.s4[k] - background));
+                let n = sh.n_vectors[k] as f64;
+                let w = match model {
+                    None => n,
+                    Some((slope, icpt)) => {
+                        let excess = 1.0 / (icpt + slope * x);
+                        n * excess.powi(4) / (background + excess).powi(2)
+                    }
+                };
+                sw += w;
+                sx += w * x;
+                sy += w * y;
+                sxx += w * x * x;
+                sxy += w * x * y;
+            }
+            let slope = (sw * sxy - sx * sy) / (sw * sxx - sx * sx);
+            (slope, (sy - slope * sx) / sw)
+        };
+        let (slope, intercept) = regress(Some(regress(None)));
+        let xi_fit = (slope / intercept).sqrt();
+        let chi0 = 1.0 / intercept;
+        eprintln!("xi = {xi_fit}, chi0 = {chi0}, background = {background}");
+        assert!(
+            (xi_fit - xi).abs() < 0.05 * xi,
+            "xi = {xi_fit}, expected {xi}"
+        );
+
+        // S4(q -> 0) = background + chi0 is approached by chi4 of sub-boxes large
+        // against xi (l = 5 xi, 10 xi). Larger boxes are suppressed by the fixed total
+        // (the field has zero mean in each realisation), so the approach stays ~15 % short.
+        let c = chi4::compute(
+            &traj,
+            &chi4::Params {
+                a: 0.6,
+                n: vec![400.0, 1600.0],
+                lags: Some(vec![1.0]),
+                rel_tol: 1e-6,
+            },
+        )
+        .unwrap();
+        let chi = col(&c, "chi4");
+        let s0 = background + chi0;
+        eprintln!("chi4 = {chi:?}, S4(0) = {s0}");
+        assert!(
+            chi[0] > background + 0.5 * chi0,
+            "chi4 misses the correlations: {chi:?}"
+        );
+        assert!(chi[0] < chi[1] && chi[1] < s0, "{chi:?} vs S4(0) = {s0}");
+        assert!(
+            (chi[1] - s0).abs() < 0.2 * s0,
+            "chi4 = {} vs S4(0) = {s0}",
+            chi[1]
+        );
     }
 }

@@ -218,4 +218,13 @@ mod tests {
         assert!((e.value - m).abs() < 1e-12);
         assert!((e.err - (var / 5.0).sqrt()).abs() < 1e-12, "{}", e.err);
     }
+
+    #[test]
+    fn log_interpolation_is_exact_for_log_linear_data_and_never_extrapolates() {
+        let t = [1.0, 10.0, 100.0];
+        let y = [0.0, 1.0, 2.0];
+        assert!((interp_log_t(&t, &y, 10f64.sqrt()).unwrap() - 0.5).abs() < 1e-12);
+        assert_eq!(interp_log_t(&t, &y, 1000.0), None);
+        assert_eq!(interp_log_t(&t, &y, 0.5), None);
+    }
 }

@@ -101,13 +101,8 @@ pub fn align(batches: Vec<RecordBatch>) -> Result<Vec<RecordBatch>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::test_support::col;
     use crate::table::f64_batch;
-
-    fn col(b: &RecordBatch, n: &str) -> Vec<f64> {
-        let c = b.column_by_name(n).unwrap_or_else(|| panic!("no {n}"));
-        let c = c.as_any().downcast_ref::<Float64Array>().unwrap();
-        (0..c.len()).map(|i| c.value(i)).collect()
-    }
 
     #[test]
     fn unchanged_columns_are_their_own_samples_and_missing_replicas_are_nan() {
