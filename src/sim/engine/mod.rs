@@ -25,7 +25,6 @@ use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
 use crate::sim::events::pair_scan::{earliest_pair, nearest_image};
 use crate::sim::model::friction::Clock;
-use crate::sim::model::intruder_path::Pull;
 pub use crate::sim::model::kicks::Kicks;
 use crate::sim::model::restitution;
 use crate::sim::model::walls;
