@@ -91,7 +91,8 @@ impl Engine {
     /// A kick: one particle (Eq. 2 of paper I) or a pair with equal and
     /// opposite Gaussian momenta (Eq. 4 of paper H). With friction the
     /// velocities are u = v / lambda, so a momentum p changes u by p / (m lambda).
-    pub(super) fn kick(&mut self) {
+    /// `PLAIN`: [`Self::plain`] holds.
+    pub(super) fn kick<const PLAIN: bool>(&mut self) {
         let n = self.n();
         let i = self.drive.kick_next;
         let lam = self.lambda();
@@ -119,8 +120,8 @@ impl Engine {
             let k = self.rng.random_range(0..n - 1);
             if k >= i { k + 1 } else { k }
         });
-        self.advance(i);
-        self.advance(j);
+        self.advance_in::<PLAIN>(i);
+        self.advance_in::<PLAIN>(j);
         let kx: f64 = StandardNormal.sample(&mut self.rng);
         let ky: f64 = StandardNormal.sample(&mut self.rng);
         let (px, py) = (self.drive.p_dr * kx, self.drive.p_dr * ky);
@@ -137,8 +138,8 @@ impl Engine {
             lam,
         );
         self.prefetch_around(j);
-        self.predict(i);
-        self.predict(j);
+        self.predict_in::<PLAIN>(i);
+        self.predict_in::<PLAIN>(j);
     }
 
     /// Count a kick that changed the kinetic energy in u by `du` at `lam`.

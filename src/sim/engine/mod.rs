@@ -586,11 +586,32 @@ impl Engine {
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
         self.pipeline.on = self.lists.on && self.bytes() > self.pipeline.min_bytes;
+        if self.plain() {
+            self.run_events::<true>(t_stop, max_events)
+        } else {
+            self.run_events::<false>(t_stop, max_events)
+        }
+    }
+
+    /// Paper H's model: no pulled intruder, no walls, no friction. The event
+    /// loop then runs without the per-event checks for them (paper I's
+    /// additions stay off paper H's hot path); the answers are the same bits
+    /// either way.
+    #[inline]
+    fn plain(&self) -> bool {
+        self.pulling.pulled == pulled_intruder::NO_INTRUDER
+            && !self.has_walls
+            && self.clock.gamma == 0.0
+    }
+
+    /// [`Self::run_until`]'s loop; `PLAIN`: [`Self::plain`] holds.
+    #[inline(never)]
+    fn run_events<const PLAIN: bool>(&mut self, t_stop: f64, max_events: u64) -> bool {
         let mut s_stop = self.clock.s(t_stop);
         let s_max = self.clock.s_max();
         for _ in 0..max_events {
             let (i, te) = self.calendar.min();
-            if te.min(self.next_kick).min(s_stop) > s_max {
+            if !PLAIN && te.min(self.next_kick).min(s_stop) > s_max {
                 // Friction: nothing happens before lambda = 1/8; re-anchor there.
                 self.now = s_max;
                 self.anchor(self.clock.gamma);
@@ -607,7 +628,7 @@ impl Engine {
                 if self.next_kick == self.train.next {
                     self.force_kick();
                 } else {
-                    self.kick();
+                    self.kick::<PLAIN>();
                     self.schedule_kick();
                 }
                 continue;
@@ -623,7 +644,7 @@ impl Engine {
             let p = self.bk[i].ev_p;
             if p == SHELL {
                 self.shell_exit(i);
-            } else if p >= WALL {
+            } else if !PLAIN && p >= WALL {
                 if p == REPREDICT {
                     self.stats.repredicts += 1;
                     self.advance(i);
@@ -635,10 +656,10 @@ impl Engine {
                 self.cross(i, p - CROSS);
             } else if self.d[p as usize].count != self.bk[i].ev_c {
                 self.stats.stale_events += 1;
-                self.advance(i);
-                self.predict(i);
+                self.advance_in::<PLAIN>(i);
+                self.predict_in::<PLAIN>(i);
             } else {
-                self.collide(i, p as usize);
+                self.collide::<PLAIN>(i, p as usize);
             }
         }
         self.time = self.clock.t(self.now);
@@ -673,7 +694,13 @@ impl Engine {
 
     #[inline]
     fn advance(&mut self, i: usize) {
-        if i == self.pulling.pulled {
+        self.advance_in::<false>(i)
+    }
+
+    /// Bring disk `i` to now; `PLAIN`: there is no pulled intruder.
+    #[inline]
+    fn advance_in<const PLAIN: bool>(&mut self, i: usize) {
+        if !PLAIN && i == self.pulling.pulled {
             self.advance_pulled();
             return;
         }
@@ -805,8 +832,14 @@ impl Engine {
     /// Earliest event of `i` (which must be at the current time): sets its partner
     /// and returns its time, without updating the calendar.
     fn find_event(&mut self, i: usize) -> f64 {
+        self.find_event_in::<false>(i)
+    }
+
+    /// [`Self::find_event`]; `PLAIN`: [`Self::plain`] holds.
+    #[inline]
+    fn find_event_in<const PLAIN: bool>(&mut self, i: usize) -> f64 {
         if self.lists.on {
-            return self.find_event_listed(i);
+            return self.find_event_listed::<PLAIN>(i);
         }
         let a = self.d[i];
         let c = self.cell[i] as usize;
@@ -834,7 +867,7 @@ impl Engine {
                 }
             }
         });
-        if self.has_walls {
+        if !PLAIN && self.has_walls {
             self.earlier_wall(&a, scale, &mut best, &mut partner);
         }
         self.set_partner(i, partner);
@@ -890,8 +923,8 @@ impl Engine {
     /// [`Self::find_event`] from the neighbour list: the shell exit or the
     /// earliest collision with a listed disk.
     #[inline]
-    fn find_event_listed(&mut self, i: usize) -> f64 {
-        if i == self.pulling.pulled {
+    fn find_event_listed<const PLAIN: bool>(&mut self, i: usize) -> f64 {
+        if !PLAIN && i == self.pulling.pulled {
             return self.find_pulled_event(i);
         }
         let a = self.d[i];
@@ -900,12 +933,13 @@ impl Engine {
         let list = &self.lists.nb[base..base + self.bk[i].nn as usize];
         let (mut best, mut partner) =
             earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
-        if self.pulling.pulled != pulled_intruder::NO_INTRUDER
+        if !PLAIN
+            && self.pulling.pulled != pulled_intruder::NO_INTRUDER
             && list.contains(&(self.pulling.pulled as u32))
         {
             self.earlier_intruder(&a, &mut best, &mut partner);
         }
-        if self.has_walls {
+        if !PLAIN && self.has_walls {
             self.earlier_wall(&a, 1.0, &mut best, &mut partner);
         }
         self.set_partner(i, partner);
@@ -924,8 +958,18 @@ impl Engine {
 
     #[inline]
     fn predict(&mut self, i: usize) {
-        let t = self.find_event(i);
-        self.set_te(i, t);
+        self.predict_in::<false>(i)
+    }
+
+    /// Predict disk `i`'s next event; `PLAIN`: [`Self::plain`] holds.
+    #[inline]
+    fn predict_in<const PLAIN: bool>(&mut self, i: usize) {
+        let t = self.find_event_in::<PLAIN>(i);
+        if PLAIN {
+            self.d[i].te = t;
+        } else {
+            self.set_te(i, t);
+        }
         self.calendar.update(i, t);
     }
 
@@ -974,9 +1018,9 @@ impl Engine {
     /// Eqs. (1)-(3) of paper H: normal restitution eps, or 1 when the collapse
     /// guard acts (or while radii grow, when the collision must also outrun the
     /// growth of the contact distance).
-    fn collide(&mut self, i: usize, j: usize) {
-        self.advance(i);
-        self.advance(j);
+    fn collide<const PLAIN: bool>(&mut self, i: usize, j: usize) {
+        self.advance_in::<PLAIN>(i);
+        self.advance_in::<PLAIN>(j);
         let (a, b) = (self.d[i], self.d[j]);
         let (ma, mb) = (self.mass(i), self.mass(j));
         // Minimum image: touching disks are closer than half a box.
@@ -1000,7 +1044,7 @@ impl Engine {
         let g = gn - (a.radius + b.radius) * self.growth;
         let mut imp = restitution::normal_impulse(mu, e, g);
         let mut lift = 0.0;
-        if i == self.pulling.pulled || j == self.pulling.pulled {
+        if !PLAIN && (i == self.pulling.pulled || j == self.pulling.pulled) {
             // The force may press the pair back together at once: the rebound
             // speed -e g is lifted so that it returns no sooner than WALL_REST_TIME.
             let s = self.lift_rebound(i == self.pulling.pulled, nx, -e * g);
@@ -1020,12 +1064,12 @@ impl Engine {
         // Velocities are u = v / lambda: energies scale by lambda^2, momenta by lambda.
         let loss = restitution::energy_loss(mu, e, g);
         let lam = self.lambda();
-        if self.clock.gamma > 0.0 {
+        if !PLAIN && self.clock.gamma > 0.0 {
             self.account_friction();
             self.ke_u += lift - loss;
         }
         self.stats.dissipated += loss * (lam * lam);
-        if lift > 0.0 {
+        if !PLAIN && lift > 0.0 {
             self.stats.lifts += 1;
             self.stats.lifted += lift * (lam * lam);
         }
@@ -1034,8 +1078,8 @@ impl Engine {
         self.last_collision[i] = t;
         self.last_collision[j] = t;
         self.prefetch_around(j);
-        self.predict(i);
-        self.predict(j);
+        self.predict_in::<PLAIN>(i);
+        self.predict_in::<PLAIN>(j);
     }
 
     /// The 3x3 cells around cell `c`, in the order [`Self::for_neighbour_cells`]
