@@ -6,9 +6,8 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Exp};
-use repro::sim::calendar::EventCalendar;
-use repro::sim::tree::EventTree;
-use repro::sim::{SimConfig, enskog, init, run};
+use repro::sim::events::calendar::EventCalendar;
+use repro::sim::{SimConfig, enskog, initial_state, run};
 
 fn main() {
     divan::main();
@@ -20,7 +19,7 @@ fn driven_events(bencher: divan::Bencher, n: usize) {
         n,
         ..SimConfig::default()
     };
-    let mut e = init::prepare(&cfg, &|_| {}).expect("compression succeeds");
+    let mut e = initial_state::prepare(&cfg, &|_| {}).expect("compression succeeds");
     let omega = enskog::collision_frequency(
         cfg.phi,
         &cfg.radii(),
@@ -39,45 +38,11 @@ fn driven_events(bencher: divan::Bencher, n: usize) {
         .bench_local(|| e.run_until(f64::INFINITY, 100_000));
 }
 
-/// The event queue alone on a synthetic EDMD workload: per step, pop the
+/// The event calendar alone on a synthetic EDMD workload: per step, pop the
 /// minimum at time t, reschedule it to t + Exp(1) and three random other
 /// particles to t + Exp(1) (one event per particle, rate 1 per particle),
-/// after n warm-up steps from exponential start times. Tree vs calendar.
-trait Queue {
-    fn make(n: usize) -> Self;
-    fn set_lazy(&mut self, i: usize, t: f64);
-    fn rebuild(&mut self);
-    fn min(&self) -> (usize, f64);
-    fn update(&mut self, i: usize, t: f64);
-}
-
-macro_rules! queue {
-    ($t:ty) => {
-        impl Queue for $t {
-            fn make(n: usize) -> Self {
-                <$t>::new(n)
-            }
-            fn set_lazy(&mut self, i: usize, t: f64) {
-                <$t>::set_lazy(self, i, t)
-            }
-            fn rebuild(&mut self) {
-                <$t>::rebuild(self)
-            }
-            #[inline]
-            fn min(&self) -> (usize, f64) {
-                <$t>::min(self)
-            }
-            #[inline]
-            fn update(&mut self, i: usize, t: f64) {
-                <$t>::update(self, i, t)
-            }
-        }
-    };
-}
-queue!(EventTree);
-queue!(EventCalendar);
-
-fn edmd_steps<Q: Queue>(q: &mut Q, n: usize, rng: &mut ChaCha8Rng, steps: usize) {
+/// after n warm-up steps from exponential start times.
+fn edmd_steps(q: &mut EventCalendar, n: usize, rng: &mut ChaCha8Rng, steps: usize) {
     let wait = Exp::new(1.0).expect("rate 1");
     for _ in 0..steps {
         let (i, t) = q.min();
@@ -89,11 +54,11 @@ fn edmd_steps<Q: Queue>(q: &mut Q, n: usize, rng: &mut ChaCha8Rng, steps: usize)
     }
 }
 
-#[divan::bench(types = [EventTree, EventCalendar], args = [10_000, 1_000_000], sample_count = 10, sample_size = 1)]
-fn queue_edmd<Q: Queue>(bencher: divan::Bencher, n: usize) {
+#[divan::bench(args = [10_000, 1_000_000], sample_count = 10, sample_size = 1)]
+fn calendar_edmd(bencher: divan::Bencher, n: usize) {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let wait = Exp::new(1.0).expect("rate 1");
-    let mut q = Q::make(n);
+    let mut q = EventCalendar::new(n);
     for i in 0..n {
         q.set_lazy(i, wait.sample(&mut rng));
     }

@@ -1,55 +1,30 @@
-//! Event-driven molecular dynamics of 2D hard disks (paper H, Sec. 2; paper I).
+//! Event-driven molecular dynamics of 2D hard disks: the driven granular fluid
+//! of paper H (Sec. 2: inelastic bidisperse disks, collapse guard, pair kicks)
+//! and paper I's additions (viscous friction, single kicks at the amplitude of
+//! Eq. 7, hard walls, an intruder pulled by a constant force).
 //!
-//! - [`config`]: [`SimConfig`], every model parameter, validated.
-//! - [`engine`]: the event loop (collisions, cell and shell crossings, kicks),
-//!   with its neighbour lists, driving and prefetch pipeline in submodules.
-//! - [`restitution`]: the collision rule and the collapse guard (Eq. 1).
-//! - [`friction`]: the friction clock (Eqs. 8-9 of paper I).
-//! - [`kicks`]: single and pair kicks, the amplitude of Eq. (7) of paper I.
-//! - [`intruder`]: the intruder's path under force and friction, its root finder.
-//! - [`walls`]: hard walls per axis (wall times, reflection, padding).
-//! - [`tree`]: a tournament tree over the event times (the reference queue
-//!   in tests and benchmarks) and branch-free selects.
-//! - [`calendar`]: the event calendar (O(1) calendar queue, same API).
-//! - [`scan`]: the pair scan (scalar and SSE2, the same bits).
-//! - [`init`]: random start and Lubachevsky-Stillinger compression.
-//! - [`enskog`]: contact values and the Enskog collision frequency.
-//! - [`run`](mod@run): one simulation from config to trajectory and [`RunSummary`].
-//! - [`progress`]: what a running simulation reports.
+//! - [`model`]: the physics, one rule per file: [`SimConfig`] and its
+//!   validation, the collision rule (Eqs. 1-3 of paper H, Eq. 1 of paper I),
+//!   the friction clock (Eqs. 8-9 of paper I), the kicks (Eq. 4 of paper H,
+//!   Eqs. 2 and 7 of paper I), the walls, the intruder's path (Eqs. 3-4 of
+//!   paper I) and the Enskog collision frequency.
+//! - [`events`]: the event machinery: the calendar, one disk's hot state and
+//!   the partner codes, the pair scan, cache hints.
+//! - [`engine`]: the state and the event loop (collisions, cell and shell
+//!   crossings, kicks, walls, the pulled intruder), each part in a submodule.
+//! - [`run`](mod@run): one simulation: initial state and compression, relax,
+//!   produce and measure ([`RunSummary`]), progress, CPU time and memory.
 
-pub mod calendar;
-pub mod config;
-mod disk;
 pub mod engine;
-pub mod enskog;
-pub mod friction;
-pub mod init;
-pub mod intruder;
-pub mod kicks;
-mod prefetch;
-pub mod progress;
-pub mod resources;
-pub mod restitution;
+pub mod events;
+pub mod model;
 pub mod run;
-pub mod scan;
-pub mod tree;
-pub mod walls;
 
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod tests_force_kicks;
-#[cfg(test)]
-mod tests_friction;
-#[cfg(test)]
-mod tests_intruder;
-#[cfg(test)]
-mod tests_intruder_contact;
-#[cfg(test)]
-mod tests_intruder_walls;
-#[cfg(test)]
-mod tests_walls;
 
-pub use config::{Drive, ForceMode, KickRate, Masses, SimConfig};
-pub use progress::{Progress, Stage};
-pub use run::{RunSummary, Sample, run};
+pub use model::config::{Drive, ForceMode, KickRate, Masses, SimConfig};
+pub use model::{config, enskog, kicks};
+pub use run::initial_state;
+pub use run::progress::{Progress, Stage};
+pub use run::simulation::{RunSummary, Sample, run};

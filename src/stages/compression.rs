@@ -8,7 +8,7 @@ use serde_json::Value;
 
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
-use crate::sim::{SimConfig, init};
+use crate::sim::{SimConfig, initial_state};
 use crate::table::{f64_batch, to_parquet_bytes};
 
 pub struct Compression;
@@ -31,7 +31,7 @@ impl StageKind for Compression {
     }
     fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
         let cfg: SimConfig = typed("compression", params)?;
-        let c = init::compression_limit(&cfg, &|p: crate::sim::Progress| {
+        let c = initial_state::compression_limit(&cfg, &|p: crate::sim::Progress| {
             ctx.progress(p.time, p.end, "compressing")
         })?;
         ctx.log(format!(

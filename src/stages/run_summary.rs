@@ -41,8 +41,8 @@ impl StageKind for RunSummary {
     fn modules(&self) -> &[&str] {
         &[
             "analysis/run_summary",
-            "sim/enskog",
-            "sim/config",
+            "sim/model/enskog",
+            "sim/model/config",
             "stages/run_summary",
             "stages/simulate",
         ]

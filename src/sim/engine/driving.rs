@@ -1,18 +1,50 @@
 //! Driving: when the next kick comes, which particles it moves, and the
 //! momentum it gives them (the amplitude rule is in [`crate::sim::kicks`]).
 
-use super::super::kicks::Kicks;
 use super::{Engine, KICKS_AHEAD};
+use crate::sim::model::kicks::Kicks;
 use rand::RngExt;
 use rand_distr::{Distribution, Exp, StandardNormal};
+
+/// The driving's state, owned by this module.
+pub(super) struct Driving {
+    pub(super) kicks: Kicks,
+    /// Pair kicks per unit time, whole system.
+    pub(super) kick_rate: f64,
+    /// Clock reading of the driving's next kick.
+    pub(super) next_drive: f64,
+    /// The first disk of the next kick, drawn [`KICKS_AHEAD`] kicks before it so
+    /// that its data is fetched from memory while the events before it run.
+    pub(super) kick_next: usize,
+    /// The first disks of the kicks after `kick_next`: the `m`-th next one
+    /// (from 0) is `kick_ring[(kick_pos + m) % KICKS_AHEAD]`; empty (`None`)
+    /// until driving starts.
+    pub(super) kick_ring: Option<[u32; KICKS_AHEAD]>,
+    pub(super) kick_pos: usize,
+    /// Kick amplitude p_dr.
+    pub(super) p_dr: f64,
+}
+
+impl Driving {
+    /// No driving.
+    pub(super) const OFF: Driving = Driving {
+        kicks: Kicks::Off,
+        kick_rate: 0.0,
+        next_drive: f64::INFINITY,
+        kick_next: 0,
+        kick_ring: None,
+        kick_pos: 0,
+        p_dr: 0.0,
+    };
+}
 
 impl Engine {
     /// Start (or stop) driving: `rate` kicks per unit time in the whole
     /// system, each of momentum `p_dr` times a unit 2D Gaussian vector.
     pub fn set_kicks(&mut self, kicks: Kicks, rate: f64, p_dr: f64) {
-        self.kicks = kicks;
-        self.kick_rate = rate;
-        self.p_dr = p_dr;
+        self.drive.kicks = kicks;
+        self.drive.kick_rate = rate;
+        self.drive.p_dr = p_dr;
         self.schedule_kick();
     }
 
@@ -22,35 +54,36 @@ impl Engine {
     pub(super) fn schedule_kick(&mut self) {
         let wait = self.kick_wait();
         // Kicks come at a constant rate in time, not in the friction clock.
-        self.next_drive = if self.clock.gamma == 0.0 {
+        self.drive.next_drive = if self.clock.gamma == 0.0 {
             self.now + wait
         } else {
             self.clock.s(self.clock.t(self.now) + wait)
         };
-        self.next_kick = self.next_drive.min(self.train.next);
-        if self.next_drive < f64::INFINITY {
+        self.next_kick = self.drive.next_drive.min(self.train.next);
+        if self.drive.next_drive < f64::INFINITY {
             let n = self.n();
             let rng = &mut self.rng;
             let ring = self
+                .drive
                 .kick_ring
                 .get_or_insert_with(|| std::array::from_fn(|_| rng.random_range(0..n) as u32));
-            let pos = self.kick_pos;
-            self.kick_next = ring[pos] as usize;
+            let pos = self.drive.kick_pos;
+            self.drive.kick_next = ring[pos] as usize;
             ring[pos] = self.rng.random_range(0..n) as u32;
-            self.kick_pos = (pos + 1) % KICKS_AHEAD;
+            self.drive.kick_pos = (pos + 1) % KICKS_AHEAD;
             self.prefetch_kicks();
         }
     }
 
     pub fn kick_rate(&self) -> f64 {
-        self.kick_rate
+        self.drive.kick_rate
     }
 
     fn kick_wait(&mut self) -> f64 {
-        if self.kicks == Kicks::Off || self.kick_rate <= 0.0 {
+        if self.drive.kicks == Kicks::Off || self.drive.kick_rate <= 0.0 {
             return f64::INFINITY;
         }
-        Exp::new(self.kick_rate)
+        Exp::new(self.drive.kick_rate)
             .expect("kick rate is positive and finite")
             .sample(&mut self.rng)
     }
@@ -58,27 +91,28 @@ impl Engine {
     /// A kick: one particle (Eq. 2 of paper I) or a pair with equal and
     /// opposite Gaussian momenta (Eq. 4 of paper H). With friction the
     /// velocities are u = v / lambda, so a momentum p changes u by p / (m lambda).
-    pub(super) fn kick(&mut self) {
+    /// `PLAIN`: [`Self::plain`] holds.
+    pub(super) fn kick<const PLAIN: bool>(&mut self) {
         let n = self.n();
-        let i = self.kick_next;
+        let i = self.drive.kick_next;
         let lam = self.lambda();
-        if self.kicks == Kicks::Single {
+        if self.drive.kicks == Kicks::Single {
             self.advance(i);
             let kx: f64 = StandardNormal.sample(&mut self.rng);
             let ky: f64 = StandardNormal.sample(&mut self.rng);
             let before = self.kinetic_energy_of(i);
             let m = self.mass(i) * lam;
             let d = &mut self.d[i];
-            d.vx += self.p_dr * kx / m;
-            d.vy += self.p_dr * ky / m;
+            d.vx += self.drive.p_dr * kx / m;
+            d.vy += self.drive.p_dr * ky / m;
             d.count = d.count.wrapping_add(1);
-            self.kick_momentum_u[0] += self.p_dr * kx / lam;
-            self.kick_momentum_u[1] += self.p_dr * ky / lam;
+            self.kick_momentum_u[0] += self.drive.p_dr * kx / lam;
+            self.kick_momentum_u[1] += self.drive.p_dr * ky / lam;
             self.account_injection(self.kinetic_energy_of(i) - before, lam);
             self.predict(i);
             return;
         }
-        let j = match self.kicks {
+        let j = match self.drive.kicks {
             Kicks::NeighbourPairs => self.random_neighbour(i),
             _ => None,
         }
@@ -86,11 +120,11 @@ impl Engine {
             let k = self.rng.random_range(0..n - 1);
             if k >= i { k + 1 } else { k }
         });
-        self.advance(i);
-        self.advance(j);
+        self.advance_in::<PLAIN>(i);
+        self.advance_in::<PLAIN>(j);
         let kx: f64 = StandardNormal.sample(&mut self.rng);
         let ky: f64 = StandardNormal.sample(&mut self.rng);
-        let (px, py) = (self.p_dr * kx, self.p_dr * ky);
+        let (px, py) = (self.drive.p_dr * kx, self.drive.p_dr * ky);
         let before = self.kinetic_energy_of(i) + self.kinetic_energy_of(j);
         for (k, s) in [(i, 1.0), (j, -1.0)] {
             let m = self.mass(k) * lam;
@@ -104,8 +138,8 @@ impl Engine {
             lam,
         );
         self.prefetch_around(j);
-        self.predict(i);
-        self.predict(j);
+        self.predict_in::<PLAIN>(i);
+        self.predict_in::<PLAIN>(j);
     }
 
     /// Count a kick that changed the kinetic energy in u by `du` at `lam`.

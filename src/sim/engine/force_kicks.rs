@@ -6,8 +6,8 @@
 //! impulse of F over [t0 + (k-1) dt, t0 + k dt]. The train is deterministic
 //! (no random numbers): the bath's draws are those of the exact mode.
 
-use super::super::friction::Clock;
 use super::Engine;
+use crate::sim::model::friction::Clock;
 
 /// A regular train of force kicks.
 #[derive(Clone, Copy, Debug)]
@@ -46,7 +46,7 @@ impl Engine {
     /// moves straight between kicks; [`Self::set_force`] is the exact mode).
     pub fn set_force_kicks(&mut self, force: f64, dt: f64) -> anyhow::Result<()> {
         anyhow::ensure!(
-            self.intruder != super::pulled::NO_INTRUDER,
+            self.pulling.intruder != super::pulled_intruder::NO_INTRUDER,
             "no intruder to push"
         );
         anyhow::ensure!(
@@ -57,7 +57,7 @@ impl Engine {
             dt.is_finite() && dt > 0.0,
             "force kick interval {dt} is invalid: must be positive"
         );
-        self.force = force;
+        self.pulling.force = force;
         self.train = if force > 0.0 {
             Train {
                 dt,
@@ -69,7 +69,7 @@ impl Engine {
             Train::OFF
         };
         self.train.next = self.train.reading(&self.clock);
-        self.next_kick = self.next_drive.min(self.train.next);
+        self.next_kick = self.drive.next_drive.min(self.train.next);
         Ok(())
     }
 
@@ -81,13 +81,13 @@ impl Engine {
     /// The next force kick (now): the intruder gets F dt along x; the kinetic
     /// energy it gains is the work of F (the ledger closes with it).
     pub(super) fn force_kick(&mut self) {
-        let i = self.intruder;
+        let i = self.pulling.intruder;
         self.advance(i);
         let lam = self.lambda();
         let before = self.kinetic_energy_of(i);
         let m = self.mass(i) * lam;
         let d = &mut self.d[i];
-        d.vx += self.force * self.train.dt / m;
+        d.vx += self.pulling.force * self.train.dt / m;
         d.count = d.count.wrapping_add(1);
         let du = self.kinetic_energy_of(i) - before;
         if self.clock.gamma > 0.0 {
@@ -97,7 +97,7 @@ impl Engine {
         self.stats.work += du * (lam * lam);
         self.train.k += 1;
         self.train.next = self.train.reading(&self.clock);
-        self.next_kick = self.next_drive.min(self.train.next);
+        self.next_kick = self.drive.next_drive.min(self.train.next);
         self.predict(i);
     }
 }

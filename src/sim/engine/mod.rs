@@ -15,21 +15,20 @@
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
 
-mod ahead;
 mod driving;
 mod force_kicks;
-mod lists;
-mod pulled;
+mod neighbour_lists;
+mod prefetch_pipeline;
+mod pulled_intruder;
 
-use super::calendar::EventCalendar;
-use super::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
-use super::friction::Clock;
-use super::intruder::Pull;
-pub use super::kicks::Kicks;
-use super::resources::{big_vec, big_vec_from};
-use super::restitution;
-use super::scan::{earliest_pair, nearest_image};
-use super::walls;
+use crate::sim::events::calendar::EventCalendar;
+use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
+use crate::sim::events::pair_scan::{earliest_pair, nearest_image};
+use crate::sim::model::friction::Clock;
+pub use crate::sim::model::kicks::Kicks;
+use crate::sim::model::restitution;
+use crate::sim::model::walls;
+use crate::sim::run::resources::{big_vec, big_vec_from};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -105,7 +104,7 @@ pub struct Stats {
     /// within the intruder's horizon).
     pub repredicts: u64,
     /// Intruder-disk rebounds lifted to the minimum separation speed
-    /// ([`pulled::WALL_REST_TIME`]'s rule on disks) and the kinetic energy
+    /// ([`pulled_intruder::WALL_REST_TIME`]'s rule on disks) and the kinetic energy
     /// the lifts added (exact, summed per lift).
     pub lifts: u64,
     pub lifted: f64,
@@ -167,23 +166,12 @@ pub struct Engine {
     /// prediction touches one line for them instead of five arrays.
     bk: Vec<Book>,
     calendar: EventCalendar,
-    /// Neighbour lists are used (radii fixed and a box of at least 5x5 cells);
-    /// otherwise every prediction scans the 3x3 cells.
-    lists: bool,
-    /// Shell half-width: how far a disk may move from its list centre.
-    shell: f64,
+    /// The neighbour lists and their shell.
+    lists: neighbour_lists::Lists,
     /// Largest radius.
     rmax: f64,
-    /// List capacity per disk; it doubles when a list overflows, up to `cap_max`.
-    cap: usize,
-    /// A packing bound on the list length: lists never exceed it.
-    cap_max: usize,
-    /// A list was full when a disk had to be added: grow and rebuild.
-    overflow: bool,
-    /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]`.
-    nb: Vec<u32>,
     /// Current clock reading: the time without friction, the friction clock s
-    /// with it (velocities are then u = v / lambda, see [`super::friction`]).
+    /// with it (velocities are then u = v / lambda, see [`crate::sim::model::friction`]).
     now: f64,
     /// Current time (`clock.t(now)`, exact at the stop times of [`Self::run_until`]).
     time: f64,
@@ -202,44 +190,17 @@ pub struct Engine {
     scale0: f64,
     scale_t0: f64,
     growth: f64,
-    kicks: Kicks,
-    /// Pair kicks per unit time, whole system.
-    kick_rate: f64,
+    /// The driving's state: its kicks, their rate and amplitude, the next one.
+    drive: driving::Driving,
     /// Clock reading of the next kick of either train: the driving's
     /// (`next_drive`) or the force's (`train.next`).
     next_kick: f64,
-    next_drive: f64,
     /// The force on the intruder as a train of momentum kicks (off: never).
     train: force_kicks::Train,
-    /// The first disk of the next kick, drawn [`KICKS_AHEAD`] kicks before it so
-    /// that its data is fetched from memory while the events before it run.
-    kick_next: usize,
-    /// The first disks of the kicks after `kick_next`: the `m`-th next one
-    /// (from 0) is `kick_ring[(kick_pos + m) % KICKS_AHEAD]`; empty (`None`)
-    /// until driving starts.
-    kick_ring: Option<[u32; KICKS_AHEAD]>,
-    kick_pos: usize,
-    /// The calendar bucket up to which the prefetch pipeline has run.
-    ahead_bucket: u64,
-    /// The prefetch pipeline is on (lists in use, arrays over `PREFETCH_MIN_BYTES`).
-    ahead: bool,
-    /// [`PREFETCH_MIN_BYTES`] (a test forces the pipeline on in small systems).
-    prefetch_min_bytes: usize,
-    /// Kick amplitude p_dr.
-    p_dr: f64,
-    /// The intruder's index ([`pulled::NO_INTRUDER`] if none), and the same
-    /// while a force pulls it (its events then come from the root finder).
-    intruder: usize,
-    pulled: usize,
-    /// The force on the intruder and its motion law.
-    force: f64,
-    pull: Pull,
-    /// The pulled intruder's pending event (its `Disk::te` reads minus
-    /// infinity so that the bath's pair scan skips it).
-    intruder_te: f64,
-    /// The pulled intruder rests on the x wall the force presses it on (the
-    /// wall holds F; see [`pulled`]).
-    resting: bool,
+    /// The prefetch pipeline's state.
+    pipeline: prefetch_pipeline::Pipeline,
+    /// The intruder's state (paper I).
+    pulling: pulled_intruder::Pulling,
     rng: ChaCha8Rng,
     pub stats: Stats,
 }
@@ -344,17 +305,19 @@ impl Engine {
             last_collision: big_vec(n, f64::NEG_INFINITY),
             bk: big_vec(n, Book::default()),
             calendar: EventCalendar::new(n),
-            lists: false,
-            shell,
-            rmax,
-            cap,
-            cap_max,
-            overflow: false,
-            nb: if lists_fit {
-                big_vec(n * cap, NONE)
-            } else {
-                Vec::new()
+            lists: neighbour_lists::Lists {
+                on: false,
+                shell,
+                cap,
+                cap_max,
+                overflow: false,
+                nb: if lists_fit {
+                    big_vec(n * cap, NONE)
+                } else {
+                    Vec::new()
+                },
             },
+            rmax,
             now: 0.0,
             time: 0.0,
             clock: Clock::NONE,
@@ -366,27 +329,15 @@ impl Engine {
             scale0: 1.0,
             scale_t0: 0.0,
             growth: 0.0,
-            kicks: Kicks::Off,
-            kick_rate: 0.0,
             next_kick: f64::INFINITY,
-            next_drive: f64::INFINITY,
             train: force_kicks::Train::OFF,
-            kick_next: 0,
-            kick_ring: None,
-            kick_pos: 0,
-            ahead_bucket: 0,
-            ahead: false,
-            prefetch_min_bytes: PREFETCH_MIN_BYTES,
-            p_dr: 0.0,
-            intruder: pulled::NO_INTRUDER,
-            pulled: pulled::NO_INTRUDER,
-            force: 0.0,
-            pull: Pull {
-                gamma: 0.0,
-                accel: 0.0,
+            drive: driving::Driving::OFF,
+            pipeline: prefetch_pipeline::Pipeline {
+                bucket: 0,
+                on: false,
+                min_bytes: PREFETCH_MIN_BYTES,
             },
-            intruder_te: f64::INFINITY,
-            resting: false,
+            pulling: pulled_intruder::Pulling::NONE,
             rng,
             stats: Stats::default(),
         };
@@ -404,7 +355,7 @@ impl Engine {
         // Disk (64) + Book (32) + prev, cell (u32) + imx, imy (i32) + last_collision
         // (f64) + species (u8); per cell, head and occupancy (u32).
         n * (std::mem::size_of::<Disk>() + std::mem::size_of::<Book>() + 2 * 4 + 2 * 4 + 8 + 1)
-            + self.nb.len() * 4
+            + self.lists.nb.len() * 4
             + self.head.len() * 8
             + self.calendar.bytes()
     }
@@ -423,12 +374,12 @@ impl Engine {
     pub fn sort_by_cell(&mut self) {
         self.sync_all();
         let mut order: Vec<u32> = (0..self.n() as u32).collect();
-        if self.intruder == pulled::NO_INTRUDER {
+        if self.pulling.intruder == pulled_intruder::NO_INTRUDER {
             order.sort_by_key(|&i| self.cell[i as usize]);
         } else {
             // The intruder keeps its index (the first).
-            order.sort_by_key(|&i| (i as usize != self.intruder, self.cell[i as usize]));
-            assert_eq!(self.intruder, 0, "the intruder is placed first");
+            order.sort_by_key(|&i| (i as usize != self.pulling.intruder, self.cell[i as usize]));
+            assert_eq!(self.pulling.intruder, 0, "the intruder is placed first");
         }
         // In place, array by array: a copy of the disks would be the peak memory
         // of a 4 x 10^6 disk run.
@@ -525,7 +476,7 @@ impl Engine {
         self.account_friction();
         let lam = self.lambda();
         let t = self.clock.t(self.now);
-        let t_kick = self.clock.t(self.next_drive);
+        let t_kick = self.clock.t(self.drive.next_drive);
         for d in &mut self.d {
             d.vx *= lam;
             d.vy *= lam;
@@ -533,12 +484,12 @@ impl Engine {
         }
         self.kick_momentum_u = self.kick_momentum_u.map(|p| p * lam);
         self.clock = Clock { gamma, t0: t };
-        self.pull.gamma = gamma;
+        self.pulling.pull.gamma = gamma;
         self.now = 0.0;
         self.time = t;
-        self.next_drive = self.clock.s(t_kick);
+        self.drive.next_drive = self.clock.s(t_kick);
         self.train.next = self.train.reading(&self.clock);
-        self.next_kick = self.next_drive.min(self.train.next);
+        self.next_kick = self.drive.next_drive.min(self.train.next);
         self.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
         self.lam2 = 1.0;
         self.reschedule_all();
@@ -634,12 +585,33 @@ impl Engine {
     /// clock is set to `t_stop`) or `max_events` were processed. True if `t_stop`
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
-        self.ahead = self.lists && self.bytes() > self.prefetch_min_bytes;
+        self.pipeline.on = self.lists.on && self.bytes() > self.pipeline.min_bytes;
+        if self.plain() {
+            self.run_events::<true>(t_stop, max_events)
+        } else {
+            self.run_events::<false>(t_stop, max_events)
+        }
+    }
+
+    /// Paper H's model: no pulled intruder, no walls, no friction. The event
+    /// loop then runs without the per-event checks for them (paper I's
+    /// additions stay off paper H's hot path); the answers are the same bits
+    /// either way.
+    #[inline]
+    fn plain(&self) -> bool {
+        self.pulling.pulled == pulled_intruder::NO_INTRUDER
+            && !self.has_walls
+            && self.clock.gamma == 0.0
+    }
+
+    /// [`Self::run_until`]'s loop; `PLAIN`: [`Self::plain`] holds.
+    #[inline(never)]
+    fn run_events<const PLAIN: bool>(&mut self, t_stop: f64, max_events: u64) -> bool {
         let mut s_stop = self.clock.s(t_stop);
         let s_max = self.clock.s_max();
         for _ in 0..max_events {
             let (i, te) = self.calendar.min();
-            if te.min(self.next_kick).min(s_stop) > s_max {
+            if !PLAIN && te.min(self.next_kick).min(s_stop) > s_max {
                 // Friction: nothing happens before lambda = 1/8; re-anchor there.
                 self.now = s_max;
                 self.anchor(self.clock.gamma);
@@ -656,7 +628,7 @@ impl Engine {
                 if self.next_kick == self.train.next {
                     self.force_kick();
                 } else {
-                    self.kick();
+                    self.kick::<PLAIN>();
                     self.schedule_kick();
                 }
                 continue;
@@ -666,13 +638,13 @@ impl Engine {
                 return true;
             }
             self.now = te;
-            if self.ahead {
+            if self.pipeline.on {
                 self.look_ahead();
             }
             let p = self.bk[i].ev_p;
             if p == SHELL {
                 self.shell_exit(i);
-            } else if p >= WALL {
+            } else if !PLAIN && p >= WALL {
                 if p == REPREDICT {
                     self.stats.repredicts += 1;
                     self.advance(i);
@@ -684,10 +656,10 @@ impl Engine {
                 self.cross(i, p - CROSS);
             } else if self.d[p as usize].count != self.bk[i].ev_c {
                 self.stats.stale_events += 1;
-                self.advance(i);
-                self.predict(i);
+                self.advance_in::<PLAIN>(i);
+                self.predict_in::<PLAIN>(i);
             } else {
-                self.collide(i, p as usize);
+                self.collide::<PLAIN>(i, p as usize);
             }
         }
         self.time = self.clock.t(self.now);
@@ -715,14 +687,20 @@ impl Engine {
     /// ledgers are then current for the readers).
     #[inline]
     fn sync_pulled(&mut self) {
-        if self.pulled != pulled::NO_INTRUDER {
+        if self.pulling.pulled != pulled_intruder::NO_INTRUDER {
             self.advance_pulled();
         }
     }
 
     #[inline]
     fn advance(&mut self, i: usize) {
-        if i == self.pulled {
+        self.advance_in::<false>(i)
+    }
+
+    /// Bring disk `i` to now; `PLAIN`: there is no pulled intruder.
+    #[inline]
+    fn advance_in<const PLAIN: bool>(&mut self, i: usize) {
+        if !PLAIN && i == self.pulling.pulled {
             self.advance_pulled();
             return;
         }
@@ -764,8 +742,8 @@ impl Engine {
             self.wrap_into_box(i);
         }
         self.rebuild_cells();
-        self.lists = !self.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0;
-        if self.lists {
+        self.lists.on = !self.lists.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0;
+        if self.lists.on {
             self.build_all_lists();
         }
         for i in 0..self.n() {
@@ -854,8 +832,14 @@ impl Engine {
     /// Earliest event of `i` (which must be at the current time): sets its partner
     /// and returns its time, without updating the calendar.
     fn find_event(&mut self, i: usize) -> f64 {
-        if self.lists {
-            return self.find_event_listed(i);
+        self.find_event_in::<false>(i)
+    }
+
+    /// [`Self::find_event`]; `PLAIN`: [`Self::plain`] holds.
+    #[inline]
+    fn find_event_in<const PLAIN: bool>(&mut self, i: usize) -> f64 {
+        if self.lists.on {
+            return self.find_event_listed::<PLAIN>(i);
         }
         let a = self.d[i];
         let c = self.cell[i] as usize;
@@ -883,7 +867,7 @@ impl Engine {
                 }
             }
         });
-        if self.has_walls {
+        if !PLAIN && self.has_walls {
             self.earlier_wall(&a, scale, &mut best, &mut partner);
         }
         self.set_partner(i, partner);
@@ -915,7 +899,7 @@ impl Engine {
         let (pos, old) = if axis == 0 { (d.x, d.vx) } else { (d.y, d.vy) };
         let upper = pos > 0.5 * self.wall_len[axis];
         let mut new = walls::reflect(old, d.radius, self.growth, upper);
-        if axis == 0 && upper && i == self.pulled {
+        if axis == 0 && upper && i == self.pulling.pulled {
             new = self.settle_on_wall(i, new);
         }
         let dm = &mut self.d[i];
@@ -939,20 +923,23 @@ impl Engine {
     /// [`Self::find_event`] from the neighbour list: the shell exit or the
     /// earliest collision with a listed disk.
     #[inline]
-    fn find_event_listed(&mut self, i: usize) -> f64 {
-        if i == self.pulled {
+    fn find_event_listed<const PLAIN: bool>(&mut self, i: usize) -> f64 {
+        if !PLAIN && i == self.pulling.pulled {
             return self.find_pulled_event(i);
         }
         let a = self.d[i];
         let shell = self.shell_time(i, &a);
-        let base = i * self.cap;
-        let list = &self.nb[base..base + self.bk[i].nn as usize];
+        let base = i * self.lists.cap;
+        let list = &self.lists.nb[base..base + self.bk[i].nn as usize];
         let (mut best, mut partner) =
             earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
-        if self.pulled != pulled::NO_INTRUDER && list.contains(&(self.pulled as u32)) {
+        if !PLAIN
+            && self.pulling.pulled != pulled_intruder::NO_INTRUDER
+            && list.contains(&(self.pulling.pulled as u32))
+        {
             self.earlier_intruder(&a, &mut best, &mut partner);
         }
-        if self.has_walls {
+        if !PLAIN && self.has_walls {
             self.earlier_wall(&a, 1.0, &mut best, &mut partner);
         }
         self.set_partner(i, partner);
@@ -971,16 +958,26 @@ impl Engine {
 
     #[inline]
     fn predict(&mut self, i: usize) {
-        let t = self.find_event(i);
-        self.set_te(i, t);
+        self.predict_in::<false>(i)
+    }
+
+    /// Predict disk `i`'s next event; `PLAIN`: [`Self::plain`] holds.
+    #[inline]
+    fn predict_in<const PLAIN: bool>(&mut self, i: usize) {
+        let t = self.find_event_in::<PLAIN>(i);
+        if PLAIN {
+            self.d[i].te = t;
+        } else {
+            self.set_te(i, t);
+        }
         self.calendar.update(i, t);
     }
 
     /// Record disk `i`'s pending event time `t` where its neighbours' scans read it.
     #[inline]
     fn set_te(&mut self, i: usize, t: f64) {
-        if i == self.pulled {
-            self.intruder_te = t;
+        if i == self.pulling.pulled {
+            self.pulling.intruder_te = t;
             self.d[i].te = f64::NEG_INFINITY;
         } else {
             self.d[i].te = t;
@@ -1021,9 +1018,9 @@ impl Engine {
     /// Eqs. (1)-(3) of paper H: normal restitution eps, or 1 when the collapse
     /// guard acts (or while radii grow, when the collision must also outrun the
     /// growth of the contact distance).
-    fn collide(&mut self, i: usize, j: usize) {
-        self.advance(i);
-        self.advance(j);
+    fn collide<const PLAIN: bool>(&mut self, i: usize, j: usize) {
+        self.advance_in::<PLAIN>(i);
+        self.advance_in::<PLAIN>(j);
         let (a, b) = (self.d[i], self.d[j]);
         let (ma, mb) = (self.mass(i), self.mass(j));
         // Minimum image: touching disks are closer than half a box.
@@ -1047,10 +1044,10 @@ impl Engine {
         let g = gn - (a.radius + b.radius) * self.growth;
         let mut imp = restitution::normal_impulse(mu, e, g);
         let mut lift = 0.0;
-        if i == self.pulled || j == self.pulled {
+        if !PLAIN && (i == self.pulling.pulled || j == self.pulling.pulled) {
             // The force may press the pair back together at once: the rebound
             // speed -e g is lifted so that it returns no sooner than WALL_REST_TIME.
-            let s = self.lift_rebound(i == self.pulled, nx, -e * g);
+            let s = self.lift_rebound(i == self.pulling.pulled, nx, -e * g);
             if s != -e * g {
                 imp = mu * (g - s);
                 lift = 0.5 * mu * (s * s - e * e * g * g);
@@ -1067,12 +1064,12 @@ impl Engine {
         // Velocities are u = v / lambda: energies scale by lambda^2, momenta by lambda.
         let loss = restitution::energy_loss(mu, e, g);
         let lam = self.lambda();
-        if self.clock.gamma > 0.0 {
+        if !PLAIN && self.clock.gamma > 0.0 {
             self.account_friction();
             self.ke_u += lift - loss;
         }
         self.stats.dissipated += loss * (lam * lam);
-        if lift > 0.0 {
+        if !PLAIN && lift > 0.0 {
             self.stats.lifts += 1;
             self.stats.lifted += lift * (lam * lam);
         }
@@ -1081,8 +1078,8 @@ impl Engine {
         self.last_collision[i] = t;
         self.last_collision[j] = t;
         self.prefetch_around(j);
-        self.predict(i);
-        self.predict(j);
+        self.predict_in::<PLAIN>(i);
+        self.predict_in::<PLAIN>(j);
     }
 
     /// The 3x3 cells around cell `c`, in the order [`Self::for_neighbour_cells`]
@@ -1131,7 +1128,7 @@ impl Engine {
         for i in 0..self.n() {
             let c = self.cell[i] as usize;
             // With lists, cells hold list centres, up to `shell` from the disks.
-            let reach = if self.lists { 2 } else { 1 };
+            let reach = if self.lists.on { 2 } else { 1 };
             self.for_neighbour_cells(c % self.ncx, c / self.ncx, reach, |e, j, _, _| {
                 if j <= i {
                     return;
@@ -1224,13 +1221,13 @@ mod unit {
             ..Default::default()
         };
         let run = |min_bytes: usize| {
-            let mut e = crate::sim::init::prepare(&c, &|_| {}).unwrap();
-            let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 15.0);
+            let mut e = crate::sim::initial_state::prepare(&c, &|_| {}).unwrap();
+            let (kicks, rate, p_dr) = crate::sim::run::simulation::drive(&c, 15.0);
             (e.eps, e.tc) = (c.eps, c.collapse_tc);
             e.set_kicks(kicks, rate, p_dr);
-            e.prefetch_min_bytes = min_bytes;
+            e.pipeline.min_bytes = min_bytes;
             e.run_until(f64::INFINITY, 200_000);
-            assert_eq!(e.ahead, min_bytes == 0, "pipeline on/off");
+            assert_eq!(e.pipeline.on, min_bytes == 0, "pipeline on/off");
             let ((x, y), (vx, vy)) = (e.unwrapped_positions(), e.velocities());
             let bits: Vec<u64> = [x, y, vx, vy]
                 .concat()

@@ -16,7 +16,6 @@
 //! phi = 0.78, and the scan waits on loading the listed disks' lines.
 
 use super::disk::{Disk, SHELL};
-use super::tree::{select_f64, select_u32};
 
 /// The earliest collision of disk `a` (at time `now`) with the disks `list` of
 /// `d`, if earlier than `best`: (time from now, partner), or (`best`, SHELL).
@@ -24,7 +23,7 @@ use super::tree::{select_f64, select_u32};
 /// will predict anew then (every event ends in a prediction) and find `a`
 /// itself (Smallenburg's rule; spares the stale event this one would become).
 #[inline(always)]
-pub(super) fn earliest_pair(
+pub(crate) fn earliest_pair(
     d: &[Disk],
     list: &[u32],
     a: &Disk,
@@ -43,14 +42,14 @@ pub(super) fn earliest_pair(
 /// The separation `d` along a periodic axis of length `l` brought to its
 /// nearest image.
 #[inline(always)]
-pub(super) fn nearest_image(d: f64, l: f64) -> f64 {
+pub(crate) fn nearest_image(d: f64, l: f64) -> f64 {
     d - l * round_nearest(d / l)
 }
 
 /// `x` rounded to the nearest integer (ties to even) for |x| < 2^51, without a
 /// branch or a libm call: adding 1.5 2^52 leaves no fraction bits.
 #[inline(always)]
-pub(super) fn round_nearest(x: f64) -> f64 {
+pub(crate) fn round_nearest(x: f64) -> f64 {
     (x + ROUND_MAGIC) - ROUND_MAGIC
 }
 
@@ -202,6 +201,21 @@ fn partner_at(list: &[u32], t: f64, pos: i64) -> (f64, u32) {
     } else {
         (t, list[pos as usize])
     }
+}
+
+/// `if c { a } else { b }` without a branch: which disk wins is a coin flip,
+/// and LLVM turns a plain `if` on it into a jump mispredicted half the time.
+#[inline(always)]
+fn select_u32(c: bool, a: u32, b: u32) -> u32 {
+    let m = (c as u32).wrapping_neg();
+    (a & m) | (b & !m)
+}
+
+/// `if c { a } else { b }` without a branch (see [`select_u32`]).
+#[inline(always)]
+fn select_f64(c: bool, a: f64, b: f64) -> f64 {
+    let m = (c as u64).wrapping_neg();
+    f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
 #[cfg(test)]

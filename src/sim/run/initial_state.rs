@@ -2,10 +2,10 @@
 //! Lubachevsky-Stillinger compression (radii grow while the disks collide
 //! elastically) up to the requested packing fraction, without overlaps.
 
-use super::config::SimConfig;
-use super::engine::{Engine, Setup, rng_from_seed};
 use super::progress::{Progress, Stage};
-use super::scan::nearest_image;
+use crate::sim::engine::{Engine, Setup, rng_from_seed};
+use crate::sim::events::pair_scan::nearest_image;
+use crate::sim::model::config::SimConfig;
 use anyhow::{Result, bail};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;

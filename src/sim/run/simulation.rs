@@ -1,13 +1,13 @@
 //! One simulation from config to trajectory: compress, relax under driving,
 //! then record frames and measure temperature, pressure and rates.
 
-use super::config::{Drive, ForceMode, KickRate, SimConfig};
-use super::engine::{Engine, Kicks};
-use super::enskog;
-use super::init;
-use super::kicks;
+use super::initial_state;
 use super::progress::{Progress, Stage};
 use super::resources;
+use crate::sim::engine::{Engine, Kicks};
+use crate::sim::model::config::{Drive, ForceMode, KickRate, SimConfig};
+use crate::sim::model::enskog;
+use crate::sim::model::kicks;
 use crate::traj::{Frame, Trajectory};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
@@ -263,7 +263,7 @@ pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
 pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, RunSummary)> {
     cfg.validate()?;
     let cpu0 = resources::thread_cpu_seconds();
-    let mut e = init::prepare(cfg, progress)?;
+    let mut e = initial_state::prepare(cfg, progress)?;
     let compress_time = e.time();
     let n = e.n();
     let nf = n as f64;
@@ -281,7 +281,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     e.eps = cfg.eps;
     e.tc = cfg.collapse_tc;
     if cfg.temperature != 1.0 {
-        init::set_temperature(&mut e, cfg.temperature);
+        initial_state::set_temperature(&mut e, cfg.temperature);
     }
     if cfg.gamma > 0.0 {
         e.set_friction(cfg.gamma);

@@ -1,11 +1,11 @@
 //! Validation of the simulator against conservation laws, exact relations and
 //! known equations of state. Each test fails if the physics is wrong.
 
-use super::engine::Engine;
-use super::{Drive, KickRate, SimConfig, init, run};
+use crate::sim::engine::Engine;
+use crate::sim::{Drive, KickRate, SimConfig, initial_state, run};
 use crate::traj::Schedule;
 
-fn quiet(_: super::Progress) {}
+fn quiet(_: crate::sim::Progress) {}
 
 fn cfg(n: usize, phi: f64, eps: f64) -> SimConfig {
     SimConfig {
@@ -34,8 +34,8 @@ fn monodisperse(n: usize, phi: f64) -> SimConfig {
 
 /// A compressed engine with the driving of `c` switched on.
 fn driven_engine(c: &SimConfig) -> Engine {
-    let mut e = init::prepare(c, &quiet).unwrap();
-    let (kicks, rate, p_dr) = super::run::drive(c, 15.0);
+    let mut e = initial_state::prepare(c, &quiet).unwrap();
+    let (kicks, rate, p_dr) = crate::sim::run::drive(c, 15.0);
     e.eps = c.eps;
     e.tc = c.collapse_tc;
     e.set_kicks(kicks, rate, p_dr);
@@ -93,7 +93,7 @@ fn elastic_gas_conserves_energy_and_momentum_over_a_million_collisions() {
     let mut c = cfg(2000, 0.7, 1.0);
     c.drive = Drive::None;
     c.collapse_tc = 1e-3; // must never act when eps = 1
-    let mut e = init::prepare(&c, &quiet).unwrap();
+    let mut e = initial_state::prepare(&c, &quiet).unwrap();
     e.tc = c.collapse_tc;
     let (ke0, p0) = (e.kinetic_energy(), e.momentum());
     let scale = e.momentum_scale();
@@ -159,7 +159,7 @@ fn free_cooling_follows_haff_in_collisions_per_particle() {
     let eps: f64 = 0.9;
     let mut c = monodisperse(4000, 0.05);
     c.eps = eps;
-    let mut e = init::prepare(&c, &quiet).unwrap();
+    let mut e = initial_state::prepare(&c, &quiet).unwrap();
     e.eps = eps;
     e.tc = 0.0;
     let n = e.n() as f64;
@@ -310,7 +310,7 @@ fn config_round_trips_and_reads_yaml() {
     )
     .unwrap();
     assert_eq!(y.n, 500);
-    assert_eq!(y.masses, super::Masses::Ratio(3.0));
+    assert_eq!(y.masses, crate::sim::Masses::Ratio(3.0));
     assert_eq!(y.drive, Drive::RandomPairs);
     assert_eq!(y.kick_rate, KickRate::PerParticle(2.5));
     assert_eq!(y.species_masses(), vec![1.0, 3.0]);

@@ -32,11 +32,43 @@
 //!   bring back within [`WALL_REST_TIME`] leaves at the speed that returns
 //!   then; the energy this adds is booked in `Stats::lifted`.
 
-use super::super::disk::{Disk, REPREDICT, SHELL, WALL};
-use super::super::intruder::{Pull, Root};
-use super::super::scan::nearest_image;
-use super::super::walls;
 use super::Engine;
+use crate::sim::events::disk::{Disk, REPREDICT, SHELL, WALL};
+use crate::sim::events::pair_scan::nearest_image;
+use crate::sim::model::intruder_path::{Pull, Root};
+use crate::sim::model::walls;
+
+/// The intruder's state, owned by this module.
+pub(super) struct Pulling {
+    /// The intruder's index ([`NO_INTRUDER`] if none), and the same while a
+    /// force pulls it (its events then come from the root finder).
+    pub(super) intruder: usize,
+    pub(super) pulled: usize,
+    /// The force on the intruder and its motion law.
+    pub(super) force: f64,
+    pub(super) pull: Pull,
+    /// The pulled intruder's pending event (its `Disk::te` reads minus
+    /// infinity so that the bath's pair scan skips it).
+    pub(super) intruder_te: f64,
+    /// The pulled intruder rests on the x wall the force presses it on (the
+    /// wall holds F; see the module doc).
+    pub(super) resting: bool,
+}
+
+impl Pulling {
+    /// No intruder.
+    pub(super) const NONE: Pulling = Pulling {
+        intruder: NO_INTRUDER,
+        pulled: NO_INTRUDER,
+        force: 0.0,
+        pull: Pull {
+            gamma: 0.0,
+            accel: 0.0,
+        },
+        intruder_te: f64::INFINITY,
+        resting: false,
+    };
+}
 
 /// No intruder (or one the force does not pull): its index.
 pub(super) const NO_INTRUDER: usize = usize::MAX;
@@ -53,18 +85,18 @@ const HORIZON_SHELLS: f64 = 4.0;
 impl Engine {
     /// Particle `i` is the intruder: kept first when disks are renumbered.
     pub fn set_intruder(&mut self, i: usize) {
-        self.intruder = i;
+        self.pulling.intruder = i;
     }
 
     /// The intruder's index, if there is one.
     pub fn intruder(&self) -> Option<usize> {
-        (self.intruder != NO_INTRUDER).then_some(self.intruder)
+        (self.pulling.intruder != NO_INTRUDER).then_some(self.pulling.intruder)
     }
 
     /// Left at rest after the compression with its mass `mass` (it was held
     /// in place by a huge one).
     pub fn release_intruder(&mut self, mass: f64) {
-        let k = self.intruder;
+        let k = self.pulling.intruder;
         self.advance(k);
         self.masses[self.species[k] as usize] = mass;
         let d = &mut self.d[k];
@@ -76,7 +108,7 @@ impl Engine {
     /// The pulled intruder rests on the x wall (it touches it and has no
     /// velocity along x): then the wall holds F.
     pub fn intruder_resting(&self) -> bool {
-        self.resting && self.d[self.pulled].vx == 0.0
+        self.pulling.resting && self.d[self.pulling.pulled].vx == 0.0
     }
 
     /// The intruder's motion law now: no acceleration while it rests on the wall.
@@ -84,11 +116,11 @@ impl Engine {
     fn path(&self) -> Pull {
         if self.intruder_resting() {
             Pull {
-                gamma: self.pull.gamma,
+                gamma: self.pulling.pull.gamma,
                 accel: 0.0,
             }
         } else {
-            self.pull
+            self.pulling.pull
         }
     }
 
@@ -96,10 +128,10 @@ impl Engine {
     /// with the intruder resting when it would return within [`WALL_REST_TIME`].
     pub(super) fn settle_on_wall(&mut self, i: usize, u: f64) -> f64 {
         let v = u.abs() * self.lambda();
-        if i != self.pulled || 2.0 * v >= self.pull.accel * WALL_REST_TIME {
+        if i != self.pulling.pulled || 2.0 * v >= self.pulling.pull.accel * WALL_REST_TIME {
             return u;
         }
-        self.resting = true;
+        self.pulling.resting = true;
         self.stats.dissipated += 0.5 * self.mass(i) * v * v;
         0.0
     }
@@ -113,7 +145,7 @@ impl Engine {
     /// the pair then meets at most once per WALL_REST_TIME under the force.
     #[inline]
     pub(super) fn lift_rebound(&self, first: bool, nx: f64, s: f64) -> f64 {
-        let a = (if first { -nx } else { nx }) * self.pull.accel;
+        let a = (if first { -nx } else { nx }) * self.pulling.pull.accel;
         let lam = self.lambda();
         if a > 0.0 && 2.0 * s * lam < a * WALL_REST_TIME {
             0.5 * a * WALL_REST_TIME / lam
@@ -125,27 +157,28 @@ impl Engine {
     /// Pull the intruder with force `force` along +x from now on (0: a
     /// passive disk). Needs the neighbour lists (radii fixed, 5 x 5 cells).
     pub fn set_force(&mut self, force: f64) -> anyhow::Result<()> {
-        anyhow::ensure!(self.intruder != NO_INTRUDER, "no intruder to pull");
+        anyhow::ensure!(self.pulling.intruder != NO_INTRUDER, "no intruder to pull");
         anyhow::ensure!(
             force.is_finite() && force >= 0.0,
             "intruder force {force} is invalid: F must be finite and >= 0"
         );
         anyhow::ensure!(
-            force == 0.0 || (!self.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0),
+            force == 0.0
+                || (!self.lists.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0),
             "the pulled intruder needs neighbour lists: radii fixed (compression over) and a box of 5 x 5 cells of {:.3}; use more disks",
             2.0 * self.rmax
         );
         self.sync_all();
-        self.force = force;
-        self.resting = false;
-        self.pulled = if force > 0.0 {
-            self.intruder
+        self.pulling.force = force;
+        self.pulling.resting = false;
+        self.pulling.pulled = if force > 0.0 {
+            self.pulling.intruder
         } else {
             NO_INTRUDER
         };
-        self.pull = Pull {
+        self.pulling.pull = Pull {
             gamma: self.clock.gamma,
-            accel: force / self.mass(self.intruder),
+            accel: force / self.mass(self.pulling.intruder),
         };
         self.reschedule_all();
         Ok(())
@@ -153,7 +186,7 @@ impl Engine {
 
     /// The force on the intruder.
     pub fn force(&self) -> f64 {
-        self.force
+        self.pulling.force
     }
 
     /// Real time from clock reading `s0` to `s1` (the inverse of Eq. 9 between two readings).
@@ -174,13 +207,13 @@ impl Engine {
     /// Clock interval from now to real time `tau` later (Eq. 8's factor).
     #[inline]
     fn clock_interval(&self, tau: f64) -> f64 {
-        self.lambda() * self.pull.e(tau)
+        self.lambda() * self.pulling.pull.e(tau)
     }
 
     /// The pulled intruder's position (in the frame of its stored one) and
     /// real velocity now, without moving it.
     fn intruder_now(&self) -> ([f64; 2], [f64; 2]) {
-        let d = &self.d[self.pulled];
+        let d = &self.d[self.pulling.pulled];
         let lam0 = self.clock.lambda(d.t);
         let tau = self.real_interval(d.t, self.now);
         let v0 = [d.vx * lam0, d.vy * lam0];
@@ -192,7 +225,7 @@ impl Engine {
     /// Move the pulled intruder to now along its exact path; the work of F
     /// and the friction it suffered go to the ledgers.
     pub(super) fn advance_pulled(&mut self) {
-        let k = self.pulled;
+        let k = self.pulling.pulled;
         let d = self.d[k];
         if d.t == self.now {
             return;
@@ -201,11 +234,11 @@ impl Engine {
         let tau = self.real_interval(d.t, self.now);
         let ([x, y], v) = self.intruder_now();
         let m = self.mass(k);
-        self.stats.work += self.force * (x - d.x);
+        self.stats.work += self.pulling.force * (x - d.x);
         if self.intruder_resting() {
             // The wall holds F meanwhile.
-            self.stats.wall_impulse[0] += self.force * tau;
-            self.stats.wall_virial += x * self.force * tau;
+            self.stats.wall_impulse[0] += self.pulling.force * tau;
+            self.stats.wall_virial += x * self.pulling.force * tau;
         }
         let u1 = [v[0] / lam1, v[1] / lam1];
         if self.clock.gamma > 0.0 {
@@ -230,7 +263,7 @@ impl Engine {
         let g = self.clock.gamma;
         let vt = self.path().accel / g;
         let c = v0[0] - vt;
-        let e1 = self.pull.e(tau);
+        let e1 = self.pulling.pull.e(tau);
         let e2 = Pull {
             gamma: 2.0 * g,
             accel: 0.0,
@@ -246,18 +279,22 @@ impl Engine {
         let a = self.d[i];
         let lam = self.lambda();
         let v = [a.vx * lam, a.vy * lam];
-        if self.resting && a.vx != 0.0 {
+        if self.pulling.resting && a.vx != 0.0 {
             // A collision or kick moved it off the wall: the force acts again.
-            self.resting = false;
+            self.pulling.resting = false;
         }
         let p = self.path();
         // Horizon: the bound |v| + |F/m0| h allows HORIZON_SHELLS shells of
         // motion. (Not cut at the clock's re-anchoring: an event past it
         // re-anchors the clock, which predicts everything anew.)
-        let (wn, acc, reach) = (v[0].hypot(v[1]), p.accel.abs(), HORIZON_SHELLS * self.shell);
+        let (wn, acc, reach) = (
+            v[0].hypot(v[1]),
+            p.accel.abs(),
+            HORIZON_SHELLS * self.lists.shell,
+        );
         let h = 2.0 * reach / (wn + (wn * wn + 4.0 * acc * reach).sqrt());
         let centre = [a.x - self.bk[i].ox, a.y - self.bk[i].oy];
-        let (root, steps) = p.exit_time(centre, v, self.shell, h);
+        let (root, steps) = p.exit_time(centre, v, self.lists.shell, h);
         self.stats.root_calls += 1;
         self.stats.root_steps += u64::from(steps);
         let (mut best, mut partner) = match root {
@@ -265,9 +302,9 @@ impl Engine {
             Root::Never => (h, REPREDICT),
             Root::GaveUp(t) => (t, REPREDICT),
         };
-        let base = i * self.cap;
+        let base = i * self.lists.cap;
         for k in 0..self.bk[i].nn as usize {
-            let j = self.nb[base + k] as usize;
+            let j = self.lists.nb[base + k] as usize;
             let b = self.d[j];
             // Skip beyond j's own event: j predicts anew then and finds the intruder.
             let hj = best.min(self.real_interval(self.now, b.te));
@@ -317,8 +354,8 @@ impl Engine {
     /// lists the pulled intruder) by its contact with the intruder if that
     /// comes first and before the intruder's own event.
     pub(super) fn earlier_intruder(&mut self, a: &Disk, best: &mut f64, partner: &mut u32) {
-        let k = self.pulled;
-        let s_h = (self.now + *best).min(self.intruder_te);
+        let k = self.pulling.pulled;
+        let s_h = (self.now + *best).min(self.pulling.intruder_te);
         if s_h <= self.now {
             return;
         }

@@ -2,11 +2,11 @@
 //! head-on pair at the edge of its reach, the map t -> s of an undriven run,
 //! the dilute driven gas and the energy ledger.
 
-use super::engine::{Engine, Setup, rng_from_seed};
-use super::{Drive, KickRate, SimConfig, init, run};
+use crate::sim::engine::{Engine, Setup, rng_from_seed};
+use crate::sim::{Drive, KickRate, SimConfig, initial_state, run};
 use crate::traj::Schedule;
 
-fn quiet(_: super::Progress) {}
+fn quiet(_: crate::sim::Progress) {}
 
 /// Two unit disks (mass 1) in a 100 x 100 periodic box.
 fn two_disks(x: [f64; 2], vx: [f64; 2]) -> Engine {
@@ -102,8 +102,8 @@ fn undriven_friction_run_is_the_frictionless_run_in_s() {
         ..SimConfig::default()
     };
     let gamma = 2.0;
-    let mut a = init::prepare(&c, &quiet).unwrap();
-    let mut b = init::prepare(&c, &quiet).unwrap();
+    let mut a = initial_state::prepare(&c, &quiet).unwrap();
+    let mut b = initial_state::prepare(&c, &quiet).unwrap();
     for e in [&mut a, &mut b] {
         (e.eps, e.tc) = (c.eps, 0.0);
     }
@@ -198,10 +198,10 @@ fn dense_driven_run_with_friction_closes_its_energy_ledger() {
 #[test]
 fn momentum_decays_as_eq_11_plus_the_decayed_kicks() {
     let c = paper_i(1000, 0.6, 0.9, 1.0);
-    let mut e = init::prepare(&c, &quiet).unwrap();
+    let mut e = initial_state::prepare(&c, &quiet).unwrap();
     (e.eps, e.tc) = (c.eps, c.collapse_tc);
     e.set_friction(c.gamma);
-    let (kicks, rate, p_dr) = super::run::drive(&c, 4.9);
+    let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 4.9);
     e.set_kicks(kicks, rate, p_dr);
     let (p0, t0) = (e.momentum(), e.time());
     for dt in [0.5, 3.0, 10.0] {

@@ -4,10 +4,10 @@
 //! ledger are exact, the momentum balance holds kick by kick, and in a bath
 //! both modes give the same mean velocity.
 
-use super::config::{ForceMode, Intruder};
-use super::intruder::Pull;
-use super::tests_intruder::{bath, lone, mean_and_error, quiet};
-use super::{init, run};
+use super::intruder::{bath, lone, mean_and_error, quiet};
+use crate::sim::config::{ForceMode, Intruder};
+use crate::sim::model::intruder_path::Pull;
+use crate::sim::{init, run};
 
 /// Position error at time `t` of a lone intruder pushed by kicks every `dt`,
 /// against the exact path; also checks the work ledger.
@@ -87,7 +87,7 @@ fn momentum_grows_by_f_dt_per_kick() {
     if let Some(i) = c.intruder.as_mut() {
         i.force_mode = ForceMode::Kicks;
     }
-    let mut e = init::prepare(&c, &quiet).unwrap();
+    let mut e = initial_state::prepare(&c, &quiet).unwrap();
     e.eps = c.eps;
     e.tc = c.collapse_tc;
     let (kicks, rate, p_dr) = run::drive(&c, 5.0);

@@ -6,9 +6,9 @@
 //! that returns then: the runs that stalled finish within a bounded number of
 //! events, agree with the force as kicks, and keep the ledgers exact.
 
-use super::config::{ForceMode, Intruder};
-use super::tests_intruder::{bath, mean_and_error, pulled};
-use super::{Drive, KickRate, Progress, RunSummary, SimConfig, run};
+use super::intruder::{bath, mean_and_error, pulled};
+use crate::sim::config::{ForceMode, Intruder};
+use crate::sim::{Drive, KickRate, Progress, RunSummary, SimConfig, run};
 use crate::traj::Schedule;
 
 /// The channel the defect showed in: paper I's bath at eps = 0.7, single

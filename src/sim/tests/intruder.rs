@@ -2,13 +2,13 @@
 //! balance (Eq. 11), the energy ledger with the work of F, no overlaps, and
 //! the configurations it cannot run in.
 
-use super::config::{ForceMode, Intruder};
-use super::engine::{Engine, Setup, rng_from_seed};
-use super::intruder::Pull;
-use super::{Drive, KickRate, SimConfig, init, run};
+use crate::sim::config::{ForceMode, Intruder};
+use crate::sim::engine::{Engine, Setup, rng_from_seed};
+use crate::sim::model::intruder_path::Pull;
+use crate::sim::{Drive, KickRate, SimConfig, initial_state, run};
 use crate::traj::Schedule;
 
-pub(super) fn quiet(_: super::Progress) {}
+pub(super) fn quiet(_: crate::sim::Progress) {}
 
 /// Paper I's bath (radius ratio 1.25, m_b = 25/16, eps = 0.9) with paper I's
 /// intruder pulled by `force`.
@@ -41,7 +41,7 @@ pub(super) fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
 /// A compressed engine with friction, driving and the force on, as `run`
 /// starts it (kicks at the rate of an Enskog frequency of 5 per particle).
 pub(super) fn pulled(c: &SimConfig) -> Engine {
-    let mut e = init::prepare(c, &quiet).unwrap();
+    let mut e = initial_state::prepare(c, &quiet).unwrap();
     e.eps = c.eps;
     e.tc = c.collapse_tc;
     if c.gamma > 0.0 {

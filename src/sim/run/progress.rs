@@ -1,6 +1,6 @@
 //! What a running simulation reports to its caller.
 
-use super::engine::Engine;
+use crate::sim::engine::Engine;
 use serde::Serialize;
 use std::time::Instant;
 

@@ -3,11 +3,11 @@
 //! no escape through the wall, rest on the wall under friction, the energy
 //! ledger; and a chosen start position.
 
-use super::config::Intruder;
-use super::engine::{Engine, Setup, rng_from_seed};
-use super::intruder::Pull;
-use super::tests_intruder::{bath, pulled};
-use super::{Drive, KickRate, init};
+use super::intruder::{bath, pulled};
+use crate::sim::config::Intruder;
+use crate::sim::engine::{Engine, Setup, rng_from_seed};
+use crate::sim::model::intruder_path::Pull;
+use crate::sim::{Drive, KickRate, initial_state};
 
 /// The intruder (radius 2, mass 4) at rest at x = 50 and a small disk far
 /// from its path, in a 100 x 100 box with walls at x = 0 and 100.
@@ -164,7 +164,7 @@ fn chosen_start_between_four_walls() {
     });
     c.validate().unwrap();
     let [lx, ly] = c.box_size();
-    let e0 = init::prepare(&c, &super::tests_intruder::quiet).unwrap();
+    let e0 = initial_state::prepare(&c, &super::intruder::quiet).unwrap();
     let (x0, v0) = e0.particle(0);
     assert!(
         (x0[0] - 0.1 * lx).abs() < 1e-6 && (x0[1] - 0.5 * ly).abs() < 1e-6,
@@ -230,10 +230,10 @@ fn frames_carry_velocities_when_asked() {
         origin_spacing: 1.0,
         lags: vec![0.5, 1.0],
     };
-    let (t, _) = super::run(&c, &super::tests_intruder::quiet).unwrap();
+    let (t, _) = crate::sim::run(&c, &super::intruder::quiet).unwrap();
     assert!(t.frames.iter().all(|f| f.vx.is_empty() && f.vy.is_empty()));
     c.record_velocities = true;
-    let (tv, _) = super::run(&c, &super::tests_intruder::quiet).unwrap();
+    let (tv, _) = crate::sim::run(&c, &super::intruder::quiet).unwrap();
     assert_eq!(tv.frames.len(), t.frames.len());
     for (f, g) in tv.frames.iter().zip(&t.frames) {
         assert_eq!(f.vx.len(), 401);

@@ -2,8 +2,18 @@
 //! is requested stages ahead (docs/sim.md, "Prefetch pipeline"). Only hints:
 //! no result depends on it.
 
-use super::super::prefetch::{prefetch, prefetch_index};
 use super::{BUCKET_PREFETCH_MAX, Engine, KICKS_AHEAD};
+use crate::sim::events::cache_hints::{prefetch, prefetch_index};
+
+/// The pipeline's state, owned by this module.
+pub(super) struct Pipeline {
+    /// The calendar bucket up to which the pipeline has run.
+    pub(super) bucket: u64,
+    /// The pipeline is on (lists in use, arrays over `min_bytes`).
+    pub(super) on: bool,
+    /// [`super::PREFETCH_MIN_BYTES`] (a test forces the pipeline on in small systems).
+    pub(super) min_bytes: usize,
+}
 
 impl Engine {
     /// One stage of fetching for each kick drawn ahead: the disk line, list
@@ -12,13 +22,15 @@ impl Engine {
     /// the listed neighbours of the next one. Each stage reads only what the
     /// previous one fetched, a kick (~2 events) earlier.
     pub(super) fn prefetch_kicks(&self) {
-        if !self.ahead {
+        if !self.pipeline.on {
             // Small systems: only the next kick's disk and neighbours.
-            self.prefetch_around(self.kick_next);
+            self.prefetch_around(self.drive.kick_next);
             return;
         }
-        let Some(ring) = &self.kick_ring else { return };
-        let at = |m: usize| ring[(self.kick_pos + m) % KICKS_AHEAD] as usize;
+        let Some(ring) = &self.drive.kick_ring else {
+            return;
+        };
+        let at = |m: usize| ring[(self.drive.kick_pos + m) % KICKS_AHEAD] as usize;
         let drawn = at(KICKS_AHEAD - 1);
         prefetch(&self.d[drawn]);
         prefetch(&self.bk[drawn]);
@@ -50,11 +62,11 @@ impl Engine {
     /// slots may straddle two lines). Reads `bk[i]`.
     #[inline]
     fn prefetch_list(&self, i: usize) {
-        if self.lists {
-            let base = i * self.cap;
+        if self.lists.on {
+            let base = i * self.lists.cap;
             let m = self.bk[i].nn as usize;
-            prefetch_index(&self.nb, base);
-            prefetch_index(&self.nb, base + m.saturating_sub(1));
+            prefetch_index(&self.lists.nb, base);
+            prefetch_index(&self.lists.nb, base + m.saturating_sub(1));
         }
     }
 
@@ -62,9 +74,9 @@ impl Engine {
     /// prediction reads). Reads `bk[i]` and the list.
     #[inline]
     fn prefetch_listed(&self, i: usize) {
-        if self.lists {
-            let base = i * self.cap;
-            for &k in &self.nb[base..base + self.bk[i].nn as usize] {
+        if self.lists.on {
+            let base = i * self.lists.cap;
+            for &k in &self.lists.nb[base..base + self.bk[i].nn as usize] {
                 prefetch(&self.d[k as usize]);
             }
         }
@@ -85,17 +97,17 @@ impl Engine {
     /// ones fetched for nothing: it is only a hint, results never depend on it.
     pub(super) fn look_ahead(&mut self) {
         let cur = self.calendar.current_bucket();
-        if cur == self.ahead_bucket {
+        if cur == self.pipeline.bucket {
             return;
         }
         // Usually one step; after a jump or a re-binning (numbering restarts),
         // only the latest.
-        let from = if cur < self.ahead_bucket || cur - self.ahead_bucket > 4 {
+        let from = if cur < self.pipeline.bucket || cur - self.pipeline.bucket > 4 {
             cur
         } else {
-            self.ahead_bucket + 1
+            self.pipeline.bucket + 1
         };
-        self.ahead_bucket = cur;
+        self.pipeline.bucket = cur;
         let cal = &self.calendar;
         for b in from..=cur {
             for j in cal.bucket_members(b + 4).take(1) {

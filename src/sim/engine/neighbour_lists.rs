@@ -2,10 +2,27 @@
 //! its list centre, and its list holds every disk whose centre is within
 //! sigma_ij + 2 shell of it; leaving the shell rebuilds that one list.
 
-use super::super::disk::{Disk, NONE};
-use super::super::resources::big_vec;
-use super::super::scan::nearest_image;
 use super::Engine;
+use crate::sim::events::disk::{Disk, NONE};
+use crate::sim::events::pair_scan::nearest_image;
+use crate::sim::run::resources::big_vec;
+
+/// The neighbour lists, owned by this module.
+pub(super) struct Lists {
+    /// Neighbour lists are used (radii fixed and a box of at least 5x5 cells);
+    /// otherwise every prediction scans the 3x3 cells.
+    pub(super) on: bool,
+    /// Shell half-width: how far a disk may move from its list centre.
+    pub(super) shell: f64,
+    /// List capacity per disk; it doubles when a list overflows, up to `cap_max`.
+    pub(super) cap: usize,
+    /// A packing bound on the list length: lists never exceed it.
+    pub(super) cap_max: usize,
+    /// A list was full when a disk had to be added: grow and rebuild.
+    pub(super) overflow: bool,
+    /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]`.
+    pub(super) nb: Vec<u32>,
+}
 
 impl Engine {
     /// Time from now until disk `a` (= disk `i` at the current time) is `shell`
@@ -22,7 +39,7 @@ impl Engine {
             return f64::INFINITY;
         }
         let bb = dx * a.vx + dy * a.vy;
-        let c = dx * dx + dy * dy - self.shell * self.shell;
+        let c = dx * dx + dy * dy - self.lists.shell * self.lists.shell;
         if c >= 0.0 {
             return 0.0;
         }
@@ -47,17 +64,17 @@ impl Engine {
             self.remove(i);
             self.insert(i, c);
         }
-        let base = i * self.cap;
+        let base = i * self.lists.cap;
         for k in 0..self.bk[i].nn as usize {
-            let j = self.nb[base + k] as usize;
+            let j = self.lists.nb[base + k] as usize;
             self.unlist(j, i as u32);
         }
         self.bk[i].nn = 0;
         self.bk[i].ox = self.d[i].x;
         self.bk[i].oy = self.d[i].y;
         self.scan_list(i, true);
-        if self.overflow {
-            self.grow_lists(2 * self.cap);
+        if self.lists.overflow {
+            self.grow_lists(2 * self.lists.cap);
         } else {
             self.predict(i);
         }
@@ -66,16 +83,16 @@ impl Engine {
     /// Give every list room for `cap` disks (at most the packing bound) and
     /// rebuild them all, with every event predicted anew.
     fn grow_lists(&mut self, cap: usize) {
-        self.cap = cap.min(self.cap_max);
-        self.nb = big_vec(self.n() * self.cap, NONE);
+        self.lists.cap = cap.min(self.lists.cap_max);
+        self.lists.nb = big_vec(self.n() * self.lists.cap, NONE);
         self.reschedule_all();
     }
 
     /// Remove `i` from the list of `j`.
     fn unlist(&mut self, j: usize, i: u32) {
-        let base = j * self.cap;
+        let base = j * self.lists.cap;
         let m = self.bk[j].nn as usize;
-        let list = &mut self.nb[base..base + m];
+        let list = &mut self.lists.nb[base..base + m];
         let k = list
             .iter()
             .position(|&x| x == i)
@@ -86,11 +103,11 @@ impl Engine {
 
     fn push_list(&mut self, i: usize, j: usize) {
         let m = self.bk[i].nn as usize;
-        if m == self.cap {
-            self.overflow = true;
+        if m == self.lists.cap {
+            self.lists.overflow = true;
             return;
         }
-        self.nb[i * self.cap + m] = j as u32;
+        self.lists.nb[i * self.lists.cap + m] = j as u32;
         self.bk[i].nn += 1;
     }
 
@@ -104,7 +121,7 @@ impl Engine {
         let (oxi, oyi, ri) = (self.bk[i].ox, self.bk[i].oy, self.d[i].radius);
         // Cells two away are needed only on a side where the centre is within
         // `reach - w` of its cell's edge (reach < 2 w): about 12 cells instead of 25.
-        let reach = (ri + self.rmax + 2.0 * self.shell) * (1.0 + 1e-9);
+        let reach = (ri + self.rmax + 2.0 * self.lists.shell) * (1.0 + 1e-9);
         let (fx, fy) = (oxi - cx as f64 * self.wx, oyi - cy as f64 * self.wy);
         let (x0, x1) = (
             if fx + self.wx < reach { -2 } else { -1 },
@@ -127,7 +144,7 @@ impl Engine {
                     }
                     let ddx = nearest_image(self.bk[ju].ox - oxi, self.lx);
                     let ddy = nearest_image(self.bk[ju].oy - oyi, self.ly);
-                    let range = ri + self.d[ju].radius + 2.0 * self.shell;
+                    let range = ri + self.d[ju].radius + 2.0 * self.lists.shell;
                     if ddx * ddx + ddy * ddy < range * range {
                         self.push_list(i, ju);
                         if both {
@@ -146,23 +163,23 @@ impl Engine {
             self.bk[i].oy = self.d[i].y;
         }
         loop {
-            self.overflow = false;
+            self.lists.overflow = false;
             for b in &mut self.bk {
                 b.nn = 0;
             }
             for i in 0..self.n() {
                 self.scan_list(i, false);
             }
-            if !self.overflow {
+            if !self.lists.overflow {
                 return;
             }
             assert!(
-                self.cap < self.cap_max,
+                self.lists.cap < self.lists.cap_max,
                 "a neighbour list exceeds its packing bound {}: overlapping disks",
-                self.cap_max
+                self.lists.cap_max
             );
-            self.cap = (2 * self.cap).min(self.cap_max);
-            self.nb = big_vec(self.n() * self.cap, NONE);
+            self.lists.cap = (2 * self.lists.cap).min(self.lists.cap_max);
+            self.lists.nb = big_vec(self.n() * self.lists.cap, NONE);
         }
     }
 
@@ -174,14 +191,14 @@ impl Engine {
 
     /// Current list capacity per disk.
     pub fn list_capacity(&self) -> usize {
-        self.cap
+        self.lists.cap
     }
 
     /// Check the neighbour-list invariants against all pairs: every disk is within
     /// `shell` of its centre, and `j` is in the list of `i` exactly when their
     /// centres are within range. The error names the first violation.
     pub fn check_lists(&self) -> Result<(), String> {
-        if !self.lists {
+        if !self.lists.on {
             return Err("neighbour lists are not in use".into());
         }
         let near = |i: usize, x: f64, y: f64| {
@@ -189,7 +206,9 @@ impl Engine {
             let dy = nearest_image(y - self.bk[i].oy, self.ly);
             dx * dx + dy * dy
         };
-        let list = |i: usize| &self.nb[i * self.cap..i * self.cap + self.bk[i].nn as usize];
+        let list = |i: usize| {
+            &self.lists.nb[i * self.lists.cap..i * self.lists.cap + self.bk[i].nn as usize]
+        };
         for i in 0..self.n() {
             let d = &self.d[i];
             let dt = self.now - d.t;
@@ -199,18 +218,18 @@ impl Engine {
                 d.y + d.vy * dt - self.bk[i].oy,
             );
             let r2 = dx * dx + dy * dy;
-            if r2 > self.shell * self.shell * (1.0 + 1e-9) {
+            if r2 > self.lists.shell * self.lists.shell * (1.0 + 1e-9) {
                 return Err(format!(
                     "disk {i} is {} from its centre, shell {}",
                     r2.sqrt(),
-                    self.shell
+                    self.lists.shell
                 ));
             }
             for j in 0..self.n() {
                 if j == i {
                     continue;
                 }
-                let range = d.radius + self.d[j].radius + 2.0 * self.shell;
+                let range = d.radius + self.d[j].radius + 2.0 * self.lists.shell;
                 let inside = near(i, self.bk[j].ox, self.bk[j].oy) < range * range;
                 if inside != list(i).contains(&(j as u32)) {
                     return Err(format!(

@@ -2,10 +2,10 @@
 //! equally between species and directions, obeys the virial theorem exactly,
 //! and pushes on the walls with its virial pressure; disks never cross a wall.
 
-use super::{Drive, KickRate, SimConfig, init, run};
+use crate::sim::{Drive, KickRate, SimConfig, initial_state, run};
 use crate::traj::Schedule;
 
-fn quiet(_: super::Progress) {}
+fn quiet(_: crate::sim::Progress) {}
 
 fn boxed(n: usize, phi: f64, walls: [bool; 2]) -> SimConfig {
     SimConfig {
@@ -32,9 +32,9 @@ fn boxed(n: usize, phi: f64, walls: [bool; 2]) -> SimConfig {
 #[test]
 fn closed_elastic_box_obeys_the_virial_theorem_exactly() {
     let c = boxed(800, 0.5, [true, true]);
-    let mut e = init::prepare(&c, &quiet).unwrap();
+    let mut e = initial_state::prepare(&c, &quiet).unwrap();
     e.eps = 1.0;
-    let g = |e: &super::engine::Engine| {
+    let g = |e: &crate::sim::engine::Engine| {
         let ((x, y), (vx, vy)) = (e.unwrapped_positions(), e.velocities());
         (0..e.n())
             .map(|i| e.masses[e.species[i] as usize] * (x[i] * vx[i] + y[i] * vy[i]))
@@ -103,11 +103,11 @@ fn driven_channel_with_friction_keeps_every_disk_between_the_walls() {
         aspect: 0.5,
         ..boxed(400, 0.8, [false, true])
     };
-    let mut e = init::prepare(&c, &quiet).unwrap();
+    let mut e = initial_state::prepare(&c, &quiet).unwrap();
     e.eps = c.eps;
     e.tc = c.collapse_tc;
     e.set_friction(c.gamma);
-    let (kicks, rate, p_dr) = super::run::drive(&c, 20.0);
+    let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 20.0);
     e.set_kicks(kicks, rate, p_dr);
     let ly = c.box_size()[1];
     for ev in 0..50_000 {

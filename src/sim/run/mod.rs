@@ -1,0 +1,14 @@
+//! One simulation from config to results:
+//!
+//! - [`initial_state`]: random start and Lubachevsky-Stillinger compression.
+//! - [`simulation`]: relax under driving, record frames, measure
+//!   ([`RunSummary`](simulation::RunSummary)).
+//! - [`progress`]: what a running simulation reports.
+//! - [`resources`]: CPU time and memory, allocation of the big arrays.
+
+pub mod initial_state;
+pub mod progress;
+pub mod resources;
+pub mod simulation;
+
+pub use simulation::drive;
