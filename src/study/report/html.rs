@@ -104,7 +104,7 @@ fn verdict_headers(s: &mut String) {
 }
 
 /// The scoreboard: every figure, one row each, totals on top.
-pub fn index(report: &Report, links: &Links) -> String {
+fn index(report: &Report, links: &Links) -> String {
     let mut s = String::new();
     head(
         &mut s,
@@ -221,7 +221,7 @@ fn scoreboard_row(s: &mut String, e: &Entry, links: &Links) {
 }
 
 /// The page of one built figure.
-pub fn figure_page(report: &Report, e: &Entry, f: &FigureReport, links: &Links) -> String {
+fn figure_page(report: &Report, e: &Entry, f: &FigureReport, links: &Links) -> String {
     let mut s = String::new();
     let num = e.figure_number();
     head(&mut s, &format!("{} {num}: {}", e.paper.title(), e.id));
