@@ -15,13 +15,15 @@ build:
 
 # The README's test command: unit and integration tests (release: the physics tests
 # run millions of events).
-# Then the ci profile of the CI-checked figures (`ci: true` in their YAML) and
-# their regression check against tests/golden/ci.json (docs/figures.md).
+# Then the ci profile of the CI-checked figures (`ci: true` in their YAML),
+# their regression check against tests/golden/ci.json (docs/figures.md), and
+# their report, the HTML one checked in headless Chromium (docs/report.md).
 test:
 	$(CARGO) test --release --locked
 	$(REPRO) figure --ci --profile ci $(JOBS_FLAG)
 	$(REPRO) regress --profile ci
-	$(REPRO) report --profile ci
+	$(REPRO) report --profile ci --html
+	$(CARGO) test --release --locked --test report_html -- --ignored
 
 # The Slurm executor against a local single-node Slurm (started if needed; root).
 test-slurm:
@@ -33,12 +35,12 @@ bench:
 
 all-figures:
 	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)
-	$(REPRO) report --profile $(PROFILE)
+	$(REPRO) report --profile $(PROFILE) --html
 
-# The gallery and key-number table of the built figures: results/REPORT.md
-# (docs/report-PROFILE.md too with DOCS=1).
+# The gallery and key-number table of the built figures: results/REPORT.md and
+# results/report/index.html (docs/report-PROFILE.md too with DOCS=1).
 report:
-	$(REPRO) report --profile $(PROFILE) $(if $(DOCS),--docs,)
+	$(REPRO) report --profile $(PROFILE) --html $(if $(DOCS),--docs,)
 
 figure:
 	@test -n "$(FIG)" || { echo "usage: make figure FIG=fig19 [PROFILE=ci|small|paper] [JOBS=N]"; exit 2; }

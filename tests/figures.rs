@@ -277,7 +277,10 @@ fn tiny_figure_end_to_end_then_regression_check() {
         "| tinyfig | phi_0 | {} |",
         repro::study::report::number(c.ours, c.ours_err)
     );
-    assert!(md.contains(&row) && md.contains(&c.verdict), "{row}\n{md}");
+    assert!(
+        md.contains(&row) && md.contains(c.verdict.as_str()),
+        "{row}\n{md}"
+    );
     assert!(md.contains("![tinyfig](tinyfig/figure.png)"), "{md}");
 }
 

@@ -12,6 +12,8 @@ use clap::{Args, Subcommand};
 use crate::pipeline::{RunOptions, Workspace};
 use crate::study::frontier::{self, Frontier};
 use crate::study::golden::{self, GoldenFile, Recording};
+use crate::study::report;
+use crate::study::results::{Tally, read_compare};
 use crate::study::variant::{self, Variant};
 
 #[derive(Subcommand, Debug)]
@@ -26,9 +28,10 @@ pub enum Commands {
     /// with several seeds; table and chart of its key numbers (seed-to-seed
     /// spread) against CPU seconds, in results/frontier/.
     Frontier(FrontierArgs),
-    /// Write results/REPORT.md (and with --docs docs/report-PROFILE.md): the
-    /// gallery and every key number (ours, error, paper, verdict, reason) of the
-    /// built figures, with the profile, commit and date that produced them.
+    /// Write results/REPORT.md (and with --docs docs/report-PROFILE.md, with
+    /// --html results/report/index.html): the gallery and every key number (ours,
+    /// error, paper, verdict, reason) of the built figures, with the profile,
+    /// commit and date that produced them. Nothing is rebuilt.
     Report(ReportArgs),
     /// Do the quoted errors mean what they say? Build the figures at several
     /// master seeds; per key number, the fraction of seeds whose quoted 1-sigma
@@ -134,6 +137,14 @@ pub struct ReportArgs {
     /// docs/img/ID-PROFILE.png (what the README links).
     #[arg(long)]
     pub docs: bool,
+    /// Also write the HTML report: results/report/index.html (a scoreboard of
+    /// every figure) and a page per built figure, opened from the file system.
+    #[arg(long)]
+    pub html: bool,
+    /// With --html: write it into DIR instead, with copies of the built figures'
+    /// files, to share on its own.
+    #[arg(long, value_name = "DIR", requires = "html")]
+    pub out: Option<PathBuf>,
     #[arg(long, value_name = "DIR", default_value = ".")]
     pub root: PathBuf,
 }
@@ -290,6 +301,7 @@ fn regress(a: RegressArgs) -> Result<()> {
     for l in &lines {
         println!("{l}");
     }
+    println!("{}", verdicts(&g, &results, &a.ids)?);
     if !failures.is_empty() {
         bail!(
             "{} key number(s) regressed:\n{}",
@@ -299,6 +311,32 @@ fn regress(a: RegressArgs) -> Result<()> {
     }
     println!("all {} key numbers inside their golden bands", lines.len());
     Ok(())
+}
+
+/// The paper verdicts of the checked figures, as the HTML report's scoreboard
+/// totals them: `verdicts against the paper: 5 agree, ... (8 key numbers, 3 figures)`.
+fn verdicts(g: &GoldenFile, results: &std::path::Path, ids: &[String]) -> Result<String> {
+    let mut figs: Vec<&str> = g
+        .quantities
+        .iter()
+        .map(|q| q.figure.as_str())
+        .filter(|f| ids.is_empty() || ids.iter().any(|i| i == f))
+        .collect();
+    figs.sort();
+    figs.dedup();
+    let mut t = Tally::default();
+    for f in &figs {
+        let dir = results.join(f);
+        if dir.join("compare.parquet").is_file() {
+            t.add(&Tally::of(&read_compare(&dir)?));
+        }
+    }
+    Ok(format!(
+        "verdicts against the paper: {} ({} key numbers, {} figures)",
+        t.line(),
+        t.total(),
+        figs.len()
+    ))
 }
 
 fn settings(set: &[String]) -> Result<std::collections::BTreeMap<String, serde_json::Value>> {
@@ -351,12 +389,18 @@ fn frontier(a: FrontierArgs) -> Result<()> {
 
 fn report(a: ReportArgs) -> Result<()> {
     let ws = Workspace::new(&a.root);
-    let w = crate::study::report::write(&a.root, &ws.results, a.profile.as_deref(), a.docs)?;
+    let r = report::collect(&a.root, &ws.results, a.profile.as_deref())?;
+    let mut w = report::write_markdown(&r, &a.root, &ws.results, a.docs)?;
+    if a.html {
+        w.files
+            .push(report::html::write(&r, &ws.results, a.out.as_deref())?);
+    }
     for f in &w.files {
         println!(
-            "wrote {} ({} figures, profile {})",
+            "wrote {} ({} of {} figures built, profile {})",
             f.display(),
             w.figures,
+            r.entries.len(),
             w.profile
         );
     }

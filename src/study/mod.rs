@@ -11,7 +11,8 @@
 //! - [`coverage`]: whether quoted errors cover the seed-to-seed scatter.
 //! - [`frontier`]: accuracy of the key numbers against their CPU cost.
 //! - [`report`]: the gallery and the table of every key number, written from the
-//!   compare tables (never typed by hand).
+//!   compare tables (never typed by hand): one model, rendered as Markdown and as
+//!   an HTML scoreboard with a page per figure.
 
 pub mod coverage;
 pub mod frontier;

@@ -8,6 +8,105 @@ use anyhow::{Context, Result};
 use arrow_array::{Array, Float64Array, StringArray};
 use serde_json::Value;
 
+/// The `compare` stage's verdict on one key number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Verdict {
+    Agree,
+    Disagree,
+    /// The paper's value is beyond what this profile can reach (too few particles,
+    /// too short a run).
+    OutOfReach,
+    /// Our number exists but cannot be trusted (e.g. a fit that did not converge).
+    Unreliable,
+    /// We have no number.
+    Missing,
+}
+
+impl Verdict {
+    pub const ALL: [Verdict; 5] = [
+        Verdict::Agree,
+        Verdict::Disagree,
+        Verdict::OutOfReach,
+        Verdict::Unreliable,
+        Verdict::Missing,
+    ];
+
+    /// As compare.parquet spells it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Agree => "agree",
+            Verdict::Disagree => "disagree",
+            Verdict::OutOfReach => "out_of_reach",
+            Verdict::Unreliable => "unreliable",
+            Verdict::Missing => "missing",
+        }
+    }
+
+    /// For readers: `out of reach`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Verdict::OutOfReach => "out of reach",
+            v => v.as_str(),
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Verdict> {
+        Verdict::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl PartialEq<&str> for Verdict {
+    fn eq(&self, other: &&str) -> bool {
+        self.as_str() == *other
+    }
+}
+
+/// How many key numbers have each verdict.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    counts: [usize; 5],
+}
+
+impl Tally {
+    pub fn of<'a>(compared: impl IntoIterator<Item = &'a Compared>) -> Tally {
+        let mut t = Tally::default();
+        for c in compared {
+            t.counts[c.verdict as usize] += 1;
+        }
+        t
+    }
+
+    pub fn get(&self, v: Verdict) -> usize {
+        self.counts[v as usize]
+    }
+
+    pub fn total(&self) -> usize {
+        self.counts.iter().sum()
+    }
+
+    pub fn add(&mut self, other: &Tally) {
+        for (a, b) in self.counts.iter_mut().zip(other.counts) {
+            *a += b;
+        }
+    }
+
+    /// `3 agree, 1 disagree, 0 out of reach, 0 unreliable, 0 missing`: the line
+    /// `repro regress` prints and the HTML report's totals are checked against.
+    pub fn line(&self) -> String {
+        Verdict::ALL
+            .iter()
+            .map(|v| format!("{} {}", self.get(*v), v.label()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
 /// One key number as the `compare` stage reported it.
 #[derive(Clone, Debug)]
 pub struct Compared {
@@ -17,8 +116,7 @@ pub struct Compared {
     pub ours_err: f64,
     pub paper: f64,
     pub tolerance: f64,
-    /// `agree`, `disagree`, `out_of_reach`, `unreliable` or `missing`.
-    pub verdict: String,
+    pub verdict: Verdict,
     pub reason: String,
 }
 
@@ -51,13 +149,16 @@ pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
         );
         let (ver, why) = (s("verdict")?, s("reason")?);
         for i in 0..b.num_rows() {
+            let verdict = Verdict::parse(ver.value(i)).with_context(|| {
+                format!("{}: unknown verdict '{}'", path.display(), ver.value(i))
+            })?;
             out.push(Compared {
                 quantity: q.value(i).to_string(),
                 ours: opt(o, i),
                 ours_err: opt(oe, i),
                 paper: p.value(i),
                 tolerance: t.value(i),
-                verdict: ver.value(i).to_string(),
+                verdict,
                 reason: why.value(i).to_string(),
             });
         }
@@ -145,10 +246,30 @@ pub struct Provenance {
     pub description: String,
     /// The git commit of the checkout that built it, if any.
     pub commit: Option<String>,
+    /// The version of repro that built it.
+    pub version: String,
     /// CPU seconds of all its stages (as first computed, cached or not).
     pub cpu_s: f64,
     /// When it was published (the file's modification time).
     pub written: std::time::SystemTime,
+    pub stages: Vec<StageRun>,
+    /// The files the pipeline published into the figure's directory.
+    pub published: Vec<String>,
+}
+
+/// One stage instance of a built figure, from `provenance.json`.
+#[derive(Clone, Debug)]
+pub struct StageRun {
+    pub label: String,
+    pub kind: String,
+    /// The cache key: hash of the stage's spec, inputs and code.
+    pub key: Option<String>,
+    pub seed: Option<u64>,
+    /// CPU seconds when it was computed (NaN if not recorded).
+    pub cpu_s: f64,
+    pub wall_s: f64,
+    /// Taken from the cache by the run that published the figure.
+    pub cached: bool,
 }
 
 /// Read `DIR/provenance.json`.
@@ -161,12 +282,35 @@ pub fn provenance(dir: &Path) -> Result<Provenance> {
         .as_array()
         .map(|s| s.iter().filter_map(|x| x["cpu_s"].as_f64()).sum())
         .unwrap_or(f64::NAN);
+    let stages = v["stages"]
+        .as_array()
+        .map(|s| {
+            s.iter()
+                .map(|x| StageRun {
+                    label: x["label"].as_str().unwrap_or("").to_string(),
+                    kind: x["kind"].as_str().unwrap_or("").to_string(),
+                    key: x["key"].as_str().map(String::from),
+                    seed: x["seed"].as_u64(),
+                    cpu_s: x["cpu_s"].as_f64().unwrap_or(f64::NAN),
+                    wall_s: x["wall_s"].as_f64().unwrap_or(f64::NAN),
+                    cached: x["executed_in_this_run"].as_bool() == Some(false),
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let published = v["published"]
+        .as_object()
+        .map(|m| m.keys().cloned().collect())
+        .unwrap_or_default();
     Ok(Provenance {
         profile: v["profile"].as_str().unwrap_or("").to_string(),
         description: v["description"].as_str().unwrap_or("").to_string(),
         commit: v["git_commit"].as_str().map(String::from),
+        version: v["repro_version"].as_str().unwrap_or("").to_string(),
         cpu_s,
         written: std::fs::metadata(&path)?.modified()?,
+        stages,
+        published,
     })
 }
 
