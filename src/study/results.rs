@@ -5,26 +5,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use arrow_array::{Array, Float64Array, StringArray};
 use serde_json::Value;
 
-/// One key number as the `compare` stage reported it.
-#[derive(Clone, Debug)]
-pub struct Compared {
-    pub quantity: String,
-    pub ours: f64,
-    /// Our quoted 1-sigma error (NaN when the fit gave none).
-    pub ours_err: f64,
-    pub paper: f64,
-    pub tolerance: f64,
-    /// `agree`, `disagree`, `out_of_reach`, `unreliable` or `missing`.
-    pub verdict: String,
-    pub reason: String,
-}
+use crate::table::results;
 
-fn opt(a: &Float64Array, i: usize) -> f64 {
-    if a.is_null(i) { f64::NAN } else { a.value(i) }
-}
+pub use crate::table::results::Compared;
 
 /// Read `DIR/compare.parquet`.
 pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
@@ -32,35 +17,7 @@ pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
     let (batches, _) = crate::table::read_parquet(&path)?;
     let mut out = Vec::new();
     for b in batches {
-        let s = |n: &str| -> Result<&StringArray> {
-            b.column_by_name(n)
-                .and_then(|c| c.as_any().downcast_ref::<StringArray>())
-                .with_context(|| format!("{}: no string column '{n}'", path.display()))
-        };
-        let f = |n: &str| -> Result<&Float64Array> {
-            b.column_by_name(n)
-                .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
-                .with_context(|| format!("{}: no float column '{n}'", path.display()))
-        };
-        let (q, o, oe, p, t) = (
-            s("quantity")?,
-            f("ours")?,
-            f("ours_err")?,
-            f("paper")?,
-            f("tolerance")?,
-        );
-        let (ver, why) = (s("verdict")?, s("reason")?);
-        for i in 0..b.num_rows() {
-            out.push(Compared {
-                quantity: q.value(i).to_string(),
-                ours: opt(o, i),
-                ours_err: opt(oe, i),
-                paper: p.value(i),
-                tolerance: t.value(i),
-                verdict: ver.value(i).to_string(),
-                reason: why.value(i).to_string(),
-            });
-        }
+        out.extend(results::read_compare(&b).with_context(|| path.display().to_string())?);
     }
     Ok(out)
 }
@@ -88,24 +45,14 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
     for f in files {
         let (batches, _) = crate::table::read_parquet(&f)?;
         for b in batches {
-            let col = |n: &str| {
-                b.column_by_name(n)
-                    .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
-            };
-            let q = b
-                .column_by_name("quantity")
-                .and_then(|c| c.as_any().downcast_ref::<StringArray>());
-            if let (Some(q), Some(v)) = (q, col("value")) {
-                let e = col("error");
-                for i in 0..b.num_rows() {
-                    out.insert(
-                        q.value(i).to_string(),
-                        Fitted {
-                            value: opt(v, i),
-                            error: e.map_or(f64::NAN, |e| opt(e, i)),
-                        },
-                    );
-                }
+            for r in results::read_quantities(&b).unwrap_or_default() {
+                out.insert(
+                    r.quantity,
+                    Fitted {
+                        value: r.value,
+                        error: r.error,
+                    },
+                );
             }
         }
     }
