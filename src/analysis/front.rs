@@ -12,9 +12,8 @@
 //! over replicas of the whole chain (profile, moments, slopes).
 
 use anyhow::{Result, bail};
-use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use arrow_array::{Float64Array, RecordBatch};
 use serde::Deserialize;
-use std::sync::Arc;
 
 use super::intruder::{ProfileParams, compute_profile};
 use super::stats::jackknife_err;
@@ -469,7 +468,7 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
 mod tests {
     use super::*;
     use crate::analysis::tests::col;
-    use arrow_array::Array;
+    use arrow_array::{Array, StringArray};
     use std::f64::consts::PI;
 
     #[test]
