@@ -12,9 +12,8 @@
 //! over replicas of the whole chain (profile, moments, slopes).
 
 use anyhow::{Result, bail};
-use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use arrow_array::{Float64Array, RecordBatch};
 use serde::Deserialize;
-use std::sync::Arc;
 
 use super::intruder::{ProfileParams, compute_profile};
 use super::stats::jackknife_err;
@@ -429,18 +428,12 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
     };
     let value: Vec<f64> = full.keys.to_vec();
     let error: Vec<f64> = (0..4).map(|q| err(&|n: &Numbers| n.keys[q])).collect();
-    let main = RecordBatch::try_from_iter([
-        (
-            "quantity",
-            Arc::new(StringArray::from(names.to_vec())) as ArrayRef,
-        ),
-        ("value", Arc::new(Float64Array::from(value)) as ArrayRef),
-        ("error", Arc::new(Float64Array::from(error)) as ArrayRef),
-        (
-            "note",
-            Arc::new(StringArray::from(vec![note; 4])) as ArrayRef,
-        ),
-    ])?;
+    let rows: Vec<(String, f64, f64)> = names
+        .iter()
+        .zip(value.iter().zip(&error))
+        .map(|(n, (v, e))| (n.to_string(), *v, *e))
+        .collect();
+    let main = crate::table::results::quantity_batch(&[], &rows, &note, None)?;
     let per_time = |f: &dyn Fn(&Numbers) -> &Vec<f64>| -> Vec<f64> {
         (0..times.len())
             .map(|k| jackknife_err(loo.iter().map(|n| f(n)[k]).collect()))
@@ -475,7 +468,7 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
 mod tests {
     use super::*;
     use crate::analysis::test_support::col;
-    use arrow_array::Array;
+    use arrow_array::{Array, StringArray};
     use std::f64::consts::PI;
 
     #[test]
@@ -570,12 +563,15 @@ mod tests {
         let t = plateau(&times, 0.0);
         let [main, positions, lines] = front(&[&t, &t, &t], &params()).unwrap();
         let q = main
-            .column_by_name("quantity")
+            .column_by_name(crate::table::results::QUANTITY)
             .unwrap()
             .as_any()
             .downcast_ref::<StringArray>()
             .unwrap();
-        let (value, error) = (col(&main, "value"), col(&main, "error"));
+        let (value, error) = (
+            col(&main, crate::table::results::VALUE),
+            col(&main, crate::table::results::ERROR),
+        );
         let get = |name: &str| {
             let i = (0..q.len()).find(|&i| q.value(i) == name).unwrap();
             (value[i], error[i])

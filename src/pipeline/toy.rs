@@ -15,7 +15,7 @@ use serde_json::Value;
 use super::canon::param_error;
 use super::registry::{Registry, typed};
 use super::stage::{Artifact, Output, StageCtx, StageKind};
-use crate::table::{f64_batch, read_parquet_bytes, to_parquet_bytes};
+use crate::table::{f64_batch, read_parquet_bytes, results, to_parquet_bytes};
 
 /// Register every toy kind.
 pub fn register(r: &mut Registry) {
@@ -195,12 +195,12 @@ impl StageKind for ToyFit {
         let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
         let b = RecordBatch::try_from_iter([
             (
-                "quantity",
+                results::QUANTITY,
                 Arc::new(StringArray::from(vec![format!("mean_{}", p.column)])) as ArrayRef,
             ),
-            ("value", Arc::new(Float64Array::from(vec![mean]))),
+            (results::VALUE, Arc::new(Float64Array::from(vec![mean]))),
             (
-                "error",
+                results::ERROR,
                 Arc::new(Float64Array::from(vec![(var / n).sqrt()])),
             ),
         ])?;

@@ -1,15 +1,13 @@
 //! `compare`: our fitted numbers against the paper's, with a verdict each.
 
-use std::sync::Arc;
-
 use anyhow::{Context, Result, bail};
-use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray};
+use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
 use serde::Deserialize;
 use serde_json::Value;
 
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
-use crate::table::{read_parquet_bytes, to_parquet_bytes};
+use crate::table::{read_parquet_bytes, results, to_parquet_bytes};
 
 /// `compare`: one row per paper value: quantity, ours, ours_err, paper, tolerance,
 /// verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
@@ -108,11 +106,11 @@ impl StageKind for Compare {
         for a in inputs {
             for b in read_parquet_bytes(a.read("parquet")?)?.0 {
                 let (q, v, e) = (
-                    str_col(&b, "quantity", &a.label)?,
-                    f64_col(&b, "value", &a.label)?,
-                    f64_col(&b, "error", &a.label)?,
+                    str_col(&b, results::QUANTITY, &a.label)?,
+                    f64_col(&b, results::VALUE, &a.label)?,
+                    f64_col(&b, results::ERROR, &a.label)?,
                 );
-                let note = str_col(&b, "note", &a.label).ok();
+                let note = str_col(&b, results::NOTE, &a.label).ok();
                 for r in 0..b.num_rows() {
                     let n = note.map_or(String::new(), |n| n.value(r).to_string());
                     ours.push((q.value(r).to_string(), v.value(r), e.value(r), n));
@@ -186,15 +184,16 @@ impl StageKind for Compare {
             verdict.push(ver.to_string());
             reason.push(why);
         }
-        let b = RecordBatch::try_from_iter([
-            ("quantity", Arc::new(StringArray::from(q)) as ArrayRef),
-            ("ours", Arc::new(Float64Array::from(o))),
-            ("ours_err", Arc::new(Float64Array::from(oe))),
-            ("paper", Arc::new(Float64Array::from(pv))),
-            ("tolerance", Arc::new(Float64Array::from(tol))),
-            ("verdict", Arc::new(StringArray::from(verdict))),
-            ("reason", Arc::new(StringArray::from(reason))),
-        ])?;
+        let b = results::CompareColumns {
+            quantity: q,
+            ours: o,
+            ours_err: oe,
+            paper: pv,
+            tolerance: tol,
+            verdict,
+            reason,
+        }
+        .batch()?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
     }
 }

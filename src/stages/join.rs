@@ -13,6 +13,7 @@ use super::tables::{Columns, inputs_of};
 use crate::analysis::pool;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::table::results::{ERROR, NOTE, QUANTITY, VALUE, value_jk};
 use crate::table::to_parquet_bytes;
 
 /// A column computed from two others of the joined row.
@@ -63,11 +64,9 @@ pub struct Join;
 /// plus `unreliable` (1 where the fit's note says so, else 0); any other table
 /// unchanged. This is how a fitted xi joins the data (chi4 vs xi).
 fn wide(c: Columns, on: &[String]) -> Result<Columns> {
-    let (Some(names), Some(value), Some(error)) = (
-        c.str.get("quantity"),
-        c.f64.get("value"),
-        c.f64.get("error"),
-    ) else {
+    let (Some(names), Some(value), Some(error)) =
+        (c.str.get(QUANTITY), c.f64.get(VALUE), c.f64.get(ERROR))
+    else {
         return Ok(c);
     };
     let keys: Vec<&Vec<f64>> = on.iter().filter_map(|k| c.f64.get(k)).collect();
@@ -92,7 +91,7 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
             .insert(k.clone(), firsts.iter().map(|&j| c.f64[k][j]).collect());
     }
     // 1 where the fit's note says its numbers are unreliable (a plot marks them).
-    if let Some(notes) = c.str.get("note") {
+    if let Some(notes) = c.str.get(NOTE) {
         let flag = firsts
             .iter()
             .map(|&j| f64::from(u8::from(notes[j].contains("unreliable"))))
@@ -103,7 +102,7 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
     // left out (`value_jkK`): they become `NAME_jkK` beside `jk_unit`, the
     // replica jackknife columns a fit across the groups reads.
     let samples: Vec<&Vec<f64>> = (0..pool::MAX_JK_REPLICAS)
-        .map_while(|k| c.f64.get(&pool::jk_column("value", k)))
+        .map_while(|k| c.f64.get(&value_jk(k)))
         .collect();
     if let (Some(units), false) = (c.f64.get(pool::JK_UNIT), samples.is_empty()) {
         out.f64.insert(
@@ -293,7 +292,7 @@ impl StageKind for Join {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::fits::tests::artifact;
+    use crate::stages::test_support::artifact;
     use crate::table::f64_batch;
 
     /// `propagate_errors`: a ratio and a product of independent numbers carry

@@ -6,7 +6,7 @@
 //! - [`analyse`]: every observable of `src/analysis` (Q(t), tau_alpha, aging, chi4,
 //!   S4, MSD, van Hove, g_ab, clusters, intruder, ...) as a stage kind of its name,
 //!   pooling the gathered replicas.
-//! - [`fits`]: fits of a table column (power law, VFT, ...) and the finite-size
+//! - [`fit`]: fits of a table column (power law, VFT, ...) and the finite-size
 //!   scaling collapse.
 //! - [`join`]: two tables joined by key columns, with derived columns.
 //! - [`compare`]: fitted numbers against the paper's values, with a verdict.
@@ -21,7 +21,7 @@
 pub mod analyse;
 pub mod compare;
 pub mod compression;
-pub mod fits;
+pub mod fit;
 pub mod join;
 pub mod plot;
 pub mod run_summary;
@@ -29,6 +29,8 @@ pub mod simulate;
 pub mod simulate_cost;
 pub mod synthetic;
 pub mod tables;
+#[cfg(test)]
+pub(crate) mod test_support;
 
 use crate::pipeline::Registry;
 
@@ -44,8 +46,8 @@ pub fn registry() -> Registry {
 pub fn register(r: &mut Registry) {
     r.register(simulate::Simulate);
     analyse::register(r);
-    r.register(fits::Fit);
-    r.register(fits::Collapse);
+    r.register(fit::Fit);
+    r.register(fit::Collapse);
     r.register(join::Join);
     r.register(compare::Compare);
     r.register(plot::Plot);

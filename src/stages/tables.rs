@@ -9,6 +9,7 @@ use serde::Deserialize;
 
 use crate::pipeline::Artifact;
 use crate::pipeline::stage::Holds;
+use crate::table::results::{ERROR, QUANTITY, VALUE};
 use crate::traj::Trajectory;
 
 /// Every input that is a simulated trajectory, decoded.
@@ -175,7 +176,7 @@ impl Columns {
 
     /// Value of a `quantity` row of a fit table (columns quantity, value, error).
     pub fn quantity(&self, name: &str) -> Result<(f64, f64)> {
-        let q = self.str.get("quantity").with_context(|| {
+        let q = self.str.get(QUANTITY).with_context(|| {
             format!(
                 "table from {} has no 'quantity' column (not a fit table)",
                 self.source
@@ -188,7 +189,7 @@ impl Columns {
                 q.join(", ")
             )
         })?;
-        Ok((self.col("value")?[i], self.col("error")?[i]))
+        Ok((self.col(VALUE)?[i], self.col(ERROR)?[i]))
     }
 }
 

@@ -5,67 +5,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use arrow_array::{Array, Float64Array, StringArray};
 use serde_json::Value;
 
-/// The `compare` stage's verdict on one key number.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Verdict {
-    Agree,
-    Disagree,
-    /// The paper's value is beyond what this profile can reach (too few particles,
-    /// too short a run).
-    OutOfReach,
-    /// Our number exists but cannot be trusted (e.g. a fit that did not converge).
-    Unreliable,
-    /// We have no number.
-    Missing,
-}
+use crate::table::results;
 
-impl Verdict {
-    pub const ALL: [Verdict; 5] = [
-        Verdict::Agree,
-        Verdict::Disagree,
-        Verdict::OutOfReach,
-        Verdict::Unreliable,
-        Verdict::Missing,
-    ];
-
-    /// As compare.parquet spells it.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Verdict::Agree => "agree",
-            Verdict::Disagree => "disagree",
-            Verdict::OutOfReach => "out_of_reach",
-            Verdict::Unreliable => "unreliable",
-            Verdict::Missing => "missing",
-        }
-    }
-
-    /// For readers: `out of reach`.
-    pub fn label(self) -> &'static str {
-        match self {
-            Verdict::OutOfReach => "out of reach",
-            v => v.as_str(),
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Verdict> {
-        Verdict::ALL.into_iter().find(|v| v.as_str() == s)
-    }
-}
-
-impl std::fmt::Display for Verdict {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl PartialEq<&str> for Verdict {
-    fn eq(&self, other: &&str) -> bool {
-        self.as_str() == *other
-    }
-}
+pub use crate::table::results::{Compared, Verdict};
 
 /// How many key numbers have each verdict.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -107,61 +51,13 @@ impl Tally {
     }
 }
 
-/// One key number as the `compare` stage reported it.
-#[derive(Clone, Debug)]
-pub struct Compared {
-    pub quantity: String,
-    pub ours: f64,
-    /// Our quoted 1-sigma error (NaN when the fit gave none).
-    pub ours_err: f64,
-    pub paper: f64,
-    pub tolerance: f64,
-    pub verdict: Verdict,
-    pub reason: String,
-}
-
-fn opt(a: &Float64Array, i: usize) -> f64 {
-    if a.is_null(i) { f64::NAN } else { a.value(i) }
-}
-
 /// Read `DIR/compare.parquet`.
 pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
     let path = dir.join("compare.parquet");
     let (batches, _) = crate::table::read_parquet(&path)?;
     let mut out = Vec::new();
     for b in batches {
-        let s = |n: &str| -> Result<&StringArray> {
-            b.column_by_name(n)
-                .and_then(|c| c.as_any().downcast_ref::<StringArray>())
-                .with_context(|| format!("{}: no string column '{n}'", path.display()))
-        };
-        let f = |n: &str| -> Result<&Float64Array> {
-            b.column_by_name(n)
-                .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
-                .with_context(|| format!("{}: no float column '{n}'", path.display()))
-        };
-        let (q, o, oe, p, t) = (
-            s("quantity")?,
-            f("ours")?,
-            f("ours_err")?,
-            f("paper")?,
-            f("tolerance")?,
-        );
-        let (ver, why) = (s("verdict")?, s("reason")?);
-        for i in 0..b.num_rows() {
-            let verdict = Verdict::parse(ver.value(i)).with_context(|| {
-                format!("{}: unknown verdict '{}'", path.display(), ver.value(i))
-            })?;
-            out.push(Compared {
-                quantity: q.value(i).to_string(),
-                ours: opt(o, i),
-                ours_err: opt(oe, i),
-                paper: p.value(i),
-                tolerance: t.value(i),
-                verdict,
-                reason: why.value(i).to_string(),
-            });
-        }
+        out.extend(results::read_compare(&b).with_context(|| path.display().to_string())?);
     }
     Ok(out)
 }
@@ -189,24 +85,14 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
     for f in files {
         let (batches, _) = crate::table::read_parquet(&f)?;
         for b in batches {
-            let col = |n: &str| {
-                b.column_by_name(n)
-                    .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
-            };
-            let q = b
-                .column_by_name("quantity")
-                .and_then(|c| c.as_any().downcast_ref::<StringArray>());
-            if let (Some(q), Some(v)) = (q, col("value")) {
-                let e = col("error");
-                for i in 0..b.num_rows() {
-                    out.insert(
-                        q.value(i).to_string(),
-                        Fitted {
-                            value: opt(v, i),
-                            error: e.map_or(f64::NAN, |e| opt(e, i)),
-                        },
-                    );
-                }
+            for r in results::read_quantities(&b).unwrap_or_default() {
+                out.insert(
+                    r.quantity,
+                    Fitted {
+                        value: r.value,
+                        error: r.error,
+                    },
+                );
             }
         }
     }

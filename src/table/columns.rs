@@ -6,6 +6,8 @@
 //! in 1/r1; "1" is dimensionless. A suffix `_err` is the 1-sigma error of its base
 //! column, `t_over_X` is t in units of the measured time X.
 
+use super::results;
+
 /// (column, unit, description), one line each.
 const COLUMNS: &[(&str, &str, &str)] = &[
     ("phi", "1", "packing fraction (area fraction of the disks)"),
@@ -275,23 +277,23 @@ const COLUMNS: &[(&str, &str, &str)] = &[
         "recorded lag used for the request (nearest in ln t)",
     ),
     ("rel_diff", "1", "lag / requested - 1"),
-    ("quantity", "", "name of a fitted or measured number"),
-    ("value", "as the quantity", "its value"),
-    ("error", "as the quantity", "its 1-sigma error"),
-    ("note", "", "fit warnings, or `fit failed: ` and why"),
-    ("ours", "as the quantity", "our value"),
-    ("paper", "as the quantity", "the paper's value"),
+    (results::QUANTITY, "", "name of a fitted or measured number"),
+    (results::VALUE, "as the quantity", "its value"),
+    (results::ERROR, "as the quantity", "its 1-sigma error"),
+    (results::NOTE, "", "fit warnings, or `fit failed: ` and why"),
+    (results::OURS, "as the quantity", "our value"),
+    (results::PAPER, "as the quantity", "the paper's value"),
     (
-        "tolerance",
+        results::TOLERANCE,
         "as the quantity",
         "largest accepted |ours - paper|",
     ),
     (
-        "verdict",
+        results::VERDICT,
         "",
         "agree, disagree, out_of_reach, unreliable or missing",
     ),
-    ("reason", "", "why the verdict"),
+    (results::REASON, "", "why the verdict"),
     (
         "x_min",
         "as the fitted x",

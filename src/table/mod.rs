@@ -7,6 +7,7 @@
 
 pub mod columns;
 pub mod replicas;
+pub mod results;
 pub mod trajectory;
 
 use std::fs::File;

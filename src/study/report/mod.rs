@@ -504,25 +504,21 @@ pub fn write_markdown(report: &Report, root: &Path, results: &Path, docs: bool) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
-    use std::sync::Arc;
 
     /// A built figure with one compared number, as the `compare` stage writes it.
     fn built(results: &Path, id: &str, profile: &str, ours: f64, err: f64) {
         let d = results.join(id);
         std::fs::create_dir_all(&d).unwrap();
-        let b = RecordBatch::try_from_iter([
-            (
-                "quantity",
-                Arc::new(StringArray::from(vec!["phi_0"])) as ArrayRef,
-            ),
-            ("ours", Arc::new(Float64Array::from(vec![ours]))),
-            ("ours_err", Arc::new(Float64Array::from(vec![err]))),
-            ("paper", Arc::new(Float64Array::from(vec![0.83]))),
-            ("tolerance", Arc::new(Float64Array::from(vec![0.01]))),
-            ("verdict", Arc::new(StringArray::from(vec!["agree"]))),
-            ("reason", Arc::new(StringArray::from(vec!["|a - b| <= c"]))),
-        ])
+        let b = crate::table::results::CompareColumns {
+            quantity: vec!["phi_0".into()],
+            ours: vec![ours],
+            ours_err: vec![err],
+            paper: vec![0.83],
+            tolerance: vec![0.01],
+            verdict: vec!["agree".into()],
+            reason: vec!["|a - b| <= c".into()],
+        }
+        .batch()
         .unwrap();
         crate::table::write_parquet(&d.join("compare.parquet"), &[b], &[]).unwrap();
         let prov = serde_json::json!({

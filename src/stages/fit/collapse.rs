@@ -1,0 +1,473 @@
+//! The `collapse` stage kind: curves y(x) of several state points rescaled onto
+//! one, Fig. 19's finite-size scaling here and the named rescalings in
+//! [`super::rescaled`].
+
+use std::collections::BTreeMap;
+
+use anyhow::{Result, bail};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::jackknife::{HELD, JK_IMPOSSIBLE, XI_REFITTED, jackknife_method, replica_columns};
+use super::params::FromQuantity;
+use super::rescaled::{run_named, validate_named};
+use super::{ERROR_METHOD, MODULES};
+use crate::analysis::pool;
+use crate::fit::collapse::{self, Curve};
+use crate::fit::rescalings;
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::stages::tables::{Columns, Where, inputs_of, pick};
+use crate::table::results::quantity_batch;
+use crate::table::{f64_batch, to_parquet_bytes};
+
+/// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
+/// (phi) rescale as X = sqrt(x)/xi, Y = y xi^-g with xi = (phi_c - phi)^-gamma_xi;
+/// g = gamma_chi/gamma_xi and gamma_xi are fitted, phi_c is given or taken from a fit.
+/// With `xi: COLUMN` the measured xi of each curve is used and only g is fitted.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CollapseParams {
+    pub data: String,
+    pub x: String,
+    pub y: String,
+    pub y_err: String,
+    pub curve_by: String,
+    #[serde(default, rename = "where")]
+    pub filter: Where,
+    #[serde(default)]
+    pub phi_c: Option<f64>,
+    #[serde(default)]
+    pub phi_c_from: Option<FromQuantity>,
+    /// Column of the data holding a measured xi per curve (e.g. the OZ xi joined
+    /// in): then xi is not a power law of phi, and only `g` is fitted.
+    #[serde(default)]
+    pub xi: Option<String>,
+    /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`), or of the
+    /// `rescaling`'s fitted parameters.
+    #[serde(default)]
+    pub bounds: BTreeMap<String, (f64, f64)>,
+    /// A named rescaling of [`crate::fit::rescalings`] instead of Fig. 19's
+    /// finite-size scaling (e.g. `cluster_cutoff`, `log_normal`).
+    #[serde(default)]
+    pub rescaling: Option<String>,
+}
+
+pub struct Collapse;
+
+/// The curves of a collapse, one per value of `by` with at least two points of
+/// positive x, y and error, in ascending order of that value.
+pub(super) fn collapse_curves(
+    by_name: &str,
+    x: &[f64],
+    y: &[f64],
+    e: &[f64],
+    by: &[f64],
+) -> Vec<Curve> {
+    let mut m: BTreeMap<u64, Curve> = BTreeMap::new();
+    for i in 0..x.len() {
+        let ok = x[i] > 0.0 && y[i] > 0.0 && e[i] > 0.0 && y[i].is_finite() && e[i].is_finite();
+        if !ok {
+            continue;
+        }
+        let cv = m.entry(by[i].to_bits()).or_insert_with(|| Curve {
+            label: format!("{by_name}={}", by[i]),
+            param: by[i],
+            x: vec![],
+            y: vec![],
+            sigma: vec![],
+        });
+        cv.x.push(x[i]);
+        cv.y.push(y[i]);
+        cv.sigma.push(e[i]);
+    }
+    let mut curves: Vec<Curve> = m.into_values().filter(|c| c.x.len() >= 2).collect();
+    curves.sort_by(|a, b| a.param.total_cmp(&b.param));
+    curves
+}
+
+fn xi(phi_c: f64, phi: f64, gamma_xi: f64) -> f64 {
+    (phi_c - phi).powf(-gamma_xi)
+}
+
+impl StageKind for Collapse {
+    fn name(&self) -> &str {
+        "collapse"
+    }
+    fn describe(&self) -> &str {
+        "finite-size-scaling collapse y xi^-g vs sqrt(x)/xi, xi = (phi_c - phi)^-gamma_xi"
+    }
+    fn modules(&self) -> &[&str] {
+        MODULES
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: CollapseParams = typed("collapse", params)?;
+        if let Some(name) = &p.rescaling {
+            return validate_named(&p, name);
+        }
+        let keys: &[&str] = if p.xi.is_some() {
+            if p.phi_c.is_some() || p.phi_c_from.is_some() {
+                bail!(
+                    "collapse: with a measured `xi` column, give neither `phi_c` nor `phi_c_from`"
+                );
+            }
+            &["g"]
+        } else {
+            if p.phi_c.is_some() == p.phi_c_from.is_some() {
+                bail!(
+                    "collapse: give exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
+                );
+            }
+            &["g", "gamma_xi"]
+        };
+        for k in keys {
+            if !p.bounds.contains_key(*k) {
+                bail!("collapse: `bounds` needs a search range for '{k}', e.g. {k}: [0.5, 3.0]");
+            }
+        }
+        if p.bounds.len() != keys.len() {
+            bail!(
+                "collapse: `bounds` takes exactly the keys {}",
+                keys.join(" and ")
+            );
+        }
+        Ok(())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: CollapseParams = typed("collapse", params)?;
+        if let Some(name) = &p.rescaling {
+            let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
+            return run_named(ctx, &p, r, inputs);
+        }
+        let phi_c = match (&p.phi_c, &p.phi_c_from) {
+            (Some(v), _) => *v,
+            (None, Some(f)) => f.get("collapse", inputs)?,
+            _ => f64::NAN, // validated: a measured xi column instead
+        };
+        let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+        // A measured xi per curve (its first row), when given.
+        let measured: Option<BTreeMap<u64, f64>> = match &p.xi {
+            Some(col) => {
+                let (v, b) = (c.col(col)?, c.col(&p.curve_by)?);
+                let mut m = BTreeMap::new();
+                for i in 0..c.rows {
+                    m.entry(b[i].to_bits()).or_insert(v[i]);
+                }
+                Some(m)
+            }
+            None => None,
+        };
+        let rows = c.select(&p.filter)?;
+        let rows_in = rows.clone();
+        let (xc, yc, ec, bc) = (
+            c.col(&p.x)?,
+            c.col(&p.y)?,
+            c.col(&p.y_err)?,
+            c.col(&p.curve_by)?,
+        );
+        let x_all = pick(xc, &rows);
+        let y_all = pick(yc, &rows);
+        let (e_all, b_all) = (pick(ec, &rows), pick(bc, &rows));
+        // Curves without a usable measured xi are left out.
+        let has_xi = |c: &Curve| {
+            measured
+                .as_ref()
+                .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
+        };
+        let curves_of = |ys: &[f64]| -> Vec<Curve> {
+            collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all)
+                .into_iter()
+                .filter(|c| has_xi(c))
+                .collect()
+        };
+        let curves = curves_of(&y_all);
+        let fitted: &[&str] = if measured.is_some() {
+            &["g"]
+        } else {
+            &["g", "gamma_xi"]
+        };
+        let bounds: Vec<(f64, f64)> = fitted.iter().map(|k| p.bounds[*k]).collect();
+        // The measured xi of each curve with one replica of one unit left out
+        // (`XI_jkK` with `jk_unit`, from a fit per state point that carries
+        // them): the refits rescale with it, so that xi's share of the variance
+        // is counted rather than held at its value.
+        let measured_jk: Option<BTreeMap<(u64, usize), (u64, f64)>> = match &p.xi {
+            Some(col) => {
+                let b = c.col(&p.curve_by)?;
+                let units = c.col(pool::JK_UNIT).ok();
+                let samples: Vec<&[f64]> = (0..pool::MAX_JK_REPLICAS)
+                    .map_while(|k| c.col(&pool::jk_column(col, k)).ok())
+                    .collect();
+                units.filter(|_| samples.len() >= 2).map(|u| {
+                    let mut m = BTreeMap::new();
+                    for i in 0..c.rows {
+                        for (k, v) in samples.iter().enumerate() {
+                            m.entry((u[i].to_bits(), k))
+                                .or_insert((b[i].to_bits(), v[i]));
+                        }
+                    }
+                    m
+                })
+            }
+            None => None,
+        };
+        let rescale_with = |by_xi: Option<BTreeMap<u64, f64>>| {
+            move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+                let l = match &by_xi {
+                    Some(m) => m[&cv.param.to_bits()],
+                    None => xi(phi_c, cv.param, q[1]),
+                };
+                let f = l.powf(-q[0]);
+                (x.sqrt() / l, y * f, s * f)
+            }
+        };
+        let rescale = rescale_with(measured.clone());
+        // The measured xi with replica `left` of its unit left out.
+        let xi_left_out = |left: pool::LeftOut| -> Option<BTreeMap<u64, f64>> {
+            let mut m = measured.clone()?;
+            if let Some((curve, v)) = measured_jk
+                .as_ref()
+                .and_then(|j| j.get(&(left.unit.to_bits(), left.replica)))
+                && v.is_finite()
+                && *v > 0.0
+            {
+                m.insert(*curve, *v);
+            }
+            Some(m)
+        };
+        let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
+            Err(anyhow::anyhow!(
+                "phi_c = {phi_c} is not above every {} of the data",
+                p.curve_by
+            ))
+        } else {
+            collapse::collapse(&curves, fitted, &bounds, &rescale).map_err(anyhow::Error::from)
+        };
+        let mut method = "fit covariance of the collapse".to_string();
+        let (rows, note, best) = match result {
+            Ok(r) if measured.is_some() => {
+                let (g, mut dg) = r.get("g").expect("named");
+                // Errors from refits with one replica of one phi left out, in
+                // chi4P and, where the data carry its replica samples, in the
+                // measured xi of that phi (else xi is held at its value).
+                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+                    let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                        let curves = curves_of(ys);
+                        let rescale = rescale_with(xi_left_out(left));
+                        collapse::best(&curves, fitted, &bounds, &rescale)
+                            .map_err(|e| {
+                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                            })
+                            .ok()
+                            .map(|b| vec![b[0]])
+                    };
+                    match pool::replica_jackknife_with(
+                        &units,
+                        &x_all,
+                        &y_all,
+                        &[],
+                        &y_jk,
+                        &[],
+                        refit,
+                    ) {
+                        Some(j) => {
+                            dg = j.errors[0];
+                            let note = if measured_jk.is_some() {
+                                XI_REFITTED
+                            } else {
+                                HELD
+                            };
+                            method = jackknife_method(j.refits.len(), note);
+                        }
+                        None => method.push_str(JK_IMPOSSIBLE),
+                    }
+                }
+                (
+                    vec![
+                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                        ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                        ("curves".to_string(), curves.len() as f64, 0.0),
+                    ],
+                    String::new(),
+                    Some([g, f64::NAN]),
+                )
+            }
+            Ok(r) => {
+                let (g, mut dg) = r.get("g").expect("named");
+                let (gx, mut dgx) = r.get("gamma_xi").expect("named");
+                let cov = r.covariance[0][1];
+                let mut dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
+                    .max(0.0)
+                    .sqrt();
+                // The sub-box sizes of one phi come from the same runs: errors
+                // from refits with one replica of one phi left out.
+                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+                    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                        let b = collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
+                            .map_err(|e| {
+                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                            })
+                            .ok()?;
+                        let (g, gx) = (b[0], b[1]);
+                        Some(vec![g, gx, g * gx])
+                    };
+                    match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
+                        Some((e, refits)) => {
+                            (dg, dgx, dgc) = (e[0], e[1], e[2]);
+                            method = jackknife_method(refits, HELD);
+                        }
+                        None => method.push_str(JK_IMPOSSIBLE),
+                    }
+                }
+                (
+                    vec![
+                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                        ("gamma_xi".to_string(), gx, dgx),
+                        ("gamma_chi".to_string(), g * gx, dgc),
+                        ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                        ("phi_c_used".to_string(), phi_c, 0.0),
+                        ("curves".to_string(), curves.len() as f64, 0.0),
+                    ],
+                    String::new(),
+                    Some([g, gx]),
+                )
+            }
+            Err(e) => {
+                let msg = format!("collapse failed: {e:#}");
+                ctx.log(msg.clone());
+                let names = [
+                    "gamma_chi_over_gamma_xi",
+                    "gamma_xi",
+                    "gamma_chi",
+                    "collapse_S",
+                ];
+                let mut rows: Vec<(String, f64, f64)> = names
+                    .iter()
+                    .filter(|n| {
+                        measured.is_none() || !n.starts_with("gamma_x") && **n != "gamma_chi"
+                    })
+                    .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+                    .collect();
+                if measured.is_none() {
+                    rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+                }
+                (rows, msg, None)
+            }
+        };
+        let best = best.map(|q| q.to_vec());
+        collapse_output(
+            &p,
+            &curves,
+            best.as_deref(),
+            &rescale,
+            &rows,
+            &note,
+            &method,
+        )
+    }
+}
+
+/// A collapse's outputs: the quantity table and the curves rescaled at the best
+/// parameters (none when the collapse failed).
+pub(super) fn collapse_output(
+    p: &CollapseParams,
+    curves: &[Curve],
+    best: Option<&[f64]>,
+    rescale: collapse::Rescale<'_>,
+    rows: &[(String, f64, f64)],
+    note: &str,
+    method: &str,
+) -> Result<Output> {
+    let mut cols: [Vec<f64>; 5] = Default::default();
+    if let Some(q) = best {
+        for cv in curves {
+            for k in 0..cv.x.len() {
+                let (x, y, s) = rescale(q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
+                for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
+                    col.push(v);
+                }
+            }
+        }
+    }
+    let [phi, n, x, y, s] = cols;
+    let resc = f64_batch(&[
+        (p.curve_by.as_str(), phi),
+        (p.x.as_str(), n),
+        ("X", x),
+        ("Y", y),
+        ("Y_err", s),
+    ])?;
+    Ok(Output::single(
+        "parquet",
+        to_parquet_bytes(
+            &[quantity_batch(&[], rows, note, None)?],
+            &[(ERROR_METHOD, method)],
+        )?,
+    )
+    .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::test_support::{artifact, artifact_of, yaml};
+
+    /// Fig. 19's collapse with the measured xi: where the data carry xi's
+    /// replica samples, the refits rescale with the xi of the same replica left
+    /// out. Here chi4P is the same in every replica, so only xi can give g an
+    /// error: held at its value it gives none.
+    #[test]
+    fn the_collapse_refits_the_measured_xi_on_the_same_replicas() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let (g, sizes) = (1.5, [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0]);
+        let states = [(0.70, 2.0, 1.0), (0.74, 3.0, 2.0), (0.78, 4.5, 3.0)];
+        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for &(phi, xi, unit) in &states {
+            for &n in &sizes {
+                let u: f64 = f64::sqrt(n) / xi;
+                let chi = xi.powf(g) * u.powf(1.2) / (1.0 + u.powf(1.2));
+                for (k, v) in [
+                    ("phi", phi),
+                    ("N", n),
+                    ("chi4P", chi),
+                    ("chi4P_err", 0.02 * chi),
+                    ("chi4P_jk0", chi),
+                    ("chi4P_jk1", chi),
+                    (pool::JK_UNIT, unit),
+                    ("xi", xi),
+                    ("xi_jk0", xi * 1.1),
+                    ("xi_jk1", xi * 0.9),
+                ] {
+                    cols.entry(k).or_default().push(v);
+                }
+            }
+        }
+        let run = |skip: &[&str]| -> (f64, f64, String) {
+            let b: Vec<(&str, Vec<f64>)> = cols
+                .iter()
+                .filter(|(k, _)| !skip.contains(k))
+                .map(|(k, v)| (*k, v.clone()))
+                .collect();
+            let data = artifact(dir.path(), "peaks_xi", f64_batch(&b).unwrap());
+            let params = yaml(
+                "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi,                  bounds: {g: [0.2, 4.0]}}",
+            );
+            let out = Collapse.run(&ctx, &params, &[data]).unwrap();
+            let a = artifact_of(dir.path(), &out);
+            let (_, meta) =
+                crate::table::read_parquet_bytes(std::fs::read(&a.files["parquet"].1).unwrap())
+                    .unwrap();
+            let c = Columns::read_file(&[&a], "parquet").unwrap();
+            let (v, e) = c.quantity("gamma_chi_over_gamma_xi").unwrap();
+            (v, e, format!("{meta:?}"))
+        };
+        let (v, e, method) = run(&[]);
+        assert!((v - g).abs() < 0.02, "g = {v}");
+        assert!(e > 0.05, "error of g {e} with xi refitted ({method})");
+        assert!(method.contains("measured xi"), "{method}");
+        let (v_held, e_held, _) = run(&["xi_jk0", "xi_jk1"]);
+        assert_eq!(v_held, v);
+        assert!(e_held < 1e-6, "error of g {e_held} with xi held");
+    }
+}

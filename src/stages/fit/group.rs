@@ -1,0 +1,336 @@
+//! One group's fit: its points, the fit or the mean (`value`), the rows of its
+//! quantity table, its drawn curve and its range scan.
+
+use std::sync::Arc;
+
+use anyhow::Result;
+use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+
+use super::fitting::{clean, fit_form, relative_scatter, widened};
+use super::jackknife::{
+    Replicas, covariance_method, jackknife_table, pick_rows, replica_columns, replica_errors,
+    unit_columns,
+};
+use super::params::{CurveSpec, FitForm, FitParams, Refits, drift_scale};
+use super::ranges::scan_ranges;
+use crate::fit::Data;
+use crate::fit::catalogue::Form;
+use crate::pipeline::StageCtx;
+use crate::stages::tables::{Columns, pick};
+use crate::table::results::quantity_batch;
+
+/// What one fit of a group writes: its quantity table, its curve, its range
+/// scan, how its errors were estimated and its replica jackknife refits.
+pub(super) struct Group {
+    pub(super) table: RecordBatch,
+    pub(super) curve: Option<RecordBatch>,
+    pub(super) scan: Vec<RecordBatch>,
+    pub(super) method: String,
+    pub(super) jackknife: Option<RecordBatch>,
+    /// A fit on one unit's rows with a replica jackknife: per fitted number,
+    /// (covariance error, jackknife error), for [`super::pooling::pool_one_unit_errors`].
+    pub(super) pooled: Option<Vec<(f64, f64)>>,
+}
+
+/// One group's points as its fit and the fit's refits see them.
+pub(super) struct Points<'a> {
+    pub(super) p: &'a FitParams,
+    pub(super) c: &'a Columns,
+    /// The numbers held fixed, and the refits of those taken from other fits.
+    pub(super) fixed: &'a [(String, f64)],
+    pub(super) shifted: &'a [(String, Refits)],
+    /// The rows of `c` the fit uses (finite x and y).
+    pub(super) used_rows: Vec<usize>,
+    /// The replica jackknife columns of those rows, if y has them.
+    pub(super) jk: Option<Replicas>,
+    /// Their unit and the replica samples of y, when they all come from one unit.
+    pub(super) one_unit: Option<(f64, Vec<Vec<f64>>)>,
+    /// The used points before cleaning: x, y and errors.
+    pub(super) raw: (Vec<f64>, Vec<f64>, Vec<f64>),
+    /// The cleaned points, their errors widened by the model scatter.
+    pub(super) x: Vec<f64>,
+    pub(super) y: Vec<f64>,
+    pub(super) s: Vec<f64>,
+    /// The relative model scatter (0 without one).
+    pub(super) m_scatter: f64,
+}
+
+/// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
+/// the fitted columns, with the group's values) and its range scan, if asked for.
+pub(super) fn fit_group(
+    ctx: &StageCtx,
+    p: &FitParams,
+    c: &Columns,
+    rows: &[usize],
+    group: &[(String, f64)],
+    fixed: &[(String, f64)],
+    shifted: &[(String, Refits)],
+) -> Result<Group> {
+    let x = pick(c.col(&p.x)?, rows);
+    let y = pick(c.col(&p.y)?, rows);
+    let s = match &p.y_err {
+        Some(e) => pick(c.col(e)?, rows),
+        None => vec![1.0; rows.len()],
+    };
+    // The replica jackknife runs over the rows the fit uses: a row without a
+    // value (a state point whose own fit failed) has no replica samples either.
+    let used: Vec<usize> = (0..rows.len())
+        .filter(|&i| x[i].is_finite() && y[i].is_finite())
+        .collect();
+    let used_rows = pick_rows(rows, &used);
+    let jk = replica_columns(c, &used_rows, &p.x, &p.y);
+    let one_unit = unit_columns(c, &used_rows, &p.y);
+    let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
+    let (x, y, s) = clean(ctx, x, y, s);
+    let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
+    // fit, its refits and its range scan then weight by the widened errors.
+    let scatter = match &p.scatter {
+        Some(_) => match relative_scatter(p, &x, &y, &s, &fixed_ref) {
+            Ok(m) => Some(m),
+            Err(e) => {
+                ctx.log(format!(
+                    "no relative model scatter: a fit on the way failed: {e:#}"
+                ));
+                None
+            }
+        },
+        None => None,
+    };
+    let m_scatter = scatter.map_or(0.0, |(m, _)| m);
+    let s = widened(&s, &y, m_scatter);
+    if let FitForm::Value = p.form {
+        return fit_value(p, group, &y, &s, one_unit.as_ref());
+    }
+    let pts = Points {
+        p,
+        c,
+        fixed,
+        shifted,
+        used_rows,
+        jk,
+        one_unit,
+        raw,
+        x,
+        y,
+        s,
+        m_scatter,
+    };
+    let mut method = covariance_method(p);
+    let form = p.form.named();
+    let mut jackknife = None;
+    let mut pooled = None;
+    let (rows, note, curve, samples) = match fit_form(p, &pts.x, &pts.y, &pts.s, &fixed_ref) {
+        Ok(f) => {
+            let mut rows: Vec<(String, f64, f64)> = if let FitForm::Drift = p.form {
+                // Relative change of y across the x range, from the slope.
+                let (span, mean) = drift_scale(&pts.x, &pts.y);
+                let (b, db) = f.expect("slope");
+                vec![(
+                    p.quantity_name("drift"),
+                    b * span / mean,
+                    db * span / mean.abs(),
+                )]
+            } else {
+                f.names
+                    .iter()
+                    .zip(f.params.iter().zip(&f.stderr))
+                    .map(|(n, (v, e))| (p.quantity_name(n), *v, *e))
+                    .collect()
+            };
+            let replicated = replica_errors(&pts, &mut rows, &mut method);
+            if let Some(r) = &replicated.refits {
+                jackknife = Some(jackknife_table(group, &rows, r)?);
+            }
+            pooled = replicated.pooled;
+            let samples = replicated.samples;
+            match scatter {
+                Some((m, alone)) => {
+                    rows.push((p.quantity_name("reduced_chi2"), alone, f64::NAN));
+                    rows.push((p.quantity_name("points"), pts.x.len() as f64, 0.0));
+                    rows.push((p.quantity_name("scatter"), m, f64::NAN));
+                    if m > 0.0 {
+                        method.push_str(&format!(
+                            "; each point's error widened by a relative model scatter {m:.3} |y| in quadrature (reduced chi2 {alone:.1} -> 1)"
+                        ));
+                    }
+                }
+                None => {
+                    rows.push((p.quantity_name("reduced_chi2"), f.reduced_chi2, f64::NAN));
+                    rows.push((p.quantity_name("points"), pts.x.len() as f64, 0.0));
+                    if p.scatter.is_some() {
+                        rows.push((p.quantity_name("scatter"), f64::NAN, f64::NAN));
+                        method.push_str(
+                            "; no relative model scatter: a fit while searching for it failed (the errors alone)",
+                        );
+                    }
+                }
+            }
+            let curve = p
+                .curve
+                .as_ref()
+                .map(|cs| curve_points(cs, form, &f.params, &fixed_ref, &pts.x));
+            (rows, f.warnings.join("; "), curve, samples)
+        }
+        Err(e) => {
+            let msg = format!("{e:#}");
+            ctx.log(format!("fit failed: {msg}"));
+            let rows = p
+                .form
+                .params()
+                .iter()
+                .map(|n| (p.quantity_name(n), f64::NAN, f64::NAN))
+                .collect();
+            (
+                rows,
+                format!("fit failed: {msg}"),
+                p.curve.as_ref().map(|_| (vec![], vec![])),
+                None,
+            )
+        }
+    };
+    let (mut rows, mut note) = (rows, note);
+    let scan = match form {
+        Some(fm) if !p.ranges.is_empty() => scan_ranges(
+            p,
+            fm,
+            Data::new(&pts.x, &pts.y, &pts.s),
+            &fixed_ref,
+            group,
+            &mut rows,
+            &mut note,
+        )?,
+        _ => Vec::new(),
+    };
+    let table = quantity_batch(group, &rows, &note, samples.as_ref())?;
+    let curve = match curve {
+        Some((cx, cy)) => Some(curve_table(p, group, cx, cy)?),
+        None => None,
+    };
+    Ok(Group {
+        table,
+        curve,
+        scan,
+        method,
+        jackknife,
+        pooled,
+    })
+}
+
+/// `value`: the mean of y over the group's points, with the combined per-point
+/// errors or, for rows of one unit, the replica jackknife if that is larger.
+fn fit_value(
+    p: &FitParams,
+    group: &[(String, f64)],
+    y: &[f64],
+    s: &[f64],
+    one_unit: Option<&(f64, Vec<Vec<f64>>)>,
+) -> Result<Group> {
+    let k = y.len() as f64;
+    let (mean, err) = if y.is_empty() {
+        (f64::NAN, f64::NAN)
+    } else {
+        (
+            y.iter().sum::<f64>() / k,
+            s.iter().map(|e| e * e).sum::<f64>().sqrt() / k,
+        )
+    };
+    let note = if y.is_empty() {
+        "no row passes `where`"
+    } else {
+        ""
+    };
+    let mut method = match &p.y_err {
+        Some(e) => format!("the per-point errors {e}, combined"),
+        None => "none (no y_err)".to_string(),
+    };
+    // Rows of one unit with replica samples: the replica jackknife of the
+    // value counts what per-point errors miss (the lag of `at` moving with
+    // the measured tau_alpha); with few replicas it is noisy, so the larger
+    // of the two is quoted.
+    let mut err = err;
+    if let Some((_, y_jk)) = &one_unit {
+        let per: Vec<f64> = y_jk
+            .iter()
+            .map(|v| {
+                let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+                f.iter().sum::<f64>() / f.len() as f64
+            })
+            .collect();
+        let r = per.len() as f64;
+        let m = per.iter().sum::<f64>() / r;
+        let jk = ((r - 1.0) / r * per.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt();
+        if jk.is_finite() && (err.is_nan() || jk > err) {
+            err = jk;
+            method = format!(
+                "delete-one jackknife over {} replicas (larger than {method})",
+                y_jk.len()
+            );
+        }
+    }
+    return Ok(Group {
+        table: quantity_batch(group, &[(p.quantity_name("value"), mean, err)], note, None)?,
+        curve: None,
+        scan: Vec::new(),
+        method,
+        jackknife: None,
+        pooled: None,
+    });
+}
+
+/// The fitted curve at `cs.points` values of x over the data's range (or the
+/// one given), log-spaced for a form drawn on log x; a line for `drift`.
+fn curve_points(
+    cs: &CurveSpec,
+    form: Option<&Form>,
+    params: &[f64],
+    fixed: &[(&str, f64)],
+    x: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let lo = cs
+        .x_min
+        .unwrap_or_else(|| x.iter().cloned().fold(f64::INFINITY, f64::min));
+    let hi = cs
+        .x_max
+        .unwrap_or_else(|| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+    let n = cs.points.max(2);
+    let log = form.is_some_and(|f| f.log_x) && lo > 0.0;
+    let xs: Vec<f64> = (0..n)
+        .map(|i| {
+            let u = i as f64 / (n - 1) as f64;
+            if log {
+                lo * (hi / lo).powf(u)
+            } else {
+                lo + u * (hi - lo)
+            }
+        })
+        .collect();
+    let ys: Vec<f64> = match form {
+        Some(fm) => xs.iter().map(|&v| (fm.model)(params, fixed, v)).collect(),
+        None => xs.iter().map(|&v| params[0] + params[1] * v).collect(),
+    };
+    (xs, ys)
+}
+
+/// The curve's table: the group's values (but x and y), x and y.
+fn curve_table(
+    p: &FitParams,
+    group: &[(String, f64)],
+    cx: Vec<f64>,
+    cy: Vec<f64>,
+) -> Result<RecordBatch> {
+    let n = cx.len();
+    let mut cols: Vec<(String, ArrayRef)> = group
+        .iter()
+        .filter(|(k, _)| *k != p.x && *k != p.y)
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                Arc::new(Float64Array::from(vec![*v; n])) as ArrayRef,
+            )
+        })
+        .collect();
+    cols.push((p.x.clone(), Arc::new(Float64Array::from(cx))));
+    cols.push((p.y.clone(), Arc::new(Float64Array::from(cy))));
+    Ok(RecordBatch::try_from_iter(cols)?)
+}

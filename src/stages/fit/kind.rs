@@ -1,0 +1,217 @@
+//! The `fit` stage kind: its parameters checked and explained, the rows split
+//! into groups, each group fitted, and the groups' tables written as one.
+
+use std::collections::BTreeMap;
+
+use anyhow::{Result, bail};
+use serde_json::Value;
+
+use super::group::fit_group;
+use super::params::{FitForm, FitParams, Refits};
+use super::pooling::pool_one_unit_errors;
+use super::quantities::same_columns;
+use super::{ERROR_METHOD, JACKKNIFE_FILE, MODULES};
+use crate::fit::catalogue;
+use crate::pipeline::registry::typed;
+use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::stages::tables::{Columns, inputs_of, source_stages};
+use crate::table::to_parquet_bytes;
+
+pub struct Fit;
+
+impl StageKind for Fit {
+    fn name(&self) -> &str {
+        "fit"
+    }
+    fn details(&self) -> String {
+        let keys =
+            crate::pipeline::registry::param_keys(|v| typed::<FitParams>("fit", v).map(drop));
+        let mut s = format!(
+            "parameters: {}\n  \
+             ranges: [[x_min, x_max], ...]  the same fit over each window (ranges.parquet) and <parameter>_range_std\nforms:\n",
+            keys.join(", ")
+        );
+        for f in catalogue::FORMS {
+            s.push_str(&format!(
+                "  {:<17} {} [{}]\n",
+                f.name,
+                f.describe,
+                f.params.join(", ")
+            ));
+        }
+        s.push_str(
+            "  drift             relative change of y over the x range, from a line [drift]\n",
+        );
+        s.push_str("  value             no fit: the mean of y over the selected rows [value]\n");
+        s.push_str("example: {name: relax, kind: fit, gather: [q_table], params: {form: q_relaxation, data: q_table, x: t, y: Q, y_err: Q_err, group_by: [phi], curve: {}}}");
+        s
+    }
+    fn describe(&self) -> &str {
+        "fit a named form to two columns of a table, one fit per group; a failed fit is a row of NaN with its reason in `note`"
+    }
+    fn explain(&self, params: &Value) -> String {
+        let Ok(p) = typed::<FitParams>("fit", params) else {
+            return self.describe().to_string();
+        };
+        let form = match p.form {
+            FitForm::Named(f) => format!("`{}`: {}", f.name, f.describe),
+            FitForm::Value => "`value`: the mean of y over the selected rows".into(),
+            FitForm::Drift => "`drift`: relative change of y over the x range, from a line".into(),
+        };
+        let table = match &p.data {
+            Some(d) => format!("the table of stage `{d}`"),
+            None => "the gathered table".into(),
+        };
+        let mut s = format!(
+            "fit of {} against {} ({table}) to the form {form}; one row per fitted quantity (quantity, value, error, note; a failed fit has NaN values and its reason in note)",
+            p.y, p.x
+        );
+        if !p.group_by.is_empty() {
+            s.push_str(&format!(", one fit per {}", p.group_by.join(", ")));
+        }
+        if p.curve.is_some() {
+            s.push_str(&format!(
+                "; curve.parquet: the fitted curve, columns {} and {}",
+                p.x, p.y
+            ));
+        }
+        if !p.ranges.is_empty() {
+            s.push_str(&format!(
+                "; ranges.parquet: the same fit over each of the {} windows [x_min, x_max] of {} (paper H, Appendix), whose spread is <parameter>_range_std",
+                p.ranges.len(),
+                p.x
+            ));
+        }
+        s
+    }
+    fn modules(&self) -> &[&str] {
+        MODULES
+    }
+    fn validate(&self, params: &Value) -> Result<()> {
+        let p: FitParams = typed("fit", params)?;
+        let form = p.form.named();
+        if !p.ranges.is_empty() && form.is_none() {
+            bail!(
+                "fit: `ranges` scans the fit of a named form; form `{}` fits none",
+                p.form.name()
+            );
+        }
+        if let Some(sc) = &p.scatter
+            && (sc != "relative" || p.y_err.is_none() || form.is_none())
+        {
+            bail!(
+                "fit: `scatter: {sc}`: the only model scatter is `relative`, for a named form with `y_err` (without y_err the errors are scaled to the scatter already)"
+            );
+        }
+        for (lo, hi) in &p.ranges {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                bail!(
+                    "fit: the range [{lo}, {hi}] of `ranges` is empty; give [x_min, x_max] with x_min < x_max"
+                );
+            }
+        }
+        Ok(())
+    }
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let p: FitParams = typed("fit", params)?;
+        let c = Columns::read_file(&data_inputs(&p, inputs)?, &p.file)?;
+        let rows = c.select(&p.filter)?;
+        let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        let mut shifted: Vec<(String, Refits)> = Vec::new();
+        for (name, from) in &p.fixed_from {
+            fixed.push((name.clone(), from.get("fit", inputs)?));
+            if let Some(r) = from.jackknife("fit", inputs)? {
+                shifted.push((name.clone(), r));
+            }
+        }
+        // Rows per group, groups in ascending order of their values.
+        let keys: Vec<&[f64]> = p.group_by.iter().map(|k| c.col(k)).collect::<Result<_>>()?;
+        let mut groups: BTreeMap<Vec<u64>, Vec<usize>> = BTreeMap::new();
+        for &i in &rows {
+            let key = keys.iter().map(|k| ordered(k[i])).collect();
+            groups.entry(key).or_default().push(i);
+        }
+        if groups.is_empty() {
+            groups.insert(vec![], vec![]);
+        }
+        let mut fitted = Vec::new();
+        for (key, rows) in groups {
+            let group: Vec<(String, f64)> = p
+                .group_by
+                .iter()
+                .zip(&key)
+                .map(|(k, &v)| (k.clone(), unordered(v)))
+                .collect();
+            let mut fixed = fixed.clone();
+            fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
+            fitted.push(fit_group(ctx, &p, &c, &rows, &group, &fixed, &shifted)?);
+        }
+        let pooled = pool_one_unit_errors(&mut fitted)?;
+        let (mut tables, mut curves, mut scans, mut methods, mut jackknives) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for g in fitted {
+            tables.push(g.table);
+            curves.extend(g.curve);
+            scans.extend(g.scan);
+            jackknives.extend(g.jackknife);
+            if !methods.contains(&g.method) {
+                methods.push(g.method);
+            }
+        }
+        let method = methods.join("; ") + pooled.as_deref().unwrap_or("");
+        let tables = same_columns(tables)?;
+        let mut out = Output::single(
+            "parquet",
+            to_parquet_bytes(&tables, &[(ERROR_METHOD, method.as_str())])?,
+        );
+        if p.curve.is_some() {
+            out = out.with("curve.parquet", to_parquet_bytes(&curves, &[])?);
+        }
+        if !scans.is_empty() {
+            out = out.with("ranges.parquet", to_parquet_bytes(&scans, &[])?);
+        }
+        if !jackknives.is_empty() {
+            out = out.with(JACKKNIFE_FILE, to_parquet_bytes(&jackknives, &[])?);
+        }
+        Ok(out)
+    }
+}
+
+/// The inputs holding the data: from stage `data`, or every input when they all
+/// come from one stage and `data` is left out.
+fn data_inputs<'a>(p: &FitParams, inputs: &'a [Artifact]) -> Result<Vec<&'a Artifact>> {
+    if let Some(d) = &p.data {
+        return inputs_of("fit", inputs, d);
+    }
+    // One source stage: a name every input shares (a node shared between
+    // figures carries each figure's name for it).
+    let common = inputs
+        .iter()
+        .map(|a| {
+            a.ids
+                .iter()
+                .map(|id| id.stage.as_str())
+                .collect::<std::collections::BTreeSet<_>>()
+        })
+        .reduce(|a, b| &a & &b)
+        .unwrap_or_default();
+    if common.is_empty() {
+        let stages = source_stages(inputs);
+        bail!(
+            "fit: the inputs come from {} stages ({}); say which holds the data with `data: STAGE`",
+            stages.len(),
+            stages.join(", ")
+        );
+    }
+    Ok(inputs.iter().collect())
+}
+
+/// A float as a sortable key (groups of equal values, in ascending order).
+fn ordered(v: f64) -> u64 {
+    let b = v.to_bits();
+    if b >> 63 == 1 { !b } else { b | (1 << 63) }
+}
+
+fn unordered(k: u64) -> f64 {
+    f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
+}

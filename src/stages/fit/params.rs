@@ -1,0 +1,209 @@
+//! What a `fit` stage is told: the typed parameters, the form among a closed
+//! set, and the numbers it takes from other fits.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use anyhow::Result;
+use serde::{Deserialize, Deserializer};
+
+use crate::analysis::pool;
+use crate::fit::catalogue::{self, Form};
+use crate::pipeline::Artifact;
+use crate::stages::tables::{Columns, Where, inputs_of};
+use crate::table::results::{QUANTITY, REPLICA, VALUE};
+
+/// A number taken from another fit table of the same stage's inputs.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FromQuantity {
+    pub stage: String,
+    pub quantity: String,
+}
+
+impl FromQuantity {
+    pub(super) fn get(&self, kind: &str, inputs: &[Artifact]) -> Result<f64> {
+        let c = Columns::read(&inputs_of(kind, inputs, &self.stage)?)?;
+        Ok(c.quantity(&self.quantity)?.0)
+    }
+
+    /// The number's replica jackknife refits (`jackknife.parquet` of its fit), if
+    /// it has them: its value with each replica of each unit left out.
+    pub(super) fn jackknife(&self, kind: &str, inputs: &[Artifact]) -> Result<Option<Refits>> {
+        let arts = inputs_of(kind, inputs, &self.stage)?;
+        if arts.iter().any(|a| !a.files.contains_key(JACKKNIFE_FILE)) {
+            return Ok(None);
+        }
+        let c = Columns::read_file(&arts, JACKKNIFE_FILE)?;
+        let Some(q) = c.str.get(QUANTITY) else {
+            return Ok(None);
+        };
+        let (unit, replica, value) = (c.col(pool::JK_UNIT)?, c.col(REPLICA)?, c.col(VALUE)?);
+        let refits: Refits = (0..c.rows)
+            .filter(|&i| q[i] == self.quantity)
+            .map(|i| ((unit[i].to_bits(), replica[i] as usize), value[i]))
+            .collect();
+        Ok((!refits.is_empty()).then_some(refits))
+    }
+}
+
+/// A number's jackknife refits by (unit bits, replica left out).
+pub(super) type Refits = BTreeMap<(u64, usize), f64>;
+
+/// File of a fit's replica jackknife refits: `jk_unit`, `replica` (the one left
+/// out), `quantity`, `value` (and the group's columns); a fit that takes one of
+/// its numbers (`fixed_from`) refits with the same replica left out.
+pub const JACKKNIFE_FILE: &str = "jackknife.parquet";
+
+/// Where the fitted line is drawn.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSpec {
+    #[serde(default)]
+    pub x_min: Option<f64>,
+    #[serde(default)]
+    pub x_max: Option<f64>,
+    #[serde(default = "default_points")]
+    pub points: usize,
+}
+
+fn default_file() -> String {
+    "parquet".into()
+}
+
+fn default_points() -> usize {
+    200
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FitParams {
+    /// A form of the catalogue (`power_law_offset`, `vft`, `power_law`, `line`,
+    /// ...), `drift` or `value`.
+    pub form: FitForm,
+    /// Stage whose table holds the data; may be left out when every input comes
+    /// from one stage (`gather: [tau_table]`).
+    #[serde(default)]
+    pub data: Option<String>,
+    /// Which of its files (default `parquet`).
+    #[serde(default = "default_file")]
+    pub file: String,
+    pub x: String,
+    pub y: String,
+    /// Column of 1-sigma errors of y; without it the errors are scaled to the scatter.
+    #[serde(default)]
+    pub y_err: Option<String>,
+    #[serde(default, rename = "where")]
+    pub filter: Where,
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub fixed_from: BTreeMap<String, FromQuantity>,
+    /// Quantity names for the parameters (default: the form's own names).
+    #[serde(default)]
+    pub rename: BTreeMap<String, String>,
+    #[serde(default)]
+    pub curve: Option<CurveSpec>,
+    /// One fit per distinct value of these columns (e.g. `[phi]`), each a row
+    /// group of the output with these columns; a column `t` among them is also the
+    /// lag of a `gaussian` fit.
+    #[serde(default)]
+    pub group_by: Vec<String>,
+    /// Range scan (paper H, Appendix, Fig. 25): the same fit again over each
+    /// window `[x_min, x_max]` of x; `ranges.parquet` holds every window's fit and
+    /// the main table gains `<parameter>_range_std`, its spread between windows.
+    #[serde(default)]
+    pub ranges: Vec<(f64, f64)>,
+    /// `relative`: where the model does not describe the points within their
+    /// errors (reduced chi^2 > 1, e.g. curves of several eta that collapse only
+    /// roughly), a relative model scatter s_m |y| is added in quadrature to every
+    /// point's error, s_m chosen so that the reduced chi^2 is 1. Without it the
+    /// few points with the smallest errors set the fit, and which points those
+    /// are changes from seed to seed. The table gains `scatter` (s_m); its
+    /// `reduced_chi2` stays that of the errors alone.
+    #[serde(default)]
+    pub scatter: Option<String>,
+}
+
+impl FitParams {
+    /// The quantity name of parameter `n` (`rename`, else its own name).
+    pub(super) fn quantity_name(&self, n: &str) -> String {
+        self.rename.get(n).cloned().unwrap_or_else(|| n.to_string())
+    }
+}
+
+/// What a fit fits, named in YAML as a catalogue form's name, `drift` or `value`.
+#[derive(Clone, Copy)]
+pub enum FitForm {
+    /// A named form of [`crate::fit::catalogue`].
+    Named(&'static Form),
+    /// A line whose slope is reported as the relative change of y over the x range.
+    Drift,
+    /// No fit: the mean of y over the selected rows (e.g. tau_alpha at one phi).
+    Value,
+}
+
+impl FitForm {
+    /// The form of a YAML name.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "drift" => Ok(FitForm::Drift),
+            "value" => Ok(FitForm::Value),
+            f => catalogue::find(f).map(FitForm::Named),
+        }
+    }
+
+    /// Its YAML name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            FitForm::Named(f) => f.name,
+            FitForm::Drift => "drift",
+            FitForm::Value => "value",
+        }
+    }
+
+    /// The catalogue form; None for `drift` (a line) and `value` (no fit).
+    pub fn named(&self) -> Option<&'static Form> {
+        match self {
+            FitForm::Named(f) => Some(f),
+            FitForm::Drift | FitForm::Value => None,
+        }
+    }
+
+    /// The names of the numbers a fit of this form reports, before `rename`.
+    pub(super) fn params(&self) -> &'static [&'static str] {
+        match self {
+            FitForm::Named(f) => f.params,
+            FitForm::Drift => &["drift"],
+            FitForm::Value => &["intercept", "slope"],
+        }
+    }
+}
+
+impl fmt::Debug for FitForm {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl PartialEq for FitForm {
+    fn eq(&self, other: &Self) -> bool {
+        self.name() == other.name()
+    }
+}
+
+impl<'de> Deserialize<'de> for FitForm {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        FitForm::parse(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+/// The relative change of y across the x range from the slope `b` of a line:
+/// the range of x and the mean of y, by which `b` is scaled.
+pub(super) fn drift_scale(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let span = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - x.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mean = y.iter().sum::<f64>() / y.len() as f64;
+    (span, mean)
+}

@@ -1,0 +1,319 @@
+//! A collapse with a named rescaling of [`crate::fit::rescalings`] (the cluster
+//! cut-off, the log-normal, ...) instead of Fig. 19's finite-size scaling.
+
+use std::collections::BTreeMap;
+
+use anyhow::{Result, bail};
+
+use super::collapse::{CollapseParams, collapse_curves, collapse_output};
+use super::jackknife::{HELD, JK_IMPOSSIBLE, also_units, jackknife_method, replica_columns};
+use crate::analysis::pool;
+use crate::fit::collapse::{self, Curve};
+use crate::fit::rescalings::{self, At, Rescaling};
+use crate::pipeline::{Artifact, Output, StageCtx};
+use crate::stages::tables::{Columns, inputs_of, pick};
+
+/// The keys of a named rescaling: its fitted parameters in `bounds`, phi_c when it
+/// needs one, no measured `xi`.
+pub(super) fn validate_named(p: &CollapseParams, name: &str) -> Result<()> {
+    let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
+    if p.xi.is_some() {
+        bail!(
+            "collapse: `xi` belongs to the finite-size scaling of Fig. 19, not to rescaling `{name}`"
+        );
+    }
+    if r.needs_phi_c && p.phi_c.is_some() == p.phi_c_from.is_some() {
+        bail!(
+            "collapse: rescaling `{name}` needs exactly one of `phi_c` (a number) and `phi_c_from` ({{stage, quantity}})"
+        );
+    }
+    if !r.needs_phi_c && (p.phi_c.is_some() || p.phi_c_from.is_some()) {
+        bail!("collapse: rescaling `{name}` does not use phi_c; remove `phi_c`/`phi_c_from`");
+    }
+    let want: Vec<&str> = r.fitted.to_vec();
+    let got: Vec<&str> = p.bounds.keys().map(String::as_str).collect();
+    let mut sorted = want.clone();
+    sorted.sort();
+    if got != sorted {
+        bail!(
+            "collapse: rescaling `{name}` takes `bounds` for exactly [{}] (got [{}])",
+            want.join(", "),
+            got.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// A collapse with a named rescaling: the fitted parameters with errors (fit
+/// covariance, or replica jackknife when the data carry replica columns), the
+/// quality S and the rescaled curves.
+pub(super) fn run_named(
+    ctx: &StageCtx,
+    p: &CollapseParams,
+    r: &'static Rescaling,
+    inputs: &[Artifact],
+) -> Result<Output> {
+    let phi_c = match (&p.phi_c, &p.phi_c_from) {
+        (Some(v), _) => *v,
+        (None, Some(f)) => f.get("collapse", inputs)?,
+        _ => f64::NAN,
+    };
+    let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+    // The per-curve numbers (first row of each curve), e.g. a joined per-phi fit.
+    let by_all = c.col(&p.curve_by)?;
+    let cols: Vec<&[f64]> = r
+        .per_curve
+        .iter()
+        .map(|name| {
+            c.col(name).map_err(|e| {
+                anyhow::anyhow!(
+                    "collapse: rescaling `{}` reads column `{name}` per curve: {e:#}",
+                    r.name
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    let mut per_curve: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+    for i in 0..c.rows {
+        per_curve
+            .entry(by_all[i].to_bits())
+            .or_insert_with(|| cols.iter().map(|v| v[i]).collect());
+    }
+    let rows_in = c.select(&p.filter)?;
+    let x_all = pick(c.col(&p.x)?, &rows_in);
+    let y_all = pick(c.col(&p.y)?, &rows_in);
+    let e_all = pick(c.col(&p.y_err)?, &rows_in);
+    let b_all = pick(by_all, &rows_in);
+    let none: Vec<f64> = vec![];
+    let columns_of =
+        |phi: f64| -> &[f64] { per_curve.get(&phi.to_bits()).map_or(&none[..], |v| &v[..]) };
+    // Curves whose per-curve numbers are missing or not finite are left out.
+    let usable = |cv: &Curve| {
+        let v = columns_of(cv.param);
+        v.len() == r.per_curve.len() && v.iter().all(|u| u.is_finite() && *u > 0.0)
+    };
+    let curves_of = |ys: &[f64]| -> Vec<Curve> {
+        collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all)
+            .into_iter()
+            .filter(|cv| usable(cv))
+            .collect()
+    };
+    let curves = curves_of(&y_all);
+    let bounds: Vec<(f64, f64)> = r.fitted.iter().map(|k| p.bounds[*k]).collect();
+    let columns_of = &columns_of;
+    let rescale_at = |phi_c: f64| {
+        move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+            let at = At {
+                param: cv.param,
+                phi_c,
+                columns: columns_of(cv.param),
+            };
+            (r.map)(q, &at, x, y, s)
+        }
+    };
+    let rescale = rescale_at(phi_c);
+    // phi_c with each replica of each unit left out, where its fit carries
+    // refits (`jackknife.parquet`): the collapse is redone with it, so that
+    // phi_c's share of the variance is counted (N* of the cluster cut-off
+    // moves most with phi_c at the densest points).
+    let phi_c_refits = match &p.phi_c_from {
+        Some(f) if r.needs_phi_c && !r.fitted.is_empty() => f.jackknife("collapse", inputs)?,
+        _ => None,
+    };
+    let result: Result<(Vec<f64>, Vec<f64>, f64)> =
+        if r.needs_phi_c && curves.iter().any(|cv| cv.param >= phi_c) {
+            Err(anyhow::anyhow!(
+                "phi_c = {phi_c} is not above every {} of the data",
+                p.curve_by
+            ))
+        } else if r.fitted.is_empty() {
+            collapse::quality(&curves, &rescale, &[])
+                .map(|q| (vec![], vec![], q.s))
+                .map_err(anyhow::Error::from)
+        } else {
+            collapse::collapse(&curves, r.fitted, &bounds, &rescale)
+                .map(|res| (res.params, res.stderr, res.quality.s))
+                .map_err(anyhow::Error::from)
+        };
+    let mut method = "fit covariance of the collapse".to_string();
+    let (rows, note, best) = match result {
+        Ok((q, mut dq, s)) => {
+            let jk = replica_columns(&c, &rows_in, &p.x, &p.y);
+            let also = match &phi_c_refits {
+                Some(refits) => also_units(&[("phi_c".to_string(), refits.clone())]),
+                None => Vec::new(),
+            };
+            if !r.fitted.is_empty() && (jk.is_some() || !also.is_empty()) {
+                let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    let pc = phi_c_refits
+                        .as_ref()
+                        .and_then(|m| m.get(&(left.unit.to_bits(), left.replica)))
+                        .copied()
+                        .unwrap_or(phi_c);
+                    let curves = curves_of(ys);
+                    if r.needs_phi_c && curves.iter().any(|cv| cv.param >= pc) {
+                        return None;
+                    }
+                    collapse::best(&curves, r.fitted, &bounds, &rescale_at(pc))
+                        .map_err(|e| {
+                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                        })
+                        .ok()
+                };
+                let (units, y_jk) = match &jk {
+                    Some((u, _, y)) => (u.clone(), y.clone()),
+                    None => (Vec::new(), Vec::new()),
+                };
+                let from = match &p.phi_c_from {
+                    Some(f) if !also.is_empty() => format!(
+                        "; phi_c ({} of {}) refitted with the same replica left out",
+                        f.quantity, f.stage
+                    ),
+                    _ => HELD.to_string(),
+                };
+                match pool::replica_jackknife_with(&units, &x_all, &y_all, &[], &y_jk, &also, refit)
+                {
+                    Some(j) if jk.is_some() => {
+                        dq = j.errors;
+                        method = jackknife_method(j.refits.len(), &from);
+                    }
+                    Some(j) => {
+                        // Rows without replica samples (cluster sizes): the
+                        // covariance error, plus in quadrature phi_c's share.
+                        for (d, e) in dq.iter_mut().zip(&j.errors) {
+                            *d = d.hypot(*e);
+                        }
+                        method.push_str(&format!(
+                            ", plus in quadrature the replica jackknife of phi_c ({} refits of the collapse with phi_c from the same replica left out)",
+                            j.refits.len()
+                        ));
+                    }
+                    None => method.push_str(JK_IMPOSSIBLE),
+                }
+            }
+            let mut rows: Vec<(String, f64, f64)> = r
+                .fitted
+                .iter()
+                .zip(q.iter().zip(&dq))
+                .map(|(n, (v, e))| (n.to_string(), *v, *e))
+                .collect();
+            rows.push(("collapse_S".to_string(), s, f64::NAN));
+            if r.needs_phi_c {
+                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+            }
+            rows.push(("curves".to_string(), curves.len() as f64, 0.0));
+            (rows, String::new(), Some(q))
+        }
+        Err(e) => {
+            let msg = format!("collapse failed: {e:#}");
+            ctx.log(msg.clone());
+            let mut rows: Vec<(String, f64, f64)> = r
+                .fitted
+                .iter()
+                .chain(&["collapse_S"])
+                .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+                .collect();
+            if r.needs_phi_c {
+                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+            }
+            (rows, msg, None)
+        }
+    };
+    collapse_output(p, &curves, best.as_deref(), &rescale, &rows, &note, &method)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::StageKind;
+    use crate::stages::fit::{Collapse, ERROR_METHOD, Fit, JACKKNIFE_FILE};
+    use crate::stages::test_support::{artifact, artifact_of, fitted, output_artifact, yaml};
+    use crate::table::f64_batch;
+
+    /// The cluster cut-off collapse (Fig. 13) takes phi_c from the tau_alpha
+    /// fit: its refits with a replica left out move N* = (phi_c - phi)^(-1/rho)
+    /// most at the densest points, so rho's error must count them. Curves that
+    /// collapse exactly (covariance error tiny) and a tau fit whose two
+    /// replicas disagree: rho's value is the same either way, its error grows
+    /// far beyond the covariance's when the refits are used.
+    #[test]
+    fn the_cluster_collapse_counts_the_replica_spread_of_phi_c() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "jk".into(), None);
+        let (phi_c, kappa, rho): (f64, f64, f64) = (0.80, 1.8, 1.63);
+        let phis = [0.62, 0.66, 0.70, 0.73, 0.75, 0.76, 0.77, 0.78];
+        // tau_alpha per phi from two replicas 10% apart, alternating in sign.
+        let (mut tau, mut t0, mut t1) = (vec![], vec![], vec![]);
+        for (i, p) in phis.iter().enumerate() {
+            let t = 0.05 * (phi_c - p).powf(-1.5);
+            let d = if i % 2 == 0 { 0.1 } else { -0.1 };
+            tau.push(t);
+            t0.push(t * (1.0 + d));
+            t1.push(t * (1.0 - d));
+        }
+        let tau_table = f64_batch(&[
+            ("phi", phis.to_vec()),
+            ("tau_alpha", tau.clone()),
+            ("tau_alpha_err", tau.iter().map(|t| 0.1 * t).collect()),
+            (pool::JK_UNIT, (1..=phis.len()).map(|u| u as f64).collect()),
+            ("tau_alpha_jk0", t0),
+            ("tau_alpha_jk1", t1),
+        ])
+        .unwrap();
+        let tau_fit =
+            yaml("{form: power_law_offset, data: tau, x: phi, y: tau_alpha, y_err: tau_alpha_err}");
+        let out = Fit
+            .run(&ctx, &tau_fit, &[artifact(dir.path(), "tau", tau_table)])
+            .unwrap();
+        let fitted_phi_c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet")
+            .unwrap()
+            .quantity("phi_c")
+            .unwrap()
+            .0;
+        // P(Nc) = Nc^-kappa exp(-Nc / N*), N* from the fitted phi_c: an exact collapse.
+        let (mut phi, mut nc, mut p, mut e) = (vec![], vec![], vec![], vec![]);
+        for &f in &phis[..7] {
+            let n_star = (fitted_phi_c - f).powf(-1.0 / rho);
+            for k in 0..12 {
+                let n = 2f64.powf(0.5 * k as f64);
+                let v = n.powf(-kappa) * (-n / n_star).exp();
+                phi.push(f);
+                nc.push(n);
+                p.push(v);
+                e.push(0.01 * v);
+            }
+        }
+        let sizes = artifact(
+            dir.path(),
+            "sizes",
+            f64_batch(&[("phi", phi), ("Nc", nc), ("P", p), ("P_err", e)]).unwrap(),
+        );
+        let collapse = yaml(
+            "{rescaling: cluster_cutoff, data: sizes, x: Nc, y: P, y_err: P_err, curve_by: phi, \
+             phi_c_from: {stage: power_law, quantity: phi_c}, bounds: {kappa: [1.0, 3.0], rho: [0.5, 5.0]}}",
+        );
+        let rho_of = |skip: &str| {
+            let source = output_artifact(dir.path(), "power_law", &out, skip);
+            let o = Collapse
+                .run(&ctx, &collapse, &[sizes.clone(), source])
+                .unwrap();
+            let (_, meta) = crate::table::read_parquet_bytes(o.files["parquet"].clone()).unwrap();
+            let method = meta
+                .into_iter()
+                .find(|(k, _)| k == ERROR_METHOD)
+                .map(|(_, v)| v)
+                .unwrap_or_default();
+            let c = fitted(dir.path(), &o);
+            (c.quantity("rho").unwrap(), method)
+        };
+        let ((v_held, e_held), _) = rho_of(JACKKNIFE_FILE);
+        let ((v, e), method) = rho_of("");
+        assert!((v_held - rho).abs() < 0.03, "rho {v_held}");
+        assert_eq!(v.to_bits(), v_held.to_bits(), "the value does not change");
+        assert!(
+            e > 5.0 * e_held,
+            "rho error {e} with phi_c refitted, {e_held} held"
+        );
+        assert!(method.contains("phi_c"), "error method: {method}");
+    }
+}
