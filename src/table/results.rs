@@ -348,15 +348,15 @@ pub fn read_compare(b: &RecordBatch) -> Result<Vec<Compared>> {
     (0..b.num_rows())
         .map(|i| {
             Ok(Compared {
-            quantity: q.value(i).to_string(),
-            ours: float_at(o, i),
-            ours_err: float_at(oe, i),
-            paper: p.value(i),
-            tolerance: t.value(i),
-            verdict: Verdict::parse(ver.value(i))
-                .with_context(|| format!("unknown verdict '{}'", ver.value(i)))?,
-            reason: why.value(i).to_string(),
-        })
+                quantity: q.value(i).to_string(),
+                ours: float_at(o, i),
+                ours_err: float_at(oe, i),
+                paper: p.value(i),
+                tolerance: t.value(i),
+                verdict: Verdict::parse(ver.value(i))
+                    .with_context(|| format!("unknown verdict '{}'", ver.value(i)))?,
+                reason: why.value(i).to_string(),
+            })
         })
         .collect()
 }

@@ -7,7 +7,7 @@
 use super::intruder::{bath, lone, mean_and_error, quiet};
 use crate::sim::config::{ForceMode, Intruder};
 use crate::sim::model::intruder_path::Pull;
-use crate::sim::{init, run};
+use crate::sim::{initial_state, run};
 
 /// Position error at time `t` of a lone intruder pushed by kicks every `dt`,
 /// against the exact path; also checks the work ledger.
@@ -129,7 +129,7 @@ fn bath_kicks_agree_with_the_exact_force() {
                     force_mode: mode,
                     ..Intruder::paper(30.0)
                 });
-                let (_, s) = run::run(&c, &quiet).unwrap();
+                let (_, s) = run(&c, &quiet).unwrap();
                 assert!(
                     s.energy_balance_error < 1e-9,
                     "{mode:?}: {}",

@@ -249,7 +249,7 @@ fn no_overlap_at_large_force() {
 #[test]
 fn run_reports_the_intruder() {
     let c = bath(500, 0.5, 1.0, 10.0);
-    let (_, s) = run::run(&c, &quiet).unwrap();
+    let (_, s) = run(&c, &quiet).unwrap();
     let i = s.intruder.expect("intruder summary");
     assert_eq!(i.terminal_velocity, 2.5);
     assert!(

@@ -50,7 +50,7 @@ fn bounded(c: &SimConfig, max: u64) -> RunSummary {
             p.collisions
         )
     };
-    run::run(c, &check).unwrap().1
+    run(c, &check).unwrap().1
 }
 
 /// The runs that stalled (phi = 0.3, F = 4, seed 2: no progress past
