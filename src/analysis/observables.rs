@@ -384,7 +384,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "intruder_velocity",
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
-        modules: &["analysis/intruder", "sim/enskog", "sim/kicks"],
+        modules: &["analysis/intruder", "sim/model/enskog", "sim/model/kicks"],
         validate: |v| typed::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {
             let p: intruder::VelocityParams = typed("intruder_velocity", v)?;
@@ -523,7 +523,7 @@ mod tests {
             serde_json::json!({"n": [10], "bogus": 1}),
             &traj,
         ));
-        assert!(e.contains("`chi4`") && e.contains("bogus"), "{e}");
+        assert!(e.contains("'chi4'") && e.contains("bogus"), "{e}");
         let e = err_text(run("chi5", serde_json::json!({}), &traj));
         assert!(e.contains("chi5") && e.contains("chi4_peaks"), "{e}");
         // Every kind is dispatched (a missing arm would report an unknown kind).
@@ -532,7 +532,7 @@ mod tests {
                 "{:#}",
                 run(kind, serde_json::json!({"bogus": 1}), &traj).unwrap_err()
             );
-            assert!(e.contains(&format!("`{kind}`")), "{kind}: {e}");
+            assert!(e.contains(&format!("'{kind}'")), "{kind}: {e}");
         }
     }
 
