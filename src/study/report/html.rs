@@ -152,7 +152,7 @@ fn index(report: &Report, links: &Links) -> String {
     verdict_headers(&mut s);
     s.push_str("<th>CPU</th><th>cache</th></tr></thead><tbody>\n");
     for e in &report.entries {
-        scoreboard_row(&mut s, e, links);
+        scoreboard_row(&mut s, e, links, &report.profile);
     }
     s.push_str("</tbody></table>\n");
     // Filters: hide the rows whose paper or verdicts do not match.
@@ -167,7 +167,7 @@ fn index(report: &Report, links: &Links) -> String {
     s
 }
 
-fn scoreboard_row(s: &mut String, e: &Entry, links: &Links) {
+fn scoreboard_row(s: &mut String, e: &Entry, links: &Links, profile: &str) {
     let Some(f) = &e.built else {
         let _ = write!(
             s,
@@ -180,9 +180,10 @@ fn scoreboard_row(s: &mut String, e: &Entry, links: &Links) {
         );
         let _ = writeln!(
             s,
-            "<td colspan=\"{}\">run <code>repro figure {} --profile PROFILE</code></td></tr>",
+            "<td colspan=\"{}\">run <code>repro figure {} --profile {}</code></td></tr>",
             Verdict::ALL.len() + 2,
-            esc(&e.id)
+            esc(&e.id),
+            esc(profile)
         );
         return;
     };
