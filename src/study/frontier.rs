@@ -52,14 +52,17 @@ pub struct Frontier<'a> {
     pub label: &'a str,
 }
 
-/// Bytes of the trajectories (outputs of `simulate` stages) a built figure read.
+/// Bytes of the trajectories (outputs of the kinds that hold one) a built figure read.
 fn trajectory_bytes(root: &Path, dir: &Path) -> Result<f64> {
     let path = dir.join("provenance.json");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
     let store = crate::pipeline::Store::open(&crate::pipeline::Workspace::new(root).store)?;
+    let registry = crate::stages::registry();
     let mut total = 0.0;
     for st in v["stages"].as_array().into_iter().flatten() {
-        if st["kind"] == "simulate"
+        if st["kind"]
+            .as_str()
+            .is_some_and(|k| registry.holds(k) == crate::pipeline::stage::Holds::Trajectory)
             && let Some(h) = st["files"]["parquet"].as_str()
         {
             total += std::fs::metadata(store.object_path(h))?.len() as f64;

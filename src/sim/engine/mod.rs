@@ -18,8 +18,12 @@
 mod driving;
 mod force_kicks;
 mod neighbour_lists;
+mod observables;
 mod prefetch_pipeline;
 mod pulled_intruder;
+mod setup;
+
+pub use setup::Setup;
 
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
@@ -28,7 +32,6 @@ use crate::sim::model::friction::Clock;
 pub use crate::sim::model::kicks::Kicks;
 use crate::sim::model::restitution;
 use crate::sim::model::walls;
-use crate::sim::run::resources::{big_vec, big_vec_from};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -50,22 +53,6 @@ const BUCKET_PREFETCH_MAX: usize = 8;
 /// more than they save (measured in docs/sim.md: -8% at N = 10^4, +7% at
 /// 2 x 10^4).
 const PREFETCH_MIN_BYTES: usize = 3 << 20;
-
-/// Everything the engine needs to start: box, species table, particles.
-pub struct Setup {
-    pub lx: f64,
-    pub ly: f64,
-    /// Hard walls at 0 and L instead of periodic boundaries, per axis.
-    pub walls: [bool; 2],
-    /// Radius of each species (final radius if the radii grow).
-    pub radii: Vec<f64>,
-    pub masses: Vec<f64>,
-    pub species: Vec<u8>,
-    pub x: Vec<f64>,
-    pub y: Vec<f64>,
-    pub vx: Vec<f64>,
-    pub vy: Vec<f64>,
-}
 
 /// Counters of everything the loop did, and the energy and virial ledgers.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -206,158 +193,8 @@ pub struct Engine {
 }
 
 impl Engine {
-    /// Build the cell list and predict every particle's first event. Positions are
-    /// wrapped into the box. Fails if the box is too small for a 3x3 cell list.
-    pub fn new(s: Setup, eps: f64, tc: f64, rng: ChaCha8Rng) -> anyhow::Result<Engine> {
-        let n = s.species.len();
-        anyhow::ensure!(
-            [&s.x, &s.y, &s.vx, &s.vy].iter().all(|v| v.len() == n),
-            "particle arrays have different lengths"
-        );
-        anyhow::ensure!(n >= 2, "need at least 2 particles, got {n}");
-        anyhow::ensure!(n < CROSS as usize, "too many particles: {n}");
-        let rmax = s.radii.iter().copied().fold(0.0, f64::max);
-        let rmin = s.radii.iter().copied().fold(f64::INFINITY, f64::min);
-        let shell = SHELL_FRACTION * rmin;
-        let pad = walls::padding(rmax, shell);
-        let wall_len = [0, 1].map(|k| {
-            if s.walls[k] {
-                [s.lx, s.ly][k]
-            } else {
-                f64::INFINITY
-            }
-        });
-        let lx = if s.walls[0] { s.lx + pad } else { s.lx };
-        let ly = if s.walls[1] { s.ly + pad } else { s.ly };
-        let ncx = (lx / (2.0 * rmax)).floor() as usize;
-        let ncy = (ly / (2.0 * rmax)).floor() as usize;
-        anyhow::ensure!(
-            ncx >= 3 && ncy >= 3,
-            "box {:.3} x {:.3} is smaller than 3 cells of one large-disk diameter ({:.3}); use more particles",
-            s.lx,
-            s.ly,
-            2.0 * rmax
-        );
-        for k in 0..2 {
-            anyhow::ensure!(
-                wall_len[k] > 4.0 * rmax,
-                "walls: the box ({:.3} between the walls of axis {}) must be wider than two large-disk diameters ({:.3})",
-                wall_len[k],
-                ["x", "y"][k],
-                4.0 * rmax
-            );
-        }
-        // Disks of radius r - shell around the list centres never overlap, and those
-        // in a list lie within r_i + 2 r_max + shell of the centre: an area bound.
-        let cap_max = (((rmax + 2.0 * rmax + shell) / (rmin - shell))
-            .powi(2)
-            .floor() as usize
-            + 4)
-        .min(u8::MAX as usize);
-        let cap = LIST_CAPACITY.min(cap_max);
-        let lists_fit = ncx >= 5 && ncy >= 5;
-        let d = big_vec_from(
-            n,
-            (0..n).map(|i| Disk {
-                x: s.x[i].rem_euclid(lx),
-                y: s.y[i].rem_euclid(ly),
-                vx: s.vx[i],
-                vy: s.vy[i],
-                t: 0.0,
-                radius: s.radii[s.species[i] as usize],
-                te: f64::INFINITY,
-                next: NONE,
-                count: 0,
-            }),
-        );
-        // The setup's coordinates are in `d` now: free them before the other
-        // arrays are made (they would add 32 bytes per disk to the peak).
-        let Setup {
-            radii,
-            masses,
-            species,
-            x,
-            y,
-            vx,
-            vy,
-            ..
-        } = s;
-        drop((x, y, vx, vy));
-        let mut e = Engine {
-            lx,
-            ly,
-            wall_len,
-            has_walls: wall_len.iter().any(|l| l.is_finite()),
-            ncx,
-            ncy,
-            wx: lx / ncx as f64,
-            wy: ly / ncy as f64,
-            head: big_vec(ncx * ncy, NONE),
-            occupancy: big_vec(ncx * ncy, 0),
-            d,
-            prev: big_vec(n, NONE),
-            cell: big_vec(n, 0),
-            imx: big_vec(n, 0),
-            imy: big_vec(n, 0),
-            species,
-            radii,
-            masses,
-            last_collision: big_vec(n, f64::NEG_INFINITY),
-            bk: big_vec(n, Book::default()),
-            calendar: EventCalendar::new(n),
-            lists: neighbour_lists::Lists {
-                on: false,
-                shell,
-                cap,
-                cap_max,
-                overflow: false,
-                nb: if lists_fit {
-                    big_vec(n * cap, NONE)
-                } else {
-                    Vec::new()
-                },
-            },
-            rmax,
-            now: 0.0,
-            time: 0.0,
-            clock: Clock::NONE,
-            ke_u: 0.0,
-            lam2: 1.0,
-            kick_momentum_u: [0.0; 2],
-            eps,
-            tc,
-            scale0: 1.0,
-            scale_t0: 0.0,
-            growth: 0.0,
-            next_kick: f64::INFINITY,
-            train: force_kicks::Train::OFF,
-            drive: driving::Driving::OFF,
-            pipeline: prefetch_pipeline::Pipeline {
-                bucket: 0,
-                on: false,
-                min_bytes: PREFETCH_MIN_BYTES,
-            },
-            pulling: pulled_intruder::Pulling::NONE,
-            rng,
-            stats: Stats::default(),
-        };
-        e.reschedule_all();
-        Ok(e)
-    }
-
     pub fn n(&self) -> usize {
         self.species.len()
-    }
-
-    /// Bytes held by the engine's arrays (the per-particle memory cost).
-    pub fn bytes(&self) -> usize {
-        let n = self.n();
-        // Disk (64) + Book (32) + prev, cell (u32) + imx, imy (i32) + last_collision
-        // (f64) + species (u8); per cell, head and occupancy (u32).
-        n * (std::mem::size_of::<Disk>() + std::mem::size_of::<Book>() + 2 * 4 + 2 * 4 + 8 + 1)
-            + self.lists.nb.len() * 4
-            + self.head.len() * 8
-            + self.calendar.bytes()
     }
 
     fn rebuild_cells(&mut self) {
@@ -416,44 +253,6 @@ impl Engine {
             d.vy *= f;
         }
         self.reschedule_all();
-    }
-
-    /// Velocities [vx, vy] of every particle.
-    pub fn velocities(&self) -> (Vec<f64>, Vec<f64>) {
-        let lam = self.lambda();
-        (
-            self.d.iter().map(|d| d.vx * lam).collect(),
-            self.d.iter().map(|d| d.vy * lam).collect(),
-        )
-    }
-
-    /// Total kinetic energy.
-    pub fn kinetic_energy(&self) -> f64 {
-        let lam = self.lambda();
-        (0..self.n())
-            .map(|i| self.kinetic_energy_of(i))
-            .sum::<f64>()
-            * (lam * lam)
-    }
-
-    /// Kinetic energy per particle of each species.
-    pub fn temperature_by_species(&self) -> Vec<f64> {
-        let lam = self.lambda();
-        let mut sum = vec![0.0; self.masses.len()];
-        let mut count = vec![0usize; self.masses.len()];
-        for i in 0..self.n() {
-            sum[self.species[i] as usize] += self.kinetic_energy_of(i);
-            count[self.species[i] as usize] += 1;
-        }
-        sum.iter()
-            .zip(&count)
-            .map(|(s, &c)| s * (lam * lam) / c.max(1) as f64)
-            .collect()
-    }
-
-    /// The current time.
-    pub fn time(&self) -> f64 {
-        self.time
     }
 
     /// lambda = v / u now (1 without friction).
@@ -516,69 +315,6 @@ impl Engine {
     fn kinetic_energy_of(&self, i: usize) -> f64 {
         let d = &self.d[i];
         0.5 * self.mass(i) * (d.vx * d.vx + d.vy * d.vy)
-    }
-
-    /// Kinetic energy of particle `i`.
-    pub fn particle_kinetic_energy(&self, i: usize) -> f64 {
-        let lam = self.lambda();
-        self.kinetic_energy_of(i) * (lam * lam)
-    }
-
-    /// Unwrapped position and velocity of particle `i` now.
-    pub fn particle(&self, i: usize) -> ([f64; 2], [f64; 2]) {
-        let (d, lam) = (&self.d[i], self.lambda());
-        let dt = self.now - d.t;
-        (
-            [
-                d.x + d.vx * dt + self.imx[i] as f64 * self.lx,
-                d.y + d.vy * dt + self.imy[i] as f64 * self.ly,
-            ],
-            [d.vx * lam, d.vy * lam],
-        )
-    }
-
-    /// Total momentum.
-    pub fn momentum(&self) -> [f64; 2] {
-        let lam = self.lambda();
-        let p = (0..self.n()).fold([0.0; 2], |p, i| {
-            let (m, d) = (self.mass(i), &self.d[i]);
-            [p[0] + m * d.vx, p[1] + m * d.vy]
-        });
-        [p[0] * lam, p[1] * lam]
-    }
-
-    /// The momentum single kicks brought, each decayed by friction since:
-    /// sum over kicks of dp_k exp(-gamma (t - t_k)) (the kicks' part of Eq. (11)
-    /// of paper I; pair kicks bring none).
-    pub fn kick_momentum(&self) -> [f64; 2] {
-        let lam = self.lambda();
-        self.kick_momentum_u.map(|p| p * lam)
-    }
-
-    /// Total mass.
-    pub fn total_mass(&self) -> f64 {
-        (0..self.n()).map(|i| self.mass(i)).sum()
-    }
-
-    /// Sum of |m v|, the scale against which momentum conservation is judged.
-    pub fn momentum_scale(&self) -> f64 {
-        (0..self.n())
-            .map(|i| self.mass(i) * self.d[i].vx.hypot(self.d[i].vy))
-            .sum::<f64>()
-            * self.lambda()
-    }
-
-    /// Unwrapped positions at the current time (does not move the particles).
-    pub fn unwrapped_positions(&self) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n();
-        let mut ux = Vec::with_capacity(n);
-        let mut uy = Vec::with_capacity(n);
-        for (i, d) in self.d.iter().enumerate() {
-            let dt = self.now - d.t;
-            ux.push(d.x + d.vx * dt + self.imx[i] as f64 * self.lx);
-            uy.push(d.y + d.vy * dt + self.imy[i] as f64 * self.ly);
-        }
-        (ux, uy)
     }
 
     /// Process events until the next one would be later than `t_stop` (then the
@@ -1117,32 +853,6 @@ impl Engine {
                 }
             }
         }
-    }
-
-    /// The largest overlap (sigma_ij - r_ij)/sigma_ij among all pairs at the
-    /// current time, with the pair, if any pair overlaps by more than `tol`.
-    pub fn worst_overlap(&self, tol: f64) -> Option<(usize, usize, f64)> {
-        let (ux, uy) = self.unwrapped_positions();
-        let scale = self.scale();
-        let mut worst: Option<(usize, usize, f64)> = None;
-        for i in 0..self.n() {
-            let c = self.cell[i] as usize;
-            // With lists, cells hold list centres, up to `shell` from the disks.
-            let reach = if self.lists.on { 2 } else { 1 };
-            self.for_neighbour_cells(c % self.ncx, c / self.ncx, reach, |e, j, _, _| {
-                if j <= i {
-                    return;
-                }
-                let dx = nearest_image(ux[i] - ux[j], e.lx);
-                let dy = nearest_image(uy[i] - uy[j], e.ly);
-                let sig = (e.d[i].radius + e.d[j].radius) * scale;
-                let ov = (sig - (dx * dx + dy * dy).sqrt()) / sig;
-                if ov > tol && worst.is_none_or(|w| ov > w.2) {
-                    worst = Some((i, j, ov));
-                }
-            });
-        }
-        worst
     }
 }
 
