@@ -143,15 +143,17 @@ impl StageKind for Compare {
                                 ours.iter().find(|o| &o.0 == q).map_or(f64::NAN, |o| o.1),
                                 q.clone(),
                             ),
-                            None => (pval.value, pval.value.to_string()),
+                            None => (pval.value, significant(pval.value)),
                         };
                         let (ok, op) = match c {
                             Claim::Above => (v > bound + pval.tolerance, ">"),
                             Claim::Below => (v < bound - pval.tolerance, "<"),
                         };
                         let why = format!(
-                            "paper states {op} {name} (margin {}); ours {v} against {bound}",
-                            pval.tolerance
+                            "paper states {op} {name} (margin {}); ours {} against {}",
+                            pval.tolerance,
+                            significant(v),
+                            significant(bound)
                         );
                         match (ok, p.out_of_reach.get(&pval.quantity)) {
                             (true, _) => (v, e, "agree", why),
@@ -163,10 +165,20 @@ impl StageKind for Compare {
                             v,
                             e,
                             "agree",
-                            format!("|{v} - {}| = {d:.3e} <= {}", pval.value, pval.tolerance),
+                            format!(
+                                "|{} - {}| = {d:.3e} <= {}",
+                                significant(v),
+                                pval.value,
+                                pval.tolerance
+                            ),
                         )
                     } else {
-                        let miss = format!("|{v} - {}| = {d:.3e} > {}", pval.value, pval.tolerance);
+                        let miss = format!(
+                            "|{} - {}| = {d:.3e} > {}",
+                            significant(v),
+                            pval.value,
+                            pval.tolerance
+                        );
                         match p.out_of_reach.get(&pval.quantity) {
                             Some(why) => (v, e, "out_of_reach", format!("{why}; {miss}")),
                             None => (v, e, "disagree", miss),
@@ -195,5 +207,30 @@ impl StageKind for Compare {
         }
         .batch()?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}
+
+/// `v` to five significant digits for the reason text (the full value is in the
+/// `ours` column): 1.4581683449 -> 1.4582, 0.000123456 -> 0.00012346.
+fn significant(v: f64) -> String {
+    if !v.is_finite() || v == 0.0 {
+        return v.to_string();
+    }
+    let decimals = (4 - v.abs().log10().floor() as i32).clamp(0, 17) as usize;
+    format!("{v:.decimals$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::significant;
+
+    #[test]
+    fn reasons_quote_five_significant_digits() {
+        assert_eq!(significant(1.458168344974518), "1.4582");
+        assert_eq!(significant(-0.000123456789), "-0.00012346");
+        assert_eq!(significant(3.364382336836832), "3.3644");
+        assert_eq!(significant(12345.678), "12346");
+        assert_eq!(significant(0.0), "0");
+        assert_eq!(significant(f64::NAN), "NaN");
     }
 }
