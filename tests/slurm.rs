@@ -7,6 +7,7 @@
 //! `REPRO_REQUIRE_SLURM=1` (set by `.ci/run` and `make test-slurm` once Slurm is
 //! up), where it fails.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::Mutex;
@@ -245,10 +246,26 @@ fn slurm_figure(root: &Path) -> Command {
 fn wait_running(root: &Path, n: usize, child: &mut Child) -> Vec<(String, String)> {
     let t0 = Instant::now();
     loop {
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the submitter exited early"
-        );
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut out = String::new();
+            for pipe in [
+                child
+                    .stdout
+                    .take()
+                    .map(|p| Box::new(p) as Box<dyn std::io::Read>),
+                child
+                    .stderr
+                    .take()
+                    .map(|p| Box::new(p) as Box<dyn std::io::Read>),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                let mut pipe = pipe;
+                let _ = pipe.read_to_string(&mut out);
+            }
+            panic!("the submitter exited early ({status}):\n{out}");
+        }
         let mut recs = Vec::new();
         if let Ok(d) = std::fs::read_dir(root.join(".repro/store/jobs")) {
             for e in d.flatten() {

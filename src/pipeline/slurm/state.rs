@@ -84,21 +84,23 @@ impl JobState {
 }
 
 /// States of this user's jobs that Slurm still knows, by job id (`123`, `123_4`).
+/// A failing `squeue` is asked again up to four times, 2 s apart: a controller
+/// busy with ending jobs can refuse a query for a moment, and the submitter
+/// should not give up its jobs for that (a query changes nothing, so a retry is
+/// safe).
 pub fn query() -> Result<HashMap<String, JobState>> {
-    let out = Command::new("squeue")
-        .args([
-            "--me",
-            "--noheader",
-            "--array",
-            "--states=all",
-            "--format=%i|%T|%r",
-        ])
-        .stderr(Stdio::piped())
-        .output()
-        .context("running squeue (is Slurm installed and on PATH?)")?;
+    let mut attempt = 0;
+    let out = loop {
+        let out = squeue()?;
+        attempt += 1;
+        if out.status.success() || attempt == 5 {
+            break out;
+        }
+        std::thread::sleep(std::time::Duration::from_secs(2));
+    };
     if !out.status.success() {
         bail!(
-            "squeue failed: {}",
+            "squeue failed 5 times, the last: {}",
             String::from_utf8_lossy(&out.stderr).trim()
         );
     }
@@ -134,6 +136,21 @@ pub fn query() -> Result<HashMap<String, JobState>> {
         }
     }
     Ok(m)
+}
+
+/// One `squeue` of this user's jobs, every state.
+fn squeue() -> Result<std::process::Output> {
+    Command::new("squeue")
+        .args([
+            "--me",
+            "--noheader",
+            "--array",
+            "--states=all",
+            "--format=%i|%T|%r",
+        ])
+        .stderr(Stdio::piped())
+        .output()
+        .context("running squeue (is Slurm installed and on PATH?)")
 }
 
 /// `0-3,7,9-10%4` -> 0, 1, 2, 3, 7, 9, 10.
