@@ -50,7 +50,9 @@ struct Sizes {
 
 impl Sizes {
     fn for_cell(w: f64, h: f64) -> Sizes {
-        let label = (w.min(h) / 28.0).clamp(11.0, 22.0);
+        // From the cell's area: a wide, low panel (a field over a long box)
+        // keeps labels as large as a square one of the same area.
+        let label = ((w * h).sqrt() / 30.0).clamp(11.0, 22.0);
         Sizes {
             label,
             tick: 0.85 * label,
@@ -623,8 +625,6 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         if y >= r.y0 && y <= r.y1 {
             let color = l.color.map_or(GREY, rgb);
             stroke(root, &[(r.x0, y), (r.x1, y)], color, 1, l.dashed, sz)?;
-            let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
-            draw_text(root, &l.label, &style, hline_label_at(&r, y, sz))?;
         }
     }
     for l in &p.vlines {
@@ -632,13 +632,39 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         if x >= r.x0 && x <= r.x1 {
             let color = l.color.map_or(GREY, rgb);
             stroke(root, &[(x, r.y0), (x, r.y1)], color, 1, l.dashed, sz)?;
-            let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
-            draw_text(root, &l.label, &style, vline_label_at(&r, x, sz))?;
         }
     }
 
     for (s, &c) in p.series.iter().zip(&lay.colors) {
         draw_series(root, &frame, s, rgb(c), sz)?;
+    }
+
+    // Their labels over the data, on white, so that no curve hides them.
+    for l in &p.hlines {
+        let y = r.y1 - ys.fraction(l.at) * r.height();
+        if y >= r.y0 && y <= r.y1 && !l.label.is_empty() {
+            let color = l.color.map_or(GREY, rgb);
+            let (x1, y1) = hline_label_at(&r, y, sz);
+            let (w, h) = text_size(root, &l.label, sz.legend)?;
+            let back = [px((x1 - w - 1.0, y1 - h)), px((x1 + 1.0, y1))];
+            root.draw(&Rectangle::new(back, WHITE.filled()))
+                .map_err(err)?;
+            let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
+            draw_text(root, &l.label, &style, (x1, y1))?;
+        }
+    }
+    for l in &p.vlines {
+        let x = r.x0 + xs.fraction(l.at) * r.width();
+        if x >= r.x0 && x <= r.x1 && !l.label.is_empty() {
+            let color = l.color.map_or(GREY, rgb);
+            let (x0, y0) = vline_label_at(&r, x, sz);
+            let (w, h) = text_size(root, &l.label, sz.legend)?;
+            let back = [px((x0 - 1.0, y0)), px((x0 + w + 1.0, y0 + h))];
+            root.draw(&Rectangle::new(back, WHITE.filled()))
+                .map_err(err)?;
+            let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
+            draw_text(root, &l.label, &style, (x0, y0))?;
+        }
     }
 
     draw_axes(root, &frame, p, sz, lay.ticks_size, lay.cell)?;

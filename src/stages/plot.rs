@@ -518,21 +518,16 @@ mod tests {
             for (stage, params) in variants {
                 found += 1;
                 let mut p: super::PlotParams = serde_json::from_value(params).unwrap();
-                let specs = p.panels.clone();
                 for ps in &mut p.panels {
                     for l in &mut ps.layers {
                         l.filter = Default::default();
                     }
                 }
                 let table = |layer: &super::Layer| {
-                    let ps = specs
+                    let ps = p
+                        .panels
                         .iter()
                         .find(|ps| ps.layers.iter().any(|l| std::ptr::eq(l, layer)))
-                        .or_else(|| {
-                            p.panels
-                                .iter()
-                                .find(|ps| ps.layers.iter().any(|l| std::ptr::eq(l, layer)))
-                        })
                         .unwrap();
                     Ok(synthetic(layer, ps))
                 };
@@ -546,6 +541,17 @@ mod tests {
                 };
                 let fig = super::build(&p, table, fill).unwrap();
                 let name = f.file_name().unwrap().to_string_lossy().to_string();
+                // REPRO_PLOT_SAMPLES=dir: the synthetic figures, for looking at.
+                if let Some(dir) = std::env::var_os("REPRO_PLOT_SAMPLES") {
+                    let stem = format!("spec-{}-{}", name.trim_end_matches(".yaml"), found);
+                    let dir = std::path::Path::new(&dir);
+                    crate::plot::draw(
+                        &fig,
+                        &dir.join(format!("{stem}.svg")),
+                        &dir.join(format!("{stem}.png")),
+                    )
+                    .unwrap();
+                }
                 for d in crate::plot::defects(&fig).unwrap() {
                     bad.push(format!("{name} {stage}: {d}"));
                 }
