@@ -5,8 +5,8 @@
 //! figures (13 Q(t) curves, a two-panel log-log figure) to `dir` for looking at.
 
 use repro::plot::{
-    Axis, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style, draw, draw_png_bytes,
-    draw_svg_string,
+    Axis, Figure, Group, Legend, Marker, Palette, Panel, RefLine, Series, Style, defects, draw,
+    draw_png_bytes, draw_svg_string, layout,
 };
 
 const PHI: [f64; 13] = [
@@ -34,6 +34,7 @@ fn series(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
         marker: Marker::Circle,
         radius: None,
         arrows: None,
+        ..Default::default()
     }
 }
 
@@ -48,6 +49,7 @@ fn panel(title: &str, x: Axis, y: Axis, series: Vec<Series>) -> Panel {
         legend: Legend::Auto,
         legend_title: String::new(),
         palette: Palette::Sequential,
+        ..Default::default()
     }
 }
 
@@ -89,6 +91,7 @@ fn overlap_figure() -> Figure {
         columns: None,
         width: 720,
         height: 540,
+        colour_ranges: Default::default(),
     }
 }
 
@@ -130,16 +133,12 @@ fn finite_size_figure() -> Figure {
         title: String::new(),
         panels: vec![
             panel("(a)", axis("N", true), axis("χ₄ᴾ", true), a),
-            panel(
-                "(b)",
-                axis("√N / ξ", true),
-                axis("χ₄ᴾ ξ^(−γ_χ/γ_ξ)", true),
-                b,
-            ),
+            panel("(b)", axis("√N / ξ", true), axis("χ₄ᴾ ξ^{−γχ/γξ}", true), b),
         ],
         columns: None,
         width: 1000,
         height: 440,
+        colour_ranges: Default::default(),
     }
 }
 
@@ -407,7 +406,7 @@ mod robustness {
                 .collect();
             let mut p = panel("(a)", axis("x", xlog), axis("y", ylog), series);
             p.legend = legend;
-            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into() };
+            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default() };
             let texts = svg_texts(&draw_svg_string(&f).unwrap());
             if legend != Legend::None {
                 for i in 0..data.len() {
@@ -416,5 +415,101 @@ mod robustness {
                 }
             }
         }
+    }
+}
+
+/// The sample figures lay out without a defect a referee would see.
+#[test]
+fn sample_figures_have_no_defects() {
+    for f in [overlap_figure(), finite_size_figure()] {
+        assert_eq!(defects(&f).unwrap(), Vec::<String>::new());
+    }
+}
+
+/// A legend asked for a corner full of data goes where it covers none, and
+/// the check sees a legend that covers data.
+#[test]
+fn a_legend_never_covers_data() {
+    let mut f = overlap_figure();
+    // Q(t) starts at 1 on the left: the top left corner is full of curves.
+    f.panels[0].legend = Legend::TopLeft;
+    let lay = layout(&f).unwrap();
+    let b = lay[0].legend.expect("a legend");
+    assert!(!lay[0].marks.iter().any(|&q| b.contains(q)));
+    assert!(b.x0 > lay[0].frame.x0 + 0.3 * lay[0].frame.width(), "{b:?}");
+    assert!(defects(&f).unwrap().is_empty());
+}
+
+/// Series of one group value share a colour in every panel, markers and
+/// lines alike; the check flags one drawn in another colour.
+#[test]
+fn one_group_value_has_one_colour_everywhere() {
+    let mut f = finite_size_figure();
+    for p in &mut f.panels {
+        // Panel (b) lacks the first phi: its series would shift by one colour
+        // if colours followed the index.
+        if p.title == "(b)" {
+            p.series.remove(0);
+        }
+        for s in &mut p.series {
+            let phi: f64 = s.label.trim_start_matches("φ = ").parse().unwrap();
+            s.group = Some(Group {
+                column: "phi".into(),
+                value: phi,
+            });
+        }
+    }
+    let lay = layout(&f).unwrap();
+    assert_eq!(lay[0].colors[1..], lay[1].colors[..]);
+    assert!(defects(&f).unwrap().is_empty());
+    f.panels[1].series[0].color = Some(repro::plot::Color([0, 0, 0]));
+    let d = defects(&f).unwrap();
+    assert!(d.iter().any(|d| d.contains("phi = 0.78 drawn in")), "{d:?}");
+}
+
+/// `^` and `_` outside the markup print as written: a defect.
+#[test]
+fn unrendered_markup_is_a_defect() {
+    let mut f = overlap_figure();
+    f.panels[0].y.label = "gamma_chi_over_gamma_xi".into();
+    f.panels[0].series[0].label = "χ₄ ∝ ξ^d′f".into();
+    let d = defects(&f).unwrap();
+    assert_eq!(d.len(), 2, "{d:?}");
+}
+
+/// One error bar twenty times its value neither stretches the y axis nor
+/// runs off the frame; a note says the bars end there.
+#[test]
+fn one_long_error_bar_does_not_set_the_axis() {
+    let x: Vec<f64> = (1..=8).map(f64::from).collect();
+    let y: Vec<f64> = x.iter().map(|x| 10.0 + x).collect();
+    let mut s = series("data", x, y.clone());
+    s.style = Style::Points;
+    let mut e = vec![0.5; 8];
+    e[3] = 20.0 * y[3];
+    s.y_err = Some(e);
+    for log in [false, true] {
+        let f = Figure {
+            panels: vec![panel("", axis("x", false), axis("y", log), vec![s.clone()])],
+            ..overlap_figure()
+        };
+        let lay = layout(&f).unwrap();
+        let (lo, hi) = (lay[0].y.lo, lay[0].y.hi);
+        let t = |v: f64| if log { v.log10() } else { v };
+        let span = t(18.0) - t(11.0);
+        assert!(
+            t(hi) - t(18.0) < 0.35 * span && t(11.0) - t(lo) < 0.35 * span,
+            "{lo} {hi}"
+        );
+        assert!(lay[0].marks.iter().all(|&q| lay[0].frame.contains(q)));
+        assert!(
+            lay[0]
+                .notes
+                .iter()
+                .any(|n| n.contains("exceed their value")),
+            "{:?}",
+            lay[0].notes
+        );
+        assert!(defects(&f).unwrap().is_empty());
     }
 }

@@ -5,6 +5,7 @@
 //! axis cannot show (NaN, inf, non-positive on a log axis) are skipped, the legend
 //! goes where it covers no data.
 
+mod check;
 mod font;
 mod geometry;
 mod palette;
@@ -17,9 +18,22 @@ use std::path::Path;
 use anyhow::{Context, Result, anyhow};
 use plotters::prelude::*;
 
+pub use check::typeset;
+pub use geometry::{P, Rect};
 pub use palette::viridis;
+pub use render::PanelLayout;
 pub use scale::{Scale, Tick};
-pub use spec::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style};
+pub use spec::{
+    Axis, Color, Figure, Group, Legend, Marker, Palette, Panel, RefLine, Series, Style,
+};
+
+/// Where every part of every panel goes, as [`draw`] puts it (no pixels drawn):
+/// frames, scales, legend boxes, samples of the drawn marks, colours, notes.
+pub fn layout(fig: &Figure) -> Result<Vec<PanelLayout>> {
+    let mut svg = String::new();
+    let root = SVGBackend::with_string(&mut svg, (fig.width, fig.height)).into_drawing_area();
+    render::lay_out(&root, fig)
+}
 
 /// The figure as SVG text. Deterministic: the same figure gives the same bytes.
 pub fn draw_svg_string(fig: &Figure) -> Result<String> {
@@ -51,4 +65,11 @@ pub fn draw(fig: &Figure, svg_path: &Path, png_path: &Path) -> Result<()> {
     let png = draw_png_bytes(fig).with_context(|| format!("drawing {}", png_path.display()))?;
     crate::table::write_atomic(png_path, &png)
         .with_context(|| format!("writing {}", png_path.display()))
+}
+
+/// What a referee would flag in `fig` as laid out (a legend over data, one
+/// group value in two colours, unrendered markup, an axis stretched by one
+/// error bar), one sentence each; empty when none.
+pub fn defects(fig: &Figure) -> Result<Vec<String>> {
+    check::defects(fig, &layout(fig)?)
 }

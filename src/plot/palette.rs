@@ -47,6 +47,16 @@ pub fn color(palette: Palette, i: usize, n: usize) -> Color {
     }
 }
 
+/// Colour of a group value at `t` in [0, 1] along its column's values (its
+/// rank, or its place in the column's colour range); `k` of `n` values, for
+/// the categorical palette.
+pub fn group_color(palette: Palette, t: f64, k: usize) -> Color {
+    match palette {
+        Palette::Categorical => Color(CATEGORICAL[k % CATEGORICAL.len()]),
+        Palette::Sequential => viridis(t.clamp(0.0, 1.0) * VIRIDIS_END),
+    }
+}
+
 /// Viridis at `t` in [0, 1], linear between the stops.
 pub fn viridis(t: f64) -> Color {
     let x = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;

@@ -4,6 +4,8 @@
 //! clipping, legend placement) rather than with plotters' chart builder, whose meshes,
 //! outward ticks and unclipped series do not read like a physics paper.
 
+use std::collections::BTreeMap;
+
 use anyhow::{Result, anyhow};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -14,11 +16,13 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::geometry::{P, Rect, clip_polyline, clip_segment, dashes};
 use super::palette;
 use super::scale::Scale;
-use super::spec::{Color, Figure, Legend, Marker, Panel, Series, Style};
+use super::spec::{Color, Figure, Legend, Marker, Palette, Panel, Series, Style};
 
 const FONT: &str = "sans-serif";
 const INK: RGBColor = RGBColor(0, 0, 0);
 const GREY: RGBColor = RGBColor(0x80, 0x80, 0x80);
+/// Notes above the axes: dark enough to read, apart from the data's ink.
+const NOTE: RGBColor = RGBColor(0x40, 0x40, 0x40);
 
 type Area<DB> = DrawingArea<DB, Shift>;
 
@@ -35,7 +39,7 @@ fn px(p: P) -> (i32, i32) {
 }
 
 /// Sizes derived from the font size of one panel.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Sizes {
     label: f64,
     tick: f64,
@@ -46,7 +50,9 @@ struct Sizes {
 
 impl Sizes {
     fn for_cell(w: f64, h: f64) -> Sizes {
-        let label = (w.min(h) / 28.0).clamp(11.0, 22.0);
+        // From the cell's area: a wide, low panel (a field over a long box)
+        // keeps labels as large as a square one of the same area.
+        let label = ((w * h).sqrt() / 30.0).clamp(11.0, 22.0);
         Sizes {
             label,
             tick: 0.85 * label,
@@ -64,7 +70,7 @@ fn text_style(size: f64, color: RGBColor, h: HPos, v: VPos) -> TextStyle<'static
 /// Label markup: `_{...}` is a subscript, `^{...}` a superscript (braces
 /// required, so names with underscores print as written). Returns the pieces
 /// with their level: 0 on the line, -1 below, 1 above.
-fn spans(text: &str) -> Vec<(&str, i8)> {
+pub(super) fn spans(text: &str) -> Vec<(&str, i8)> {
     let mut out = vec![];
     let mut rest = text;
     while !rest.is_empty() {
@@ -174,18 +180,32 @@ fn polyline<DB: DrawingBackend>(
 
 /// Draw the whole figure on `root` (already sized to the figure).
 pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
+    root.fill(&WHITE).map_err(err)?;
+    let laid = lay_out(root, fig)?;
+    if !fig.title.is_empty() {
+        let (w, h) = (fig.width as f64, fig.height as f64);
+        let title_size = (w.min(h) / 26.0).clamp(12.0, 24.0);
+        let (_, th) = text_size(root, &fig.title, title_size)?;
+        let style = text_style(title_size, INK, HPos::Center, VPos::Top);
+        draw_text(root, &fig.title, &style, (w / 2.0, 0.4 * th))?;
+    }
+    for (panel, lay) in fig.panels.iter().zip(&laid) {
+        draw_panel(root, panel, lay)?;
+    }
+    root.present().map_err(err)
+}
+
+/// Where every part of every panel goes, as drawing puts it: what a test checks
+/// without looking at pixels.
+pub fn lay_out<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<Vec<PanelLayout>> {
     fig.validate()?;
     super::font::register()?;
-    root.fill(&WHITE).map_err(err)?;
     let (w, h) = (fig.width as f64, fig.height as f64);
     let title_size = (w.min(h) / 26.0).clamp(12.0, 24.0);
     let top = if fig.title.is_empty() {
         0.0
     } else {
-        let (_, th) = text_size(root, &fig.title, title_size)?;
-        let style = text_style(title_size, INK, HPos::Center, VPos::Top);
-        draw_text(root, &fig.title, &style, (w / 2.0, 0.4 * th))?;
-        1.8 * th
+        1.8 * text_size(root, &fig.title, title_size)?.1
     };
     let cols = fig
         .columns
@@ -193,19 +213,82 @@ pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
         .min(fig.panels.len());
     let rows = fig.panels.len().div_ceil(cols);
     let (cw, ch) = (w / cols as f64, (h - top) / rows as f64);
-    for (i, panel) in fig.panels.iter().enumerate() {
+    let colors = series_colors(fig);
+    let mut out = Vec::new();
+    for (i, (panel, colors)) in fig.panels.iter().zip(colors).enumerate() {
         let cell = Rect {
             x0: (i % cols) as f64 * cw,
             y0: top + (i / cols) as f64 * ch,
             x1: (i % cols + 1) as f64 * cw,
             y1: top + (i / cols + 1) as f64 * ch,
         };
-        draw_panel(root, panel, cell)?;
+        out.push(lay_out_panel(root, panel, cell, colors)?);
     }
-    root.present().map_err(err)
+    Ok(out)
 }
 
-/// Axis scales of a panel: the given ranges, or ranges fitted to all its data.
+/// The colour of every series, panel by panel: its own; else its group
+/// value's, one colour per value in all panels (from the figure's colour range
+/// of the column, else from the value's rank among the figure's values); else
+/// the panel palette at its place among the panel's other such series.
+fn series_colors(fig: &Figure) -> Vec<Vec<Color>> {
+    let mut values: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    for g in fig
+        .panels
+        .iter()
+        .flat_map(|p| &p.series)
+        .filter_map(|s| s.group.as_ref())
+    {
+        values.entry(&g.column).or_default().push(g.value);
+    }
+    for v in values.values_mut() {
+        v.sort_by(f64::total_cmp);
+        v.dedup_by(|a, b| a.total_cmp(b).is_eq());
+    }
+    fig.panels
+        .iter()
+        .map(|p| {
+            let plain = |s: &Series| s.color.is_none() && s.group.is_none();
+            let n_plain = p.series.iter().filter(|s| plain(s)).count();
+            let grouped = p.series.iter().any(|s| s.group.is_some());
+            // Beside group colours, other series take distinct hues.
+            let own = if grouped {
+                Palette::Categorical
+            } else {
+                p.palette
+            };
+            let mut k_plain = 0;
+            p.series
+                .iter()
+                .map(|s| {
+                    if let Some(c) = s.color {
+                        return c;
+                    }
+                    if let Some(g) = &s.group {
+                        let vals = &values[g.column.as_str()];
+                        let k = vals
+                            .iter()
+                            .position(|v| v.total_cmp(&g.value).is_eq())
+                            .unwrap_or(0);
+                        let t = match fig.colour_ranges.get(&g.column) {
+                            Some(&(lo, hi)) => (g.value - lo) / (hi - lo),
+                            None if vals.len() > 1 => k as f64 / (vals.len() - 1) as f64,
+                            None => 0.0,
+                        };
+                        return palette::group_color(p.palette, t, k);
+                    }
+                    k_plain += 1;
+                    palette::color(own, k_plain - 1, n_plain)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Axis scales of a panel: the given ranges, or ranges fitted to its values.
+/// Error bars widen a fitted range by at most a quarter of the values' span on
+/// each side (in decades on a log axis), so one long bar cannot squeeze the
+/// data into a strip; the bars are cut at the frame instead.
 fn scales(p: &Panel) -> (Scale, Scale) {
     let fit = |axis: &super::spec::Axis, values: Vec<f64>| match axis.range {
         Some((lo, hi)) => Scale {
@@ -217,25 +300,39 @@ fn scales(p: &Panel) -> (Scale, Scale) {
         None => Scale::fit(values, axis.log),
     };
     let xs = p.series.iter().flat_map(|s| s.x.iter().copied()).collect();
-    // On a log axis a bar reaching below a tenth of its point (or below zero)
-    // does not stretch the range: it is cut at the frame instead of squeezing
-    // the data into a corner.
-    let log_y = p.y.log;
-    let ys = p
+    let y_axis = Scale {
+        lo: 1.0,
+        hi: 10.0,
+        log: p.y.log,
+    };
+    let t = |v: f64| if p.y.log { v.log10() } else { v };
+    let back = |v: f64| if p.y.log { 10f64.powf(v) } else { v };
+    let values: Vec<f64> = p
         .series
         .iter()
-        .flat_map(|s| {
-            let err = s.y_err.clone().unwrap_or_default();
-            let bars = s.y.iter().zip(err).flat_map(|(&y, e)| {
-                let lo = y - e.abs();
-                [
-                    if log_y && lo < 0.1 * y { f64::NAN } else { lo },
-                    y + e.abs(),
-                ]
-            });
-            s.y.iter().copied().chain(bars).collect::<Vec<_>>()
-        })
+        .flat_map(|s| s.y.iter().copied())
+        .filter(|&v| y_axis.accepts(v))
         .collect();
+    let (lo, hi) = values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(t(v)), b.max(t(v)))
+        });
+    let reach = if hi > lo {
+        0.25 * (hi - lo)
+    } else {
+        f64::INFINITY
+    };
+    let ends = p.series.iter().flat_map(|s| {
+        let err = s.y_err.as_deref().unwrap_or(&[]);
+        s.y.iter().zip(err).flat_map(|(&y, &e)| {
+            [y - e.abs(), y + e.abs()]
+                .into_iter()
+                .filter(move |&v| y_axis.accepts(v) && y_axis.accepts(y) && e.is_finite())
+                .map(move |v| back(t(v).clamp(lo - reach, hi + reach)))
+        })
+    });
+    let ys = values.iter().copied().chain(ends).collect();
     (fit(&p.x, xs), fit(&p.y, ys))
 }
 
@@ -262,11 +359,42 @@ impl Frame {
     fn points(&self, s: &Series) -> Vec<Option<P>> {
         s.x.iter().zip(&s.y).map(|(&x, &y)| self.at(x, y)).collect()
     }
+
+    /// The drawn part of each error bar of `s`, in pixels, and whether its far
+    /// end is drawn (false where the frame or a log axis cuts it).
+    fn bars(&self, s: &Series) -> Vec<(P, P, bool, bool)> {
+        let r = self.rect;
+        let Some(errs) = &s.y_err else {
+            return vec![];
+        };
+        let mut out = vec![];
+        for ((&x, &y), &e) in s.x.iter().zip(&s.y).zip(errs) {
+            let (Some(mid), true) = (self.at(x, y), e.is_finite() && e > 0.0) else {
+                continue;
+            };
+            // A bar reaching to or below zero on a log axis has no lower end.
+            let lo = self.at(x, y - e).map_or(r.y1 + 1.0, |p| p.1);
+            let hi = self.at(x, y + e).map_or(r.y0 - 1.0, |p| p.1);
+            if let Some((a, b)) = clip_segment((mid.0, lo), (mid.0, hi), &r) {
+                out.push((a, b, a.1 == lo, b.1 == hi));
+            }
+        }
+        out
+    }
+}
+
+/// A legend entry: its text and the series it stands for (series sharing a
+/// label share an entry, e.g. the points and the fitted curve of one phi).
+#[derive(Clone, Debug)]
+struct Entry {
+    label: String,
+    series: Vec<usize>,
 }
 
 /// The legend's entries and measured size.
+#[derive(Clone, Debug)]
 struct LegendBox {
-    entries: Vec<(usize, String)>,
+    entries: Vec<Entry>,
     row: f64,
     sample: f64,
     width: f64,
@@ -274,18 +402,26 @@ struct LegendBox {
 }
 
 fn measure_legend<DB: DrawingBackend>(area: &Area<DB>, p: &Panel, sz: Sizes) -> Result<LegendBox> {
-    let entries: Vec<(usize, String)> = p
+    let mut entries: Vec<Entry> = vec![];
+    for (i, s) in p
         .series
         .iter()
         .enumerate()
         .filter(|(_, s)| !s.label.is_empty())
-        .map(|(i, s)| (i, s.label.clone()))
-        .collect();
+    {
+        match entries.iter_mut().find(|e| e.label == s.label) {
+            Some(e) => e.series.push(i),
+            None => entries.push(Entry {
+                label: s.label.clone(),
+                series: vec![i],
+            }),
+        }
+    }
     let row = 1.35 * sz.legend;
     let sample = 2.2 * sz.legend;
     let mut text_w: f64 = text_size(area, &p.legend_title, sz.legend)?.0 - sample - 0.4 * sz.legend;
-    for (_, l) in &entries {
-        text_w = text_w.max(text_size(area, l, sz.legend)?.0);
+    for e in &entries {
+        text_w = text_w.max(text_size(area, &e.label, sz.legend)?.0);
     }
     let rows = entries.len() + usize::from(!p.legend_title.is_empty());
     Ok(LegendBox {
@@ -297,7 +433,93 @@ fn measure_legend<DB: DrawingBackend>(area: &Area<DB>, p: &Panel, sz: Sizes) -> 
     })
 }
 
-fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Result<()> {
+/// Where a panel's parts go.
+#[derive(Clone, Debug)]
+pub struct PanelLayout {
+    /// The axes box in pixels.
+    pub frame: Rect,
+    pub x: Scale,
+    pub y: Scale,
+    /// The legend box, if any.
+    pub legend: Option<Rect>,
+    /// Pixel samples of everything drawn inside the axes: markers, lines
+    /// (every two pixels), error bars, reference-line labels.
+    pub marks: Vec<P>,
+    /// The colour of each series.
+    pub colors: Vec<Color>,
+    /// The notes above the axes, the panel's and the plotter's.
+    pub notes: Vec<String>,
+    /// The notes wrapped to the frame width, as drawn.
+    lines: Vec<String>,
+    sz: Sizes,
+    ticks_size: (f64, f64, f64),
+    cell: Rect,
+    legend_box: Option<LegendBox>,
+}
+
+/// The plotter's own notes: error bars cut at the frame, and whether any of
+/// them is longer than its value.
+fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
+    let (mut cut, mut larger) = (false, false);
+    for s in &p.series {
+        let err = s.y_err.as_deref().unwrap_or(&[]);
+        for ((&x, &y), &e) in s.x.iter().zip(&s.y).zip(err) {
+            let shown = xs.accepts(x)
+                && (xs.lo..=xs.hi).contains(&x)
+                && ys.accepts(y)
+                && (ys.lo..=ys.hi).contains(&y);
+            if !(shown && e.is_finite() && e > 0.0) {
+                continue;
+            }
+            let out = |v: f64| !ys.accepts(v) || v < ys.lo || v > ys.hi;
+            if out(y - e) || out(y + e) {
+                cut = true;
+                larger |= e > y.abs();
+            }
+        }
+    }
+    match (cut, larger) {
+        (false, _) => vec![],
+        (true, false) => vec!["Error bars end at the frame.".into()],
+        (true, true) => {
+            vec!["Error bars end at the frame; some errors exceed their value.".into()]
+        }
+    }
+}
+
+/// `text` broken into lines no wider than `width` at `size`.
+fn wrap<DB: DrawingBackend>(
+    area: &Area<DB>,
+    text: &str,
+    size: f64,
+    width: f64,
+) -> Result<Vec<String>> {
+    let mut lines: Vec<String> = vec![];
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        let longer = if line.is_empty() {
+            word.to_string()
+        } else {
+            format!("{line} {word}")
+        };
+        if !line.is_empty() && text_size(area, &longer, size)?.0 > width {
+            lines.push(std::mem::replace(&mut line, word.to_string()));
+        } else {
+            line = longer;
+        }
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    Ok(lines)
+}
+
+fn lay_out_panel<DB: DrawingBackend>(
+    root: &Area<DB>,
+    p: &Panel,
+    cell: Rect,
+    colors: Vec<Color>,
+) -> Result<PanelLayout> {
     let sz = Sizes::for_cell(cell.width(), cell.height());
     let (xs, ys) = scales(p);
     let (xticks, yticks) = (xs.ticks(), ys.ticks());
@@ -314,8 +536,19 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
     let room = |label: &str, gap: f64| if label.is_empty() { 0.0 } else { label_h + gap };
     let left = pad + room(&p.y.label, 0.5 * sz.label) + ytick_w + 0.5 * sz.tick;
     let bottom = pad + room(&p.x.label, 0.4 * sz.label) + tick_h + 0.5 * sz.tick;
-    let top = pad + room(&p.title, 0.4 * sz.label).max(0.5 * tick_h);
     let right = pad + xtick_half.max(0.3 * sz.label) + 0.2 * sz.label;
+    let notes: Vec<String> = p
+        .notes
+        .iter()
+        .cloned()
+        .chain(bar_notes(p, xs, ys))
+        .collect();
+    let mut lines = vec![];
+    for n in &notes {
+        lines.extend(wrap(root, n, sz.legend, cell.width() - left - right)?);
+    }
+    let top =
+        pad + room(&p.title, 0.4 * sz.label).max(0.5 * tick_h) + lines.len() as f64 * note_row(sz);
 
     let legend = measure_legend(root, p, sz)?;
     let inside = Rect {
@@ -325,21 +558,64 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
         y1: cell.y1 - bottom,
     };
     let frame = |rect| Frame { rect, x: xs, y: ys };
+    let corners = [
+        Legend::TopRight,
+        Legend::TopLeft,
+        Legend::BottomLeft,
+        Legend::BottomRight,
+    ];
+    // The asked corner first, then the others; the right side if all cover data.
+    let order: Vec<Legend> = match p.legend {
+        Legend::Auto | Legend::Right | Legend::None => corners.to_vec(),
+        asked => std::iter::once(asked)
+            .chain(corners.into_iter().filter(|&c| c != asked))
+            .collect(),
+    };
     let (frame, legend_at) = match (p.legend, legend.entries.is_empty()) {
         (Legend::None, _) | (_, true) => (frame(inside), None),
         (Legend::Right, _) => right_legend(frame, inside, &legend, sz),
-        (Legend::Auto, _) => {
+        _ => {
             let f = frame(inside);
-            match free_corner(&f, p, &legend, sz) {
+            let taken = marks(root, &f, p, sz)?;
+            match free_corner(&f, &order, &taken, &legend, sz) {
                 Some(at) => (f, Some(at)),
                 None => right_legend(frame, inside, &legend, sz),
             }
         }
-        (corner, _) => {
-            let f = frame(inside);
-            let at = corner_position(&f.rect, corner, &legend, sz);
-            (f, Some(at))
-        }
+    };
+    let marks = marks(root, &frame, p, sz)?;
+    Ok(PanelLayout {
+        frame: frame.rect,
+        x: xs,
+        y: ys,
+        legend: legend_at.map(|(x, y)| Rect {
+            x0: x,
+            y0: y,
+            x1: x + legend.width,
+            y1: y + legend.height,
+        }),
+        marks,
+        colors,
+        notes,
+        lines,
+        sz,
+        ticks_size: (ytick_w, tick_h, label_h),
+        cell,
+        legend_box: legend_at.map(|_| legend),
+    })
+}
+
+fn note_row(sz: Sizes) -> f64 {
+    1.3 * sz.legend
+}
+
+fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout) -> Result<()> {
+    let sz = lay.sz;
+    let (xs, ys) = (lay.x, lay.y);
+    let frame = Frame {
+        rect: lay.frame,
+        x: xs,
+        y: ys,
     };
     let r = frame.rect;
 
@@ -349,13 +625,6 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
         if y >= r.y0 && y <= r.y1 {
             let color = l.color.map_or(GREY, rgb);
             stroke(root, &[(r.x0, y), (r.x1, y)], color, 1, l.dashed, sz)?;
-            let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
-            draw_text(
-                root,
-                &l.label,
-                &style,
-                (r.x1 - 0.4 * sz.legend, y - 0.2 * sz.legend),
-            )?;
         }
     }
     for l in &p.vlines {
@@ -363,28 +632,60 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, cell: Rect) -> Res
         if x >= r.x0 && x <= r.x1 {
             let color = l.color.map_or(GREY, rgb);
             stroke(root, &[(x, r.y0), (x, r.y1)], color, 1, l.dashed, sz)?;
-            let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
-            draw_text(
-                root,
-                &l.label,
-                &style,
-                (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend),
-            )?;
         }
     }
 
-    for (i, s) in p.series.iter().enumerate() {
-        let color = rgb(s
-            .color
-            .unwrap_or_else(|| palette::color(p.palette, i, p.series.len())));
-        draw_series(root, &frame, s, color, sz)?;
+    for (s, &c) in p.series.iter().zip(&lay.colors) {
+        draw_series(root, &frame, s, rgb(c), sz)?;
     }
 
-    draw_axes(root, &frame, p, sz, (ytick_w, tick_h, label_h), cell)?;
-    if let Some(at) = legend_at {
-        draw_legend(root, p, &legend, at, sz)?;
+    // Their labels over the data, on white, so that no curve hides them.
+    for l in &p.hlines {
+        let y = r.y1 - ys.fraction(l.at) * r.height();
+        if y >= r.y0 && y <= r.y1 && !l.label.is_empty() {
+            let color = l.color.map_or(GREY, rgb);
+            let (x1, y1) = hline_label_at(&r, y, sz);
+            let (w, h) = text_size(root, &l.label, sz.legend)?;
+            let back = [px((x1 - w - 1.0, y1 - h)), px((x1 + 1.0, y1))];
+            root.draw(&Rectangle::new(back, WHITE.filled()))
+                .map_err(err)?;
+            let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
+            draw_text(root, &l.label, &style, (x1, y1))?;
+        }
+    }
+    for l in &p.vlines {
+        let x = r.x0 + xs.fraction(l.at) * r.width();
+        if x >= r.x0 && x <= r.x1 && !l.label.is_empty() {
+            let color = l.color.map_or(GREY, rgb);
+            let (x0, y0) = vline_label_at(&r, x, sz);
+            let (w, h) = text_size(root, &l.label, sz.legend)?;
+            let back = [px((x0 - 1.0, y0)), px((x0 + w + 1.0, y0 + h))];
+            root.draw(&Rectangle::new(back, WHITE.filled()))
+                .map_err(err)?;
+            let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
+            draw_text(root, &l.label, &style, (x0, y0))?;
+        }
+    }
+
+    draw_axes(root, &frame, p, sz, lay.ticks_size, lay.cell)?;
+    let note_style = text_style(sz.legend, NOTE, HPos::Left, VPos::Bottom);
+    let n = lay.lines.len();
+    for (k, line) in lay.lines.iter().enumerate() {
+        let y = r.y0 - 0.3 * sz.legend - (n - 1 - k) as f64 * note_row(sz);
+        draw_text(root, line, &note_style, (r.x0, y))?;
+    }
+    if let (Some(lb), Some(at)) = (&lay.legend_box, lay.legend) {
+        draw_legend(root, p, &lay.colors, lb, (at.x0, at.y0), sz)?;
     }
     Ok(())
+}
+
+fn hline_label_at(r: &Rect, y: f64, sz: Sizes) -> P {
+    (r.x1 - 0.4 * sz.legend, y - 0.2 * sz.legend)
+}
+
+fn vline_label_at(r: &Rect, x: f64, sz: Sizes) -> P {
+    (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend)
 }
 
 /// Shrink the axes to make room for the legend on the right.
@@ -414,51 +715,98 @@ fn corner_position(r: &Rect, corner: Legend, legend: &LegendBox, sz: Sizes) -> P
     }
 }
 
-/// The first inside corner whose legend box covers no data (lines sampled every
-/// pixel or two, markers and error bars as points), if the legend fits at all.
-fn free_corner(f: &Frame, p: &Panel, legend: &LegendBox, sz: Sizes) -> Option<P> {
+/// Points every two pixels along the polyline.
+fn along(piece: &[P], out: &mut Vec<P>) {
+    out.extend(piece.first());
+    for w in piece.windows(2) {
+        let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
+        let n = (len / 2.0).ceil().clamp(1.0, 1e5) as usize;
+        out.extend((1..=n).map(|k| {
+            let t = k as f64 / n as f64;
+            (
+                w[0].0 + t * (w[1].0 - w[0].0),
+                w[0].1 + t * (w[1].1 - w[0].1),
+            )
+        }));
+    }
+}
+
+/// Pixel samples of what a panel draws inside its axes: markers, lines and
+/// error bars every two pixels, and the boxes of reference-line labels.
+fn marks<DB: DrawingBackend>(area: &Area<DB>, f: &Frame, p: &Panel, sz: Sizes) -> Result<Vec<P>> {
+    let r = f.rect;
+    let mut out: Vec<P> = Vec::new();
+    for s in &p.series {
+        let pts = f.points(s);
+        out.extend(pts.iter().flatten().filter(|&&q| r.contains(q)));
+        if !matches!(s.style, Style::Points | Style::Disks | Style::Arrows) {
+            for piece in clip_polyline(&pts, &r) {
+                along(&piece, &mut out);
+            }
+        }
+        for (a, b, _, _) in f.bars(s) {
+            along(&[a, b], &mut out);
+        }
+    }
+    let mut label_box = |text: &str, (x, y): P, right: bool| -> Result<()> {
+        if text.is_empty() {
+            return Ok(());
+        }
+        let (w, h) = text_size(area, text, sz.legend)?;
+        let x0 = if right { x - w } else { x };
+        let y0 = if right { y - h } else { y };
+        let (nx, ny) = ((w / 3.0).ceil() as usize, (h / 3.0).ceil() as usize);
+        for i in 0..=nx {
+            for j in 0..=ny {
+                out.push((
+                    x0 + w * i as f64 / nx.max(1) as f64,
+                    y0 + h * j as f64 / ny.max(1) as f64,
+                ));
+            }
+        }
+        Ok(())
+    };
+    for l in &p.hlines {
+        let y = r.y1 - f.y.fraction(l.at) * r.height();
+        if y >= r.y0 && y <= r.y1 {
+            label_box(&l.label, hline_label_at(&r, y, sz), true)?;
+        }
+    }
+    for l in &p.vlines {
+        let x = r.x0 + f.x.fraction(l.at) * r.width();
+        if x >= r.x0 && x <= r.x1 {
+            label_box(&l.label, vline_label_at(&r, x, sz), false)?;
+        }
+    }
+    Ok(out)
+}
+
+/// The first of `order`'s inside corners whose legend box covers none of
+/// `taken`, if the legend fits at all.
+fn free_corner(
+    f: &Frame,
+    order: &[Legend],
+    taken: &[P],
+    legend: &LegendBox,
+    sz: Sizes,
+) -> Option<P> {
     let r = f.rect;
     if legend.width > 0.6 * r.width() || legend.height > 0.9 * r.height() {
         return None;
     }
-    let mut samples: Vec<P> = Vec::new();
-    for s in &p.series {
-        let pts = f.points(s);
-        samples.extend(pts.iter().flatten());
-        if !matches!(s.style, Style::Points | Style::Disks | Style::Arrows) {
-            for piece in clip_polyline(&pts, &r) {
-                for w in piece.windows(2) {
-                    let len = (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1);
-                    let n = (len / 2.0).ceil().min(1e5) as usize;
-                    samples.extend((1..n).map(|k| {
-                        let t = k as f64 / n as f64;
-                        (
-                            w[0].0 + t * (w[1].0 - w[0].0),
-                            w[0].1 + t * (w[1].1 - w[0].1),
-                        )
-                    }));
-                }
-            }
-        }
-    }
     let pad = sz.marker + 1.0;
-    [
-        Legend::TopRight,
-        Legend::TopLeft,
-        Legend::BottomLeft,
-        Legend::BottomRight,
-    ]
-    .into_iter()
-    .map(|c| corner_position(&r, c, legend, sz))
-    .find(|&(x, y)| {
-        let b = Rect {
-            x0: x - pad,
-            y0: y - pad,
-            x1: x + legend.width + pad,
-            y1: y + legend.height + pad,
-        };
-        !samples.iter().any(|&q| b.contains(q))
-    })
+    order
+        .iter()
+        .map(|&c| corner_position(&r, c, legend, sz))
+        .find(|&(x, y)| {
+            let b = Rect {
+                x0: x - pad,
+                y0: y - pad,
+                x1: x + legend.width + pad,
+                y1: y + legend.height + pad,
+            };
+            !taken.iter().any(|&q| b.contains(q))
+        })
 }
 
 /// A solid or dashed polyline.
@@ -489,35 +837,18 @@ fn draw_series<DB: DrawingBackend>(
     sz: Sizes,
 ) -> Result<()> {
     let r = f.rect;
-    if let Some(errs) = &s.y_err {
-        let cap = 0.6 * sz.marker + 1.0;
-        for ((&x, &y), &e) in s.x.iter().zip(&s.y).zip(errs) {
-            let (Some(mid), true) = (f.at(x, y), e.is_finite() && e > 0.0) else {
-                continue;
-            };
-            // On a log axis a bar reaching below a tenth of its point (or below
-            // zero) stops there without a cap: open downwards, not off the axes.
-            let open = f.y.log && y - e < 0.1 * y;
-            let lo_y = if open { 0.1 * y } else { y - e };
-            let lo = f.at(x, lo_y).map_or(r.y1 + 1.0, |p| p.1);
-            let hi = f.at(x, y + e).map_or(r.y0 - 1.0, |p| p.1);
-            if let Some((a, b)) = clip_segment((mid.0, lo), (mid.0, hi), &r) {
-                polyline(area, &[a, b], color, 1)?;
-                let ends: &[P] = if open {
-                    &[(mid.0, hi)]
-                } else {
-                    &[(mid.0, lo), (mid.0, hi)]
-                };
-                for &end in ends {
-                    if r.contains(end) {
-                        polyline(
-                            area,
-                            &[(end.0 - cap, end.1), (end.0 + cap, end.1)],
-                            color,
-                            1,
-                        )?;
-                    }
-                }
+    let cap = 0.6 * sz.marker + 1.0;
+    for (a, b, a_end, b_end) in f.bars(s) {
+        polyline(area, &[a, b], color, 1)?;
+        // A cap only where the bar ends, none where the frame cuts it.
+        for (end, shown) in [(a, a_end), (b, b_end)] {
+            if shown {
+                polyline(
+                    area,
+                    &[(end.0 - cap, end.1), (end.0 + cap, end.1)],
+                    color,
+                    1,
+                )?;
             }
         }
     }
@@ -695,6 +1026,7 @@ fn draw_axes<DB: DrawingBackend>(
 fn draw_legend<DB: DrawingBackend>(
     area: &Area<DB>,
     p: &Panel,
+    colors: &[Color],
     lb: &LegendBox,
     (x, y): P,
     sz: Sizes,
@@ -713,34 +1045,48 @@ fn draw_legend<DB: DrawingBackend>(
         draw_text(area, &p.legend_title, &style, (x_sample, row_y))?;
         row_y += lb.row;
     }
-    for (i, label) in &lb.entries {
-        let s = &p.series[*i];
-        let color = rgb(s
-            .color
-            .unwrap_or_else(|| palette::color(p.palette, *i, p.series.len())));
-        if !matches!(s.style, Style::Points | Style::Disks | Style::Arrows) {
+    let color_of = |i: usize| {
+        if p.series[i].legend_ink {
+            INK
+        } else {
+            rgb(colors[i])
+        }
+    };
+    for e in &lb.entries {
+        // One sample for all the series of the entry: the line of the first
+        // drawn as a line, the marker of the first drawn with markers on it.
+        let line = e.series.iter().find(|&&i| {
+            !matches!(
+                p.series[i].style,
+                Style::Points | Style::Disks | Style::Arrows
+            )
+        });
+        if let Some(&i) = line {
             stroke(
                 area,
                 &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
-                color,
+                color_of(i),
                 sz.line,
-                s.dashed,
+                p.series[i].dashed,
                 sz,
             )?;
         }
-        if s.style == Style::Arrows {
-            let y = row_y;
-            arrow(area, (x_sample, y), (x_sample + lb.sample, y), color, sz)?;
-        } else if s.style != Style::Line {
-            marker(
-                area,
-                s.marker,
-                (x_sample + lb.sample / 2.0, row_y),
-                sz.marker,
-                color,
-            )?;
+        let arrows = e
+            .series
+            .iter()
+            .find(|&&i| p.series[i].style == Style::Arrows);
+        let dots = e
+            .series
+            .iter()
+            .find(|&&i| !matches!(p.series[i].style, Style::Line | Style::Arrows));
+        if let Some(&i) = arrows {
+            let to = (x_sample + lb.sample, row_y);
+            arrow(area, (x_sample, row_y), to, color_of(i), sz)?;
+        } else if let Some(&i) = dots {
+            let at = (x_sample + lb.sample / 2.0, row_y);
+            marker(area, p.series[i].marker, at, sz.marker, color_of(i))?;
         }
-        draw_text(area, label, &style, (x_text, row_y))?;
+        draw_text(area, &e.label, &style, (x_text, row_y))?;
         row_y += lb.row;
     }
     Ok(())

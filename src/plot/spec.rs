@@ -1,5 +1,7 @@
 //! The declarative figure description a pipeline YAML holds.
 
+use std::collections::BTreeMap;
+
 use anyhow::{Result, bail, ensure};
 use serde::{Deserialize, Serialize};
 
@@ -19,6 +21,12 @@ pub struct Figure {
     pub width: u32,
     #[serde(default = "default_height")]
     pub height: u32,
+    /// Colours keyed by value: a group column (e.g. `phi`) with the (min, max)
+    /// the sequential palette spans, the same in every figure of a paper, so a
+    /// phi has one colour everywhere. A group column not listed takes its
+    /// colours from the rank of its value among the figure's values.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub colour_ranges: BTreeMap<String, (f64, f64)>,
 }
 
 fn default_width() -> u32 {
@@ -29,7 +37,7 @@ fn default_height() -> u32 {
 }
 
 /// One set of axes.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Panel {
     /// Drawn at the top left, e.g. "(a)"; empty for none.
@@ -53,11 +61,16 @@ pub struct Panel {
     /// Default colours of series without one.
     #[serde(default)]
     pub palette: Palette,
+    /// Sentences printed above the axes, e.g. that the profile lacks a state
+    /// point the paper shows. The plotter adds its own (error bars larger than
+    /// their value).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 /// One axis. Labels may use any symbol of DejaVu Sans (χ₄, φ, ξ) and the markup
 /// `_{...}` (subscript), `^{...}` (superscript): "τ_{α}", "(φ_{c} − φ)^{−γ}".
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Axis {
     #[serde(default)]
@@ -74,7 +87,7 @@ pub struct Axis {
 }
 
 /// One curve or point set.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Series {
     /// Legend entry; empty to leave the series out of the legend.
@@ -101,6 +114,22 @@ pub struct Series {
     /// each point to point + vector, e.g. a velocity field).
     #[serde(default)]
     pub arrows: Option<Vec<[f64; 2]>>,
+    /// The group value this series draws (e.g. phi = 0.78): every series of one
+    /// value takes one colour, in every panel, markers and lines alike.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<Group>,
+    /// The legend sample is drawn in black: the entry names a style (dashed =
+    /// power law) that series of several colours share.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub legend_ink: bool,
+}
+
+/// A value of a group column.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Group {
+    pub column: String,
+    pub value: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -223,6 +252,12 @@ impl Figure {
             self.width,
             self.height
         );
+        for (column, &(lo, hi)) in &self.colour_ranges {
+            ensure!(
+                lo.is_finite() && hi.is_finite() && lo < hi,
+                "colour range of {column} ({lo}, {hi}) must be finite with min < max"
+            );
+        }
         if let Some(c) = self.columns {
             ensure!(c >= 1, "columns must be at least 1");
         }

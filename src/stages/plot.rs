@@ -12,7 +12,9 @@ use serde_json::Value;
 use super::tables::{Columns, Where, inputs_of};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
-use crate::plot::{Axis, Color, Figure, Legend, Marker, Palette, Panel, RefLine, Series, Style};
+use crate::plot::{
+    Axis, Color, Figure, Group, Legend, Marker, Palette, Panel, RefLine, Series, Style,
+};
 
 /// A group value as a legend shows it: three decimals tell phi (0.785) or t0 apart,
 /// and values below 10 keep two (0.60, 0.65) so a column of phi reads evenly.
@@ -105,6 +107,27 @@ pub struct Layer {
     /// Vector columns of style `arrows` and the data units per unit of them.
     #[serde(default)]
     pub arrows: Option<ArrowColumns>,
+    /// The legend entries of a grouped layer.
+    #[serde(default)]
+    pub legend: LayerLegend,
+    /// Group values the paper shows: each one absent from the data (the
+    /// profile has no such state point) is said in a note on the panel.
+    #[serde(default)]
+    pub expect: Vec<f64>,
+}
+
+/// The legend entries of a layer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LayerLegend {
+    /// One entry per group value: the label followed by the value.
+    #[default]
+    Each,
+    /// One entry for the whole layer, its label beside a black sample of its
+    /// style (e.g. dashed: the power law of every phi, each in its colour).
+    Once,
+    /// No entry.
+    None,
 }
 
 /// The arrows of a quiver layer: from (x, y) to (x + scale dx, y + scale dy).
@@ -196,6 +219,9 @@ pub struct PanelSpec {
     pub legend_title: String,
     #[serde(default)]
     pub palette: Palette,
+    /// Sentences printed above the axes (what differs from the paper, and why).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -210,6 +236,9 @@ pub struct PlotParams {
     pub width: Option<u32>,
     #[serde(default)]
     pub height: Option<u32>,
+    /// Colours keyed by value, per group column: see [`Figure::colour_ranges`].
+    #[serde(default)]
+    pub colour_ranges: std::collections::BTreeMap<String, (f64, f64)>,
 }
 
 /// The series of one layer.
@@ -263,11 +292,13 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     }
     groups.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
-    for (key, mut idx) in groups {
+    for (k, (key, mut idx)) in groups.into_iter().enumerate() {
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
-        let label = match &layer.group {
-            Some(_) => format!("{}{}", layer.label, legend_number(key)),
-            None => layer.label.clone(),
+        let label = match (&layer.group, layer.legend) {
+            (_, LayerLegend::None) => String::new(),
+            (Some(_), LayerLegend::Each) => format!("{}{}", layer.label, legend_number(key)),
+            (Some(_), LayerLegend::Once) if k > 0 => String::new(),
+            _ => layer.label.clone(),
         };
         out.push(Series {
             label,
@@ -280,26 +311,77 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             marker: layer.marker,
             radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
             arrows: arrows.map(|(dx, dy, k)| idx.iter().map(|&i| [k * dx[i], k * dy[i]]).collect()),
+            group: layer.group.as_ref().map(|column| Group {
+                column: column.clone(),
+                value: key,
+            }),
+            legend_ink: layer.group.is_some() && layer.legend == LayerLegend::Once,
         });
     }
     Ok(out)
 }
 
+/// A note for each group value the layer expects but did not draw: the
+/// profile lacks a state point the paper shows. The value is named by the
+/// panel's legend heading (e.g. φ), else by the group column.
+fn missing(layer: &Layer, heading: &str, drawn: &[Series]) -> Option<String> {
+    let column = layer.group.as_deref()?;
+    let absent: Vec<String> = layer
+        .expect
+        .iter()
+        .filter(|&&v| {
+            !drawn
+                .iter()
+                .any(|s| s.group.as_ref().is_some_and(|g| (g.value - v).abs() < 1e-9))
+        })
+        .map(|&v| legend_number(v))
+        .collect();
+    if absent.is_empty() {
+        return None;
+    }
+    let name = if heading.is_empty() { column } else { heading };
+    Some(format!(
+        "The paper shows {name} = {}; this profile has no such state point.",
+        absent.join(", ")
+    ))
+}
+
 /// The figure from the parameters and the inputs.
 pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
+    let table =
+        |layer: &Layer| Columns::read_file(&inputs_of("plot", inputs, &layer.from)?, &layer.file);
+    build(p, table, |text| fill(text, inputs))
+}
+
+/// The figure from the parameters, each layer's table and the filling of
+/// `{=STAGE.QUANTITY}` in labels.
+fn build(
+    p: &PlotParams,
+    table: impl Fn(&Layer) -> Result<Columns>,
+    fill: impl Fn(&str) -> Result<String>,
+) -> Result<Figure> {
     let mut panels = Vec::new();
     for (k, ps) in p.panels.iter().enumerate() {
         let mut all = Vec::new();
+        let mut notes = ps
+            .notes
+            .iter()
+            .map(|n| fill(n))
+            .collect::<Result<Vec<_>>>()?;
         for layer in &ps.layers {
-            let arts = inputs_of("plot", inputs, &layer.from)?;
-            let c = Columns::read_file(&arts, &layer.file)
+            let c = table(layer)
                 .with_context(|| format!("plot: panel {} layer from '{}'", k + 1, layer.from))?;
             let mut layer = layer.clone();
-            layer.label = fill(&layer.label, inputs)?;
-            all.extend(series(&layer, &c)?.into_iter().filter(|s| !s.x.is_empty()));
+            layer.label = fill(&layer.label)?;
+            let drawn: Vec<Series> = series(&layer, &c)?
+                .into_iter()
+                .filter(|s| !s.x.is_empty())
+                .collect();
+            notes.extend(missing(&layer, &ps.legend_title, &drawn));
+            all.extend(drawn);
         }
         panels.push(Panel {
-            title: fill(&ps.title, inputs)?,
+            title: fill(&ps.title)?,
             x: ps.x.clone(),
             y: ps.y.clone(),
             series: all,
@@ -308,6 +390,7 @@ pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
             legend: ps.legend,
             legend_title: ps.legend_title.clone(),
             palette: ps.palette,
+            notes,
         });
     }
     let n = panels.len().max(1) as u32;
@@ -319,6 +402,7 @@ pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
         columns: p.columns,
         width: p.width.unwrap_or(560 * cols),
         height: p.height.unwrap_or(440 * rows),
+        colour_ranges: p.colour_ranges.clone(),
     };
     fig.validate()?;
     Ok(fig)
@@ -351,6 +435,131 @@ impl StageKind for Plot {
 #[cfg(test)]
 mod tests {
     use super::value_with_error;
+
+    /// A table every column of `layer` can be read from: three groups of twelve
+    /// points along a rising curve inside the panel's axes, errors of 5% of the
+    /// value but one twenty times its value (the bar a referee sees first).
+    fn synthetic(layer: &super::Layer, ps: &super::PanelSpec) -> super::Columns {
+        let along = |axis: &super::Axis, f: f64, lin: (f64, f64), log: (f64, f64)| {
+            let (lo, hi) = axis.range.unwrap_or(if axis.log { log } else { lin });
+            if axis.log {
+                10f64.powf(lo.log10() + f * (hi.log10() - lo.log10()))
+            } else {
+                lo + f * (hi - lo)
+            }
+        };
+        let mut c = super::Columns::default();
+        let mut put = |name: &str, v: f64| c.f64.entry(name.to_string()).or_default().push(v);
+        for j in 0..3 {
+            for k in 0..12 {
+                let u = k as f64 / 11.0;
+                let x = along(&ps.x, 0.05 + 0.9 * u, (0.0, 1.0), (0.1, 100.0));
+                let y = along(
+                    &ps.y,
+                    0.1 + 0.6 * u + 0.1 * j as f64,
+                    (0.0, 10.0),
+                    (0.1, 1e3),
+                );
+                let big = j == 0 && k == 11;
+                put(&layer.x, x);
+                put(&layer.y, y);
+                for e in &layer.y_err {
+                    put(e, if big { 20.0 * y.abs() } else { 0.05 * y.abs() });
+                }
+                for g in &layer.group {
+                    put(g, [0.6, 0.7, 0.78][j]);
+                }
+                for r in &layer.radius {
+                    put(r, 0.01);
+                }
+                for a in &layer.arrows {
+                    put(&a.dx, 0.01);
+                    put(&a.dy, 0.01);
+                }
+            }
+        }
+        c.rows = 36;
+        c
+    }
+
+    /// Every plot spec in pipelines/ drawn from synthetic tables: no legend over
+    /// data, one colour per group value, every label typeset, no y axis set by
+    /// one error bar. Data of any figure goes through the same layout, so a
+    /// spec whose options (a fixed corner, a range) let the plotter do one of
+    /// these fails here.
+    #[test]
+    fn every_plot_spec_lays_out_without_defects() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
+            .collect();
+        files.sort();
+        let (mut found, mut bad) = (0, vec![]);
+        for f in &files {
+            let text = std::fs::read_to_string(f).unwrap();
+            let spec: serde_json::Value = serde_saphyr::from_str(&text).unwrap();
+            let stages = spec["stages"].as_array().cloned().unwrap_or_default();
+            let plots = stages.iter().filter(|s| s["kind"] == "plot");
+            // The base parameters, and each profile's over them.
+            let variants = plots.flat_map(|st| {
+                let base = st["params"].clone();
+                let mut all = vec![(st["name"].to_string(), base.clone())];
+                for (profile, o) in st["profiles"].as_object().into_iter().flatten() {
+                    let mut v = base.clone();
+                    for (k, x) in o.as_object().unwrap() {
+                        v[k] = x.clone();
+                    }
+                    all.push((format!("{} at {profile}", st["name"]), v));
+                }
+                all
+            });
+            for (stage, params) in variants {
+                found += 1;
+                let mut p: super::PlotParams = serde_json::from_value(params).unwrap();
+                for ps in &mut p.panels {
+                    for l in &mut ps.layers {
+                        l.filter = Default::default();
+                    }
+                }
+                let table = |layer: &super::Layer| {
+                    let ps = p
+                        .panels
+                        .iter()
+                        .find(|ps| ps.layers.iter().any(|l| std::ptr::eq(l, layer)))
+                        .unwrap();
+                    Ok(synthetic(layer, ps))
+                };
+                let fill = |t: &str| {
+                    let mut out = t.to_string();
+                    while let Some(i) = out.find("{=") {
+                        let j = i + out[i..].find('}').unwrap();
+                        out.replace_range(i..=j, "0.50 ± 0.02");
+                    }
+                    Ok(out)
+                };
+                let fig = super::build(&p, table, fill).unwrap();
+                let name = f.file_name().unwrap().to_string_lossy().to_string();
+                // REPRO_PLOT_SAMPLES=dir: the synthetic figures, for looking at.
+                if let Some(dir) = std::env::var_os("REPRO_PLOT_SAMPLES") {
+                    let stem = format!("spec-{}-{}", name.trim_end_matches(".yaml"), found);
+                    let dir = std::path::Path::new(&dir);
+                    crate::plot::draw(
+                        &fig,
+                        &dir.join(format!("{stem}.svg")),
+                        &dir.join(format!("{stem}.png")),
+                    )
+                    .unwrap();
+                }
+                for d in crate::plot::defects(&fig).unwrap() {
+                    bad.push(format!("{name} {stage}: {d}"));
+                }
+            }
+        }
+        assert!(found >= 30, "only {found} plot stages in {}", dir.display());
+        assert!(bad.is_empty(), "{} defects:\n{}", bad.len(), bad.join("\n"));
+    }
 
     #[test]
     fn fitted_values_round_to_their_error() {

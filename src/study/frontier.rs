@@ -264,6 +264,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                         marker: Marker::Circle,
                         radius: None,
                         arrows: None,
+                        ..Default::default()
                     }
                 })
                 .collect();
@@ -316,6 +317,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                 legend: Legend::Auto,
                 legend_title: String::new(),
                 palette: Palette::Categorical,
+                ..Default::default()
             }
         })
         .collect();
@@ -327,6 +329,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
         columns: None,
         width: 640 * n,
         height: 400,
+        colour_ranges: Default::default(),
     }
 }
 
