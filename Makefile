@@ -1,14 +1,14 @@
 # repro: regenerate the figures of the driven-granular-fluid papers.
 #   make all-figures            every figure (profile: small)
 #   make figure FIG=fig19       one figure; PROFILE=ci|small|paper, JOBS=N
-#   make test / test-slurm / bench / ci / report
+#   make test / test-slurm / bench / ci / report / sensitivity
 CARGO ?= cargo
 PROFILE ?= small
 JOBS ?=
 REPRO ?= $(CARGO) run --release --locked --quiet --
 JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: build test test-slurm bench ci ci-figures all-figures figure status gc report
+.PHONY: build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity
 
 build:
 	$(CARGO) build --release --locked
@@ -32,6 +32,12 @@ test-slurm:
 
 bench:
 	$(CARGO) bench --locked
+
+# Would CI notice eps 0.90 -> 0.88 or the radius ratio 1.43 -> 1.40, and does it
+# stay quiet without a change? Three fresh master seeds each (docs/accuracy.md);
+# about an hour on 2 cores, so not part of `make test`.
+sensitivity:
+	REPRO="$(REPRO)" JOBS="$(JOBS)" scripts/sensitivity.sh
 
 all-figures:
 	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)

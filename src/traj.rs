@@ -34,6 +34,11 @@ pub struct Trajectory {
     pub masses: Vec<f64>,
     /// Frames in increasing time.
     pub frames: Vec<Frame>,
+    /// The schedule the frames were recorded on, when known (every simulation
+    /// records it). It says which frames are time origins: a lag is then served
+    /// only by pairs (origin, origin + lag), so every lag of the schedule has one
+    /// pair per origin and no lag is made of frames of two different origins.
+    pub schedule: Option<Schedule>,
 }
 
 impl Trajectory {
@@ -128,19 +133,40 @@ impl Schedule {
 }
 
 impl Trajectory {
-    /// Index pairs (i, j), i < j, of frames separated by `lag` within `rel_tol * lag`.
-    /// Analyses average over these pairs (time origins) at each lag.
+    /// Index pairs (i, j), i < j, of frames separated by `lag` within `rel_tol * lag`:
+    /// the time origins analyses average over at that lag. With a known
+    /// [`Schedule`], i runs over the schedule's origins only (frame j may belong to a
+    /// later origin's block when the blocks overlap); without one, over every frame.
     pub fn pairs_at_lag(&self, lag: f64, rel_tol: f64) -> Vec<(usize, usize)> {
         let t = self.times();
-        let mut out = Vec::new();
-        for i in 0..t.len() {
+        let partner = |i: usize| {
             let target = t[i] + lag;
             let j = t.partition_point(|&x| x < target - rel_tol * lag);
-            if j < t.len() && j > i && (t[j] - target).abs() <= rel_tol * lag {
-                out.push((i, j));
-            }
+            (j < t.len() && j > i && (t[j] - target).abs() <= rel_tol * lag).then_some((i, j))
+        };
+        match &self.schedule {
+            Some(s) => self
+                .origin_frames(s)
+                .into_iter()
+                .filter_map(partner)
+                .collect(),
+            None => (0..t.len()).filter_map(partner).collect(),
         }
-        out
+    }
+
+    /// Indices of the frames at the origins of `s` (an origin with no frame, say a
+    /// trajectory cut short, is skipped).
+    fn origin_frames(&self, s: &Schedule) -> Vec<usize> {
+        let t = self.times();
+        (0..s.origins)
+            .filter_map(|k| {
+                let t0 = s.start + k as f64 * s.origin_spacing;
+                // Far below any lag, far above the rounding of a recorded time.
+                let tol = 1e-9 * t0.abs().max(1.0);
+                let i = t.partition_point(|&x| x < t0 - tol);
+                (i < t.len() && (t[i] - t0).abs() <= tol).then_some(i)
+            })
+            .collect()
     }
 }
 
@@ -167,6 +193,7 @@ mod tests {
                     vy: vec![],
                 })
                 .collect(),
+            schedule: Some(s.clone()),
         }
     }
 
@@ -218,5 +245,39 @@ mod tests {
             s,
             "the same spacing is the same schedule"
         );
+    }
+
+    /// With the schedule known, a lag is served from origins only: each of the
+    /// schedule's lags once per origin, and the origin spacing (a difference between
+    /// frames of two origins) only by origins that have a frame one spacing later;
+    /// without it, every frame that has a partner counts.
+    #[test]
+    fn a_known_schedule_pairs_origins_with_their_own_lags() {
+        let s = Schedule {
+            start: 2.0,
+            origins: 6,
+            origin_spacing: 0.5,
+            lags: Schedule::log_lags(0.1, 3.0, 6),
+        };
+        let traj = at_rest(&s);
+        for &lag in &s.lags {
+            let p = traj.pairs_at_lag(lag, 1e-6);
+            assert_eq!(p.len(), 6, "lag {lag}: {p:?}");
+            assert!(p.iter().all(|&(i, _)| {
+                let k = (traj.frames[i].time - 2.0) / 0.5;
+                (k - k.round()).abs() < 1e-9
+            }));
+        }
+        let is_origin = |i: usize| {
+            let k = (traj.frames[i].time - 2.0) / 0.5;
+            (k - k.round()).abs() < 1e-9
+        };
+        let spacing = traj.pairs_at_lag(0.5, 1e-6);
+        assert!(spacing.iter().all(|&(i, _)| is_origin(i)), "{spacing:?}");
+        let blind = Trajectory {
+            schedule: None,
+            ..traj.clone()
+        };
+        assert!(blind.pairs_at_lag(0.5, 1e-6).len() > spacing.len());
     }
 }

@@ -206,13 +206,22 @@ fn tiny_figure_end_to_end_then_regression_check() {
     // quantity, value and band.
     let ours = read_compare(&out).unwrap();
     let phi_0 = ours.iter().find(|c| c.quantity == "phi_0").unwrap().ours;
+    // Every other key number of the figure left out with a reason.
+    let others: std::collections::BTreeMap<String, String> =
+        repro::study::results::key_numbers(&out)
+            .unwrap()
+            .into_keys()
+            .filter(|q| q != "phi_0")
+            .map(|q| (format!("tinyfig:{q}"), "not under test".to_string()))
+            .collect();
+    assert!(!others.is_empty());
     let good = GoldenFile {
         profile: "ci".into(),
         how: "test".into(),
         sigmas: 4.0,
         relative_floor: 0.01,
         seeds: vec![1, 2],
-        ungated: vec![],
+        ungated: others.clone(),
         quantities: vec![golden(
             "tinyfig",
             "phi_0",
@@ -223,9 +232,32 @@ fn tiny_figure_end_to_end_then_regression_check() {
         )],
     };
     let (lines, failures) = check(&good, &ws.results, &[]).unwrap();
-    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert_eq!(lines.len(), 3, "{lines:?}");
     assert!(lines[1].starts_with("joint:"), "{lines:?}");
+    assert!(lines[2].starts_with("agreed with the paper"), "{lines:?}");
     assert!(failures.is_empty(), "{failures:?}");
+    // A key number with neither a band nor a reason fails, named.
+    let (first, _) = others.iter().next().unwrap();
+    let mut unrecorded = good.clone();
+    unrecorded.ungated.remove(first);
+    let (_, failures) = check(&unrecorded, &ws.results, &[]).unwrap();
+    let name = first.trim_start_matches("tinyfig:");
+    assert!(
+        failures.len() == 1 && failures[0].contains(name) && failures[0].contains("neither"),
+        "{failures:?}"
+    );
+    // Gated on agreeing with the paper: listed, and failing exactly when the
+    // verdict is now `disagree`.
+    let verdict = ours.iter().find(|c| c.quantity == "phi_0").unwrap().verdict;
+    let mut agreeing = good.clone();
+    agreeing.quantities[0].always_agree = true;
+    let (lines, failures) = check(&agreeing, &ws.results, &[]).unwrap();
+    assert!(lines[2].contains("(1): tinyfig:phi_0"), "{lines:?}");
+    assert_eq!(
+        failures.len(),
+        usize::from(verdict == repro::study::results::Verdict::Disagree),
+        "{verdict:?}: {failures:?}"
+    );
     // A CI figure with key numbers but no band is refused, with the command.
     let tiny = ["tinyfig".to_string()];
     let g = std::path::Path::new("ci.json");

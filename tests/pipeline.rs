@@ -18,7 +18,7 @@ fn fixture() -> tempfile::TempDir {
     dir
 }
 
-/// The library's kinds and the toy kinds (the `toy-kinds` feature, on for tests).
+/// The library's kinds and the toy kinds.
 fn reg() -> Registry {
     let mut r = repro::stages::registry();
     toy::register(&mut r);
@@ -476,8 +476,15 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
 
 // ---- child processes: kill -9 and concurrent runs -------------------------------
 
-fn repro(root: &Path) -> Command {
+/// The command line with the toy kinds the fixtures use.
+fn toy_cli() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_repro"));
+    c.env(repro::cli::TOY_KINDS, "1");
+    c
+}
+
+fn repro(root: &Path) -> Command {
+    let mut c = toy_cli();
     c.arg("figure")
         .arg("--all")
         .arg("--profile")
@@ -625,7 +632,7 @@ fn two_concurrent_runs_on_one_store_both_finish_with_identical_results() {
 fn cli_list_why_and_dry_run_explain_the_cache() {
     let d = fixture();
     let cli = |args: &[&str]| {
-        let o = Command::new(env!("CARGO_BIN_EXE_repro"))
+        let o = toy_cli()
             .args(args)
             .arg("--root")
             .arg(d.path())
@@ -695,7 +702,7 @@ fn a_time_past_the_run_length_rule_is_refused_at_plan_time() {
         ],
     );
     // `--dry-run` plans, so it says the same before anything runs.
-    let o = Command::new(env!("CARGO_BIN_EXE_repro"))
+    let o = toy_cli()
         .args(["figure", "atfig", "--profile", "ci", "--dry-run", "--root"])
         .arg(d.path())
         .output()
@@ -873,7 +880,7 @@ fn repro_verify_and_status_report_damage() {
     let d = fixture();
     run(d.path(), &["figtoy"]);
     let cli = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_repro"))
+        toy_cli()
             .args(args)
             .arg("--root")
             .arg(d.path())

@@ -6,7 +6,9 @@ use arrow_array::RecordBatch;
 use serde::Deserialize;
 
 use super::overlap::{Moments, moments};
-use super::stats::{Blocks, Estimate, interp_log_t, jackknife_err, peak_log_t};
+use super::stats::{
+    Blocks, Estimate, at_least, interp_log_t, jackknife_err, peak_log_t, peak_resolution,
+};
 use super::{default_a, default_rel_tol};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
@@ -50,7 +52,11 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 /// As [`compute`], pooling the time origins of several replicas (jackknife over
 /// (replica, origin bin) blocks).
 pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
-    let m = run(trajs, p)?;
+    table_of(&run(trajs, p)?, trajs)
+}
+
+/// The table of [`compute_pooled`] from the moments.
+fn table_of(m: &Moments, trajs: &[&Trajectory]) -> Result<RecordBatch> {
     let mut cols: [Vec<f64>; 6] = Default::default();
     for (s, (b, per_lag)) in m.boxes.iter().zip(&m.blocks).enumerate() {
         for ((lag, origins), blocks) in m.lags.iter().zip(per_lag).zip(m.error_blocks(trajs, s)) {
@@ -83,9 +89,14 @@ pub struct Peak {
 }
 
 /// chi4 peak for each sub-box size (parabola in ln t through the largest sample and
-/// its neighbours; errors by leaving out one (replica, origin bin) block at a time).
+/// its neighbours; errors by leaving out one (replica, origin bin) block at a time,
+/// never below the lag grid's resolution, [`peak_resolution`]).
 pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
-    let m = run(trajs, p)?;
+    Ok(peaks_of(&run(trajs, p)?, trajs))
+}
+
+/// The peaks of [`peaks`] from the moments.
+fn peaks_of(m: &Moments, trajs: &[&Trajectory]) -> Vec<Peak> {
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
     let mut out = Vec::new();
     for (s, b) in m.boxes.iter().enumerate() {
@@ -94,6 +105,7 @@ pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
         let totals: Vec<Vec<f64>> = per_lag.iter().map(Blocks::total).collect();
         let curve: Vec<f64> = totals.iter().map(|s| f(s)).collect();
         let (tp, cp) = peak_log_t(&t, &curve).expect("at least one lag");
+        let (t_res, c_res) = peak_resolution(&t, &curve).expect("at least one lag");
         let mut keys: Vec<(usize, usize)> =
             per_lag.iter().flat_map(|b| b.keys().copied()).collect();
         keys.sort_unstable();
@@ -113,15 +125,15 @@ pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
             n: b.n_mean,
             tau4: Estimate {
                 value: tp,
-                err: jackknife_err(loo.iter().map(|x| x.0).collect()),
+                err: at_least(jackknife_err(loo.iter().map(|x| x.0).collect()), t_res),
             },
             chi4p: Estimate {
                 value: cp,
-                err: jackknife_err(loo.iter().map(|x| x.1).collect()),
+                err: at_least(jackknife_err(loo.iter().map(|x| x.1).collect()), c_res),
             },
         });
     }
-    Ok(out)
+    out
 }
 
 /// Sub-box sizes that fit in a system of `n_particles`: a request above it becomes
@@ -140,7 +152,9 @@ pub fn clamp_sizes(p: &mut Params, n_particles: usize) {
 /// tau_alpha and chi4(tau_alpha) are NaN when Q never reaches 1/e over the lags (a
 /// short run), never extrapolated.
 pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
-    let peaks = peaks(trajs, p)?;
+    // One pass over the frame pairs serves the peaks and the curves.
+    let m = run(trajs, p)?;
+    let peaks = peaks_of(&m, trajs);
     let op = super::overlap::Params {
         a: p.a,
         n: None,
@@ -149,7 +163,7 @@ pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
     };
     let tau = super::overlap::tau_alpha(trajs, &op).ok();
     let ta = tau.map(|x| x.value).unwrap_or(f64::NAN);
-    let table = compute_pooled(trajs, p)?;
+    let table = table_of(&m, trajs)?;
     let col = |name: &str| -> Vec<f64> {
         table
             .column_by_name(name)
@@ -218,5 +232,80 @@ mod tests {
             at >= lo - 1e-12 && at <= hi + 1e-12,
             "{at} not in [{lo}, {hi}]"
         );
+    }
+
+    /// Q(t), chi4(t) and tau_alpha from the analysis equal a brute-force computation
+    /// over the schedule: every lag of the schedule and no other, each from every
+    /// origin once (the blocks overlap, and lags that are multiples of the origin
+    /// spacing would otherwise pair frames of two origins), chi4 = N var(Q) over
+    /// the origins of the whole system, tau_alpha where Q crosses 1/e, linearly
+    /// in ln t.
+    #[test]
+    fn q_chi4_and_tau_alpha_match_a_brute_force_over_the_schedule() {
+        use crate::traj::Schedule;
+        let s = Schedule {
+            start: 1.0,
+            origins: 9,
+            origin_spacing: 0.5,
+            lags: Schedule::log_lags(0.1, 8.0, 6),
+        };
+        let mut traj = random_walk(300, [30.0, 30.0], &s.times(), 0.04, 11);
+        traj.schedule = Some(s.clone());
+        let (a, n) = (0.6, traj.n() as f64);
+        // Brute force, straight from the definitions.
+        let frame = |time: f64| {
+            traj.frames
+                .iter()
+                .find(|f| (f.time - time).abs() < 1e-9)
+                .expect("a frame of the schedule")
+        };
+        let mut want = Vec::new();
+        for &lag in &s.lags {
+            let qs: Vec<f64> = (0..s.origins)
+                .map(|k| {
+                    let t0 = s.start + k as f64 * s.origin_spacing;
+                    let (f0, f1) = (frame(t0), frame(t0 + lag));
+                    let slow = (0..traj.n())
+                        .filter(|&i| {
+                            let (dx, dy) = (f1.x[i] - f0.x[i], f1.y[i] - f0.y[i]);
+                            (dx * dx + dy * dy).sqrt() < a
+                        })
+                        .count();
+                    slow as f64 / n
+                })
+                .collect();
+            let m = qs.iter().sum::<f64>() / qs.len() as f64;
+            let m2 = qs.iter().map(|q| q * q).sum::<f64>() / qs.len() as f64;
+            want.push((lag, m, n * (m2 - m * m)));
+        }
+        let level = (-1f64).exp();
+        let k = want.iter().position(|w| w.1 <= level).expect("Q falls below 1/e");
+        let ((t0, q0, _), (t1, q1, _)) = (want[k - 1], want[k]);
+        let tau_want = (t0.ln() + (q0 - level) / (q0 - q1) * (t1.ln() - t0.ln())).exp();
+        // The analysis, as the observables call it.
+        let lags_used = lags::every_origin(&[&traj], None, 1e-6).unwrap();
+        let p = Params {
+            a,
+            n: vec![n],
+            lags: lags_used,
+            rel_tol: 1e-6,
+        };
+        let c = compute_pooled(&[&traj], &p).unwrap();
+        let (t, q, chi, no) = (col(&c, "t"), col(&c, "Q"), col(&c, "chi4"), col(&c, "n_origins"));
+        assert_eq!(t.len(), s.lags.len(), "lags {t:?}");
+        for (i, &(lag, qw, cw)) in want.iter().enumerate() {
+            assert!((t[i] - lag).abs() < 1e-12 * lag, "lag {} vs {lag}", t[i]);
+            assert!((q[i] - qw).abs() < 1e-12, "Q({lag}) = {} vs {qw}", q[i]);
+            assert!((chi[i] - cw).abs() < 1e-9, "chi4({lag}) = {} vs {cw}", chi[i]);
+            assert_eq!(no[i], s.origins as f64, "lag {lag}");
+        }
+        let op = crate::analysis::overlap::Params {
+            a,
+            n: None,
+            lags: p.lags.clone(),
+            rel_tol: 1e-6,
+        };
+        let tau = crate::analysis::overlap::tau_alpha(&[&traj], &op).unwrap();
+        assert!((tau.value - tau_want).abs() < 1e-9 * tau_want, "{} vs {tau_want}", tau.value);
     }
 }

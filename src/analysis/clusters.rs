@@ -636,6 +636,7 @@ mod tests {
                 vx: vec![],
                 vy: vec![],
             }],
+            schedule: None,
         }
     }
 

@@ -547,6 +547,7 @@ mod tests {
             radii: vec![0.3, 0.3, 1.0],
             masses: vec![1.0, 1.0, 4.0],
             frames,
+            schedule: None,
         }
     }
 

@@ -111,9 +111,10 @@ pub fn select(trajs: &[&Trajectory], requested: Option<&[f64]>, rel_tol: f64) ->
 }
 
 /// The lags every time origin of every replica realises: `requested` if given, else
-/// the schedule's own lags (the shortest lag sets the count of origins; a lag with
-/// fewer pairs comes only from differences between frames of different origins,
-/// and mixing those in makes curves jagged).
+/// the schedule's own lags. Trajectories that carry their schedule (every
+/// simulation's) give its lags directly; for others the shortest lag sets the
+/// count of origins, and a lag with fewer pairs comes only from differences
+/// between frames of different origins (mixing those in makes curves jagged).
 pub fn every_origin(
     trajs: &[&Trajectory],
     requested: Option<Vec<f64>>,
@@ -121,6 +122,20 @@ pub fn every_origin(
 ) -> Result<Option<Vec<f64>>> {
     if requested.is_some() {
         return Ok(requested);
+    }
+    let schedules: Option<Vec<&Vec<f64>>> = trajs
+        .iter()
+        .map(|t| t.schedule.as_ref().map(|s| &s.lags))
+        .collect();
+    if let Some(all) = schedules
+        && let Some(first) = all.first()
+        && all.iter().all(|l| l == first)
+        && !first.is_empty()
+    {
+        let mut lags: Vec<f64> = first.iter().copied().filter(|l| *l > 0.0).collect();
+        lags.sort_by(f64::total_cmp);
+        lags.dedup_by(|a, b| (*a - *b).abs() <= rel_tol.max(1e-12) * b.abs());
+        return Ok(Some(lags));
     }
     let lags = select(trajs, None, rel_tol)?;
     // The shortest lag is realised once per origin and replica, and only then.

@@ -177,6 +177,7 @@ mod tests {
                 vx: vec![],
                 vy: vec![],
             }],
+            schedule: None,
         }
     }
 

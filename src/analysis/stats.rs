@@ -174,6 +174,80 @@ pub fn peak_log_t(t: &[f64], y: &[f64]) -> Option<(f64, f64)> {
     Some(((x1 + dx).exp(), y1 + c1 * dx + c2 * dx * dx))
 }
 
+/// How finely a sampled curve fixes its peak (t, y) from [`peak_log_t`]: the time to
+/// the standard deviation of a uniform spread over the local grid step in ln t
+/// (step / sqrt 12, times t), the height to the parabola's correction over the
+/// highest sample. A jackknife over blocks that all pick the same grid point says
+/// the error is zero; the grid says it is at least this.
+pub fn peak_resolution(t: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+    let n = t.len().min(y.len());
+    let k = (0..n)
+        .filter(|&i| y[i].is_finite())
+        .max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
+    let (tp, yp) = peak_log_t(t, y)?;
+    let (lo, hi) = (k.saturating_sub(1), (k + 1).min(n - 1));
+    let step = if hi > lo {
+        (t[hi].ln() - t[lo].ln()) / (hi - lo) as f64
+    } else {
+        0.0
+    };
+    Some((tp * step / 12f64.sqrt(), (yp - y[k]).abs()))
+}
+
+/// How finely the samples fix the crossing of [`crossing_time`]: the distance
+/// between its linear interpolation in ln t and a quadratic one through the
+/// bracketing samples and the nearer third (the interpolation's own error); when
+/// the quadratic has no root between the bracketing samples, the bracket's width
+/// over sqrt 12. None when the curve never crosses.
+pub fn crossing_resolution(t: &[f64], y: &[f64], level: f64) -> Option<f64> {
+    let lin = crossing_time(t, y, level)?;
+    let n = t.len().min(y.len());
+    let Some(k) = (1..n).find(|&k| y[k - 1] > level && y[k] <= level) else {
+        return Some(0.0); // The first sample is on the level: exact.
+    };
+    let x = |i: usize| t[i].ln();
+    let third = match (k.checked_sub(2), (k + 1 < n).then_some(k + 1)) {
+        (Some(a), Some(b)) => Some(if x(k - 1) - x(a) <= x(b) - x(k) { a } else { b }),
+        (a, b) => a.or(b),
+    };
+    let bracket = (x(k) - x(k - 1)) / 12f64.sqrt();
+    let Some(m) = third.filter(|&m| y[m].is_finite()) else {
+        return Some(lin * bracket);
+    };
+    // Newton form through (x_{k-1}, y), (x_k, y), (x_m, y); root of q(x) - level.
+    let (x0, x1, x2) = (x(k - 1), x(k), x(m));
+    let (y0, y1, y2) = (y[k - 1], y[k], y[m]);
+    let d01 = (y1 - y0) / (x1 - x0);
+    let d12 = (y2 - y1) / (x2 - x1);
+    let c2 = (d12 - d01) / (x2 - x0);
+    // q(x) = y0 + d01 (x - x0) + c2 (x - x0)(x - x1) = a u^2 + b u + c, u = x - x0.
+    let (a, b, c) = (c2, d01 - c2 * (x1 - x0), y0 - level);
+    // The stable pair of roots (q / a and c / q): no cancellation when the
+    // curve is nearly straight (a -> 0 leaves c / q, the linear root).
+    let disc = b * b - 4.0 * a * c;
+    let roots = if disc < 0.0 {
+        vec![]
+    } else {
+        let q = -0.5 * (b + b.signum() * disc.sqrt());
+        vec![q / a, c / q]
+    };
+    let quad = roots
+        .into_iter()
+        .map(|u| x0 + u)
+        .filter(|v| v.is_finite() && *v >= x0 - 1e-12 && *v <= x1 + 1e-12)
+        .min_by(|p, q| (p - lin.ln()).abs().total_cmp(&(q - lin.ln()).abs()));
+    Some(match quad {
+        Some(v) => (v.exp() - lin).abs(),
+        None => lin * bracket,
+    })
+}
+
+/// An error that is never below the resolution `res` of its estimator (NaN, no
+/// error estimate at all, stays NaN).
+pub fn at_least(err: f64, res: f64) -> f64 {
+    if err.is_nan() { err } else { err.max(res) }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -226,5 +300,51 @@ mod tests {
         assert!((interp_log_t(&t, &y, 10f64.sqrt()).unwrap() - 0.5).abs() < 1e-12);
         assert_eq!(interp_log_t(&t, &y, 1000.0), None);
         assert_eq!(interp_log_t(&t, &y, 0.5), None);
+    }
+
+    /// A peak between grid points: the parabola finds it, and its error is at least
+    /// the grid's resolution even when every leave-one-out sample agrees.
+    #[test]
+    fn a_peak_between_grid_points_is_found_with_the_grid_resolution() {
+        // 8 points a decade; the peak at t = 3.7 lies between 3.16 and 4.22.
+        let t: Vec<f64> = (0..25).map(|k| 0.1 * 10f64.powf(k as f64 / 8.0)).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|x| 0.3 - 0.05 * (x.ln() - 3.7f64.ln()).powi(2))
+            .collect();
+        let (tp, yp) = peak_log_t(&t, &y).unwrap();
+        assert!((tp - 3.7).abs() < 1e-9 && (yp - 0.3).abs() < 1e-12, "{tp} {yp}");
+        let (t_res, y_res) = peak_resolution(&t, &y).unwrap();
+        let step = 10f64.ln() / 8.0;
+        assert!((t_res - 3.7 * step / 12f64.sqrt()).abs() < 1e-9, "{t_res}");
+        let k = y.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+        assert!((y_res - (0.3 - y[k])).abs() < 1e-12 && y_res > 0.0, "{y_res}");
+        // Identical leave-one-out peaks: jackknife 0, quoted error the resolution.
+        let jk = jackknife_err(vec![tp; 10]);
+        assert!(jk < 1e-12, "{jk}");
+        assert_eq!(at_least(jk, t_res), t_res);
+        assert!(at_least(f64::NAN, t_res).is_nan());
+    }
+
+    /// The crossing's resolution bounds the interpolation's error: zero for data
+    /// linear in ln t, at least the true error for a curved Q(t) and far below
+    /// the grid's step.
+    #[test]
+    fn crossing_resolution_measures_the_interpolation_error() {
+        let t: Vec<f64> = (0..20).map(|k| 0.1 * 10f64.powf(k as f64 / 4.0)).collect();
+        let line: Vec<f64> = t.iter().map(|x| 1.0 - 0.1 * x.ln()).collect();
+        assert!(crossing_resolution(&t, &line, 0.8).unwrap() < 1e-9);
+        // Q = exp(-(t/tau)^0.7), tau = 7.3: Q = 1/e at t = tau exactly.
+        let q: Vec<f64> = t.iter().map(|x| (-(x / 7.3f64).powf(0.7)).exp()).collect();
+        let level = (-1f64).exp();
+        let lin = crossing_time(&t, &q, level).unwrap();
+        let res = crossing_resolution(&t, &q, level).unwrap();
+        let true_err = (lin - 7.3).abs();
+        assert!(true_err > 1e-4, "{true_err}");
+        // Conservative (near the curve's inflection in ln t the straight line is
+        // luckily good, the quadratic less so), and far finer than the grid (the
+        // bracketing lags are 5.6 and 10).
+        assert!(res >= true_err && res < 0.01 * 7.3, "{res} vs {true_err}");
+        assert_eq!(crossing_resolution(&t, &q, -1.0), None);
     }
 }

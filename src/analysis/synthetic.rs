@@ -32,6 +32,7 @@ fn system(n: usize, box_size: [f64; 2], frames: Vec<Frame>) -> Trajectory {
         radii: vec![1.0, 1.43],
         masses: vec![1.0, 1.43 * 1.43],
         frames,
+        schedule: None,
     }
 }
 

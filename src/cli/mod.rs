@@ -30,15 +30,20 @@ pub enum Command {
 }
 
 /// The registry the command line runs with: every kind of the library
-/// (`stages::registry()`), and the framework's toy kinds in test builds only
-/// (the `toy-kinds` feature, which the shipped binary does not have).
+/// (`stages::registry()`), and the framework's toy kinds when the environment
+/// variable `REPRO_TOY_KINDS` is set (the integration tests' fixtures use them).
+/// A runtime switch rather than a cargo feature: the tests and `make test`'s
+/// figure builds then share one compiled library instead of two.
 pub fn registry() -> Registry {
-    #[allow(unused_mut)]
     let mut r = crate::stages::registry();
-    #[cfg(feature = "toy-kinds")]
-    crate::pipeline::toy::register(&mut r);
+    if std::env::var_os(TOY_KINDS).is_some() {
+        crate::pipeline::toy::register(&mut r);
+    }
     r
 }
+
+/// The environment variable that adds the toy kinds to the command line's registry.
+pub const TOY_KINDS: &str = "REPRO_TOY_KINDS";
 
 /// `repro kinds`: one paragraph per registered kind, from the registry itself.
 fn kinds() {

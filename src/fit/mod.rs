@@ -21,7 +21,7 @@ pub mod collapse;
 mod error;
 pub mod forms;
 mod least_squares;
-mod linalg;
+pub(crate) mod linalg;
 pub mod linear;
 pub mod ranges;
 pub mod rescalings;

@@ -5,8 +5,8 @@
 //! - [`stage`]: the [`StageKind`] trait and what a kind sees (its inputs when
 //!   planned and when run, its context, its output, the work it plans);
 //!   [`registry`]: the registry of kinds with their code fingerprints; [`kinds`]
-//!   the framework's own kind (`table`); `toy` test-only kinds (unit tests and
-//!   the `toy-kinds` feature). The library's kinds
+//!   the framework's own kind (`table`); [`toy`] test-only kinds (registered by
+//!   tests, and by the command line only under `REPRO_TOY_KINDS`). The library's kinds
 //!   are registered by whoever assembles the registry (`stages::registry()`): this
 //!   module imports nothing from `stages`.
 //! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
@@ -27,7 +27,6 @@ pub mod slurm;
 pub mod spec;
 pub mod stage;
 pub mod store;
-#[cfg(any(test, feature = "toy-kinds"))]
 pub mod toy;
 
 use std::collections::{HashMap, HashSet};

@@ -1,5 +1,6 @@
-//! Toy stage kinds, for testing the framework only: compiled for unit tests and
-//! under the test-only `toy-kinds` feature (never in the shipped binary). They are small but honest pure
+//! Toy stage kinds, for testing the framework only: the command line registers
+//! them only when `REPRO_TOY_KINDS` is set (the integration tests set it), so a
+//! user never meets them. They are small but honest pure
 //! functions of their parameters, inputs and seed, so the cache, seeding and
 //! parallelism are exercised exactly as the real kinds will be.
 

@@ -84,7 +84,11 @@ pub fn from_golden(g: &GoldenFile, ids: &[String]) -> Vec<Coverage> {
                 .values
                 .iter()
                 .zip(&q.errors)
-                .map(|(&value, &error)| Fitted { value, error })
+                .map(|(&value, &error)| Fitted {
+                    value,
+                    error,
+                    verdict: None,
+                })
                 .collect();
             coverage(&q.figure, &q.quantity, &per_seed)
         })
@@ -96,7 +100,11 @@ mod tests {
     use super::*;
 
     fn f(value: f64, error: f64) -> Fitted {
-        Fitted { value, error }
+        Fitted {
+            value,
+            error,
+            verdict: None,
+        }
     }
 
     #[test]
@@ -129,6 +137,8 @@ mod tests {
             mean: 0.0,
             std: 1.0,
             band: [-4.0, 4.0],
+            gate: Default::default(),
+            always_agree: false,
         };
         let g = GoldenFile {
             profile: "ci".into(),
@@ -136,7 +146,7 @@ mod tests {
             sigmas: 4.0,
             relative_floor: 0.01,
             seeds: vec![1, 2, 3],
-            ungated: vec![],
+            ungated: Default::default(),
             // fig_b was recorded without per-seed errors: no row.
             quantities: vec![q("fig_a", vec![0.1; 3]), q("fig_b", vec![])],
         };

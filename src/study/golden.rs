@@ -2,7 +2,12 @@
 //! seeds, and the check of built figures against them (`repro regress`).
 //!
 //! Band rule (docs/figures.md, "CI regression"): mean +- max(sigmas x seed-to-seed
-//! standard deviation, relative_floor x |mean|) over the recorded seeds.
+//! standard deviation, relative_floor x |mean|) over the recorded seeds; one-sided
+//! for numbers where smaller is better (drifts, precision, gaps). A number whose
+//! band would be wider than the value itself stays in the joint test only; a
+//! number that is constant, missing at some seed or a goodness-of-fit diagnostic
+//! is not gated, with its reason in the file. A number the paper agreed with at
+//! every recorded seed fails when it turns `disagree`.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -10,7 +15,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 
-use super::results::{Fitted, key_numbers, key_numbers_with_errors, provenance};
+use super::results::{Fitted, Verdict, key_numbers_with_errors, provenance};
 use super::variant::{self, Variant};
 use crate::pipeline::RunOptions;
 
@@ -31,6 +36,53 @@ pub struct Golden {
     pub mean: f64,
     pub std: f64,
     pub band: [f64; 2],
+    /// How the band gates the number.
+    #[serde(default)]
+    pub gate: Gate,
+    /// The figure's compare verdict was `agree` at every recorded seed: turning
+    /// `disagree` is a regression.
+    #[serde(default)]
+    pub always_agree: bool,
+}
+
+/// How a golden band gates its number.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Gate {
+    /// The value must lie in the band.
+    #[default]
+    Band,
+    /// Smaller is better (a drift, a precision): |value| at most the band's top.
+    AtMost,
+    /// A gap: at least 0 (disks never overlap) and at most the band's top.
+    NonNegative,
+    /// Its band would be wider than the value itself, so it could not fail: the
+    /// number counts in the joint test only.
+    JointOnly,
+}
+
+impl Gate {
+    /// Whether `v` passes (NaN never does, except in the joint test only).
+    pub fn passes(self, v: f64, band: [f64; 2]) -> bool {
+        match self {
+            Gate::Band => v >= band[0] && v <= band[1],
+            Gate::AtMost => v.abs() <= band[1],
+            Gate::NonNegative => v >= 0.0 && v <= band[1],
+            Gate::JointOnly => true,
+        }
+    }
+
+    /// The gate of a quantity, by what it measures: drifts and precision are
+    /// better smaller, a closest gap must not be negative.
+    fn of(quantity: &str) -> Gate {
+        if quantity.starts_with("closest_gap") {
+            Gate::NonNegative
+        } else if quantity.contains("drift") || quantity.contains("precision") {
+            Gate::AtMost
+        } else {
+            Gate::Band
+        }
+    }
 }
 
 /// `tests/golden/PROFILE.json`.
@@ -43,9 +95,9 @@ pub struct GoldenFile {
     /// The master seeds every band was recorded at (empty in older files).
     #[serde(default)]
     pub seeds: Vec<u64>,
-    /// FIGURE:QUANTITY left out of the bands.
+    /// FIGURE:QUANTITY left out of the bands, with the reason.
     #[serde(default)]
-    pub ungated: Vec<String>,
+    pub ungated: BTreeMap<String, String>,
     pub quantities: Vec<Golden>,
 }
 
@@ -63,8 +115,10 @@ impl GoldenFile {
     }
 }
 
-/// Band = mean +- max(sigmas x seed-to-seed standard deviation, floor x |mean|);
-/// seeds without a number (NaN) are left out.
+/// Band = mean +- max(sigmas x seed-to-seed standard deviation, floor x |mean|),
+/// gated by the quantity's [`Gate`] (one-sided: [-top, top] or [0, top] with top
+/// = |mean| + the half-width; [`Gate::JointOnly`] when the half-width exceeds
+/// |mean|); seeds without a number (NaN) are left out.
 pub fn golden(
     figure: &str,
     quantity: &str,
@@ -75,6 +129,13 @@ pub fn golden(
 ) -> Golden {
     let (mean, std) = crate::analysis::stats::mean_std(values);
     let half = (sigmas * std).max(floor * mean.abs());
+    let top = mean.abs() + half;
+    let (gate, band) = match Gate::of(quantity) {
+        Gate::AtMost => (Gate::AtMost, [-top, top]),
+        Gate::NonNegative => (Gate::NonNegative, [0.0, top]),
+        _ if half > mean.abs() => (Gate::JointOnly, [mean - half, mean + half]),
+        g => (g, [mean - half, mean + half]),
+    };
     Golden {
         figure: figure.into(),
         quantity: quantity.into(),
@@ -83,8 +144,36 @@ pub fn golden(
         errors: Vec::new(),
         mean,
         std,
-        band: [mean - half, mean + half],
+        band,
+        gate,
+        always_agree: false,
     }
+}
+
+/// Why a recorded number gets no band, if it gets none: missing at some seed,
+/// the same at every seed, or a goodness-of-fit diagnostic.
+pub fn ungated_reason(quantity: &str, values: &[f64]) -> Option<String> {
+    let n = values.len();
+    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.len() < n {
+        return Some(format!(
+            "no number at {} of {n} recorded seeds (its fit fails at this profile): a band would fail on such a seed",
+            n - finite.len()
+        ));
+    }
+    let (mean, std) = crate::analysis::stats::mean_std(&finite);
+    if std <= 1e-12 * mean.abs().max(1.0) {
+        return Some(format!(
+            "{mean} at every seed: fixed by construction (a count or a normalisation), which unit tests check"
+        ));
+    }
+    if ["reduced_chi2", "leverage", "scatter"]
+        .iter()
+        .any(|d| quantity.starts_with(d))
+    {
+        return Some("a goodness-of-fit diagnostic: reported with the fit, heavy-tailed across seeds".into());
+    }
+    None
 }
 
 /// Check the figures `ids` (every figure of the golden file if empty) built under
@@ -123,28 +212,68 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
                 g.profile
             );
         }
-        let got = key_numbers(&dir)?;
-        for q in qs {
-            let v = got.get(&q.quantity).copied().unwrap_or(f64::NAN);
-            checked.push((q, v));
-            let inside = v >= q.band[0] && v <= q.band[1];
+        let got = key_numbers_with_errors(&dir)?;
+        for q in &qs {
+            let now = got.get(&q.quantity);
+            let v = now.map_or(f64::NAN, |f| f.value);
+            checked.push((*q, v));
+            let inside = q.gate.passes(v, q.band);
+            let band = match q.gate {
+                Gate::Band => format!("band [{:.5}, {:.5}]", q.band[0], q.band[1]),
+                Gate::AtMost => format!("one-sided band |value| <= {:.5}", q.band[1]),
+                Gate::NonNegative => format!("one-sided band [0, {:.5}]", q.band[1]),
+                Gate::JointOnly => format!(
+                    "joint test only (a band [{:.5}, {:.5}] would be wider than the value)",
+                    q.band[0], q.band[1]
+                ),
+            };
             lines.push(format!(
-                "{fig} {}: {v:.5} {} band [{:.5}, {:.5}] (golden mean {:.5}, seed-to-seed std {:.5})",
+                "{fig} {}: {v:.5} {} {band} (golden mean {:.5}, seed-to-seed std {:.5})",
                 q.quantity,
                 if inside { "inside" } else { "OUTSIDE" },
-                q.band[0],
-                q.band[1],
                 q.mean,
                 q.std
             ));
             if !inside {
                 failures.push(format!(
-                    "regression in {fig}: {} = {v:.5} is outside the band [{:.5}, {:.5}]",
-                    q.quantity, q.band[0], q.band[1]
+                    "regression in {fig}: {} = {v:.5} is outside its {band}",
+                    q.quantity
+                ));
+            }
+            if q.always_agree && now.and_then(|f| f.verdict) == Some(Verdict::Disagree) {
+                failures.push(format!(
+                    "regression in {fig}: {} agreed with the paper at every recorded seed and now disagrees ({v:.5})",
+                    q.quantity
+                ));
+            }
+        }
+        // A key number with neither a band nor a reason would not be checked at
+        // all: refuse it until it is recorded.
+        for name in got.keys() {
+            let fq = format!("{fig}:{name}");
+            if !qs.iter().any(|q| &q.quantity == name) && !g.ungated.contains_key(&fq) {
+                failures.push(format!(
+                    "{fig}: key number {name} has neither a golden band nor an ungated entry in the golden file; record it with `repro regress --record --profile {} {fig}`",
+                    g.profile
                 ));
             }
         }
     }
+    let agree: Vec<String> = g
+        .quantities
+        .iter()
+        .filter(|q| q.always_agree && (ids.is_empty() || ids.contains(&q.figure)))
+        .map(|q| format!("{}:{}", q.figure, q.quantity))
+        .collect();
+    lines.push(format!(
+        "agreed with the paper at every recorded seed, so gated on staying agreed ({}): {}",
+        agree.len(),
+        if agree.is_empty() {
+            "none".to_string()
+        } else {
+            agree.join(", ")
+        }
+    ));
     let j = joint(&checked);
     let pass = j.chi2 <= j.threshold;
     lines.push(format!(
@@ -308,7 +437,10 @@ fn normal_upper_quantile(alpha: f64) -> f64 {
 }
 
 /// The band rule's constants.
-pub const SIGMAS: f64 = 4.0;
+/// Six standard deviations of ten seeds: with some 150 gated numbers, a
+/// Student-t tail (9 degrees of freedom) leaves about one false alarm of the
+/// whole CI in twenty fresh seeds, where four gave one in two.
+pub const SIGMAS: f64 = 6.0;
 pub const FLOOR: f64 = 0.01;
 
 /// What `repro regress --record` builds.
@@ -318,12 +450,13 @@ pub struct Recording<'a> {
     pub profile: &'a str,
     pub ids: &'a [String],
     pub seeds: &'a [u64],
-    /// FIGURE:QUANTITY left out of the bands.
-    pub ungated: &'a [String],
+    /// FIGURE:QUANTITY left out of the bands by hand, with the reason.
+    pub ungated: &'a BTreeMap<String, String>,
 }
 
 /// Build the figures at every master seed (in-memory variants of the catalogue)
-/// and derive the golden file.
+/// and derive the golden file: a band for every key number but those left out
+/// by hand or by [`ungated_reason`], each with its reason.
 pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
     let numbers = seed_numbers(
         r.root,
@@ -334,41 +467,42 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
         &Variant::default(),
         opts,
     )?;
-    // A number no seed produced (a fit failing at this profile) has no band.
-    let quantities = numbers
-        .iter()
-        .filter(|(_, v)| v.iter().filter(|x| x.value.is_finite()).count() >= 2)
-        .filter(|((f, q), _)| !r.ungated.contains(&format!("{f}:{q}")))
-        .map(|((f, q), v)| {
-            let values: Vec<f64> = v.iter().map(|x| x.value).collect();
-            Golden {
-                errors: v.iter().map(|x| x.error).collect(),
-                ..golden(f, q, r.seeds, &values, SIGMAS, FLOOR)
-            }
-        })
-        .collect();
+    let mut ungated = r.ungated.clone();
+    let mut quantities = Vec::new();
+    for ((f, q), v) in &numbers {
+        let fq = format!("{f}:{q}");
+        let values: Vec<f64> = v.iter().map(|x| x.value).collect();
+        if ungated.contains_key(&fq) {
+            continue;
+        }
+        if let Some(why) = ungated_reason(q, &values) {
+            ungated.insert(fq, why);
+            continue;
+        }
+        quantities.push(Golden {
+            errors: v.iter().map(|x| x.error).collect(),
+            always_agree: v.iter().all(|x| x.verdict == Some(Verdict::Agree)),
+            ..golden(f, q, r.seeds, &values, SIGMAS, FLOOR)
+        });
+    }
     Ok(GoldenFile {
         profile: r.profile.to_string(),
-        how: how(r.profile, r.seeds, r.experiment, r.ungated),
+        how: how(r.profile, r.seeds, r.experiment),
         sigmas: SIGMAS,
         relative_floor: FLOOR,
         seeds: r.seeds.to_vec(),
-        ungated: r.ungated.to_vec(),
+        ungated,
         quantities,
     })
 }
 
-fn how(profile: &str, seeds: &[u64], experiment: &str, ungated: &[String]) -> String {
+fn how(profile: &str, seeds: &[u64], experiment: &str) -> String {
     let seeds: Vec<String> = seeds.iter().map(|s| s.to_string()).collect();
     format!(
         "`repro regress --record --profile {profile} --seeds {}`: the figures built at each master seed (every experiment; parameters of '{experiment}'); \
-         band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|); not gated: {}",
-        seeds.join(","),
-        if ungated.is_empty() {
-            "none".to_string()
-        } else {
-            ungated.join(", ")
-        }
+         band = mean +- max({SIGMAS} x seed-to-seed standard deviation, {FLOOR} x |mean|), one-sided for drifts, precision and gaps, \
+         joint test only where it would be wider than the value; `ungated` lists the numbers without a band and why",
+        seeds.join(",")
     )
 }
 
@@ -400,12 +534,9 @@ pub fn merge(
         !ids.iter()
             .any(|id| fq.split(':').next() == Some(id.as_str()))
     };
-    let mut ungated: Vec<String> = old.ungated.into_iter().filter(|u| other(u)).collect();
-    for u in new.ungated {
-        if !ungated.contains(&u) {
-            ungated.push(u);
-        }
-    }
+    let mut ungated: BTreeMap<String, String> =
+        old.ungated.into_iter().filter(|(u, _)| other(u)).collect();
+    ungated.extend(new.ungated);
     let mut quantities: Vec<Golden> = old
         .quantities
         .into_iter()
@@ -413,7 +544,7 @@ pub fn merge(
         .collect();
     quantities.extend(new.quantities);
     Ok(GoldenFile {
-        how: how(&new.profile, &new.seeds, experiment, &ungated),
+        how: how(&new.profile, &new.seeds, experiment),
         ungated,
         quantities,
         ..new
@@ -435,6 +566,7 @@ pub fn seed_numbers(
     let none = Fitted {
         value: f64::NAN,
         error: f64::NAN,
+        verdict: None,
     };
     let mut values: BTreeMap<(String, String), Vec<Fitted>> = BTreeMap::new();
     for (k, &seed) in seeds.iter().enumerate() {
@@ -470,7 +602,10 @@ mod tests {
             sigmas: SIGMAS,
             relative_floor: FLOOR,
             seeds: seeds.to_vec(),
-            ungated: ungated.iter().map(|u| u.to_string()).collect(),
+            ungated: ungated
+                .iter()
+                .map(|u| (u.to_string(), "by hand".to_string()))
+                .collect(),
             quantities: figs
                 .iter()
                 .map(|f| golden(f, "q", seeds, &[1.0, 2.0], SIGMAS, FLOOR))
@@ -488,8 +623,8 @@ mod tests {
         let m = merge(old.clone(), new, &ids, "eps09").unwrap();
         let figs: Vec<&str> = m.quantities.iter().map(|q| q.figure.as_str()).collect();
         assert_eq!(figs, ["fig2", "fig4", "fig9"]);
-        assert_eq!(m.ungated, ["fig2:q", "fig9:q"]);
-        assert!(m.how.contains("not gated: fig2:q, fig9:q"), "{}", m.how);
+        let names: Vec<&str> = m.ungated.keys().map(|k| k.as_str()).collect();
+        assert_eq!(names, ["fig2:q", "fig9:q"]);
         let e = merge(old, file(&[3, 4], &["fig4"], &[]), &ids, "eps09").unwrap_err();
         assert!(format!("{e}").contains("same --seeds"), "{e}");
     }
@@ -499,6 +634,13 @@ mod tests {
         let g = golden("fig4", "phi_c", &[1, 2, 3], &[1.0, 2.0, 3.0], 4.0, 0.01);
         assert!((g.mean - 2.0).abs() < 1e-12 && (g.std - 1.0).abs() < 1e-12);
         assert_eq!(g.band, [-2.0, 6.0]);
+        // Wider than the value: it could not fail, so the joint test only.
+        assert_eq!(g.gate, Gate::JointOnly);
+        assert!(g.gate.passes(100.0, g.band));
+        let g = golden("fig4", "phi_c", &[1, 2, 3], &[1.0, 1.1, 1.2], 4.0, 0.01);
+        assert_eq!(g.gate, Gate::Band);
+        assert!(g.gate.passes(1.45, g.band) && !g.gate.passes(1.55, g.band));
+        assert!(!g.gate.passes(f64::NAN, g.band));
         let flat = golden("fig4", "phi_c", &[1, 2], &[0.8, 0.8], 4.0, 0.01);
         assert!(
             (flat.band[1] - 0.808).abs() < 1e-12,
@@ -578,5 +720,31 @@ mod tests {
         assert_eq!(back.values[0], 1.0);
         assert!(back.values[1].is_nan());
         assert_eq!(back.band, g.band);
+    }
+
+    /// Smaller is better for drifts and precision (a more exact simulator must
+    /// pass), and a gap must not be negative (overlapping disks fail).
+    #[test]
+    fn drifts_and_gaps_are_gated_one_sided() {
+        let seeds = [1, 2, 3, 4];
+        let d = golden("s", "energy_drift_mean", &seeds, &[1e-9, 2e-9, 3e-9, 2e-9], 6.0, 0.01);
+        assert_eq!(d.gate, Gate::AtMost);
+        assert!(d.gate.passes(0.0, d.band) && d.gate.passes(-1e-9, d.band));
+        assert!(!d.gate.passes(1e-7, d.band));
+        let g = golden("s", "closest_gap_mean", &seeds, &[1e-5, 2e-5, 1e-5, 3e-5], 6.0, 0.01);
+        assert_eq!(g.gate, Gate::NonNegative);
+        assert!(g.gate.passes(0.0, g.band) && g.gate.passes(1e-6, g.band));
+        assert!(!g.gate.passes(-1e-6, g.band) && !g.gate.passes(1e-3, g.band));
+    }
+
+    /// Constants, numbers missing at some seed and diagnostics get no band,
+    /// with a reason; an ordinary number gets one.
+    #[test]
+    fn numbers_without_a_band_say_why() {
+        let r = |q: &str, v: &[f64]| ungated_reason(q, v);
+        assert!(r("points_tau4", &[7.0, 7.0, 7.0]).unwrap().contains("at every seed"));
+        assert!(r("gamma_xi", &[1.0, f64::NAN, 2.0]).unwrap().contains("1 of 3"));
+        assert!(r("reduced_chi2_xi", &[1.0, 3.0]).unwrap().contains("diagnostic"));
+        assert!(r("gamma_xi", &[1.0, 1.1, 1.2]).is_none());
     }
 }

@@ -67,6 +67,8 @@ pub fn read_compare(dir: &Path) -> Result<Vec<Compared>> {
 pub struct Fitted {
     pub value: f64,
     pub error: f64,
+    /// The paper verdict, for a number the figure compares with its paper.
+    pub verdict: Option<Verdict>,
 }
 
 /// Every published fit table's rows (quantity, value, error) of a built figure,
@@ -91,6 +93,7 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
                     Fitted {
                         value: r.value,
                         error: r.error,
+                        verdict: None,
                     },
                 );
             }
@@ -110,6 +113,7 @@ pub fn key_numbers_with_errors(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
                 Fitted {
                     value: c.ours,
                     error: c.ours_err,
+                    verdict: Some(c.verdict),
                 },
             );
         }

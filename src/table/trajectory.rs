@@ -42,7 +42,7 @@ use parquet::file::properties::WriterProperties;
 use parquet::schema::types::ColumnPath;
 use serde::{Deserialize, Serialize};
 
-use crate::traj::{Frame, Trajectory};
+use crate::traj::{Frame, Schedule, Trajectory};
 
 /// Key of the JSON header in the Parquet key-value metadata.
 pub const METADATA_KEY: &str = "repro.trajectory";
@@ -68,6 +68,9 @@ struct Header {
     /// blake3 of every value (static data and frames), so a damaged file is refused
     /// instead of silently giving other positions.
     blake3: String,
+    /// The recording schedule (which frames are time origins), when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    schedule: Option<Schedule>,
 }
 
 /// Serialise a trajectory to Parquet bytes (zstd). Deterministic: the same trajectory
@@ -86,6 +89,7 @@ pub fn to_parquet_bytes(traj: &Trajectory) -> Result<Vec<u8>> {
         masses: traj.masses.clone(),
         velocities,
         blake3: content_hash(traj),
+        schedule: traj.schedule.clone(),
     };
     let schema = Arc::new(schema(velocities));
     let mut buf = Vec::new();
@@ -177,6 +181,7 @@ pub fn from_parquet_bytes(bytes: Vec<u8>) -> Result<Trajectory> {
         radii: header.radii,
         masses: header.masses,
         frames,
+        schedule: header.schedule,
     };
     // Static columns must repeat exactly; the checksum covers the rest.
     for (r, &s) in species.iter().enumerate() {
@@ -416,6 +421,7 @@ pub fn random_walk(n: usize, frames: usize, velocities: bool, seed: u64) -> Traj
         radii,
         masses: vec![1.0, 1.43f64.powi(2)],
         frames: out,
+        schedule: None,
     }
 }
 

@@ -521,6 +521,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         radii,
         masses,
         frames,
+        schedule: Some(cfg.schedule.clone()),
     };
     Ok((traj, summary))
 }

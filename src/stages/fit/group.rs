@@ -7,6 +7,7 @@ use anyhow::Result;
 use arrow_array::{ArrayRef, Float64Array, RecordBatch};
 
 use super::fitting::{clean, fit_form, relative_scatter, widened};
+use super::leverage::{CARRIED, carried_errors, leverages};
 use super::jackknife::{
     Replicas, covariance_method, jackknife_table, pick_rows, replica_columns, replica_errors,
     unit_columns,
@@ -139,6 +140,31 @@ pub(super) fn fit_group(
                     .collect()
             };
             let replicated = replica_errors(&pts, &mut rows, &mut method);
+            // The largest leverage, and an error at least the point jackknife's
+            // when one point carries the fit.
+            let mut max_leverage = f64::NAN;
+            if let Some(fm) = form {
+                let free: Vec<bool> = f.stderr.iter().map(|e| e.is_finite() && *e > 0.0).collect();
+                let model = |par: &[f64], x: f64| (fm.model)(par, &fixed_ref, x);
+                if let Some(h) = leverages(&pts.x, &pts.s, &f.params, &free, model) {
+                    max_leverage = h.iter().copied().fold(f64::NAN, f64::max);
+                    let refit = |x: &[f64], y: &[f64], s: &[f64]| {
+                        fit_form(p, x, y, s, &fixed_ref).ok().map(|f| f.params)
+                    };
+                    let n_free = free.iter().filter(|b| **b).count();
+                    if let Some(jk) = carried_errors(&pts.x, &pts.y, &pts.s, &h, n_free, refit) {
+                        for (row, e) in rows.iter_mut().zip(&jk) {
+                            row.2 = crate::analysis::stats::at_least(row.2, *e);
+                        }
+                        method.push_str(&format!(
+                            "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, so each error is at least the delete-one-point jackknife's"
+                        ));
+                        ctx.log(format!(
+                            "fit carried by one point (leverage {max_leverage:.3}): errors at least the delete-one-point jackknife's"
+                        ));
+                    }
+                }
+            }
             if let Some(r) = &replicated.refits {
                 jackknife = Some(jackknife_table(group, &rows, r)?);
             }
@@ -148,6 +174,7 @@ pub(super) fn fit_group(
                 Some((m, alone)) => {
                     rows.push((p.quantity_name("reduced_chi2"), alone, f64::NAN));
                     rows.push((p.quantity_name("points"), pts.x.len() as f64, 0.0));
+                    rows.push((p.leverage_name(), max_leverage, f64::NAN));
                     rows.push((p.quantity_name("scatter"), m, f64::NAN));
                     if m > 0.0 {
                         method.push_str(&format!(
@@ -158,6 +185,7 @@ pub(super) fn fit_group(
                 None => {
                     rows.push((p.quantity_name("reduced_chi2"), f.reduced_chi2, f64::NAN));
                     rows.push((p.quantity_name("points"), pts.x.len() as f64, 0.0));
+                    rows.push((p.leverage_name(), max_leverage, f64::NAN));
                     if p.scatter.is_some() {
                         rows.push((p.quantity_name("scatter"), f64::NAN, f64::NAN));
                         method.push_str(

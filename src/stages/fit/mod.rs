@@ -11,6 +11,7 @@ mod fitting;
 mod group;
 mod jackknife;
 mod kind;
+mod leverage;
 mod params;
 mod pooling;
 mod quantities;

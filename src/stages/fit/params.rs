@@ -130,6 +130,18 @@ impl FitParams {
     pub(super) fn quantity_name(&self, n: &str) -> String {
         self.rename.get(n).cloned().unwrap_or_else(|| n.to_string())
     }
+
+    /// The name of the fit's largest leverage: named as its `points` is
+    /// (`points_tau4` -> `leverage_tau4`), so two fits of one figure keep theirs
+    /// apart.
+    pub(super) fn leverage_name(&self) -> String {
+        let points = self.quantity_name("points");
+        if points.contains("points") {
+            points.replacen("points", "leverage", 1)
+        } else {
+            format!("leverage_{points}")
+        }
+    }
 }
 
 /// What a fit fits, named in YAML as a catalogue form's name, `drift` or `value`.
