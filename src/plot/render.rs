@@ -667,7 +667,9 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         }
     }
 
-    draw_axes(root, &frame, p, sz, lay.ticks_size, lay.cell)?;
+    // The title sits above the notes, which sit on the frame.
+    let notes_h = lay.lines.len() as f64 * note_row(sz);
+    draw_axes(root, &frame, p, sz, lay.ticks_size, lay.cell, notes_h)?;
     let note_style = text_style(sz.legend, NOTE, HPos::Left, VPos::Bottom);
     let n = lay.lines.len();
     for (k, line) in lay.lines.iter().enumerate() {
@@ -974,7 +976,8 @@ fn marker<DB: DrawingBackend>(
     .map_err(err)
 }
 
-/// Frame, inward ticks on all four sides, tick labels, axis labels, panel title.
+/// Frame, inward ticks on all four sides, tick labels, axis labels, panel title
+/// (`notes_h` above the frame, over the panel's notes).
 fn draw_axes<DB: DrawingBackend>(
     area: &Area<DB>,
     f: &Frame,
@@ -982,6 +985,7 @@ fn draw_axes<DB: DrawingBackend>(
     sz: Sizes,
     (ytick_w, tick_h, label_h): (f64, f64, f64),
     cell: Rect,
+    notes_h: f64,
 ) -> Result<()> {
     let r = f.rect;
     area.draw(&Rectangle::new(
@@ -1020,7 +1024,7 @@ fn draw_axes<DB: DrawingBackend>(
         .max(cell.x0 + label_h / 2.0);
     draw_text(area, &p.y.label, &ylabel_style, (x, (r.y0 + r.y1) / 2.0))?;
     let title_style = text_style(sz.label, INK, HPos::Left, VPos::Bottom);
-    draw_text(area, &p.title, &title_style, (r.x0, r.y0 - 0.3 * sz.label))
+    draw_text(area, &p.title, &title_style, (r.x0, r.y0 - 0.3 * sz.label - notes_h))
 }
 
 fn draw_legend<DB: DrawingBackend>(
