@@ -43,7 +43,6 @@ fn quoted_errors_cover_the_seed_to_seed_scatter() {
         ("fig4", "tau_alpha_070"),
         ("fig4", "tau_alpha_076"),
         ("fig4", "tau_alpha_078"),
-        ("fig15", "tau4_exponent"),
         // The tau_alpha fits across state points (replica jackknife).
         ("fig4", "phi_c"),
         ("fig4", "phi_0"),
@@ -71,6 +70,35 @@ fn quoted_errors_cover_the_seed_to_seed_scatter() {
             "{figure} {quantity}: the quoted 1-sigma errors cover the ten-seed mean in {:.0}% of seeds \
              (quoted / seed-to-seed spread = {ratio:.2}); honest errors cover about 68%",
             100.0 * cov
+        );
+    }
+}
+
+/// Numbers whose quoted errors are known to under-cover at ci, each with the
+/// word of its compare reason (in its figure's YAML) that says so. The test
+/// fails when one is fixed (move it back to the list above), when its quoted
+/// error falls below half the spread, or when the reason no longer says it.
+const UNDER_QUOTED: &[(&str, &str, &str)] = &[("fig15", "tau4_exponent", "under-rates")];
+
+#[test]
+fn known_under_quoted_errors_are_said_in_their_compare_reason() {
+    let g = ci();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for &(figure, quantity, word) in UNDER_QUOTED {
+        let (cov, ratio) = covered(&g, figure, quantity);
+        assert!(
+            cov < RANGE.0,
+            "{figure} {quantity} now covers {:.0}% of seeds: move it back to the coverage test",
+            100.0 * cov
+        );
+        assert!(
+            ratio >= 0.5,
+            "{figure} {quantity}: quoted / seed-to-seed spread = {ratio:.2}, below one half"
+        );
+        let spec = std::fs::read_to_string(root.join(format!("pipelines/{figure}.yaml"))).unwrap();
+        assert!(
+            spec.lines().any(|l| l.contains(&format!("{quantity}:")) && l.contains(word)),
+            "pipelines/{figure}.yaml: the compare reason of {quantity} must say that its error {word} the scatter"
         );
     }
 }

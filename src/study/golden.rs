@@ -164,7 +164,7 @@ pub fn ungated_reason(quantity: &str, values: &[f64]) -> Option<String> {
     let (mean, std) = crate::analysis::stats::mean_std(&finite);
     if std <= 1e-12 * mean.abs().max(1.0) {
         return Some(format!(
-            "{mean} at every seed: fixed by construction (a count or a normalisation), which unit tests check"
+            "{mean} at every seed: fixed by construction (a count or a normalisation), nothing for a band to detect"
         ));
     }
     if ["reduced_chi2", "leverage", "scatter"]
@@ -437,7 +437,7 @@ fn normal_upper_quantile(alpha: f64) -> f64 {
 }
 
 /// The band rule's constants.
-/// Six standard deviations of ten seeds: with some 150 gated numbers, a
+/// Six standard deviations of ten seeds: with some 130 gated numbers, a
 /// Student-t tail (9 degrees of freedom) leaves about one false alarm of the
 /// whole CI in twenty fresh seeds, where four gave one in two.
 pub const SIGMAS: f64 = 6.0;
