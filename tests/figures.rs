@@ -233,8 +233,8 @@ fn tiny_figure_end_to_end_then_regression_check() {
     };
     let (lines, failures) = check(&good, &ws.results, &[]).unwrap();
     assert_eq!(lines.len(), 3, "{lines:?}");
-    assert!(lines[1].starts_with("joint:"), "{lines:?}");
-    assert!(lines[2].starts_with("agreed with the paper"), "{lines:?}");
+    assert!(lines[1].starts_with("agreed with the paper"), "{lines:?}");
+    assert!(lines[2].starts_with("joint:"), "{lines:?}");
     assert!(failures.is_empty(), "{failures:?}");
     // A key number with neither a band nor a reason fails, named.
     let (first, _) = others.iter().next().unwrap();
@@ -252,7 +252,7 @@ fn tiny_figure_end_to_end_then_regression_check() {
     let mut agreeing = good.clone();
     agreeing.quantities[0].always_agree = true;
     let (lines, failures) = check(&agreeing, &ws.results, &[]).unwrap();
-    assert!(lines[2].contains("(1): tinyfig:phi_0"), "{lines:?}");
+    assert!(lines[1].contains("(1): tinyfig:phi_0"), "{lines:?}");
     assert_eq!(
         failures.len(),
         usize::from(verdict == repro::study::results::Verdict::Disagree),
