@@ -97,7 +97,8 @@ fn known_under_quoted_errors_are_said_in_their_compare_reason() {
         );
         let spec = std::fs::read_to_string(root.join(format!("pipelines/{figure}.yaml"))).unwrap();
         assert!(
-            spec.lines().any(|l| l.contains(&format!("{quantity}:")) && l.contains(word)),
+            spec.lines()
+                .any(|l| l.contains(&format!("{quantity}:")) && l.contains(word)),
             "pipelines/{figure}.yaml: the compare reason of {quantity} must say that its error {word} the scatter"
         );
     }

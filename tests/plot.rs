@@ -438,7 +438,10 @@ fn a_legend_never_covers_data() {
     assert!(!lay[0].marks.iter().any(|&q| b.contains(q)), "{b:?}");
     // Not where it was asked: the top left corner holds the curves' start.
     let f0 = lay[0].frame;
-    assert!(b.y0 > f0.y0 + 0.2 * f0.height() || b.x0 > f0.x0 + 0.3 * f0.width(), "{b:?}");
+    assert!(
+        b.y0 > f0.y0 + 0.2 * f0.height() || b.x0 > f0.x0 + 0.3 * f0.width(),
+        "{b:?}"
+    );
     assert!(defects(&f).unwrap().is_empty());
 }
 

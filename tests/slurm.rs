@@ -58,7 +58,8 @@ fn slurm_available(test: &str) -> bool {
 
 fn repro() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_repro"));
-    c.env("REPRO_SLURM_POLL_S", "1").env(repro::cli::TOY_KINDS, "1");
+    c.env("REPRO_SLURM_POLL_S", "1")
+        .env(repro::cli::TOY_KINDS, "1");
     c
 }
 

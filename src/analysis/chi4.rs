@@ -279,7 +279,10 @@ mod tests {
             want.push((lag, m, n * (m2 - m * m)));
         }
         let level = (-1f64).exp();
-        let k = want.iter().position(|w| w.1 <= level).expect("Q falls below 1/e");
+        let k = want
+            .iter()
+            .position(|w| w.1 <= level)
+            .expect("Q falls below 1/e");
         let ((t0, q0, _), (t1, q1, _)) = (want[k - 1], want[k]);
         let tau_want = (t0.ln() + (q0 - level) / (q0 - q1) * (t1.ln() - t0.ln())).exp();
         // The analysis, as the observables call it.
@@ -291,12 +294,21 @@ mod tests {
             rel_tol: 1e-6,
         };
         let c = compute_pooled(&[&traj], &p).unwrap();
-        let (t, q, chi, no) = (col(&c, "t"), col(&c, "Q"), col(&c, "chi4"), col(&c, "n_origins"));
+        let (t, q, chi, no) = (
+            col(&c, "t"),
+            col(&c, "Q"),
+            col(&c, "chi4"),
+            col(&c, "n_origins"),
+        );
         assert_eq!(t.len(), s.lags.len(), "lags {t:?}");
         for (i, &(lag, qw, cw)) in want.iter().enumerate() {
             assert!((t[i] - lag).abs() < 1e-12 * lag, "lag {} vs {lag}", t[i]);
             assert!((q[i] - qw).abs() < 1e-12, "Q({lag}) = {} vs {qw}", q[i]);
-            assert!((chi[i] - cw).abs() < 1e-9, "chi4({lag}) = {} vs {cw}", chi[i]);
+            assert!(
+                (chi[i] - cw).abs() < 1e-9,
+                "chi4({lag}) = {} vs {cw}",
+                chi[i]
+            );
             assert_eq!(no[i], s.origins as f64, "lag {lag}");
         }
         let op = crate::analysis::overlap::Params {
@@ -306,6 +318,10 @@ mod tests {
             rel_tol: 1e-6,
         };
         let tau = crate::analysis::overlap::tau_alpha(&[&traj], &op).unwrap();
-        assert!((tau.value - tau_want).abs() < 1e-9 * tau_want, "{} vs {tau_want}", tau.value);
+        assert!(
+            (tau.value - tau_want).abs() < 1e-9 * tau_want,
+            "{} vs {tau_want}",
+            tau.value
+        );
     }
 }

@@ -313,12 +313,23 @@ mod tests {
             .map(|x| 0.3 - 0.05 * (x.ln() - 3.7f64.ln()).powi(2))
             .collect();
         let (tp, yp) = peak_log_t(&t, &y).unwrap();
-        assert!((tp - 3.7).abs() < 1e-9 && (yp - 0.3).abs() < 1e-12, "{tp} {yp}");
+        assert!(
+            (tp - 3.7).abs() < 1e-9 && (yp - 0.3).abs() < 1e-12,
+            "{tp} {yp}"
+        );
         let (t_res, y_res) = peak_resolution(&t, &y).unwrap();
         let step = 10f64.ln() / 8.0;
         assert!((t_res - 3.7 * step / 12f64.sqrt()).abs() < 1e-9, "{t_res}");
-        let k = y.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
-        assert!((y_res - (0.3 - y[k])).abs() < 1e-12 && y_res > 0.0, "{y_res}");
+        let k = y
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
+        assert!(
+            (y_res - (0.3 - y[k])).abs() < 1e-12 && y_res > 0.0,
+            "{y_res}"
+        );
         // Identical leave-one-out peaks: jackknife 0, quoted error the resolution.
         let jk = jackknife_err(vec![tp; 10]);
         assert!(jk < 1e-12, "{jk}");

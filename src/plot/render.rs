@@ -1024,7 +1024,12 @@ fn draw_axes<DB: DrawingBackend>(
         .max(cell.x0 + label_h / 2.0);
     draw_text(area, &p.y.label, &ylabel_style, (x, (r.y0 + r.y1) / 2.0))?;
     let title_style = text_style(sz.label, INK, HPos::Left, VPos::Bottom);
-    draw_text(area, &p.title, &title_style, (r.x0, r.y0 - 0.3 * sz.label - notes_h))
+    draw_text(
+        area,
+        &p.title,
+        &title_style,
+        (r.x0, r.y0 - 0.3 * sz.label - notes_h),
+    )
 }
 
 fn draw_legend<DB: DrawingBackend>(

@@ -171,7 +171,9 @@ pub fn ungated_reason(quantity: &str, values: &[f64]) -> Option<String> {
         .iter()
         .any(|d| quantity.starts_with(d))
     {
-        return Some("a goodness-of-fit diagnostic: reported with the fit, heavy-tailed across seeds".into());
+        return Some(
+            "a goodness-of-fit diagnostic: reported with the fit, heavy-tailed across seeds".into(),
+        );
     }
     None
 }
@@ -727,11 +729,25 @@ mod tests {
     #[test]
     fn drifts_and_gaps_are_gated_one_sided() {
         let seeds = [1, 2, 3, 4];
-        let d = golden("s", "energy_drift_mean", &seeds, &[1e-9, 2e-9, 3e-9, 2e-9], 6.0, 0.01);
+        let d = golden(
+            "s",
+            "energy_drift_mean",
+            &seeds,
+            &[1e-9, 2e-9, 3e-9, 2e-9],
+            6.0,
+            0.01,
+        );
         assert_eq!(d.gate, Gate::AtMost);
         assert!(d.gate.passes(0.0, d.band) && d.gate.passes(-1e-9, d.band));
         assert!(!d.gate.passes(1e-7, d.band));
-        let g = golden("s", "closest_gap_mean", &seeds, &[1e-5, 2e-5, 1e-5, 3e-5], 6.0, 0.01);
+        let g = golden(
+            "s",
+            "closest_gap_mean",
+            &seeds,
+            &[1e-5, 2e-5, 1e-5, 3e-5],
+            6.0,
+            0.01,
+        );
         assert_eq!(g.gate, Gate::NonNegative);
         assert!(g.gate.passes(0.0, g.band) && g.gate.passes(1e-6, g.band));
         assert!(!g.gate.passes(-1e-6, g.band) && !g.gate.passes(1e-3, g.band));
@@ -742,9 +758,21 @@ mod tests {
     #[test]
     fn numbers_without_a_band_say_why() {
         let r = |q: &str, v: &[f64]| ungated_reason(q, v);
-        assert!(r("points_tau4", &[7.0, 7.0, 7.0]).unwrap().contains("at every seed"));
-        assert!(r("gamma_xi", &[1.0, f64::NAN, 2.0]).unwrap().contains("1 of 3"));
-        assert!(r("reduced_chi2_xi", &[1.0, 3.0]).unwrap().contains("diagnostic"));
+        assert!(
+            r("points_tau4", &[7.0, 7.0, 7.0])
+                .unwrap()
+                .contains("at every seed")
+        );
+        assert!(
+            r("gamma_xi", &[1.0, f64::NAN, 2.0])
+                .unwrap()
+                .contains("1 of 3")
+        );
+        assert!(
+            r("reduced_chi2_xi", &[1.0, 3.0])
+                .unwrap()
+                .contains("diagnostic")
+        );
         assert!(r("gamma_xi", &[1.0, 1.1, 1.2]).is_none());
     }
 }

@@ -7,11 +7,11 @@ use anyhow::Result;
 use arrow_array::{ArrayRef, Float64Array, RecordBatch};
 
 use super::fitting::{clean, fit_form, relative_scatter, widened};
-use super::leverage::{CARRIED, carried_errors, leverages};
 use super::jackknife::{
     Replicas, covariance_method, jackknife_table, pick_rows, replica_columns, replica_errors,
     unit_columns,
 };
+use super::leverage::{CARRIED, carried_errors, leverages};
 use super::params::{CurveSpec, FitForm, FitParams, Refits, drift_scale};
 use super::ranges::scan_ranges;
 use crate::fit::Data;

@@ -119,7 +119,10 @@ mod tests {
     use rand_distr::{Distribution, Normal};
 
     fn form() -> &'static Form {
-        catalogue::FORMS.iter().find(|f| f.name == "power_law").unwrap()
+        catalogue::FORMS
+            .iter()
+            .find(|f| f.name == "power_law")
+            .unwrap()
     }
 
     fn power_law(x: &[f64], y: &[f64], s: &[f64]) -> Option<crate::fit::FitResult> {
@@ -127,7 +130,10 @@ mod tests {
     }
 
     fn lev(x: &[f64], s: &[f64], params: &[f64]) -> Vec<f64> {
-        leverages(x, s, params, &[true, true], |p, x| (form().model)(p, &[], x)).unwrap()
+        leverages(x, s, params, &[true, true], |p, x| {
+            (form().model)(p, &[], x)
+        })
+        .unwrap()
     }
 
     /// y = 2 x^1.2 at eight points, 5% noise on every point, but two points
@@ -190,6 +196,11 @@ mod tests {
         assert!(carried_errors(&x, &y, &s, &h, 2, |_, _, _| Some(vec![0.0])).is_none());
         // Too few points to spare, however carried.
         let many = vec![0.99; 4];
-        assert!(carried_errors(&x[..4], &y[..4], &s[..4], &many, 2, |_, _, _| Some(vec![0.0])).is_none());
+        assert!(
+            carried_errors(&x[..4], &y[..4], &s[..4], &many, 2, |_, _, _| Some(vec![
+                0.0
+            ]))
+            .is_none()
+        );
     }
 }
