@@ -357,9 +357,11 @@ stages:
     params: {form: q_relaxation, data: q_table, x: t, y: Q, where: {t: {max: 0.1}}, group_by: [phi]}
 "#;
 
-/// "At 1 tau_alpha" from YAML: the lag used is the recorded one nearest to the
-/// request, the table says how far, Q there is near 1/e, the errors are labelled,
-/// and a request past the last recorded lag fails the stage with its reason.
+/// "At 1 tau_alpha" from YAML: Q is read at exactly 0.1, 1 and 2 tau_alpha
+/// (interpolated in ln t between the recorded lags around each, listed in
+/// at.parquet), so Q(tau_alpha) = 1/e up to the two interpolations; the errors
+/// are labelled, and a request past the last recorded lag fails the stage with
+/// its reason.
 #[test]
 fn times_in_units_of_a_measured_tau_alpha() {
     let dir = tempfile::tempdir().unwrap();
@@ -372,14 +374,18 @@ fn times_in_units_of_a_measured_tau_alpha() {
     );
     for p in [0.55, 0.62, 0.68, 0.72] {
         let rows: Vec<usize> = (0..phi.len()).filter(|&i| phi[i] == p).collect();
-        assert!(!rows.is_empty() && rows.len() <= 3, "phi {p}: {rows:?}");
-        // The row nearest 1 tau_alpha: within one lag step (6 per decade) and Q ~ 1/e.
-        let i = *rows
-            .iter()
-            .min_by(|&&a, &&b| x[a].ln().abs().total_cmp(&x[b].ln().abs()))
-            .unwrap();
-        assert!((x[i].ln()).abs() < 0.5, "phi {p}: t/tau_alpha = {}", x[i]);
-        assert!((q[i] - (-1f64).exp()).abs() < 0.15, "phi {p}: Q = {}", q[i]);
+        let at: Vec<f64> = rows.iter().map(|&i| x[i]).collect();
+        for (got, want) in at.iter().zip([0.1, 1.0, 2.0]) {
+            assert!((got - want).abs() < 1e-9, "phi {p}: t/tau_alpha = {at:?}");
+        }
+        // tau_alpha is where Q crosses 1/e: read back there, Q is 1/e but for
+        // the difference of the crossing's and this interpolation.
+        let q1 = q[rows[1]];
+        assert!(
+            (q1 - (-1f64).exp()).abs() < 0.02,
+            "phi {p}: Q(tau_alpha) = {q1}"
+        );
+        assert!(q[rows[0]] > q1 && q1 > q[rows[2]], "phi {p}");
     }
     // How the errors were estimated is in the analysis table's metadata.
     let node = run
@@ -401,6 +407,29 @@ fn times_in_units_of_a_measured_tau_alpha() {
     let (at, _) =
         repro::table::read_parquet(&store.object_path(&entry.files["at.parquet"])).unwrap();
     assert_eq!(at[0].num_rows(), 3);
+    let col = |name: &str| {
+        at[0]
+            .column_by_name(name)
+            .unwrap()
+            .as_any()
+            .downcast_ref::<arrow_array::Float64Array>()
+            .unwrap()
+            .values()
+            .to_vec()
+    };
+    let (below, want, above, w) = (
+        col("lag_below"),
+        col("requested"),
+        col("lag_above"),
+        col("weight_above"),
+    );
+    for i in 0..3 {
+        assert!(
+            below[i] <= want[i] && want[i] <= above[i],
+            "{below:?} {want:?} {above:?}"
+        );
+        assert!((0.0..=1.0).contains(&w[i]), "{w:?}");
+    }
     // Grouped fits: one row group per phi, the relaxation slowing down with phi;
     // the curve is named after the fitted columns.
     let relax = ws.results.join("atfig/relax.parquet");

@@ -1,6 +1,9 @@
 //! Which lags to analyse and which frame pairs (time origins) serve each lag.
 
+use std::sync::Arc;
+
 use anyhow::{Result, bail};
+use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, UInt32Array};
 
 use crate::traj::Trajectory;
 
@@ -149,21 +152,53 @@ pub fn every_origin(
 }
 
 /// A time asked for in units of a measured time (`multiple` x tau_alpha), and the
-/// recorded lag that answers it.
+/// two recorded lags around it that answer it by interpolation in ln t.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InUnits {
     /// The request, in units of the measured time (8.5 for "8.5 tau_alpha").
     pub multiple: f64,
     /// The request as a time: multiple x unit.
     pub requested: f64,
-    /// The recorded lag used: the nearest in ln t.
-    pub lag: f64,
-    /// How far it is from the request: lag / requested - 1.
-    pub rel_diff: f64,
+    /// The recorded lags at or below and at or above the request (equal when it
+    /// falls on a lag or at an end of the recorded range).
+    pub below: f64,
+    pub above: f64,
+    /// Weight of `above`: ln(requested / below) / ln(above / below), in [0, 1].
+    pub weight: f64,
 }
 
-/// The recorded lag nearest (in ln t) to each `multiple x unit`. A request past the
-/// last recorded lag or before the first (beyond `rel_tol`) is refused, never
+/// How an observable is read at a time between recorded lags.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AtLag {
+    /// A curve of t (Q, chi4, S4, the MSD, van Hove): interpolated in ln t
+    /// between the two recorded lags around the request.
+    Interpolate,
+    /// A configuration of a frame pair (clusters, a mobility snapshot): it
+    /// exists at recorded lags only, so the nearest in ln t is taken.
+    Nearest,
+}
+
+impl InUnits {
+    /// The request answered by the recorded lag nearest in ln t alone.
+    pub fn nearest(self) -> InUnits {
+        let lag = if self.weight > 0.5 {
+            self.above
+        } else {
+            self.below
+        };
+        InUnits {
+            below: lag,
+            above: lag,
+            weight: 0.0,
+            ..self
+        }
+    }
+}
+
+/// The recorded lags around each `multiple x unit`, for a value read off the
+/// sampled curve by linear interpolation in ln t (the nearest lag alone would
+/// put a step of up to half the lag spacing into it). A request past the last
+/// recorded lag or before the first (beyond `rel_tol`) is refused, never
 /// extrapolated: the error names the request, the measured time and the range.
 pub fn in_units(
     lags: &[f64],
@@ -190,19 +225,124 @@ pub fn in_units(
                  ({unit_name} = {unit:.6}); refusing to extrapolate: record longer (or shorter) lags"
             );
         }
-        let lag = lags
-            .iter()
-            .copied()
-            .min_by(|a, b| (a / t).ln().abs().total_cmp(&(b / t).ln().abs()))
-            .expect("lags not empty");
+        // The first lag at or above t (the last one past the end, within rel_tol).
+        let k = lags.partition_point(|&l| l < t).min(lags.len() - 1);
+        // On a lag, or before the first / past the last within rel_tol: that lag.
+        let (below, above) = if k == 0 || lags[k] <= t {
+            (lags[k], lags[k])
+        } else {
+            (lags[k - 1], lags[k])
+        };
+        let weight = if above > below {
+            (t / below).ln() / (above / below).ln()
+        } else {
+            0.0
+        };
         out.push(InUnits {
             multiple: m,
             requested: t,
-            lag,
-            rel_diff: lag / t - 1.0,
+            below,
+            above,
+            weight,
         });
     }
     Ok(out)
+}
+
+/// Every lag the requests read, sorted, once each.
+pub fn bracketing_lags(requests: &[InUnits]) -> Vec<f64> {
+    let mut lags: Vec<f64> = requests.iter().flat_map(|r| [r.below, r.above]).collect();
+    lags.sort_by(f64::total_cmp);
+    lags.dedup();
+    lags
+}
+
+/// The rows of a table computed at [`bracketing_lags`] (float column `t` the
+/// lag) turned into one block of rows per request at its requested time (at
+/// the lag itself when the request is answered by one lag): the
+/// rows at `below` and at `above` are paired in order (the same keys, e.g. the
+/// same q, must follow in the same order) and every float column is
+/// interpolated with the request's weight (a column equal in both rows, a key,
+/// is kept bit for bit); other columns are taken from the nearer lag. A table
+/// without a float column `t` is returned as it is.
+pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch> {
+    let Some(t) = b
+        .column_by_name("t")
+        .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+    else {
+        return Ok(b.clone());
+    };
+    let rows_at = |lag: f64| -> Vec<u32> {
+        (0..t.len())
+            .filter(|&i| t.value(i).to_bits() == lag.to_bits())
+            .map(|i| i as u32)
+            .collect()
+    };
+    let mut lo_rows = Vec::new();
+    let mut hi_rows = Vec::new();
+    let mut weights = Vec::new();
+    let mut times = Vec::new();
+    for r in requests {
+        let (lo, hi) = (rows_at(r.below), rows_at(r.above));
+        if lo.len() != hi.len() || lo.is_empty() {
+            bail!(
+                "{} x the measured time: the table has {} row(s) at lag {} and {} at lag {}; \
+                 cannot interpolate between them",
+                r.multiple,
+                lo.len(),
+                r.below,
+                hi.len(),
+                r.above
+            );
+        }
+        let time = if r.below == r.above {
+            r.below
+        } else {
+            r.requested
+        };
+        weights.extend(std::iter::repeat_n(r.weight, lo.len()));
+        times.extend(std::iter::repeat_n(time, lo.len()));
+        lo_rows.extend(lo);
+        hi_rows.extend(hi);
+    }
+    let nearer: Vec<u32> = lo_rows
+        .iter()
+        .zip(&hi_rows)
+        .zip(&weights)
+        .map(|((&l, &h), &w)| if w > 0.5 { h } else { l })
+        .collect();
+    let take = |c: &ArrayRef, idx: &[u32]| -> Result<ArrayRef> {
+        Ok(arrow_select::take::take(
+            c.as_ref(),
+            &UInt32Array::from(idx.to_vec()),
+            None,
+        )?)
+    };
+    let mut cols: Vec<(String, ArrayRef)> = Vec::new();
+    for (f, c) in b.schema().fields().iter().zip(b.columns()) {
+        let col: ArrayRef = if f.name() == "t" {
+            Arc::new(Float64Array::from(times.clone()))
+        } else if let Some(x) = c.as_any().downcast_ref::<Float64Array>() {
+            Arc::new(Float64Array::from_iter(
+                lo_rows
+                    .iter()
+                    .zip(&hi_rows)
+                    .zip(&weights)
+                    .map(|((&l, &h), &w)| {
+                        let (a, z) = (x.value(l as usize), x.value(h as usize));
+                        Some(if a.to_bits() == z.to_bits() {
+                            a
+                        } else {
+                            a + w * (z - a)
+                        })
+                    }),
+            ))
+        } else {
+            take(c, &nearer)?
+        };
+        cols.push((f.name().clone(), col));
+    }
+    Ok(RecordBatch::try_from_iter(cols)?)
 }
 
 #[cfg(test)]
@@ -261,16 +401,19 @@ mod tests {
     }
 
     #[test]
-    fn times_in_units_of_tau_alpha_pick_the_nearest_lag_and_never_extrapolate() {
+    fn times_in_units_of_tau_alpha_interpolate_between_lags_and_never_extrapolate() {
         let lags = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0];
         let tau = 1.1;
-        let r = in_units(&lags, tau, "tau_alpha", &[1.0, 0.1, 8.5], 1e-6).unwrap();
-        assert_eq!(r[0].lag, 1.0);
-        assert!((r[0].rel_diff - (1.0 / 1.1 - 1.0)).abs() < 1e-12);
-        assert_eq!(r[1].lag, 0.1);
+        let r = in_units(&lags, tau, "tau_alpha", &[1.0, 0.1, 8.5, 1.0 / 1.1], 1e-6).unwrap();
+        // 1.1 lies between 1 and 2, a fraction ln 1.1 / ln 2 of the way in ln t.
+        assert_eq!((r[0].below, r[0].above), (1.0, 2.0));
+        assert!((r[0].weight - 1.1f64.ln() / 2f64.ln()).abs() < 1e-12);
+        assert_eq!((r[1].below, r[1].above), (0.1, 0.2));
         assert!((r[1].requested - 0.11).abs() < 1e-12);
-        // 8.5 x 1.1 = 9.35: nearest in ln t is 10.
-        assert_eq!(r[2].lag, 10.0);
+        assert_eq!((r[2].below, r[2].above), (5.0, 10.0));
+        // A request on a lag reads that lag alone.
+        assert_eq!((r[3].below, r[3].above, r[3].weight), (1.0, 1.0, 0.0));
+        assert_eq!(bracketing_lags(&r), [0.1, 0.2, 1.0, 2.0, 5.0, 10.0]);
         // 10 tau_alpha = 11 > 10: refused, with the numbers.
         let e = err_text(in_units(&lags, tau, "tau_alpha", &[10.0], 1e-6));
         assert!(
@@ -281,5 +424,56 @@ mod tests {
         assert!(e.contains("outside the recorded lags"), "{e}");
         let e = err_text(in_units(&lags, f64::NAN, "tau_alpha", &[1.0], 1e-6));
         assert!(e.contains("not a positive time"), "{e}");
+    }
+
+    /// A curve linear in ln t is read exactly between its lags; keys (q) are
+    /// kept bit for bit, counts come from the nearer lag, and a table whose
+    /// lags hold different rows is refused.
+    #[test]
+    fn rows_at_a_request_interpolate_in_ln_t() {
+        use arrow_array::UInt64Array;
+        let t = [1.0, 1.0, 2.0, 2.0];
+        let q = [0.3, 0.7, 0.3, 0.7];
+        let s4: Vec<f64> = t
+            .iter()
+            .zip(&q)
+            .map(|(t, q)| q + 3.0 * f64::ln(*t))
+            .collect();
+        let b = RecordBatch::try_from_iter([
+            ("t", Arc::new(Float64Array::from(t.to_vec())) as ArrayRef),
+            ("q", Arc::new(Float64Array::from(q.to_vec())) as ArrayRef),
+            ("s4", Arc::new(Float64Array::from(s4)) as ArrayRef),
+            (
+                "n",
+                Arc::new(UInt64Array::from(vec![10u64, 10, 20, 20])) as ArrayRef,
+            ),
+        ])
+        .unwrap();
+        let r = in_units(&[1.0, 2.0], 1.3, "tau_alpha", &[1.0], 1e-6).unwrap();
+        let out = at_requests(&b, &r).unwrap();
+        let col = |name: &str| {
+            out.column_by_name(name)
+                .unwrap()
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .unwrap()
+                .values()
+                .to_vec()
+        };
+        assert_eq!(col("t"), [1.3, 1.3]);
+        assert_eq!(col("q"), [0.3, 0.7]);
+        for (v, q) in col("s4").iter().zip([0.3, 0.7]) {
+            assert!((v - (q + 3.0 * 1.3f64.ln())).abs() < 1e-12);
+        }
+        let n = out
+            .column_by_name("n")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<UInt64Array>()
+            .unwrap();
+        // 1.3 is nearer 1 than 2 in ln t (weight 0.38).
+        assert_eq!(n.values().to_vec(), [10, 10]);
+        let ragged = b.slice(0, 3);
+        assert!(err_text(at_requests(&ragged, &r)).contains("cannot interpolate"));
     }
 }

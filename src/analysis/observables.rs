@@ -57,6 +57,8 @@ pub struct Observable {
     pub validate: fn(&Value) -> Result<()>,
     /// Compute it from the gathered trajectories.
     pub compute: fn(&[&Trajectory], &Value) -> Result<Tables>,
+    /// How `at` (times in units of a measured time) reads it between lags.
+    pub at: lags::AtLag,
 }
 
 /// The lags realised by every time origin when none are requested.
@@ -193,6 +195,7 @@ const CHI4: &[&str] = &[
 pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "overlap",
+        at: lags::AtLag::Interpolate,
         describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
         modules: OVERLAP,
         validate: |v| typed::<overlap::Params>("overlap", v).map(drop),
@@ -210,6 +213,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "tau_alpha",
+        at: lags::AtLag::Interpolate,
         describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
         modules: OVERLAP,
         validate: |v| typed::<overlap::Params>("tau_alpha", v).map(drop),
@@ -226,6 +230,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "q_levels",
+        at: lags::AtLag::Interpolate,
         describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
         modules: OVERLAP,
         validate: |v| typed::<overlap::LevelParams>("q_levels", v).map(drop),
@@ -237,6 +242,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "aging",
+        at: lags::AtLag::Interpolate,
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
         modules: OVERLAP,
         validate: |v| typed::<overlap::Params>("aging", v).map(drop),
@@ -253,6 +259,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "chi4",
+        at: lags::AtLag::Interpolate,
         describe: "chi4(t) (paper H, Eq. 14) per sub-box size N, pooled replicas: N, t, Q, chi4, chi4_err, n_origins",
         modules: CHI4,
         validate: |v| chi4_params("chi4", v).map(drop),
@@ -263,6 +270,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "chi4_peaks",
+        at: lags::AtLag::Interpolate,
         describe: "chi4 peak per sub-box size with tau_alpha and chi4(tau_alpha): N, tau4, chi4P, tau_alpha, chi4_tau_alpha (+ _err)",
         modules: CHI4,
         validate: |v| chi4_params("chi4_peaks", v).map(drop),
@@ -273,6 +281,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "s4",
+        at: lags::AtLag::Interpolate,
         describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
         modules: &["analysis/s4", "analysis/lags", "analysis/stats"],
         validate: |v| typed::<s4::Params>("s4", v).map(drop),
@@ -284,6 +293,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "msd",
+        at: lags::AtLag::Interpolate,
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
         modules: &["analysis/msd", "analysis/lags", "analysis/stats"],
         validate: |v| typed::<msd::Params>("msd", v).map(drop),
@@ -300,6 +310,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "diffusion",
+        at: lags::AtLag::Interpolate,
         describe: "D from the long-time MSD slope over [fit_min_tau, fit_max_tau] x tau_alpha (Fig. 9), one jackknife: D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points",
         modules: &[
             "analysis/msd",
@@ -316,6 +327,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "van_hove",
+        at: lags::AtLag::Interpolate,
         describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
         modules: &["analysis/van_hove", "analysis/lags", "analysis/stats"],
         validate: |v| typed::<van_hove::Params>("van_hove", v).map(drop),
@@ -323,6 +335,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "gr",
+        at: lags::AtLag::Interpolate,
         describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
         modules: &["analysis/gr", "analysis/neighbours"],
         validate: |v| typed::<gr::Params>("gr", v).map(drop),
@@ -330,6 +343,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "clusters",
+        at: lags::AtLag::Nearest,
         describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
         modules: &[
             "analysis/clusters",
@@ -347,6 +361,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "cluster_sizes",
+        at: lags::AtLag::Nearest,
         describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
         modules: &[
             "analysis/clusters",
@@ -373,6 +388,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "mobility_snapshot",
+        at: lags::AtLag::Nearest,
         describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
         modules: &["analysis/clusters", "analysis/lags"],
         validate: |v| typed::<clusters::Params>("mobility_snapshot", v).map(drop),
@@ -383,6 +399,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "intruder_velocity",
+        at: lags::AtLag::Interpolate,
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
         modules: &["analysis/intruder", "sim/model/enskog", "sim/model/kicks"],
         validate: |v| typed::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
@@ -394,6 +411,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "intruder_path",
+        at: lags::AtLag::Interpolate,
         describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
         modules: &["analysis/intruder"],
         validate: |v| typed::<intruder::VelocityParams>("intruder_path", v).map(drop),
@@ -404,6 +422,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "intruder_diffusion",
+        at: lags::AtLag::Interpolate,
         describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
         modules: &["analysis/intruder"],
         validate: |v| typed::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
@@ -417,6 +436,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "momentum_profile",
+        at: lags::AtLag::Interpolate,
         describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
         modules: &["analysis/intruder"],
         validate: |v| typed::<intruder::ProfileParams>("momentum_profile", v).map(drop),
@@ -424,6 +444,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "velocity_field",
+        at: lags::AtLag::Interpolate,
         describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
         modules: &["analysis/front"],
         validate: |v| typed::<front::FieldParams>("velocity_field", v).map(drop),
@@ -440,6 +461,7 @@ pub static OBSERVABLES: &[Observable] = &[
     },
     Observable {
         name: "front",
+        at: lags::AtLag::Interpolate,
         describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
         modules: &["analysis/front", "analysis/intruder"],
         validate: |v| typed::<front::FrontParams>("front", v).map(drop),

@@ -36,7 +36,9 @@ pub enum Commands {
     /// Do the quoted errors mean what they say? Build the figures at several
     /// master seeds; per key number, the fraction of seeds whose quoted 1-sigma
     /// interval covers the all-seed mean and the ratio quoted error / seed-to-seed
-    /// spread; written to results/coverage-PROFILE.json.
+    /// spread; on seeds the goldens were not recorded at, whether `repro regress`
+    /// would fail (a false alarm). Written to results/coverage-PROFILE.json and
+    /// .md (with --docs, the .md to docs/).
     Coverage(CoverageArgs),
 }
 
@@ -56,6 +58,10 @@ pub struct CoverageArgs {
     /// (`repro regress --record`) instead of building the seeds.
     #[arg(long)]
     pub golden: Option<PathBuf>,
+    /// Write the Markdown table to docs/coverage-PROFILE[-LABEL].md instead of
+    /// results/.
+    #[arg(long)]
+    pub docs: bool,
     #[command(flatten)]
     pub variant: VariantArgs,
 }
@@ -190,35 +196,69 @@ fn or_ci_figures(root: &std::path::Path, ids: &[String]) -> Result<Vec<String>> 
 }
 
 fn coverage(a: CoverageArgs) -> Result<()> {
-    let rows: Vec<crate::study::coverage::Coverage> = if let Some(path) = &a.golden {
-        let g = GoldenFile::read(path)?;
-        crate::study::coverage::from_golden(&g, &a.ids)
-    } else {
-        let ids = or_ci_figures(&a.variant.root, &a.ids)?;
-        let per_seed = golden::seed_numbers(
-            &a.variant.root,
-            &a.variant.experiment,
-            &a.profile,
-            &ids,
-            &a.seeds,
-            &Variant {
-                set: settings(&a.variant.set)?,
-                ..Variant::default()
-            },
-            &options(a.variant.jobs),
-        )?;
-        per_seed
-            .iter()
-            .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
-            .collect()
-    };
+    let golden_path = a
+        .variant
+        .root
+        .join("tests")
+        .join("golden")
+        .join(format!("{}.json", a.profile));
+    let mut checks = Vec::new();
+    let (rows, gates_from): (Vec<crate::study::coverage::Coverage>, Option<GoldenFile>) =
+        if let Some(path) = &a.golden {
+            let g = GoldenFile::read(path)?;
+            (crate::study::coverage::from_golden(&g, &a.ids), Some(g))
+        } else {
+            let ids = or_ci_figures(&a.variant.root, &a.ids)?;
+            // Each seed's build checked against the goldens as CI would, when
+            // the profile has them and the seeds are not the recorded ones.
+            let g = golden_path
+                .exists()
+                .then(|| GoldenFile::read(&golden_path))
+                .transpose()?;
+            let gate = g
+                .as_ref()
+                .filter(|g| !a.seeds.iter().any(|s| g.seeds.contains(s)));
+            let (per_seed, c) = golden::seed_numbers(
+                &a.variant.root,
+                &a.variant.experiment,
+                &a.profile,
+                &ids,
+                &a.seeds,
+                &Variant {
+                    set: settings(&a.variant.set)?,
+                    ..Variant::default()
+                },
+                gate,
+                &options(a.variant.jobs),
+            )?;
+            checks = c;
+            (
+                per_seed
+                    .iter()
+                    .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
+                    .collect(),
+                g,
+            )
+        };
+    // Each number's gate in the golden file, for the Markdown table.
+    let mut gates = std::collections::BTreeMap::new();
+    if let Some(g) = &gates_from {
+        for q in &g.quantities {
+            gates.insert((q.figure.clone(), q.quantity.clone()), q.gate.to_string());
+        }
+        for fq in g.ungated.keys() {
+            if let Some((f, q)) = fq.split_once(':') {
+                gates.insert((f.to_string(), q.to_string()), "ungated".to_string());
+            }
+        }
+    }
     println!(
-        "| figure | quantity | seeds | mean | seed-to-seed spread | rms quoted error | quoted / spread | median quoted / spread | coverage |"
+        "| figure | quantity | seeds | mean | seed-to-seed spread | rms quoted error | quoted / spread | median quoted / spread | coverage | max distance from the median / quoted |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for c in &rows {
         println!(
-            "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.2} | {:.2} | {:.0}% |",
+            "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.2} | {:.2} | {:.0}% | {:.1} |",
             c.figure,
             c.quantity,
             c.seeds,
@@ -227,19 +267,46 @@ fn coverage(a: CoverageArgs) -> Result<()> {
             c.quoted,
             c.ratio,
             c.median_ratio,
-            100.0 * c.coverage
+            100.0 * c.coverage,
+            c.max_from_median
         );
     }
-    let out = Workspace::new(&a.variant.root)
-        .results
-        .join(if a.label.is_empty() {
-            format!("coverage-{}.json", a.profile)
-        } else {
-            format!("coverage-{}-{}.json", a.profile, a.label)
-        });
-    std::fs::create_dir_all(out.parent().expect("results dir"))?;
-    crate::table::write_atomic(&out, serde_json::to_string_pretty(&rows)?.as_bytes())?;
+    if !checks.is_empty() {
+        let fired = checks.iter().filter(|c| !c.failures.is_empty()).count();
+        println!(
+            "repro regress fails at {fired} of {} fresh master seeds",
+            checks.len()
+        );
+    }
+    let stem = if a.label.is_empty() {
+        format!("coverage-{}", a.profile)
+    } else {
+        format!("coverage-{}-{}", a.profile, a.label)
+    };
+    let results = Workspace::new(&a.variant.root).results;
+    let out = results.join(format!("{stem}.json"));
+    std::fs::create_dir_all(&results)?;
+    let json = serde_json::json!({ "seeds": a.seeds, "rows": rows, "regress": checks });
+    crate::table::write_atomic(&out, serde_json::to_string_pretty(&json)?.as_bytes())?;
     println!("wrote {}", out.display());
+    let command = std::env::args()
+        .skip(1)
+        .fold("repro".to_string(), |acc, x| acc + " " + &x);
+    let md = crate::study::coverage::markdown(
+        &command,
+        crate::pipeline::publish::git_commit(&a.variant.root).as_deref(),
+        &a.seeds,
+        &rows,
+        &gates,
+        &checks,
+    );
+    let md_path = if a.docs {
+        a.variant.root.join("docs").join(format!("{stem}.md"))
+    } else {
+        results.join(format!("{stem}.md"))
+    };
+    crate::table::write_atomic(&md_path, md.as_bytes())?;
+    println!("wrote {}", md_path.display());
     Ok(())
 }
 

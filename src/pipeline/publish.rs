@@ -19,7 +19,7 @@ use super::store::Store;
 use crate::table::write_atomic;
 
 /// The git commit of the checkout at `root`, if any.
-fn git_commit(root: &Path) -> Option<String> {
+pub(crate) fn git_commit(root: &Path) -> Option<String> {
     let out = std::process::Command::new("git")
         .arg("-C")
         .arg(root)

@@ -7,8 +7,11 @@
 //! Times in units of a measured time: `time_unit: {from: tau}` names the stage
 //! (gathered too) whose table holds it (column `tau_alpha` unless `column` says
 //! otherwise); the main table then gets `t_over_tau_alpha`, and `at: [0.01, 1, 8.5]`
-//! sets the lags to the recorded lags nearest to those multiples, listed with their
-//! distance from the request in `at.parquet` (a request past the last lag fails).
+//! reads the observable at those multiples: a curve of t is computed at the two
+//! recorded lags around each and interpolated linearly in ln t; a configuration
+//! (clusters, a mobility snapshot) at the nearest recorded lag ([`lags::AtLag`]).
+//! The lags and weights are listed in `at.parquet`; a request past the last lag
+//! fails.
 
 use std::sync::Arc;
 
@@ -219,6 +222,7 @@ fn replica_samples(
     params: &[Value],
     unit: f64,
     tables: &mut crate::analysis::observables::Tables,
+    read_off: &dyn Fn(Option<usize>, &RecordBatch) -> Result<RecordBatch>,
 ) -> Result<()> {
     use crate::analysis::pool::{self, Errors};
     let pooled = match tables.errors {
@@ -238,7 +242,15 @@ fn replica_samples(
                 .filter(|&j| j != k)
                 .map(|j| refs[j])
                 .collect();
-            samples.push((obs.compute)(&others, &params[k.min(params.len() - 1)])?);
+            let mut t = (obs.compute)(&others, &params[k.min(params.len() - 1)])?;
+            // At `at`'s requests for this replica's measured time (the full
+            // table's when there is one set of lags for all).
+            let key = (params.len() > 1).then_some(k);
+            t.main = read_off(key, &t.main)?;
+            for (_, b) in t.extra.iter_mut() {
+                *b = read_off(key, b)?;
+            }
+            samples.push(t);
         }
         samples.iter().map(|s| s.main.clone()).collect()
     } else {
@@ -321,7 +333,7 @@ impl StageKind for Analyse {
         format!(
             "parameters: {keys} (docs/analysis.md), and of every analysis\n  \
              time_unit: {{from: STAGE, column: tau_alpha}}  adds t_over_tau_alpha\n  \
-             at: [0.01, 1, 8.5]  lags at these multiples of the measured time (at.parquet)\n\
+             at: [0.01, 1, 8.5]  read at these multiples of the measured time, interpolated in ln t (at.parquet)\n\
              example: {{name: {n}, kind: {n}, gather: [eps09], by: [phi]}}",
             keys = self.params().join(", "),
             n = self.obs.name
@@ -362,69 +374,99 @@ impl StageKind for Analyse {
         let mut at_table = None;
         let jk_unit = replica_unit(inputs);
         let mut sample_obs = Vec::new();
+        // The requests of `at` for the full table and for each replica left out.
+        let mut requests: Option<Vec<lags::InUnits>> = None;
+        let mut sample_requests: Vec<Vec<lags::InUnits>> = Vec::new();
         if let (Some(at), Some((unit, u))) = (&s.at, unit) {
             let rel_tol = obs
                 .get("rel_tol")
                 .and_then(Value::as_f64)
                 .unwrap_or(crate::analysis::DEFAULT_REL_TOL);
             let recorded = lags::every_origin(&refs, None, rel_tol)?.unwrap_or_default();
-            let at_lags = |unit: f64| -> Result<(Vec<lags::InUnits>, Vec<f64>)> {
+            let nearest = self.obs.at == lags::AtLag::Nearest;
+            let at_lags = |unit: f64| -> Result<Vec<lags::InUnits>> {
                 let r = lags::in_units(&recorded, unit, &u.column, at, rel_tol)
                     .with_context(|| format!("{name}: `at`"))?;
-                let mut chosen: Vec<f64> = r.iter().map(|x| x.lag).collect();
-                chosen.sort_by(f64::total_cmp);
-                chosen.dedup();
-                Ok((r, chosen))
+                Ok(if nearest {
+                    r.into_iter().map(lags::InUnits::nearest).collect()
+                } else {
+                    r
+                })
             };
-            let (r, chosen) = at_lags(unit)?;
+            let r = at_lags(unit)?;
             for x in &r {
-                ctx.log(format!(
-                    "{} {} = {:.6} -> recorded lag {:.6} ({:+.2}%)",
-                    x.multiple,
-                    u.column,
-                    x.requested,
-                    x.lag,
-                    100.0 * x.rel_diff
-                ));
+                ctx.log(if x.below == x.above {
+                    format!(
+                        "{} {} = {:.6} -> recorded lag {:.6} ({:+.2}%)",
+                        x.multiple,
+                        u.column,
+                        x.requested,
+                        x.below,
+                        100.0 * (x.below / x.requested - 1.0)
+                    )
+                } else {
+                    format!(
+                        "{} {} = {:.6}: between the recorded lags {:.6} and {:.6} (weight {:.3} on the second)",
+                        x.multiple, u.column, x.requested, x.below, x.above, x.weight
+                    )
+                });
             }
-            obs["lags"] = Value::from(chosen.clone());
+            obs["lags"] = Value::from(lags::bracketing_lags(&r));
             at_table = Some(f64_batch(&[
                 ("multiple", r.iter().map(|x| x.multiple).collect()),
                 ("requested", r.iter().map(|x| x.requested).collect()),
-                ("lag", r.iter().map(|x| x.lag).collect()),
-                ("rel_diff", r.iter().map(|x| x.rel_diff).collect()),
+                ("lag_below", r.iter().map(|x| x.below).collect()),
+                ("lag_above", r.iter().map(|x| x.above).collect()),
+                ("weight_above", r.iter().map(|x| x.weight).collect()),
                 (u.column.as_str(), vec![unit; r.len()]),
             ])?);
-            // Samples at the lags of the time measured without the same replica
-            // (the same number of lags, else the time is held for all of them).
+            // Samples at the lags of the time measured without the same replica.
             if let Some(units) = measured_samples(name, u, inputs, jk_unit)
                 && units.len() == refs.len()
             {
-                let per: Vec<Vec<f64>> = units
+                sample_requests = units.iter().map(|&v| at_lags(v)).collect::<Result<_>>()?;
+                sample_obs = sample_requests
                     .iter()
-                    .map(|&v| at_lags(v).map(|(_, c)| c))
-                    .collect::<Result<_>>()?;
-                if per.iter().all(|c| c.len() == chosen.len()) {
-                    sample_obs = per
-                        .into_iter()
-                        .map(|c| {
-                            let mut o = obs.clone();
-                            o["lags"] = Value::from(c);
-                            o
-                        })
-                        .collect();
-                    ctx.log(format!(
-                        "replica samples at the lags of {} measured with the same replica left out",
-                        u.column
-                    ));
-                }
+                    .map(|r| {
+                        let mut o = obs.clone();
+                        o["lags"] = Value::from(lags::bracketing_lags(r));
+                        o
+                    })
+                    .collect();
+                ctx.log(format!(
+                    "replica samples at the lags of {} measured with the same replica left out",
+                    u.column
+                ));
             }
+            requests = Some(r);
         }
         if sample_obs.is_empty() {
             sample_obs.push(obs.clone());
         }
+        // Rows at the bracketing lags -> rows at the requested times.
+        let read_off = |k: Option<usize>, b: &RecordBatch| -> Result<RecordBatch> {
+            match (&requests, k.and_then(|k| sample_requests.get(k))) {
+                (_, Some(r)) | (Some(r), None) => lags::at_requests(b, r),
+                (None, None) => Ok(b.clone()),
+            }
+        };
         let mut tables = (self.obs.compute)(&refs, &obs)?;
-        replica_samples(ctx, self.obs, &refs, &sample_obs, jk_unit, &mut tables)?;
+        tables.main = read_off(None, &tables.main)?;
+        for (_, b) in tables.extra.iter_mut() {
+            *b = read_off(None, b)?;
+        }
+        for b in tables.left_out.iter_mut() {
+            *b = read_off(None, b)?;
+        }
+        replica_samples(
+            ctx,
+            self.obs,
+            &refs,
+            &sample_obs,
+            jk_unit,
+            &mut tables,
+            &read_off,
+        )?;
         if let Some((unit, u)) = unit {
             tables.main = with_scaled_t(tables.main, unit, &u.column)?;
         }

@@ -61,6 +61,17 @@ pub enum Gate {
     JointOnly,
 }
 
+impl std::fmt::Display for Gate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Gate::Band => "band",
+            Gate::AtMost => "one-sided (at most)",
+            Gate::NonNegative => "one-sided (gap)",
+            Gate::JointOnly => "joint only",
+        })
+    }
+}
+
 impl Gate {
     /// Whether `v` passes (NaN never does, except in the joint test only).
     pub fn passes(self, v: f64, band: [f64; 2]) -> bool {
@@ -467,8 +478,10 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
         r.ids,
         r.seeds,
         &Variant::default(),
+        None,
         opts,
-    )?;
+    )?
+    .0;
     let mut ungated = r.ungated.clone();
     let mut quantities = Vec::new();
     for ((f, q), v) in &numbers {
@@ -553,9 +566,21 @@ pub fn merge(
     })
 }
 
+/// What `repro regress` said of one master seed's build: the failures (none
+/// when it passed).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SeedCheck {
+    pub seed: u64,
+    pub failures: Vec<String>,
+}
+
 /// Every key number of figures `ids` with its quoted error at each master seed:
 /// (figure, quantity) -> one entry per seed (NaN where that seed gave none);
-/// `base` changes the experiment besides the seed.
+/// `base` changes the experiment besides the seed. With `gate`, each seed's
+/// build is checked against that golden file as `repro regress` would (the
+/// figures of `ids` it has bands for): on seeds it was not recorded at, a
+/// failure is a false alarm.
+#[allow(clippy::too_many_arguments)]
 pub fn seed_numbers(
     root: &Path,
     experiment: &str,
@@ -563,14 +588,16 @@ pub fn seed_numbers(
     ids: &[String],
     seeds: &[u64],
     base: &Variant,
+    gate: Option<&GoldenFile>,
     opts: &RunOptions,
-) -> Result<BTreeMap<(String, String), Vec<Fitted>>> {
+) -> Result<(BTreeMap<(String, String), Vec<Fitted>>, Vec<SeedCheck>)> {
     let none = Fitted {
         value: f64::NAN,
         error: f64::NAN,
         verdict: None,
     };
     let mut values: BTreeMap<(String, String), Vec<Fitted>> = BTreeMap::new();
+    let mut checks = Vec::new();
     for (k, &seed) in seeds.iter().enumerate() {
         eprintln!("master seed {seed}");
         let v = Variant {
@@ -578,6 +605,26 @@ pub fn seed_numbers(
             ..base.clone()
         };
         let built = variant::build(root, experiment, profile, &v, ids, opts)?;
+        if let Some(g) = gate.filter(|g| {
+            ids.iter()
+                .any(|id| g.quantities.iter().any(|q| &q.figure == id))
+        }) {
+            let gated: Vec<String> = ids
+                .iter()
+                .filter(|id| g.quantities.iter().any(|q| &q.figure == *id))
+                .cloned()
+                .collect();
+            let (_, failures) = check(g, &built.results, &gated)?;
+            eprintln!(
+                "master seed {seed}: regress {}",
+                if failures.is_empty() {
+                    "passes".to_string()
+                } else {
+                    format!("fails on {}", failures.len())
+                }
+            );
+            checks.push(SeedCheck { seed, failures });
+        }
         for id in ids {
             for (q, v) in key_numbers_with_errors(&built.results.join(id))? {
                 let e = values
@@ -590,7 +637,7 @@ pub fn seed_numbers(
             e.resize(k + 1, none);
         }
     }
-    Ok(values)
+    Ok((values, checks))
 }
 
 #[cfg(test)]

@@ -272,11 +272,20 @@ const COLUMNS: &[(&str, &str, &str)] = &[
         "requested time: multiple x the measured time",
     ),
     (
-        "lag",
+        "lag_below",
         "r1 sqrt(m1/T)",
-        "recorded lag used for the request (nearest in ln t)",
+        "recorded lag at or below the request",
     ),
-    ("rel_diff", "1", "lag / requested - 1"),
+    (
+        "lag_above",
+        "r1 sqrt(m1/T)",
+        "recorded lag at or above the request",
+    ),
+    (
+        "weight_above",
+        "1",
+        "weight of lag_above in the interpolation in ln t: ln(requested/lag_below) / ln(lag_above/lag_below)",
+    ),
     (results::QUANTITY, "", "name of a fitted or measured number"),
     (results::VALUE, "as the quantity", "its value"),
     (results::ERROR, "as the quantity", "its 1-sigma error"),
