@@ -508,3 +508,78 @@ fn the_number_check_catches_a_stale_quote() {
         ]
     );
 }
+
+/// `(K, N)` of every "fails at K of N fresh ..." in `text` after `what`
+/// (a change such as `eps=0.88:`, or empty for the false-alarm sentence).
+fn rates(text: &str, phrase: &str) -> Vec<(String, String, String)> {
+    let mut out = Vec::new();
+    for line in text.lines() {
+        let mut rest = line;
+        while let Some(i) = rest.find(phrase) {
+            let before = rest[..i].trim_end();
+            let what = before
+                .rsplit(|c: char| c.is_whitespace() || c == '(' || c == '`')
+                .next()
+                .unwrap_or("")
+                .trim_end_matches(':')
+                .to_string();
+            let after = &rest[i + phrase.len()..];
+            let nums: Vec<&str> = after.split_whitespace().take(3).collect();
+            if nums.len() == 3 && nums[1] == "of" {
+                out.push((what, nums[0].to_string(), nums[2].to_string()));
+            }
+            rest = after;
+        }
+    }
+    out
+}
+
+/// The README and docs/accuracy.md quote the CI gate's measured false-alarm
+/// and detection rates as the generated measurements say (docs/coverage-ci-fresh.md
+/// from `repro coverage --docs`, docs/sensitivity-ci.md from `make sensitivity`).
+#[test]
+fn the_gate_rates_quoted_are_the_measured_ones() {
+    let root = root();
+    let read = |p: &str| fs::read_to_string(root.join(p)).unwrap_or_else(|e| panic!("{p}: {e}"));
+    let alarm_rates = |text: &str| -> Vec<(String, String, String)> {
+        text.lines()
+            .filter(|l| l.contains("fresh master seeds"))
+            .flat_map(|l| rates(l, "fails at "))
+            .collect()
+    };
+    let alarms = alarm_rates(&read("docs/coverage-ci-fresh.md"));
+    let alarm = alarms
+        .first()
+        .expect("docs/coverage-ci-fresh.md states its false alarms");
+    let sensitivity = rates(&read("docs/sensitivity-ci.md"), "CI fails at ");
+    assert!(
+        !sensitivity.is_empty(),
+        "docs/sensitivity-ci.md states no rate"
+    );
+    for doc in ["README.md", "docs/accuracy.md"] {
+        let text = read(doc);
+        let quoted_alarms = alarm_rates(&text);
+        assert!(
+            !quoted_alarms.is_empty(),
+            "{doc} does not state the false-alarm rate"
+        );
+        for (_, k, n) in &quoted_alarms {
+            assert_eq!((k, n), (&alarm.1, &alarm.2), "{doc}: false alarms");
+        }
+        let quoted = rates(&text, "CI fails at ");
+        for (what, k, n) in &sensitivity {
+            assert!(
+                quoted
+                    .iter()
+                    .any(|(w, kk, nn)| w == what && kk == k && nn == n),
+                "{doc} does not say `{what}: CI fails at {k} of {n}` (docs/sensitivity-ci.md)"
+            );
+        }
+        for q in &quoted {
+            assert!(
+                sensitivity.contains(q),
+                "{doc}: {q:?} is not in docs/sensitivity-ci.md"
+            );
+        }
+    }
+}

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use anyhow::{Result, bail};
 use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, UInt32Array};
 
+use crate::table::columns::is_count;
 use crate::traj::Trajectory;
 
 /// One lag with every frame pair that realises it, over all replicas.
@@ -263,7 +264,8 @@ pub fn bracketing_lags(requests: &[InUnits]) -> Vec<f64> {
 /// rows at `below` and at `above` are paired in order (the same keys, e.g. the
 /// same q, must follow in the same order) and every float column is
 /// interpolated with the request's weight (a column equal in both rows, a key,
-/// is kept bit for bit); other columns are taken from the nearer lag. A table
+/// is kept bit for bit), but an error `X_err` is the larger of the two and a
+/// count comes from the nearer lag, like every other column. A table
 /// without a float column `t` is returned as it is.
 pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch> {
     let Some(t) = b
@@ -320,10 +322,19 @@ pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch>
     };
     let mut cols: Vec<(String, ArrayRef)> = Vec::new();
     for (f, c) in b.schema().fields().iter().zip(b.columns()) {
-        let col: ArrayRef = if f.name() == "t" {
-            Arc::new(Float64Array::from(times.clone()))
-        } else if let Some(x) = c.as_any().downcast_ref::<Float64Array>() {
-            Arc::new(Float64Array::from_iter(
+        let name = f.name();
+        let float = c.as_any().downcast_ref::<Float64Array>();
+        let col: ArrayRef = match float {
+            _ if name == "t" => Arc::new(Float64Array::from(times.clone())),
+            // An error: the larger of the two lags' (their estimates share most
+            // of their data, so interpolation cannot shrink it; an empty bin's
+            // zero error at one lag must not make the point exact).
+            Some(x) if name.ends_with("_err") => {
+                Arc::new(Float64Array::from_iter(lo_rows.iter().zip(&hi_rows).map(
+                    |(&l, &h)| Some(x.value(l as usize).max(x.value(h as usize))),
+                )))
+            }
+            Some(x) if !is_count(name) => Arc::new(Float64Array::from_iter(
                 lo_rows
                     .iter()
                     .zip(&hi_rows)
@@ -336,9 +347,8 @@ pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch>
                             a + w * (z - a)
                         })
                     }),
-            ))
-        } else {
-            take(c, &nearer)?
+            )),
+            _ => take(c, &nearer)?,
         };
         cols.push((f.name().clone(), col));
     }
@@ -427,7 +437,8 @@ mod tests {
     }
 
     /// A curve linear in ln t is read exactly between its lags; keys (q) are
-    /// kept bit for bit, counts come from the nearer lag, and a table whose
+    /// kept bit for bit, errors are the larger of the two, counts come from the
+    /// nearer lag, and a table whose
     /// lags hold different rows is refused.
     #[test]
     fn rows_at_a_request_interpolate_in_ln_t() {

@@ -155,7 +155,7 @@ pub fn markdown(
     if !checks.is_empty() {
         let fired: Vec<&SeedCheck> = checks.iter().filter(|c| !c.failures.is_empty()).collect();
         m.push_str(&format!(
-            "## False alarms\n\n`repro regress` against the golden file fails at **{} of {}** of these seeds (none of them was used to record it).\n\n",
+            "## False alarms\n\n`repro regress` against the golden file fails at {} of {} fresh master seeds (none of them was used to record it).\n\n",
             fired.len(),
             checks.len()
         ));

@@ -178,6 +178,14 @@ pub fn ungated_reason(quantity: &str, values: &[f64]) -> Option<String> {
             "{mean} at every seed: fixed by construction (a count or a normalisation), nothing for a band to detect"
         ));
     }
+    // Constant but for a solver's tolerance (a collapse normalised to 1, found
+    // to 1e-8): a band that narrow would fire on a change of tolerance.
+    if std <= 1e-6 * mean.abs().max(1.0) {
+        return Some(format!(
+            "{mean:.6} at every seed to a relative {:.0e}: fixed by construction up to the solver's tolerance: a band would test the tolerance, not the physics",
+            std / mean.abs().max(1.0)
+        ));
+    }
     if ["reduced_chi2", "leverage", "scatter"]
         .iter()
         .any(|d| quantity.starts_with(d))
