@@ -574,6 +574,9 @@ pub fn merge(
     })
 }
 
+/// (figure, quantity) -> its value and quoted error at each master seed.
+pub type SeedNumbers = BTreeMap<(String, String), Vec<Fitted>>;
+
 /// What `repro regress` said of one master seed's build: the failures (none
 /// when it passed).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -598,13 +601,13 @@ pub fn seed_numbers(
     base: &Variant,
     gate: Option<&GoldenFile>,
     opts: &RunOptions,
-) -> Result<(BTreeMap<(String, String), Vec<Fitted>>, Vec<SeedCheck>)> {
+) -> Result<(SeedNumbers, Vec<SeedCheck>)> {
     let none = Fitted {
         value: f64::NAN,
         error: f64::NAN,
         verdict: None,
     };
-    let mut values: BTreeMap<(String, String), Vec<Fitted>> = BTreeMap::new();
+    let mut values: SeedNumbers = BTreeMap::new();
     let mut checks = Vec::new();
     for (k, &seed) in seeds.iter().enumerate() {
         eprintln!("master seed {seed}");
