@@ -1,6 +1,7 @@
 //! What a referee would flag in a laid-out figure, found without looking at
 //! pixels: a legend over data, one group value in two colours, markup left
-//! unrendered in a label, an axis stretched by a single error bar.
+//! unrendered in a label, an axis stretched by a single error bar, axes
+//! squeezed by a legend beside them.
 
 use anyhow::Result;
 
@@ -53,6 +54,12 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
                     s.label
                 ));
             }
+        }
+        if lay.frame.width() < 0.5 * lay.cell.width() {
+            out.push(format!(
+                "{name}: the axes take {:.0}% of the panel's width (a legend beside them?)",
+                100.0 * lay.frame.width() / lay.cell.width()
+            ));
         }
         if p.y.range.is_none()
             && let Some(why) = stretched(p, lay)

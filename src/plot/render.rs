@@ -417,6 +417,15 @@ fn measure_legend<DB: DrawingBackend>(area: &Area<DB>, p: &Panel, sz: Sizes) -> 
             }),
         }
     }
+    // Group values in order of value, even when they come from several layers
+    // (one ensemble per eps); the other entries after them, as given.
+    let key = |e: &Entry| e.label.trim().parse::<f64>().ok();
+    entries.sort_by(|a, b| match (key(a), key(b)) {
+        (Some(x), Some(y)) => x.total_cmp(&y),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => std::cmp::Ordering::Equal,
+    });
     let row = 1.35 * sz.legend;
     let sample = 2.2 * sz.legend;
     let mut text_w: f64 = text_size(area, &p.legend_title, sz.legend)?.0 - sample - 0.4 * sz.legend;
@@ -453,7 +462,8 @@ pub struct PanelLayout {
     lines: Vec<String>,
     sz: Sizes,
     ticks_size: (f64, f64, f64),
-    cell: Rect,
+    /// The panel's whole cell of the figure (axes, labels, title, notes).
+    pub cell: Rect,
     legend_box: Option<LegendBox>,
 }
 
@@ -579,6 +589,11 @@ fn lay_out_panel<DB: DrawingBackend>(
             let taken = marks(root, &f, p, sz)?;
             match free_corner(&f, &order, &taken, &legend, sz) {
                 Some(at) => (f, Some(at)),
+                // A wide legend (fitted values in its labels) beside the axes
+                // would squeeze them to a strip: above them instead.
+                None if legend.width > 0.4 * inside.width() => {
+                    top_legend(frame, inside, &legend, sz)
+                }
                 None => right_legend(frame, inside, &legend, sz),
             }
         }
@@ -703,6 +718,18 @@ fn right_legend(
     (frame(rect), Some(at))
 }
 
+/// The legend above the axes, at their left edge; the axes lose its height.
+fn top_legend(
+    frame: impl Fn(Rect) -> Frame,
+    inside: Rect,
+    legend: &LegendBox,
+    sz: Sizes,
+) -> (Frame, Option<P>) {
+    let mut rect = inside;
+    rect.y0 += legend.height + 0.6 * sz.label;
+    (frame(rect), Some((inside.x0, inside.y0)))
+}
+
 fn corner_position(r: &Rect, corner: Legend, legend: &LegendBox, sz: Sizes) -> P {
     let m = 0.5 * sz.label;
     let left = r.x0 + m;
@@ -793,7 +820,7 @@ fn free_corner(
     sz: Sizes,
 ) -> Option<P> {
     let r = f.rect;
-    if legend.width > 0.6 * r.width() || legend.height > 0.9 * r.height() {
+    if legend.width > 0.8 * r.width() || legend.height > 0.9 * r.height() {
         return None;
     }
     let pad = sz.marker + 1.0;
