@@ -18,7 +18,7 @@
 pub mod plan;
 pub mod state;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -485,7 +485,7 @@ pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
     }
     eprintln!("computing {} ({}), key {key}", rec.label, rec.kind);
     match exec::compute(&store, reg, node, key.to_string(), &inputs, None) {
-        Ok(e) => {
+        Ok((e, _)) => {
             for l in &e.log {
                 eprintln!("log: {l}");
             }
@@ -518,29 +518,10 @@ pub fn job_states(
     if std::fs::read_dir(state::jobs_dir(store)).map_or(true, |mut d| d.next().is_none()) {
         return out;
     }
-    let mut digest: HashMap<usize, String> = HashMap::new();
-    let mut recs = Vec::new();
-    for (i, s) in st {
-        let node = &graph.nodes[*i];
-        if let State::Cached { key } = s {
-            if let Some(e) = store.lookup(key) {
-                digest.insert(*i, e.digest);
-            }
-            continue;
-        }
-        let Some(d) = node
-            .inputs
-            .iter()
-            .map(|j| digest.get(j).map(|s| s.as_str()))
-            .collect::<Option<Vec<&str>>>()
-        else {
-            continue;
-        };
-        let key = stage_key(&node.kind, &node.params, &d, reg.fingerprint(&node.kind));
-        if let Some(r) = state::read(store, &key) {
-            recs.push((*i, r));
-        }
-    }
+    let recs: Vec<_> = exec::stale_keys(graph, st, reg, store)
+        .into_iter()
+        .filter_map(|(i, key)| Some((i, state::read(store, &key)?)))
+        .collect();
     if recs.is_empty() {
         return out;
     }

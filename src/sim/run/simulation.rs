@@ -382,7 +382,7 @@ fn advance(
         let at = ck.time(st.checkpoints);
         let stop = t.min(st.sampler.next).min(at);
         while !e.run_until(stop, 1 << 20) {
-            progress(Progress::new(stage, e, end, clock));
+            progress(Progress::new(stage, e, end, clock).of_run(ck.origin, ck.end));
         }
         if stop == st.sampler.next {
             st.sampler.take(e);
@@ -402,7 +402,7 @@ fn advance(
         if stop == t {
             // Small systems finish a window in fewer than 2^20 events: report at
             // every window's end too, or the bar stays at the previous stage.
-            progress(Progress::new(stage, e, end, clock));
+            progress(Progress::new(stage, e, end, clock).of_run(ck.origin, ck.end));
             return Ok(());
         }
     }
