@@ -129,8 +129,10 @@ mod unit {
 
     #[test]
     fn the_default_interval_is_a_power_of_two_and_short_runs_have_none() {
-        let mut cfg = SimConfig::default();
-        cfg.relax_time = 1000.0;
+        let mut cfg = SimConfig {
+            relax_time: 1000.0,
+            ..SimConfig::default()
+        };
         // 3e8 / 1e6 = 300 -> 256.
         assert_eq!(interval(&cfg, 1e6), Some(256.0));
         assert_eq!(interval(&cfg, 1e5), None, "longer than the run");
