@@ -330,6 +330,7 @@ impl Driver<'_> {
                 .collect();
             let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
             let time = res.iter().map(|r| r.time_min).max().unwrap_or(2);
+            let (time, links) = plan::chain(time, settings.max_minutes());
             let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
             let array = keys.len() > 1;
             let mut args = vec![
@@ -382,9 +383,27 @@ impl Driver<'_> {
             for r in &recs {
                 state::write(self.store, r)?;
             }
-            let id = state::submit(&args, &script)?;
+            // A chain: each job starts when the one before has ended (at its
+            // time limit, or done: a worker whose stage is in the store exits)
+            // and resumes from the last checkpoint. The records name the last.
+            let mut id = state::submit(&args, &script)?;
+            let mut chain = vec![id.clone()];
+            for _ in 1..links {
+                let mut after = args.clone();
+                after.push(format!("--dependency=afterany:{id}"));
+                id = state::submit(&after, &script)?;
+                chain.push(id.clone());
+            }
             eprintln!(
-                "submitted Slurm job {id}: {} {kind} stage(s), {mem} MiB and {} each",
+                "submitted Slurm job {}: {} {kind} stage(s), {mem} MiB and {} each",
+                if links > 1 {
+                    format!(
+                        "chain {} (each resumes from the last checkpoint)",
+                        chain.join(" -> ")
+                    )
+                } else {
+                    id.clone()
+                },
                 keys.len(),
                 plan::time_limit(time)
             );
@@ -596,12 +615,20 @@ pub fn dry_run(
     for ((kind, sargs), members) in &groups {
         let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
         let time = members.iter().map(|(_, r)| r.time_min).max().unwrap_or(0);
+        let (time, links) = plan::chain(time, settings[members[0].0].max_minutes());
         out += &format!(
-            "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}\n",
+            "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
             members.len(),
             if members.len() > 1 { " (array)" } else { "" },
             plan::time_limit(time),
-            sargs
+            sargs,
+            if links > 1 {
+                format!(
+                    " as a chain of {links} jobs (each after the one before, resuming from the last checkpoint)"
+                )
+            } else {
+                String::new()
+            }
         );
         for (i, r) in members {
             let w = work(&graph.nodes[*i]);

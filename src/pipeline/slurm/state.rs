@@ -194,6 +194,28 @@ pub fn details(job_id: &str) -> Option<String> {
     (!fields.is_empty()).then(|| fields.join(" "))
 }
 
+/// The time limit of `partition` (the default partition if `None`) in
+/// minutes, from `sinfo`; `None` if unlimited or Slurm cannot be asked.
+pub fn partition_limit(partition: Option<&str>) -> Option<u64> {
+    let out = Command::new("sinfo")
+        .args(["--noheader", "--format=%P %l"])
+        .output()
+        .ok()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines().find_map(|l| {
+        let (name, limit) = l.split_once(' ')?;
+        let wanted = match partition {
+            Some(p) => name.trim_end_matches('*') == p,
+            None => name.ends_with('*'),
+        };
+        if wanted {
+            super::plan::minutes(limit)?
+        } else {
+            None
+        }
+    })
+}
+
 /// Submit a batch script (`script` on stdin) with sbatch `args`; the job id.
 pub fn submit(args: &[String], script: &str) -> Result<String> {
     let mut child = Command::new("sbatch")
