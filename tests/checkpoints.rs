@@ -1,8 +1,9 @@
 //! Long simulations survive: a simulation killed with SIGKILL about halfway
 //! resumes from its last checkpoint on the next `repro figure` and writes the
 //! same Parquet bytes as an uninterrupted build, also when its newest
-//! checkpoint was truncated (quarantined; the one before is used). The
-//! checkpoints are gone once the stage is done.
+//! checkpoint was truncated (quarantined; the one before is used). `repro
+//! status` shows where it stopped; the checkpoints are gone once the stage is
+//! done.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -178,6 +179,18 @@ fn a_killed_simulation_resumes_to_the_same_bytes() {
     let r = root();
     kill_halfway(r.path());
     let (_, last) = checkpoints(r.path())[0].clone();
+    // `repro status` shows where the run stopped.
+    let o = Command::new(env!("CARGO_BIN_EXE_repro"))
+        .args(["status", "figckpt", "--profile", "ci", "--root"])
+        .arg(r.path())
+        .output()
+        .unwrap();
+    let status = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        status.contains(&format!("last checkpoint at t = {last} ("))
+            && status.contains("% of the run"),
+        "{status}"
+    );
     let out = build(r.path());
     assert!(
         out.contains(&format!("resumed from the checkpoint at t = {last} ")),

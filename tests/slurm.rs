@@ -449,15 +449,15 @@ fn a_killed_submitter_is_resumed_without_resubmitting_running_jobs() {
     );
 }
 
-/// A simulation of about 75 CPU seconds, checkpointed every 500 time units
-/// (~8 s), gathered by a one-stage figure; `slurm`: the profile's block.
+/// A simulation of about 85 CPU seconds, checkpointed every 500 time units
+/// (~3 s), gathered by a one-stage figure; `slurm`: the profile's block.
 fn long_catalogue(root: &Path, slurm: &str) {
     std::fs::create_dir_all(root.join("experiments")).unwrap();
     std::fs::create_dir_all(root.join("pipelines")).unwrap();
     std::fs::write(
         root.join("experiments/long.yaml"),
         format!(
-            "description: one long simulation\nkind: simulate\nseed: 5\nparams:\n  eps: 0.9\n  n: 1000\n  tau_guess: {{A: 15, B: 0.148, phi0: 0.83}}\n  relax_tau: 9\n  origins: 4\n  spacing_tau: 2\n  lag_min: 0.05\n  lag_max_tau: 10\n  lags_per_decade: 3\n  checkpoint_every: 500\nprofiles:\n  ci:\n    grid:\n      phi: [0.77]\n    replicas: 1\n{slurm}"
+            "description: one long simulation\nkind: simulate\nseed: 5\nparams:\n  eps: 0.9\n  n: 1000\n  tau_guess: {{A: 45, B: 0.148, phi0: 0.83}}\n  relax_tau: 9\n  origins: 4\n  spacing_tau: 2\n  lag_min: 0.05\n  lag_max_tau: 10\n  lags_per_decade: 3\n  checkpoint_every: 500\nprofiles:\n  ci:\n    grid:\n      phi: [0.77]\n    replicas: 1\n{slurm}"
         ),
     )
     .unwrap();

@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 
 use std::collections::BTreeMap;
 
-use crate::pipeline::checkpoints::{RunProgress, unix_now};
+use crate::pipeline::checkpoints::{Status, unix_now};
 use crate::pipeline::slurm;
 use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
 
@@ -138,7 +138,7 @@ pub enum Commands {
 }
 
 /// A running (or stopped) simulation as `repro status` shows it, `now` in Unix seconds.
-fn progress_line(p: &RunProgress, now: u64) -> String {
+fn progress_line(s: &Status, now: u64) -> String {
     let ago = |t: u64| {
         let s = now.saturating_sub(t);
         if s < 120 {
@@ -149,19 +149,22 @@ fn progress_line(p: &RunProgress, now: u64) -> String {
             format!("{:.1} h ago", s as f64 / 3600.0)
         }
     };
-    let checkpoint = match (p.checkpoint, p.checkpoint_written) {
-        (Some(t), Some(w)) => format!("last checkpoint at t = {t} ({})", ago(w)),
-        _ => "no checkpoint yet".to_string(),
+    let at = match &s.progress {
+        Some(p) => format!(
+            "{} t = {:.1}, {:.1}% of the run (reported {} by {}, pid {})",
+            p.stage,
+            p.time,
+            100.0 * p.fraction,
+            ago(p.updated),
+            p.host,
+            p.pid
+        ),
+        None => "no progress report".to_string(),
     };
-    format!(
-        "{} t = {:.1}, {:.1}% of the run; {checkpoint}; reported {} by {} (pid {})",
-        p.stage,
-        p.time,
-        100.0 * p.fraction,
-        ago(p.updated),
-        p.host,
-        p.pid
-    )
+    match s.checkpoint {
+        Some((t, written)) => format!("{at}; last checkpoint at t = {t} ({})", ago(written)),
+        None => format!("{at}; no checkpoint yet"),
+    }
 }
 
 fn print_status(
@@ -169,7 +172,7 @@ fn print_status(
     st: &[(usize, State)],
     only_stale: bool,
     jobs: &BTreeMap<usize, String>,
-    running: &BTreeMap<usize, RunProgress>,
+    running: &BTreeMap<usize, Status>,
 ) {
     for (i, s) in st {
         let n = &graph.nodes[*i];

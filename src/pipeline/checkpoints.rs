@@ -5,7 +5,8 @@
 //! - `t<time>.ckpt`: a checkpoint taken at simulation time `time`, written
 //!   atomically; the newest [`KEEP`] are kept. Their content is the stage
 //!   kind's (the framework only moves files).
-//! - `progress.json`: where the run is ([`RunProgress`]), for `repro status`.
+//! - `progress.json`: where the run is ([`RunProgress`]); with the newest
+//!   checkpoint, what `repro status` shows ([`Status`]).
 //!
 //! A checkpoint the stage cannot use (truncated, damaged) is moved to the
 //! store's `quarantine/` (never deleted) and the next older one is tried.
@@ -31,13 +32,19 @@ pub struct RunProgress {
     /// Simulation time now, and the fraction of the planned run done.
     pub time: f64,
     pub fraction: f64,
-    /// Simulation time of the last checkpoint and when it was written (Unix seconds).
-    pub checkpoint: Option<f64>,
-    pub checkpoint_written: Option<u64>,
     /// When this was written (Unix seconds) and by which host and process.
     pub updated: u64,
     pub host: String,
     pub pid: u32,
+}
+
+/// A running (or stopped) stage as `repro status` shows it: its last
+/// progress report and its newest checkpoint (simulation time, when written
+/// in Unix seconds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Status {
+    pub progress: Option<RunProgress>,
+    pub checkpoint: Option<(f64, u64)>,
 }
 
 /// Seconds since the Unix epoch now.
@@ -130,6 +137,22 @@ impl Checkpoints {
     /// Where the run of this directory was last, if it said.
     pub fn progress(&self) -> Option<RunProgress> {
         serde_json::from_slice(&std::fs::read(self.dir.join(PROGRESS)).ok()?).ok()
+    }
+
+    /// Where the stage of this directory is, if it has begun to say.
+    pub fn status(&self) -> Option<Status> {
+        let checkpoint = self.saved().into_iter().next().and_then(|(name, t)| {
+            let written = std::fs::metadata(self.dir.join(name))
+                .ok()?
+                .modified()
+                .ok()?;
+            Some((t, written.duration_since(UNIX_EPOCH).ok()?.as_secs()))
+        });
+        let progress = self.progress();
+        (progress.is_some() || checkpoint.is_some()).then_some(Status {
+            progress,
+            checkpoint,
+        })
     }
 
     /// The stage is done: remove its checkpoints and progress.

@@ -16,7 +16,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use super::canon::{canonical, diff_params, hash_fields};
-use super::checkpoints::RunProgress;
+use super::checkpoints::Status;
 use super::graph::{Graph, Node};
 use super::progress::{self, Progress};
 use super::registry::Registry;
@@ -622,16 +622,16 @@ pub fn stale_keys(
 }
 
 /// Where the stages of `st` that are running (or were stopped) are, from
-/// their progress files beside their checkpoints.
+/// their progress files and checkpoints.
 pub fn running(
     graph: &Graph,
     st: &[(usize, State)],
     reg: &Registry,
     store: &Store,
-) -> BTreeMap<usize, RunProgress> {
+) -> BTreeMap<usize, Status> {
     stale_keys(graph, st, reg, store)
         .into_iter()
-        .filter_map(|(i, key)| Some((i, store.checkpoints(&key).progress()?)))
+        .filter_map(|(i, key)| Some((i, store.checkpoints(&key).status()?)))
         .collect()
 }
 

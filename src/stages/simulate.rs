@@ -330,11 +330,10 @@ impl StageKind for Simulate {
 }
 
 /// Where a simulation stage is, for its progress file: the last report and
-/// the last checkpoint (simulation time, when written).
+/// when the file was written.
 #[derive(Default)]
 struct Track {
     last: Cell<Option<(sim::Progress, Instant)>>,
-    checkpoint: Cell<Option<(f64, u64)>>,
 }
 
 /// Seconds between two writes of the progress file.
@@ -367,8 +366,6 @@ impl Track {
             stage: format!("{:?}", p.stage).to_lowercase(),
             time: p.time,
             fraction: p.fraction,
-            checkpoint: self.checkpoint.get().map(|c| c.0),
-            checkpoint_written: self.checkpoint.get().map(|c| c.1),
             updated: unix_now(),
             host: hostname(),
             pid: std::process::id(),
@@ -413,15 +410,11 @@ impl Keeper for StoreKeeper<'_> {
         self.ctx.note(format!(
             "resumed from the checkpoint at t = {time} ({name})"
         ));
-        self.track.checkpoint.set(Some((time, unix_now())));
     }
     fn save(&mut self, time: f64, bytes: &[u8]) -> Result<()> {
         // A checkpoint that cannot be written only costs a longer rerun.
         match self.dir.save(time, bytes) {
-            Ok(_) => {
-                self.track.checkpoint.set(Some((time, unix_now())));
-                self.track.write(self.dir);
-            }
+            Ok(_) => self.track.write(self.dir),
             Err(e) => self
                 .ctx
                 .log(format!("warning: no checkpoint at t = {time}: {e:#}")),

@@ -330,7 +330,12 @@ impl Driver<'_> {
                 .collect();
             let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
             let time = res.iter().map(|r| r.time_min).max().unwrap_or(2);
-            let (time, links) = plan::chain(time, settings.max_minutes());
+            // Only simulations (kinds that plan work) checkpoint.
+            let resumable = self
+                .reg
+                .work(&kind, &g.nodes[ready[members[0]].0].params)
+                .is_some();
+            let (time, links) = plan::chain(time, settings.max_minutes(), resumable);
             let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
             let array = keys.len() > 1;
             let mut args = vec![
@@ -615,7 +620,12 @@ pub fn dry_run(
     for ((kind, sargs), members) in &groups {
         let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
         let time = members.iter().map(|(_, r)| r.time_min).max().unwrap_or(0);
-        let (time, links) = plan::chain(time, settings[members[0].0].max_minutes());
+        let first = members[0].0;
+        let (time, links) = plan::chain(
+            time,
+            settings[first].max_minutes(),
+            work(&graph.nodes[first]).is_some(),
+        );
         out += &format!(
             "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
             members.len(),

@@ -242,10 +242,13 @@ pub fn minutes(s: &str) -> Option<Option<u64>> {
 
 /// A job's time limit `time_min` under a longest limit `max_min`: the limit
 /// each job of the chain asks and the number of jobs (1: no chain). Each job
-/// resumes from the last checkpoint of the one before.
-pub fn chain(time_min: u64, max_min: Option<u64>) -> (u64, u64) {
+/// resumes from the last checkpoint of the one before; a stage that does not
+/// checkpoint (`resumable` false: only simulations do) gets one job at the
+/// longest limit.
+pub fn chain(time_min: u64, max_min: Option<u64>, resumable: bool) -> (u64, u64) {
     match max_min {
-        Some(m) if time_min > m => (m, time_min.div_ceil(m)),
+        Some(m) if time_min > m && resumable => (m, time_min.div_ceil(m)),
+        Some(m) if time_min > m => (m, 1),
         _ => (time_min, 1),
     }
 }
@@ -308,10 +311,11 @@ mod tests {
         assert_eq!(minutes("1-12"), Some(Some(2160)));
         assert_eq!(minutes("infinite"), Some(None));
         assert_eq!(minutes("two days"), None);
-        assert_eq!(chain(9, Some(1)), (1, 9));
-        assert_eq!(chain(10, Some(4)), (4, 3));
-        assert_eq!(chain(10, Some(60)), (10, 1));
-        assert_eq!(chain(10, None), (10, 1));
+        assert_eq!(chain(9, Some(1), true), (1, 9));
+        assert_eq!(chain(10, Some(4), true), (4, 3));
+        assert_eq!(chain(10, Some(4), false), (4, 1));
+        assert_eq!(chain(10, Some(60), true), (10, 1));
+        assert_eq!(chain(10, None, true), (10, 1));
         let e = slurm_of("      max_time: soon\n").unwrap_err();
         assert!(
             e.starts_with("experiments/e.yaml:8:") && e.contains("max_time"),

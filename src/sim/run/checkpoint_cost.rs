@@ -99,7 +99,7 @@ pub fn measure(
     let cpu_without = timed_run(&mut resumed, run_time, every, false);
     let syncs = (run_time / every).round();
     let sync_cpu_s = (cpu_with - cpu_without) / syncs;
-    let collisions_per_second = (e.stats.collisions - collisions0) as f64 / cpu_with.max(1e-9);
+    let collisions_per_second = (e.stats.collisions - collisions0) as f64 / cpu_without.max(1e-9);
     let default_interval_cpu_s = checkpoint::COLLISIONS_PER_CHECKPOINT / collisions_per_second;
     Ok(CheckpointCost {
         n: e.n(),
