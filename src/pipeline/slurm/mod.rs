@@ -335,7 +335,7 @@ impl Driver<'_> {
                 .reg
                 .work(&kind, &g.nodes[ready[members[0]].0].params)
                 .is_some();
-            let (time, links) = plan::chain(time, settings.max_minutes(), resumable);
+            let (time, links) = plan::chain(time, state::max_minutes(settings), resumable);
             let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
             let array = keys.len() > 1;
             let mut args = vec![
@@ -623,7 +623,7 @@ pub fn dry_run(
         let first = members[0].0;
         let (time, links) = plan::chain(
             time,
-            settings[first].max_minutes(),
+            state::max_minutes(&settings[first]),
             work(&graph.nodes[first]).is_some(),
         );
         out += &format!(

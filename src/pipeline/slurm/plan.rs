@@ -112,13 +112,6 @@ impl Settings {
         })
     }
 
-    /// The longest time limit a job may ask, minutes: `max_time`, else the
-    /// partition's (`sinfo`); `None`: no limit known.
-    pub fn max_minutes(&self) -> Option<u64> {
-        self.max_time_min
-            .or_else(|| super::state::partition_limit(self.partition.as_deref()))
-    }
-
     /// sbatch options for these settings.
     pub fn sbatch_args(&self) -> Vec<String> {
         let mut v = Vec::new();

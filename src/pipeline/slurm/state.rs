@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 
 use super::super::store::Store;
-use super::plan::Resources;
+use super::plan::{Resources, Settings};
 
 /// One stage handed to Slurm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -194,9 +194,16 @@ pub fn details(job_id: &str) -> Option<String> {
     (!fields.is_empty()).then(|| fields.join(" "))
 }
 
+/// The longest time limit a job of `s` may ask, minutes: `max_time`, else
+/// the partition's; `None`: no limit known.
+pub fn max_minutes(s: &Settings) -> Option<u64> {
+    s.max_time_min
+        .or_else(|| partition_limit(s.partition.as_deref()))
+}
+
 /// The time limit of `partition` (the default partition if `None`) in
 /// minutes, from `sinfo`; `None` if unlimited or Slurm cannot be asked.
-pub fn partition_limit(partition: Option<&str>) -> Option<u64> {
+fn partition_limit(partition: Option<&str>) -> Option<u64> {
     let out = Command::new("sinfo")
         .args(["--noheader", "--format=%P %l"])
         .output()

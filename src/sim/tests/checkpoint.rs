@@ -1,18 +1,16 @@
 //! Checkpoints: a run stopped at a checkpoint and resumed from its bytes in a
 //! fresh engine gives the same bits as one that passed it without stopping;
-//! a damaged newest checkpoint falls back to the one before; after the time
-//! origin moved to t ~ 10^7 the contacts keep the precision of a short run.
+//! a damaged newest checkpoint falls back to the one before. (The clock's
+//! precision at t ~ 10^7 is tested with the exactness checks, in
+//! `analysis::run_summary`.)
 
 use anyhow::{Result, bail};
 
 use super::intruder::{bath, quiet};
-use crate::analysis::run_summary::closest_gap;
-use crate::sim::config::CONTACT_PRECISION;
-use crate::sim::engine::Engine;
 use crate::sim::run::checkpoint::Keeper;
 use crate::sim::run::simulation::run_kept;
-use crate::sim::{RunSummary, SimConfig, initial_state, run};
-use crate::traj::{Frame, Schedule, Trajectory};
+use crate::sim::{RunSummary, SimConfig, run};
+use crate::traj::{Schedule, Trajectory};
 
 /// Checkpoints kept in memory; the run stops (an error) after `stop_after` saves.
 #[derive(Default)]
@@ -175,55 +173,4 @@ fn a_truncated_checkpoint_falls_back_to_the_previous_one() {
         "{:?}",
         m2.rejected
     );
-}
-
-/// The clock at t ~ 10^7: a driven dense fluid whose time origin is moved to
-/// 10^7 at a checkpoint runs on, checkpointing every 2 time units, with no
-/// pair closer than the contact precision in any frame (the exactness map's
-/// closest-gap check).
-#[test]
-fn the_clock_keeps_its_precision_at_ten_million() {
-    let c = SimConfig {
-        n: 2000,
-        phi: 0.8,
-        ..SimConfig::default()
-    };
-    let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    (e.eps, e.tc) = (c.eps, c.collapse_tc);
-    let (kicks, rate, p_dr) = run::drive(&c, 6.0);
-    e.set_kicks(kicks, rate, p_dr);
-    e.run_until(e.time() + 1.0, u64::MAX);
-    let mut state = e.checkpoint(true).unwrap();
-    state.shift_time(1e7);
-    let mut e = Engine::restore(state).unwrap();
-    let t0 = e.time();
-    assert!(t0 > 1e7);
-    let mut frames = Vec::new();
-    for k in 1..=40 {
-        let t = t0 + 0.25 * k as f64;
-        assert!(e.run_until(t, u64::MAX));
-        if k % 8 == 0 {
-            e.checkpoint(false);
-        }
-        let (x, y) = e.unwrapped_positions();
-        frames.push(Frame {
-            time: t,
-            x,
-            y,
-            vx: vec![],
-            vy: vec![],
-        });
-    }
-    assert!(e.stats.collisions > 100_000, "{:?}", e.stats);
-    let traj = Trajectory {
-        box_size: c.box_size(),
-        periodic: [true, true],
-        species: e.species.clone(),
-        radii: c.radii(),
-        masses: c.species_masses(),
-        frames,
-        schedule: None,
-    };
-    let gap = closest_gap(&traj);
-    assert!(gap >= -CONTACT_PRECISION, "closest gap {gap:e} at t ~ 1e7");
 }
