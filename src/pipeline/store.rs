@@ -550,6 +550,25 @@ mod tests {
         }
     }
 
+    /// gc removes the checkpoints of a stage that is done (its removal was
+    /// cut short) and keeps those of one still to finish.
+    #[test]
+    fn gc_removes_the_checkpoints_of_finished_stages_only() {
+        let d = tempfile::tempdir().unwrap();
+        let s = Store::open_exclusive(d.path()).unwrap();
+        let (done, running) = ("ab".repeat(32), "cd".repeat(32));
+        s.put_entry(&entry(&done, BTreeMap::new())).unwrap();
+        for key in [&done, &running] {
+            s.checkpoints(key).save(8.0, b"state").unwrap();
+        }
+        let keep = std::collections::HashSet::from([done.clone()]);
+        assert_eq!(s.gc(&keep, true).unwrap().checkpoints, 1);
+        assert_eq!(s.all_checkpoints().len(), 2, "a dry run removes nothing");
+        assert_eq!(s.gc(&keep, false).unwrap().checkpoints, 1);
+        let left: Vec<String> = s.all_checkpoints().into_iter().map(|c| c.0).collect();
+        assert_eq!(left, [running]);
+    }
+
     #[test]
     fn objects_are_content_addressed_and_entries_need_their_objects() {
         let d = tempfile::tempdir().unwrap();

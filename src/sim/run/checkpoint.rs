@@ -55,7 +55,8 @@ pub trait Keeper {
     fn reject(&mut self, name: &str, why: &str);
     /// The run goes on from checkpoint `name`, taken at simulation time `time`.
     fn resumed(&mut self, name: &str, time: f64);
-    /// Keep a checkpoint taken at simulation time `time`.
+    /// Keep a checkpoint taken at simulation time `time`. An error stops the
+    /// run (a keeper that can go on without the checkpoint says so and returns Ok).
     fn save(&mut self, time: f64, bytes: &[u8]) -> Result<()>;
 }
 
