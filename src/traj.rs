@@ -5,7 +5,7 @@
 //! still given so analyses can fold positions back for sub-boxes, cells and FFTs.
 
 /// One recorded configuration.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Frame {
     /// Simulated time of this frame (units: r1 sqrt(m1/T), T = 1).
     pub time: f64,

@@ -448,3 +448,86 @@ fn a_killed_submitter_is_resumed_without_resubmitting_running_jobs() {
             .collect::<Vec<_>>()
     );
 }
+
+/// A simulation of about 85 CPU seconds, checkpointed every 500 time units
+/// (~3 s), gathered by a one-stage figure; `slurm`: the profile's block.
+fn long_catalogue(root: &Path, slurm: &str) {
+    std::fs::create_dir_all(root.join("experiments")).unwrap();
+    std::fs::create_dir_all(root.join("pipelines")).unwrap();
+    std::fs::write(
+        root.join("experiments/long.yaml"),
+        format!(
+            "description: one long simulation\nkind: simulate\nseed: 5\nparams:\n  eps: 0.9\n  n: 1000\n  tau_guess: {{A: 45, B: 0.148, phi0: 0.83}}\n  relax_tau: 9\n  origins: 4\n  spacing_tau: 2\n  lag_min: 0.05\n  lag_max_tau: 10\n  lags_per_decade: 3\n  checkpoint_every: 500\nprofiles:\n  ci:\n    grid:\n      phi: [0.77]\n    replicas: 1\n{slurm}"
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("pipelines/figlong.yaml"),
+        "description: the long simulation's summary\nstages:\n  - name: runs\n    kind: run_summary\n    map: long\n",
+    )
+    .unwrap();
+}
+
+/// The simulate stage's Parquet bytes in `store`.
+fn long_trajectory(store: &Path) -> Vec<u8> {
+    for bytes in files(&store.join("entries")).into_values() {
+        let v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+        if v["kind"] == "simulate" {
+            let h = v["files"]["parquet"].as_str().unwrap();
+            return std::fs::read(store.join("objects").join(&h[..2]).join(h)).unwrap();
+        }
+    }
+    panic!("no simulate entry in {}", store.display());
+}
+
+#[test]
+fn a_run_longer_than_the_partition_limit_finishes_through_a_chain() {
+    if !slurm_available("a_run_longer_than_the_partition_limit_finishes_through_a_chain") {
+        return;
+    }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let tmp = tempfile::tempdir().unwrap();
+    let (local, remote) = (tmp.path().join("local"), tmp.path().join("slurm"));
+    long_catalogue(&local, "");
+    long_catalogue(&remote, "    slurm: {max_time: \"1\"}\n");
+    let figure = |root: &Path, slurm: bool| {
+        let mut c = repro();
+        c.args(["figure", "figlong", "--profile", "ci", "--root"])
+            .arg(root);
+        if slurm {
+            c.args(["--executor", "slurm"]);
+        }
+        c
+    };
+    // The plan shows the chain.
+    let o = run(figure(&remote, true).arg("--dry-run"));
+    let t = text(&o);
+    assert!(
+        t.contains("--time=0-00:01:00") && t.contains("as a chain of"),
+        "{t}"
+    );
+    // The local build on the other CPU meanwhile.
+    let local_build = std::thread::spawn({
+        let local = local.clone();
+        move || run(&mut figure(&local, false))
+    });
+    let o = run(&mut figure(&remote, true));
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("submitted Slurm job chain"), "{t}");
+    assert!(local_build.join().unwrap().status.success());
+    // A later job of the chain resumed from a checkpoint.
+    let logs: String = files(&remote.join(".repro/store/jobs/log"))
+        .into_values()
+        .map(|b| String::from_utf8_lossy(&b).into_owned())
+        .collect();
+    assert!(
+        logs.contains("resumed from the checkpoint at t = "),
+        "{logs}"
+    );
+    assert!(
+        long_trajectory(&remote.join(".repro/store"))
+            == long_trajectory(&local.join(".repro/store")),
+        "the chain's trajectory differs from the local build's"
+    );
+}

@@ -234,3 +234,66 @@ mod limits {
         assert_eq!(row["guard_warning"], 0.0);
     }
 }
+
+/// The clock after a long run: the time origin moves at each checkpoint.
+#[cfg(test)]
+mod late_clock {
+    use super::closest_gap;
+    use crate::sim::config::CONTACT_PRECISION;
+    use crate::sim::engine::Engine;
+    use crate::sim::{SimConfig, initial_state, run};
+    use crate::traj::{Frame, Trajectory};
+
+    fn quiet(_: crate::sim::Progress) {}
+
+    /// The clock at t ~ 10^7: a driven dense fluid whose time origin is moved to
+    /// 10^7 at a checkpoint runs on, checkpointing every 2 time units, with no
+    /// pair closer than the contact precision in any frame (the exactness map's
+    /// closest-gap check).
+    #[test]
+    fn the_clock_keeps_its_precision_at_ten_million() {
+        let c = SimConfig {
+            n: 2000,
+            phi: 0.8,
+            ..SimConfig::default()
+        };
+        let mut e = initial_state::prepare(&c, &quiet).unwrap();
+        (e.eps, e.tc) = (c.eps, c.collapse_tc);
+        let (kicks, rate, p_dr) = run::drive(&c, 6.0);
+        e.set_kicks(kicks, rate, p_dr);
+        e.run_until(e.time() + 1.0, u64::MAX);
+        let mut state = e.checkpoint(true).unwrap();
+        state.shift_time(1e7);
+        let mut e = Engine::restore(state).unwrap();
+        let t0 = e.time();
+        assert!(t0 > 1e7);
+        let mut frames = Vec::new();
+        for k in 1..=40 {
+            let t = t0 + 0.25 * k as f64;
+            assert!(e.run_until(t, u64::MAX));
+            if k % 8 == 0 {
+                e.checkpoint(false);
+            }
+            let (x, y) = e.unwrapped_positions();
+            frames.push(Frame {
+                time: t,
+                x,
+                y,
+                vx: vec![],
+                vy: vec![],
+            });
+        }
+        assert!(e.stats.collisions > 100_000, "{:?}", e.stats);
+        let traj = Trajectory {
+            box_size: c.box_size(),
+            periodic: [true, true],
+            species: e.species.clone(),
+            radii: c.radii(),
+            masses: c.species_masses(),
+            frames,
+            schedule: None,
+        };
+        let gap = closest_gap(&traj);
+        assert!(gap >= -CONTACT_PRECISION, "closest gap {gap:e} at t ~ 1e7");
+    }
+}

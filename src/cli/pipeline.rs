@@ -7,6 +7,7 @@ use clap::{Args, Subcommand};
 
 use std::collections::BTreeMap;
 
+use crate::pipeline::checkpoints::{Status, unix_now};
 use crate::pipeline::slurm;
 use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
 
@@ -136,11 +137,42 @@ pub enum Commands {
     },
 }
 
+/// A running (or stopped) simulation as `repro status` shows it, `now` in Unix seconds.
+fn progress_line(s: &Status, now: u64) -> String {
+    let ago = |t: u64| {
+        let s = now.saturating_sub(t);
+        if s < 120 {
+            format!("{s} s ago")
+        } else if s < 7200 {
+            format!("{} min ago", s / 60)
+        } else {
+            format!("{:.1} h ago", s as f64 / 3600.0)
+        }
+    };
+    let at = match &s.progress {
+        Some(p) => format!(
+            "{} t = {:.1}, {:.1}% of the run (reported {} by {}, pid {})",
+            p.stage,
+            p.time,
+            100.0 * p.fraction,
+            ago(p.updated),
+            p.host,
+            p.pid
+        ),
+        None => "no progress report".to_string(),
+    };
+    match s.checkpoint {
+        Some((t, written)) => format!("{at}; last checkpoint at t = {t} ({})", ago(written)),
+        None => format!("{at}; no checkpoint yet"),
+    }
+}
+
 fn print_status(
     graph: &pipeline::Graph,
     st: &[(usize, State)],
     only_stale: bool,
     jobs: &BTreeMap<usize, String>,
+    running: &BTreeMap<usize, Status>,
 ) {
     for (i, s) in st {
         let n = &graph.nodes[*i];
@@ -160,6 +192,9 @@ fn print_status(
                 println!("stale   {}  ({})", n.label(), n.kind);
                 if let Some(j) = jobs.get(i) {
                     println!("          - Slurm: {j}");
+                }
+                if let Some(p) = running.get(i) {
+                    println!("          - {}", progress_line(p, unix_now()));
                 }
                 for r in reasons {
                     println!("          - {r}");
@@ -193,7 +228,8 @@ fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
         pipeline::figure_status(&ws, reg, std::slice::from_ref(&f.id), &f.profile, &[])?;
     let store = pipeline::Store::open(&ws.store)?;
     let jobs = slurm::job_states(&graph, &st, reg, &store);
-    print_status(&graph, &st, only_stale, &jobs);
+    let running = pipeline::exec::running(&graph, &st, reg, &store);
+    print_status(&graph, &st, only_stale, &jobs, &running);
     Ok(())
 }
 
@@ -228,7 +264,7 @@ pub fn run(c: Commands) -> Result<()> {
             }
             if dry_run {
                 let (graph, st) = pipeline::figure_status(&ws, &reg, &ids, &profile, &force)?;
-                print_status(&graph, &st, false, &BTreeMap::new());
+                print_status(&graph, &st, false, &BTreeMap::new(), &BTreeMap::new());
                 return Ok(());
             }
             let run = match executor {
@@ -336,11 +372,12 @@ pub fn run(c: Commands) -> Result<()> {
         Commands::Gc { dry_run, root } => {
             let r = pipeline::gc(&root.workspace(), &reg, dry_run)?;
             println!(
-                "{} {} entries, {} artifacts, {:.1} MB",
+                "{} {} entries, {} artifacts, {:.1} MB, {} checkpoint directories of finished stages",
                 if dry_run { "would free" } else { "freed" },
                 r.entries,
                 r.objects,
-                r.bytes as f64 / 1e6
+                r.bytes as f64 / 1e6,
+                r.checkpoints
             );
             Ok(())
         }

@@ -112,6 +112,14 @@ pub struct BenchArgs {
     pub compression_rate: f64,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Measure checkpoints instead: bytes per particle, the time to write one
+    /// and to resume from it, and paired runs of `--time` with and without a
+    /// synchronisation every `--every` (docs/sim.md, "Checkpoints").
+    #[arg(long)]
+    pub checkpoints: bool,
+    /// Simulation time between the synchronisations of `--checkpoints`.
+    #[arg(long, default_value_t = 0.5)]
+    pub every: f64,
 }
 
 /// A number of disks: a positive integer (negative values reach here, not clap's
@@ -381,6 +389,17 @@ pub fn run(c: Commands) -> anyhow::Result<()> {
                     seed: b.seed,
                     json: true,
                 };
+                if b.checkpoints {
+                    let c = crate::sim::run::checkpoint_cost::measure(
+                        &args.config(),
+                        b.relax,
+                        b.time,
+                        b.every,
+                        &std::env::temp_dir(),
+                    )?;
+                    println!("{}", serde_json::to_string(&c)?);
+                    continue;
+                }
                 let s = run_with_progress(&args.config())?;
                 println!("{}", json_line(&s)?);
             }

@@ -16,6 +16,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use super::canon::{canonical, diff_params, hash_fields};
+use super::checkpoints::Status;
 use super::graph::{Graph, Node};
 use super::progress::{self, Progress};
 use super::registry::Registry;
@@ -363,10 +364,15 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     }
     let sink = sh.progress.start(i, node.label());
     match compute(sh.store, sh.reg, node, key, &inputs, Some(sink)) {
-        Ok(entry) => StageResult {
-            outcome: Outcome::Executed,
-            entry: Some(entry),
-        },
+        Ok((entry, notes)) => {
+            for n in notes {
+                sh.progress.line(&format!("{}: {n}", node.label()));
+            }
+            StageResult {
+                outcome: Outcome::Executed,
+                entry: Some(entry),
+            }
+        }
         Err((error, log)) => fail(error, log),
     }
 }
@@ -374,7 +380,8 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
 /// Run one stage whose inputs are ready and write its files to the store (objects
 /// first, then the entry naming them, each written to a temporary name and
 /// renamed). Both executors use it: threads here, Slurm workers (`repro worker`).
-/// The caller holds the key's lock. An error is (message, the stage's log).
+/// The caller holds the key's lock. Returns the entry and the stage's notes;
+/// an error is (message, the stage's log).
 pub(crate) fn compute(
     store: &Store,
     reg: &Registry,
@@ -382,13 +389,15 @@ pub(crate) fn compute(
     key: String,
     inputs: &[Artifact],
     sink: Option<super::stage::ProgressSink>,
-) -> std::result::Result<Entry, (String, Vec<String>)> {
+) -> std::result::Result<(Entry, Vec<String>), (String, Vec<String>)> {
     let fingerprint = reg.fingerprint(&node.kind);
     let kind = match reg.get(&node.kind) {
         Ok(k) => k.clone(),
         Err(e) => return Err((format!("{e:#}"), vec![])),
     };
-    let ctx = StageCtx::new(node.seed, node.label().to_string(), sink);
+    let checkpoints = store.checkpoints(&key);
+    let ctx = StageCtx::new(node.seed, node.label().to_string(), sink)
+        .with_checkpoints(checkpoints.clone());
     let t0 = Instant::now();
     let cpu0 = thread_cpu_seconds();
     let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.params, inputs)));
@@ -398,6 +407,7 @@ pub(crate) fn compute(
         _ => None,
     };
     let log = ctx.take_log();
+    let notes = ctx.take_notes();
     let out = match out {
         Ok(Ok(o)) => o,
         Ok(Err(e)) => return Err((format!("{e:#}"), log)),
@@ -443,10 +453,12 @@ pub(crate) fn compute(
     if let Err(e) = store.put_entry(&entry) {
         return Err((format!("writing the cache entry: {e:#}"), entry.log));
     }
+    // Done: its checkpoints are of no further use (gc removes them if this fails).
+    let _ = checkpoints.remove();
     for l in &node.labels[1..] {
         let _ = store.set_label(l, &entry.key);
     }
-    Ok(entry)
+    Ok((entry, notes))
 }
 
 /// The intact cache entry of `key`, if any. A damaged one is reported (object path
@@ -574,6 +586,53 @@ pub fn status(
         out.push((i, State::Stale { reasons }));
     }
     out
+}
+
+/// The stages of `st` that will run and whose key is known already (their
+/// inputs are cached), with that key.
+pub fn stale_keys(
+    graph: &Graph,
+    st: &[(usize, State)],
+    reg: &Registry,
+    store: &Store,
+) -> Vec<(usize, String)> {
+    let mut digest: BTreeMap<usize, String> = BTreeMap::new();
+    let mut out = Vec::new();
+    for (i, s) in st {
+        let node = &graph.nodes[*i];
+        if let State::Cached { key } = s {
+            if let Some(e) = store.lookup(key) {
+                digest.insert(*i, e.digest);
+            }
+            continue;
+        }
+        let known: Option<Vec<&str>> = node
+            .inputs
+            .iter()
+            .map(|j| digest.get(j).map(|s| s.as_str()))
+            .collect();
+        if let Some(d) = known {
+            out.push((
+                *i,
+                stage_key(&node.kind, &node.params, &d, reg.fingerprint(&node.kind)),
+            ));
+        }
+    }
+    out
+}
+
+/// Where the stages of `st` that are running (or were stopped) are, from
+/// their progress files and checkpoints.
+pub fn running(
+    graph: &Graph,
+    st: &[(usize, State)],
+    reg: &Registry,
+    store: &Store,
+) -> BTreeMap<usize, Status> {
+    stale_keys(graph, st, reg, store)
+        .into_iter()
+        .filter_map(|(i, key)| Some((i, store.checkpoints(&key).status()?)))
+        .collect()
 }
 
 /// Keys of the cache entries that running `nodes` could use. A stage whose key is

@@ -9,13 +9,15 @@
 //!   tests, and by the command line only under `REPRO_TOY_KINDS`). The library's kinds
 //!   are registered by whoever assembles the registry (`stages::registry()`): this
 //!   module imports nothing from `stages`.
-//! - [`store`]: the content-addressed cache on disk; [`exec`]: parallel execution,
+//! - [`store`]: the content-addressed cache on disk; [`checkpoints`]: a running
+//!   stage's checkpoints and progress beside it; [`exec`]: parallel execution,
 //!   early cut-off, `status`/`why`; [`progress`]: bars, plain lines and the run
 //!   log; [`publish`]: `results/ID/` and provenance.
 //!
 //! The functions here are what the CLI and the tests call.
 
 pub mod canon;
+pub mod checkpoints;
 pub mod exec;
 pub mod fingerprint;
 pub mod graph;

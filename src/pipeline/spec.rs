@@ -124,6 +124,11 @@ pub struct SlurmSpec {
     /// Time limit = planned time x this (default 3; at least 1).
     #[serde(default)]
     pub time_margin: Option<Spanned<f64>>,
+    /// The longest time limit a job may ask (Slurm's format, e.g.
+    /// `2-00:00:00`); default: the partition's, from `sinfo`. A stage planned
+    /// longer runs as a chain of jobs, each resuming from the last checkpoint.
+    #[serde(default)]
+    pub max_time: Option<Spanned<String>>,
 }
 
 /// `pipelines/ID.yaml`: one figure.

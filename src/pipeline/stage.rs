@@ -7,8 +7,8 @@
 //! implement it; their build-time fingerprints are part of every stage key, so an
 //! edit to the simulator reruns simulations and an edit to a plot reruns only plots.
 //!
-//! This file depends on nothing else of the framework but [`super::canon`]: the
-//! graph and the registry build on it.
+//! This file depends on nothing else of the framework but [`super::canon`] and
+//! [`super::checkpoints`]: the graph and the registry build on it.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,6 +18,7 @@ use anyhow::{Context, Result};
 use serde_json::Value;
 
 use super::canon::{Point, point_label};
+use super::checkpoints::Checkpoints;
 
 /// One kind of stage (simulate, chi4, table, fit, plot, ...).
 pub trait StageKind: Send + Sync {
@@ -218,7 +219,10 @@ pub struct StageCtx {
     /// Readable label of this stage.
     pub label: String,
     log: Mutex<Vec<String>>,
+    /// Log lines the run's output shows too.
+    notes: Mutex<Vec<String>>,
     progress: Option<ProgressSink>,
+    checkpoints: Option<Checkpoints>,
 }
 
 impl StageCtx {
@@ -227,12 +231,35 @@ impl StageCtx {
             seed,
             label,
             log: Mutex::new(Vec::new()),
+            notes: Mutex::new(Vec::new()),
             progress,
+            checkpoints: None,
         }
+    }
+    /// The same context with a directory for the stage's checkpoints.
+    pub fn with_checkpoints(mut self, c: Checkpoints) -> Self {
+        self.checkpoints = Some(c);
+        self
+    }
+    /// Where a long stage may keep checkpoints to resume from (none in tests
+    /// and tools that run a kind outside the store).
+    pub fn checkpoints(&self) -> Option<&Checkpoints> {
+        self.checkpoints.as_ref()
     }
     /// Append a line to this stage's log (kept with the cache entry and shown on failure).
     pub fn log(&self, line: impl Into<String>) {
         self.log.lock().unwrap().push(line.into());
+    }
+    /// A log line worth showing in the run's output too (e.g. that the stage
+    /// resumed from a checkpoint).
+    pub fn note(&self, line: impl Into<String>) {
+        let line = line.into();
+        self.notes.lock().unwrap().push(line.clone());
+        self.log(line);
+    }
+    /// The notes so far.
+    pub fn take_notes(&self) -> Vec<String> {
+        std::mem::take(&mut *self.notes.lock().unwrap())
     }
     /// Report progress: `done` out of `total` (e.g. simulated time), with a message
     /// such as events per second. Cheap when no bar is drawn.

@@ -10,6 +10,9 @@
 //! labels/<hash>.json      latest key per stage label (for `status`/`why`)
 //! locks/<key>.lock        held while a process computes that stage
 //! quarantine/<blake3>[.N] damaged objects, moved aside (never deleted by repro)
+//! checkpoints/<key>/      a running stage's checkpoints and progress (not part of
+//!                         any hash; removed when the stage is done, see
+//!                         super::checkpoints)
 //! ```
 //!
 //! Every object read from the store is checked against its name: a cache hit is a
@@ -31,6 +34,7 @@ use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use super::checkpoints::Checkpoints;
 use crate::table::write_atomic;
 
 /// Version of the store layout and entry format.
@@ -179,6 +183,30 @@ impl Store {
     fn label_path(&self, label: &str) -> PathBuf {
         let h = blake3::hash(label.as_bytes()).to_hex();
         self.dir.join("labels").join(format!("{h}.json"))
+    }
+
+    /// The checkpoint directory of the stage with key `key`.
+    pub fn checkpoints(&self, key: &str) -> Checkpoints {
+        Checkpoints::new(
+            self.dir.join("checkpoints").join(key),
+            self.dir.join("quarantine"),
+        )
+    }
+
+    /// The checkpoint directories of every stage that has any: (key, directory).
+    pub fn all_checkpoints(&self) -> Vec<(String, Checkpoints)> {
+        let mut v: Vec<(String, Checkpoints)> = std::fs::read_dir(self.dir.join("checkpoints"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter_map(|e| {
+                let key = e.file_name().into_string().ok()?;
+                let c = self.checkpoints(&key);
+                Some((key, c))
+            })
+            .collect();
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        v
     }
 
     /// Store bytes under their hash; returns the hash.
@@ -433,6 +461,15 @@ impl Store {
                 }
             }
         }
+        // Checkpoints of stages that are done (their removal was cut short).
+        for (key, c) in self.all_checkpoints() {
+            if self.entry_path(&key).exists() {
+                report.checkpoints += 1;
+                if !dry_run {
+                    c.remove()?;
+                }
+            }
+        }
         if !dry_run {
             for p in walk_files(&self.dir.join("locks")) {
                 std::fs::remove_file(p)?;
@@ -467,6 +504,8 @@ pub struct GcReport {
     pub entries: usize,
     pub objects: usize,
     pub bytes: u64,
+    /// Checkpoint directories of stages that are done.
+    pub checkpoints: usize,
 }
 
 fn walk_files(dir: &Path) -> Vec<PathBuf> {
@@ -509,6 +548,25 @@ mod tests {
             log: vec![],
             side: None,
         }
+    }
+
+    /// gc removes the checkpoints of a stage that is done (its removal was
+    /// cut short) and keeps those of one still to finish.
+    #[test]
+    fn gc_removes_the_checkpoints_of_finished_stages_only() {
+        let d = tempfile::tempdir().unwrap();
+        let s = Store::open_exclusive(d.path()).unwrap();
+        let (done, running) = ("ab".repeat(32), "cd".repeat(32));
+        s.put_entry(&entry(&done, BTreeMap::new())).unwrap();
+        for key in [&done, &running] {
+            s.checkpoints(key).save(8.0, b"state").unwrap();
+        }
+        let keep = std::collections::HashSet::from([done.clone()]);
+        assert_eq!(s.gc(&keep, true).unwrap().checkpoints, 1);
+        assert_eq!(s.all_checkpoints().len(), 2, "a dry run removes nothing");
+        assert_eq!(s.gc(&keep, false).unwrap().checkpoints, 1);
+        let left: Vec<String> = s.all_checkpoints().into_iter().map(|c| c.0).collect();
+        assert_eq!(left, [running]);
     }
 
     #[test]

@@ -16,15 +16,20 @@
 //!
 //! Every other parameter is a [`SimConfig`] field (n, phi, eps, seed, ...).
 
+use std::cell::Cell;
+use std::time::Instant;
+
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use super::simulate_cost::planned_work;
 use crate::pipeline::canon::{ParamError, param_error};
+use crate::pipeline::checkpoints::{Checkpoints, RunProgress, unix_now};
 use crate::pipeline::registry::typed;
 use crate::pipeline::stage::{Holds, Work};
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
+use crate::sim::run::checkpoint::Keeper;
 use crate::sim::{self, SimConfig};
 use crate::traj::Schedule;
 
@@ -258,6 +263,7 @@ impl StageKind for Simulate {
     }
     fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
         let (_, cfg) = config(params)?;
+        let track = Track::default();
         let report = |p: sim::Progress| {
             ctx.progress(
                 p.time,
@@ -266,9 +272,21 @@ impl StageKind for Simulate {
                     "{:?} t = {:.1}/{:.1}, {:.2e} events/s",
                     p.stage, p.time, p.end, p.events_per_second
                 ),
-            )
+            );
+            if let Some(dir) = ctx.checkpoints() {
+                track.report(dir, &p);
+            }
         };
-        let (traj, summary) = sim::run(&cfg, &report)?;
+        let mut keeper = ctx.checkpoints().map(|dir| StoreKeeper {
+            ctx,
+            dir,
+            track: &track,
+        });
+        let (traj, summary) = sim::run::simulation::run_kept(
+            &cfg,
+            &report,
+            keeper.as_mut().map(|k| k as &mut dyn Keeper),
+        )?;
         ctx.log(format!(
             "n = {}, phi = {}, T = {:.4}, {} collisions, {:.1} CPU s, {} guard activations",
             summary.n,
@@ -308,6 +326,100 @@ impl StageKind for Simulate {
         )
         .with("json", serde_json::to_vec_pretty(&json)?)
         .with_side(Value::Object(side)))
+    }
+}
+
+/// Where a simulation stage is, for its progress file: the last report and
+/// when the file was written.
+#[derive(Default)]
+struct Track {
+    last: Cell<Option<(sim::Progress, Instant)>>,
+}
+
+/// Seconds between two writes of the progress file.
+const PROGRESS_EVERY: f64 = 2.0;
+
+impl Track {
+    /// Note a progress report; write the progress file if the last write is
+    /// older than [`PROGRESS_EVERY`].
+    fn report(&self, dir: &Checkpoints, p: &sim::Progress) {
+        let due = self
+            .last
+            .get()
+            .is_none_or(|(_, at)| at.elapsed().as_secs_f64() >= PROGRESS_EVERY);
+        let at = match self.last.get() {
+            Some((_, at)) if !due => at,
+            _ => Instant::now(),
+        };
+        self.last.set(Some((*p, at)));
+        if due {
+            self.write(dir);
+        }
+    }
+
+    /// Write the progress file (a failure only costs `repro status` its line).
+    fn write(&self, dir: &Checkpoints) {
+        let Some((p, _)) = self.last.get() else {
+            return;
+        };
+        let progress = RunProgress {
+            stage: format!("{:?}", p.stage).to_lowercase(),
+            time: p.time,
+            fraction: p.fraction,
+            updated: unix_now(),
+            host: hostname(),
+            pid: std::process::id(),
+        };
+        let _ = dir.set_progress(&progress);
+    }
+}
+
+/// This machine's name (for `repro status`).
+fn hostname() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_default()
+}
+
+/// A simulation's checkpoints in its stage's directory of the store: an
+/// unusable one is quarantined, the checkpoint resumed from is logged.
+struct StoreKeeper<'a> {
+    ctx: &'a StageCtx,
+    dir: &'a Checkpoints,
+    track: &'a Track,
+}
+
+impl Keeper for StoreKeeper<'_> {
+    fn saved(&mut self) -> Vec<String> {
+        self.dir.saved().into_iter().map(|(name, _)| name).collect()
+    }
+    fn read(&mut self, name: &str) -> Result<Vec<u8>> {
+        self.dir.read(name)
+    }
+    fn reject(&mut self, name: &str, why: &str) {
+        let moved = match self.dir.quarantine(name) {
+            Ok(to) => format!("moved to {}", to.display()),
+            Err(e) => format!("could not be moved aside: {e:#}"),
+        };
+        self.ctx.note(format!(
+            "checkpoint {} is unusable ({why}); {moved}",
+            self.dir.dir().join(name).display()
+        ));
+    }
+    fn resumed(&mut self, name: &str, time: f64) {
+        self.ctx.note(format!(
+            "resumed from the checkpoint at t = {time} ({name})"
+        ));
+    }
+    fn save(&mut self, time: f64, bytes: &[u8]) -> Result<()> {
+        // A checkpoint that cannot be written only costs a longer rerun.
+        match self.dir.save(time, bytes) {
+            Ok(_) => self.track.write(self.dir),
+            Err(e) => self
+                .ctx
+                .log(format!("warning: no checkpoint at t = {time}: {e:#}")),
+        }
+        Ok(())
     }
 }
 

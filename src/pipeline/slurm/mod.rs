@@ -18,7 +18,7 @@
 pub mod plan;
 pub mod state;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -330,6 +330,12 @@ impl Driver<'_> {
                 .collect();
             let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
             let time = res.iter().map(|r| r.time_min).max().unwrap_or(2);
+            // Only simulations (kinds that plan work) checkpoint.
+            let resumable = self
+                .reg
+                .work(&kind, &g.nodes[ready[members[0]].0].params)
+                .is_some();
+            let (time, links) = plan::chain(time, state::max_minutes(settings), resumable);
             let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
             let array = keys.len() > 1;
             let mut args = vec![
@@ -382,9 +388,27 @@ impl Driver<'_> {
             for r in &recs {
                 state::write(self.store, r)?;
             }
-            let id = state::submit(&args, &script)?;
+            // A chain: each job starts when the one before has ended (at its
+            // time limit, or done: a worker whose stage is in the store exits)
+            // and resumes from the last checkpoint. The records name the last.
+            let mut id = state::submit(&args, &script)?;
+            let mut chain = vec![id.clone()];
+            for _ in 1..links {
+                let mut after = args.clone();
+                after.push(format!("--dependency=afterany:{id}"));
+                id = state::submit(&after, &script)?;
+                chain.push(id.clone());
+            }
             eprintln!(
-                "submitted Slurm job {id}: {} {kind} stage(s), {mem} MiB and {} each",
+                "submitted Slurm job {}: {} {kind} stage(s), {mem} MiB and {} each",
+                if links > 1 {
+                    format!(
+                        "chain {} (each resumes from the last checkpoint)",
+                        chain.join(" -> ")
+                    )
+                } else {
+                    id.clone()
+                },
                 keys.len(),
                 plan::time_limit(time)
             );
@@ -485,7 +509,7 @@ pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
     }
     eprintln!("computing {} ({}), key {key}", rec.label, rec.kind);
     match exec::compute(&store, reg, node, key.to_string(), &inputs, None) {
-        Ok(e) => {
+        Ok((e, _)) => {
             for l in &e.log {
                 eprintln!("log: {l}");
             }
@@ -518,29 +542,10 @@ pub fn job_states(
     if std::fs::read_dir(state::jobs_dir(store)).map_or(true, |mut d| d.next().is_none()) {
         return out;
     }
-    let mut digest: HashMap<usize, String> = HashMap::new();
-    let mut recs = Vec::new();
-    for (i, s) in st {
-        let node = &graph.nodes[*i];
-        if let State::Cached { key } = s {
-            if let Some(e) = store.lookup(key) {
-                digest.insert(*i, e.digest);
-            }
-            continue;
-        }
-        let Some(d) = node
-            .inputs
-            .iter()
-            .map(|j| digest.get(j).map(|s| s.as_str()))
-            .collect::<Option<Vec<&str>>>()
-        else {
-            continue;
-        };
-        let key = stage_key(&node.kind, &node.params, &d, reg.fingerprint(&node.kind));
-        if let Some(r) = state::read(store, &key) {
-            recs.push((*i, r));
-        }
-    }
+    let recs: Vec<_> = exec::stale_keys(graph, st, reg, store)
+        .into_iter()
+        .filter_map(|(i, key)| Some((i, state::read(store, &key)?)))
+        .collect();
     if recs.is_empty() {
         return out;
     }
@@ -615,12 +620,25 @@ pub fn dry_run(
     for ((kind, sargs), members) in &groups {
         let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
         let time = members.iter().map(|(_, r)| r.time_min).max().unwrap_or(0);
+        let first = members[0].0;
+        let (time, links) = plan::chain(
+            time,
+            state::max_minutes(&settings[first]),
+            work(&graph.nodes[first]).is_some(),
+        );
         out += &format!(
-            "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}\n",
+            "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
             members.len(),
             if members.len() > 1 { " (array)" } else { "" },
             plan::time_limit(time),
-            sargs
+            sargs,
+            if links > 1 {
+                format!(
+                    " as a chain of {links} jobs (each after the one before, resuming from the last checkpoint)"
+                )
+            } else {
+                String::new()
+            }
         );
         for (i, r) in members {
             let w = work(&graph.nodes[*i]);

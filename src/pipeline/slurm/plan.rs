@@ -49,6 +49,8 @@ pub struct Settings {
     pub extra: Vec<String>,
     pub mem_margin: f64,
     pub time_margin: f64,
+    /// The longest time limit a job may ask, minutes (`None`: the partition's).
+    pub max_time_min: Option<u64>,
 }
 
 pub const DEFAULT_MEM_MARGIN: f64 = 1.5;
@@ -63,6 +65,7 @@ impl Default for Settings {
             extra: Vec::new(),
             mem_margin: DEFAULT_MEM_MARGIN,
             time_margin: DEFAULT_TIME_MARGIN,
+            max_time_min: None,
         }
     }
 }
@@ -90,6 +93,22 @@ impl Settings {
             extra: s.extra.clone(),
             mem_margin: margin(&s.mem_margin, "mem_margin", DEFAULT_MEM_MARGIN)?,
             time_margin: margin(&s.time_margin, "time_margin", DEFAULT_TIME_MARGIN)?,
+            max_time_min: match &s.max_time {
+                None => None,
+                Some(v) => match minutes(&v.value) {
+                    Some(Some(m)) if m > 0 => Some(m),
+                    _ => {
+                        return Err(SpecError::at(
+                            file,
+                            v,
+                            format!(
+                                "slurm.max_time = '{}' is not a finite Slurm time limit (MM, HH:MM:SS, D-HH, D-HH:MM or D-HH:MM:SS)",
+                                v.value
+                            ),
+                        ));
+                    }
+                },
+            },
         })
     }
 
@@ -184,6 +203,49 @@ pub fn resources(work: Option<&Work>, input_bytes: u64, s: &Settings) -> Resourc
     }
 }
 
+/// A Slurm time limit in minutes (seconds rounded up): `MM`, `MM:SS`,
+/// `HH:MM:SS`, `D-HH`, `D-HH:MM`, `D-HH:MM:SS`; `Some(None)` for `infinite`
+/// or `UNLIMITED`; `None` if it is none of these.
+pub fn minutes(s: &str) -> Option<Option<u64>> {
+    let s = s.trim();
+    if s.eq_ignore_ascii_case("infinite") || s.eq_ignore_ascii_case("unlimited") {
+        return Some(None);
+    }
+    let (days, rest) = match s.split_once('-') {
+        Some((d, r)) => (Some(d.parse::<u64>().ok()?), r),
+        None => (None, s),
+    };
+    let f: Vec<u64> = rest
+        .split(':')
+        .map(|x| x.parse().ok())
+        .collect::<Option<_>>()?;
+    // [hours, minutes, seconds] from the fields present.
+    let [h, m, sec] = match (days.is_some(), f.as_slice()) {
+        (false, [m]) => [0, *m, 0],
+        (false, [m, s]) => [0, *m, *s],
+        (_, [h, m, s]) => [*h, *m, *s],
+        (true, [h]) => [*h, 0, 0],
+        (true, [h, m]) => [*h, *m, 0],
+        _ => return None,
+    };
+    Some(Some(
+        days.unwrap_or(0) * 1440 + h * 60 + m + sec.div_ceil(60),
+    ))
+}
+
+/// A job's time limit `time_min` under a longest limit `max_min`: the limit
+/// each job of the chain asks and the number of jobs (1: no chain). Each job
+/// resumes from the last checkpoint of the one before; a stage that does not
+/// checkpoint (`resumable` false: only simulations do) gets one job at the
+/// longest limit.
+pub fn chain(time_min: u64, max_min: Option<u64>, resumable: bool) -> (u64, u64) {
+    match max_min {
+        Some(m) if time_min > m && resumable => (m, time_min.div_ceil(m)),
+        Some(m) if time_min > m => (m, 1),
+        _ => (time_min, 1),
+    }
+}
+
 /// `H:MM:SS`-free Slurm time limit: minutes as `D-HH:MM:00`.
 pub fn time_limit(minutes: u64) -> String {
     let (d, h, m) = (minutes / 1440, (minutes % 1440) / 60, minutes % 60);
@@ -230,6 +292,33 @@ mod tests {
         assert!(
             e.starts_with("experiments/e.yaml:8:20") && e.contains("time_margin"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn time_limits_parse_and_long_jobs_chain() {
+        assert_eq!(minutes("2-00:00:00"), Some(Some(2880)));
+        assert_eq!(minutes("1:00:00"), Some(Some(60)));
+        assert_eq!(minutes("30"), Some(Some(30)));
+        assert_eq!(minutes("5:01"), Some(Some(6)));
+        assert_eq!(minutes("1-12"), Some(Some(2160)));
+        assert_eq!(minutes("infinite"), Some(None));
+        assert_eq!(minutes("two days"), None);
+        assert_eq!(chain(9, Some(1), true), (1, 9));
+        assert_eq!(chain(10, Some(4), true), (4, 3));
+        assert_eq!(chain(10, Some(4), false), (4, 1));
+        assert_eq!(chain(10, Some(60), true), (10, 1));
+        assert_eq!(chain(10, None, true), (10, 1));
+        let e = slurm_of("      max_time: soon\n").unwrap_err();
+        assert!(
+            e.starts_with("experiments/e.yaml:8:") && e.contains("max_time"),
+            "{e}"
+        );
+        assert_eq!(
+            slurm_of("      max_time: \"1-00:00:00\"\n")
+                .unwrap()
+                .max_time_min,
+            Some(1440)
         );
     }
 

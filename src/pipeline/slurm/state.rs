@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 
 use super::super::store::Store;
-use super::plan::Resources;
+use super::plan::{Resources, Settings};
 
 /// One stage handed to Slurm.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -192,6 +192,35 @@ pub fn details(job_id: &str) -> Option<String> {
         })
         .collect();
     (!fields.is_empty()).then(|| fields.join(" "))
+}
+
+/// The longest time limit a job of `s` may ask, minutes: `max_time`, else
+/// the partition's; `None`: no limit known.
+pub fn max_minutes(s: &Settings) -> Option<u64> {
+    s.max_time_min
+        .or_else(|| partition_limit(s.partition.as_deref()))
+}
+
+/// The time limit of `partition` (the default partition if `None`) in
+/// minutes, from `sinfo`; `None` if unlimited or Slurm cannot be asked.
+fn partition_limit(partition: Option<&str>) -> Option<u64> {
+    let out = Command::new("sinfo")
+        .args(["--noheader", "--format=%P %l"])
+        .output()
+        .ok()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines().find_map(|l| {
+        let (name, limit) = l.split_once(' ')?;
+        let wanted = match partition {
+            Some(p) => name.trim_end_matches('*') == p,
+            None => name.ends_with('*'),
+        };
+        if wanted {
+            super::plan::minutes(limit)?
+        } else {
+            None
+        }
+    })
 }
 
 /// Submit a batch script (`script` on stdin) with sbatch `args`; the job id.

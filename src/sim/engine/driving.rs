@@ -7,6 +7,7 @@ use rand::RngExt;
 use rand_distr::{Distribution, Exp, StandardNormal};
 
 /// The driving's state, owned by this module.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct Driving {
     pub(super) kicks: Kicks,
     /// Pair kicks per unit time, whole system.

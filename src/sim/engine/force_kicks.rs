@@ -10,7 +10,7 @@ use super::Engine;
 use crate::sim::model::friction::Clock;
 
 /// A regular train of force kicks.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub(super) struct Train {
     /// Real time between kicks (infinity: off).
     dt: f64,

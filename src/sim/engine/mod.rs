@@ -22,8 +22,10 @@ mod observables;
 mod prefetch_pipeline;
 mod pulled_intruder;
 mod setup;
+mod snapshot;
 
 pub use setup::Setup;
+pub use snapshot::EngineState;
 
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
@@ -55,7 +57,7 @@ const BUCKET_PREFETCH_MAX: usize = 8;
 const PREFETCH_MIN_BYTES: usize = 3 << 20;
 
 /// Counters of everything the loop did, and the energy and virial ledgers.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
     pub collisions: u64,
     pub kicks: u64,
@@ -271,10 +273,18 @@ impl Engine {
     /// and u = v now (Eqs. 8-9 of paper I restart from here). Every event is
     /// predicted anew.
     fn anchor(&mut self, gamma: f64) {
+        let t = self.clock.t(self.now);
+        self.move_origin(gamma, t);
+        self.reschedule_all();
+    }
+
+    /// [`Self::anchor`] without predicting the events: every particle brought
+    /// to now, which becomes clock reading 0 at time `t` (the current time),
+    /// with friction rate `gamma` from here.
+    fn move_origin(&mut self, gamma: f64, t: f64) {
         self.sync_all();
         self.account_friction();
         let lam = self.lambda();
-        let t = self.clock.t(self.now);
         let t_kick = self.clock.t(self.drive.next_drive);
         for d in &mut self.d {
             d.vx *= lam;
@@ -291,7 +301,6 @@ impl Engine {
         self.next_kick = self.drive.next_drive.min(self.train.next);
         self.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
         self.lam2 = 1.0;
-        self.reschedule_all();
     }
 
     /// Add the energy friction removed since the last call (the kinetic energy

@@ -39,6 +39,7 @@ use crate::sim::model::intruder_path::{Pull, Root};
 use crate::sim::model::walls;
 
 /// The intruder's state, owned by this module.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct Pulling {
     /// The intruder's index ([`NO_INTRUDER`] if none), and the same while a
     /// force pulls it (its events then come from the root finder).

@@ -160,6 +160,10 @@ pub struct SimConfig {
     pub walls: [bool; 2],
     /// An intruder (paper I), counted in the packing fraction but not in `n`.
     pub intruder: Option<Intruder>,
+    /// Simulation time between checkpoints (default: about 10 minutes of
+    /// planned CPU time, [`crate::sim::run::checkpoint::interval`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub checkpoint_every: Option<f64>,
 }
 
 impl Default for SimConfig {
@@ -191,6 +195,7 @@ impl Default for SimConfig {
             temperature: 1.0,
             walls: [false, false],
             intruder: None,
+            checkpoint_every: None,
         }
     }
 }
@@ -297,6 +302,15 @@ impl SimConfig {
             "Ly/Lx must be in [0.01, 100]",
         )?;
         finite_in("relax_time", self.relax_time, 0.0, 1e12, "must be >= 0")?;
+        if let Some(every) = self.checkpoint_every {
+            finite_in(
+                "checkpoint_every",
+                every,
+                1e-9,
+                1e15,
+                "the simulation time between checkpoints must be > 0",
+            )?;
+        }
         finite_in(
             "schedule.start",
             self.schedule.start,

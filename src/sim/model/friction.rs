@@ -18,7 +18,7 @@ pub const REANCHOR_LAMBDA: f64 = 0.125;
 
 /// The friction clock: rate `gamma` and the time `t0` at which s = 0. With
 /// gamma = 0, s = t - t0 (the identity for [`Clock::NONE`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Clock {
     pub gamma: f64,
     pub t0: f64,

@@ -23,7 +23,7 @@ pub const GAP_TOL: f64 = 1e-10;
 pub const MAX_STEPS: u32 = 10_000;
 
 /// The intruder's motion law: friction rate and the force per mass F/m0 (along +x).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Pull {
     pub gamma: f64,
     /// F / m0.

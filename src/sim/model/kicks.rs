@@ -3,7 +3,7 @@
 //! with the amplitude of Eq. (7) of paper I.
 
 /// Which particles a kick moves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Kicks {
     /// No driving.
     Off,

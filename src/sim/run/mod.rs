@@ -3,9 +3,13 @@
 //! - [`initial_state`]: random start and Lubachevsky-Stillinger compression.
 //! - [`simulation`]: relax under driving, record frames, measure
 //!   ([`RunSummary`](simulation::RunSummary)).
+//! - [`checkpoint`]: when a run checkpoints, where it keeps them, their format;
+//!   [`checkpoint_cost`]: what they cost (`repro bench --checkpoints`).
 //! - [`progress`]: what a running simulation reports.
 //! - [`resources`]: CPU time and memory, allocation of the big arrays.
 
+pub mod checkpoint;
+pub mod checkpoint_cost;
 pub mod initial_state;
 pub mod progress;
 pub mod resources;

@@ -23,6 +23,8 @@ pub struct Progress {
     pub collisions: u64,
     /// Events (collisions, crossings, shell exits, kicks) per wall-clock second in this stage.
     pub events_per_second: f64,
+    /// Fraction of the relaxation and production done (0 while compressing).
+    pub fraction: f64,
 }
 
 impl Progress {
@@ -35,6 +37,15 @@ impl Progress {
             end,
             collisions: s.collisions,
             events_per_second: events as f64 / since.elapsed().as_secs_f64().max(1e-9),
+            fraction: 0.0,
+        }
+    }
+
+    /// The same, with the fraction done of a run from `start` to `end`.
+    pub(crate) fn of_run(self, start: f64, end: f64) -> Progress {
+        Progress {
+            fraction: ((self.time - start) / (end - start)).clamp(0.0, 1.0),
+            ..self
         }
     }
 }

@@ -1,10 +1,11 @@
 //! One simulation from config to trajectory: compress, relax under driving,
 //! then record frames and measure temperature, pressure and rates.
 
+use super::checkpoint::{self, Keeper};
 use super::initial_state;
 use super::progress::{Progress, Stage};
 use super::resources;
-use crate::sim::engine::{Engine, Kicks};
+use crate::sim::engine::{Engine, Kicks, Stats};
 use crate::sim::model::config::{Drive, ForceMode, KickRate, SimConfig};
 use crate::sim::model::enskog;
 use crate::sim::model::kicks;
@@ -141,6 +142,7 @@ pub struct IntruderSummary {
 }
 
 /// Takes samples of T and P at regular times while the engine advances.
+#[derive(Serialize, Deserialize)]
 struct Sampler {
     dt: f64,
     next: f64,
@@ -198,34 +200,6 @@ impl Sampler {
     }
 }
 
-/// Advance to `t`, taking the samples that fall on the way.
-fn advance(
-    e: &mut Engine,
-    t: f64,
-    s: &mut Sampler,
-    stage: Stage,
-    end: f64,
-    clock: Instant,
-    progress: &dyn Fn(Progress),
-) {
-    loop {
-        let stop = t.min(s.next);
-        while !e.run_until(stop, 1 << 20) {
-            progress(Progress::new(stage, e, end, clock));
-        }
-        if stop == s.next {
-            s.take(e);
-            s.next += s.dt;
-        }
-        if stop == t {
-            // Small systems finish a window in fewer than 2^20 events: report at
-            // every window's end too, or the bar stays at the previous stage.
-            progress(Progress::new(stage, e, end, clock));
-            return;
-        }
-    }
-}
-
 /// The driving of `cfg`: which particles, how many kicks per unit time in the
 /// whole system (starting value for the balanced rule), and the amplitude p_dr
 /// of Eq. (7) of paper I (paper H's sqrt((1 - eps^2) m1 m2 / (m1 + m2)) at
@@ -259,14 +233,221 @@ pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
     (kicks, rate, p_dr)
 }
 
+/// Sub-windows of each balancing window of the relaxation.
+const BALANCE_SUB: usize = 8;
+
+/// One step of a run: advance to a time, then act. A run is the list of its
+/// steps ([`steps`]) and the index of the one under way, so that it can stop
+/// at a checkpoint and go on from there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Step {
+    /// Relax until `to`; `measure`: then add the bath temperature to the
+    /// window's sum; `correct`: then correct the kick rate by the window's mean.
+    Relax {
+        to: f64,
+        measure: bool,
+        correct: bool,
+    },
+    /// Production starts: the counters it is measured against are read.
+    Produce,
+    /// Record the frame at production time `at`.
+    Frame { at: f64 },
+    /// Production ends.
+    End,
+}
+
+/// The steps of `cfg`'s run from the start of relaxation `t_relax0`. With
+/// the balanced rule (`balance`), the first 80% of the relaxation is cut in
+/// windows after each of which the rate is corrected by T^(-3/2) (T scales as
+/// rate^(2/3) because the collision rate grows as sqrt(T)); T is averaged over
+/// the second half of each window, after the response to the previous correction.
+fn steps(cfg: &SimConfig, t_relax0: f64, balance: bool) -> Vec<Step> {
+    let windows = 10;
+    let sub = BALANCE_SUB;
+    let w = cfg.relax_time / windows as f64;
+    let mut v = Vec::new();
+    for k in 0..windows {
+        let start = t_relax0 + k as f64 * w;
+        if balance && k < windows * 4 / 5 {
+            v.extend((1..=sub).map(|m| Step::Relax {
+                to: start + w * m as f64 / sub as f64,
+                measure: m > sub / 2,
+                correct: m == sub,
+            }));
+        } else {
+            v.push(Step::Relax {
+                to: start + w,
+                measure: false,
+                correct: false,
+            });
+        }
+    }
+    v.push(Step::Produce);
+    v.extend(
+        cfg.schedule
+            .times()
+            .into_iter()
+            .map(|at| Step::Frame { at }),
+    );
+    v.push(Step::End);
+    v
+}
+
+/// The run loop's state: with the engine's, what a checkpoint holds.
+#[derive(Serialize, Deserialize)]
+struct RunState {
+    compress_time: f64,
+    t_relax0: f64,
+    /// The kick rate (the balanced rule corrects it during relaxation).
+    rate: f64,
+    /// The step under way, and the bath temperatures summed so far in the
+    /// current balancing window.
+    step: usize,
+    tsum: f64,
+    sampler: Sampler,
+    frames: Vec<Frame>,
+    production: Option<ProductionStart>,
+    /// Checkpoints taken so far.
+    checkpoints: u64,
+    /// CPU seconds of the run when the state was saved.
+    cpu_seconds: f64,
+}
+
+/// What production is measured against, read when it starts.
+#[derive(Clone, Serialize, Deserialize)]
+struct ProductionStart {
+    stats: Stats,
+    kinetic_energy: f64,
+    intruder: Option<[f64; 2]>,
+    force_kicks: u64,
+    relax_samples: usize,
+    cpu_seconds: f64,
+}
+
+/// CPU seconds of a run, across the processes that ran it.
+struct Cpu {
+    offset: f64,
+}
+
+impl Cpu {
+    /// A clock that reads `spent` now.
+    fn reading(spent: f64) -> Cpu {
+        Cpu {
+            offset: spent - resources::thread_cpu_seconds(),
+        }
+    }
+
+    fn now(&self) -> f64 {
+        resources::thread_cpu_seconds() + self.offset
+    }
+}
+
+/// When a run checkpoints and where the checkpoints go.
+struct Checkpointing<'a, 'k> {
+    cfg: &'a SimConfig,
+    /// Checkpoint k (from 0) is at `origin + (k + 1) every`, before `end`.
+    origin: f64,
+    every: Option<f64>,
+    end: f64,
+    keeper: Option<&'k mut dyn Keeper>,
+    cpu: Cpu,
+}
+
+impl Checkpointing<'_, '_> {
+    /// Time of the checkpoint after `taken` ones (infinity: none).
+    fn time(&self, taken: u64) -> f64 {
+        match self.every {
+            Some(every) => {
+                let t = self.origin + (taken + 1) as f64 * every;
+                if t < self.end { t } else { f64::INFINITY }
+            }
+            None => f64::INFINITY,
+        }
+    }
+}
+
+/// Advance to `t`, taking the samples and checkpoints that fall on the way.
+#[allow(clippy::too_many_arguments)]
+fn advance(
+    e: &mut Engine,
+    t: f64,
+    st: &mut RunState,
+    ck: &mut Checkpointing,
+    stage: Stage,
+    end: f64,
+    clock: Instant,
+    progress: &dyn Fn(Progress),
+) -> Result<()> {
+    loop {
+        let at = ck.time(st.checkpoints);
+        let stop = t.min(st.sampler.next).min(at);
+        while !e.run_until(stop, 1 << 20) {
+            progress(Progress::new(stage, e, end, clock).of_run(ck.origin, ck.end));
+        }
+        if stop == st.sampler.next {
+            st.sampler.take(e);
+            st.sampler.next += st.sampler.dt;
+        }
+        if stop == at {
+            st.checkpoints += 1;
+            let state = e.checkpoint(ck.keeper.is_some());
+            if let (Some(keeper), Some(state)) = (ck.keeper.as_deref_mut(), state) {
+                st.cpu_seconds = ck.cpu.now();
+                keeper.save(at, &checkpoint::encode(ck.cfg, state, &*st)?)?;
+            }
+            // Round the loop again, also when `t` is reached: a run resumed
+            // from this checkpoint starts there.
+            continue;
+        }
+        if stop == t {
+            // Small systems finish a window in fewer than 2^20 events: report at
+            // every window's end too, or the bar stays at the previous stage.
+            progress(Progress::new(stage, e, end, clock).of_run(ck.origin, ck.end));
+            return Ok(());
+        }
+    }
+}
+
+/// The engine and run state of the newest usable checkpoint in `keeper`
+/// (unusable ones are rejected, newest first); `None` if there is none.
+fn resume(cfg: &SimConfig, keeper: &mut dyn Keeper, n_steps: usize) -> Option<(Engine, RunState)> {
+    for name in keeper.saved() {
+        let restored = keeper.read(&name).and_then(|bytes| {
+            let c = checkpoint::decode::<RunState>(cfg, &bytes)?;
+            anyhow::ensure!(
+                c.run.step < n_steps,
+                "its run is at step {} of {n_steps}",
+                c.run.step
+            );
+            let time = c.engine.time();
+            Ok((Engine::restore(c.engine)?, c.run, time))
+        });
+        match restored {
+            Ok((e, run, time)) => {
+                keeper.resumed(&name, time);
+                return Some((e, run));
+            }
+            Err(err) => keeper.reject(&name, &format!("{err:#}")),
+        }
+    }
+    None
+}
+
 /// Run one simulation: returns the frames of `cfg.schedule` and the summary.
 pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, RunSummary)> {
+    run_kept(cfg, progress, None)
+}
+
+/// [`run`], checkpointing into `keeper` (when the run is longer than one
+/// [`checkpoint::interval`]) and going on from its newest usable checkpoint.
+/// The results are the same bits whether or not the run stopped and resumed.
+pub fn run_kept(
+    cfg: &SimConfig,
+    progress: &dyn Fn(Progress),
+    mut keeper: Option<&mut dyn Keeper>,
+) -> Result<(Trajectory, RunSummary)> {
     cfg.validate()?;
-    let cpu0 = resources::thread_cpu_seconds();
-    let mut e = initial_state::prepare(cfg, progress)?;
-    let compress_time = e.time();
-    let n = e.n();
-    let nf = n as f64;
+    let cpu = Cpu::reading(0.0);
     let n_bath = cfg.n as f64;
     let fractions = [
         1.0 - cfg.n_large() as f64 / n_bath,
@@ -277,124 +458,182 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     // The bath's Enskog rate (the intruder, species 2, is left out).
     let enskog_rate =
         |t: f64| enskog::collision_frequency(cfg.phi, &radii[..2], &masses[..2], &fractions, t);
-
-    e.eps = cfg.eps;
-    e.tc = cfg.collapse_tc;
-    if cfg.temperature != 1.0 {
-        initial_state::set_temperature(&mut e, cfg.temperature);
-    }
-    if cfg.gamma > 0.0 {
-        e.set_friction(cfg.gamma);
-    }
-    let (kicks, mut rate, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
-    e.set_kicks(kicks, rate, p_dr);
+    let (kicks, rate0, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     // The force kicks' interval: kick_rate_factor times the bath's collision rate.
     let force_dt = cfg.intruder.as_ref().map_or(0.0, |i| {
         1.0 / (i.kick_rate_factor * enskog_rate(cfg.temperature))
     });
-    if let Some(intr) = &cfg.intruder {
-        // The force is on from here: the relaxation holds the intruder's transient.
-        match intr.force_mode {
-            ForceMode::Exact => e.set_force(intr.force)?,
-            ForceMode::Kicks => e.set_force_kicks(intr.force, force_dt)?,
+    let balance = cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off;
+    // The steps do not depend on where the relaxation starts.
+    let n_steps = steps(cfg, 0.0, balance).len();
+    let resumed = keeper.as_deref_mut().and_then(|k| resume(cfg, k, n_steps));
+    let (mut e, mut st, cpu) = match resumed {
+        Some((e, st)) => {
+            let cpu = Cpu::reading(st.cpu_seconds);
+            (e, st, cpu)
         }
-    }
-
-    let prod = cfg.schedule.end();
-    let total = cfg.relax_time + prod;
-    let t_relax0 = e.time();
-    let t0 = t_relax0 + cfg.relax_time;
-    let dt = total / cfg.samples as f64;
-    let mut s = Sampler {
-        dt,
-        next: t_relax0 + dt,
-        t0,
-        last_time: e.time(),
-        last_virial: e.stats.virial,
-        last_t: bath_temperature(&e),
-        area: cfg.box_size()[0] * cfg.box_size()[1],
-        samples: Vec::with_capacity(cfg.samples + 1),
-        species: Vec::with_capacity(cfg.samples + 1),
-        drift: Vec::with_capacity(cfg.samples + 1),
-        bath_drift: Vec::new(),
+        None => {
+            let mut e = initial_state::prepare(cfg, progress)?;
+            let compress_time = e.time();
+            e.eps = cfg.eps;
+            e.tc = cfg.collapse_tc;
+            if cfg.temperature != 1.0 {
+                initial_state::set_temperature(&mut e, cfg.temperature);
+            }
+            if cfg.gamma > 0.0 {
+                e.set_friction(cfg.gamma);
+            }
+            e.set_kicks(kicks, rate0, p_dr);
+            if let Some(intr) = &cfg.intruder {
+                // The force is on from here: the relaxation holds the intruder's transient.
+                match intr.force_mode {
+                    ForceMode::Exact => e.set_force(intr.force)?,
+                    ForceMode::Kicks => e.set_force_kicks(intr.force, force_dt)?,
+                }
+            }
+            let t_relax0 = e.time();
+            let dt = (cfg.relax_time + cfg.schedule.end()) / cfg.samples as f64;
+            let sampler = Sampler {
+                dt,
+                next: t_relax0 + dt,
+                t0: t_relax0 + cfg.relax_time,
+                last_time: e.time(),
+                last_virial: e.stats.virial,
+                last_t: bath_temperature(&e),
+                area: cfg.box_size()[0] * cfg.box_size()[1],
+                samples: Vec::with_capacity(cfg.samples + 1),
+                species: Vec::with_capacity(cfg.samples + 1),
+                drift: Vec::with_capacity(cfg.samples + 1),
+                bath_drift: Vec::new(),
+            };
+            let st = RunState {
+                compress_time,
+                t_relax0,
+                rate: rate0,
+                step: 0,
+                tsum: 0.0,
+                sampler,
+                frames: Vec::new(),
+                production: None,
+                checkpoints: 0,
+                cpu_seconds: 0.0,
+            };
+            (e, st, cpu)
+        }
     };
-
-    // Relaxation. With the balanced rule, the first 80% is cut in windows after
-    // each of which the rate is corrected by T^(-3/2) (T scales as rate^(2/3)
-    // because the collision rate grows as sqrt(T)); T is averaged over the second
-    // half of each window, after the response to the previous correction.
-    let clock = Instant::now();
-    let windows = 10;
-    let w = cfg.relax_time / windows as f64;
-    for k in 0..windows {
-        let start = t_relax0 + k as f64 * w;
-        if cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off && k < windows * 4 / 5 {
-            let sub = 8;
-            let mut tsum = 0.0;
-            for m in 1..=sub {
+    let n = e.n();
+    let nf = n as f64;
+    let prod = cfg.schedule.end();
+    let t0 = st.t_relax0 + cfg.relax_time;
+    let end = t0 + prod;
+    let mut ck = Checkpointing {
+        cfg,
+        origin: st.t_relax0,
+        every: checkpoint::interval(cfg, enskog_rate(cfg.temperature) * n_bath / 2.0),
+        end,
+        keeper,
+        cpu,
+    };
+    let plan = steps(cfg, st.t_relax0, balance);
+    let mut clock = Instant::now();
+    while st.step < plan.len() {
+        match plan[st.step] {
+            Step::Relax {
+                to,
+                measure,
+                correct,
+            } => {
                 advance(
                     &mut e,
-                    start + w * m as f64 / sub as f64,
-                    &mut s,
+                    to,
+                    &mut st,
+                    &mut ck,
                     Stage::Relax,
                     t0,
                     clock,
                     progress,
-                );
-                if m > sub / 2 {
-                    tsum += bath_temperature(&e);
+                )?;
+                if measure {
+                    st.tsum += bath_temperature(&e);
+                }
+                if correct {
+                    let tmean = st.tsum / (BALANCE_SUB / 2) as f64;
+                    st.tsum = 0.0;
+                    if tmean > 0.0 {
+                        st.rate *= tmean.powf(-1.5);
+                        e.set_kicks(kicks, st.rate, p_dr);
+                    }
                 }
             }
-            let tmean = tsum / (sub / 2) as f64;
-            if tmean > 0.0 {
-                rate *= tmean.powf(-1.5);
-                e.set_kicks(kicks, rate, p_dr);
+            Step::Produce => {
+                if e.time() < t0 {
+                    e.skip_to(t0);
+                }
+                st.production = Some(ProductionStart {
+                    stats: e.stats,
+                    kinetic_energy: e.kinetic_energy(),
+                    intruder: e.intruder().map(|k| e.particle(k).0),
+                    force_kicks: e.force_kicks(),
+                    relax_samples: st.sampler.samples.len(),
+                    cpu_seconds: ck.cpu.now(),
+                });
+                clock = Instant::now();
             }
-        } else {
-            advance(&mut e, start + w, &mut s, Stage::Relax, t0, clock, progress);
+            Step::Frame { at } => {
+                advance(
+                    &mut e,
+                    t0 + at,
+                    &mut st,
+                    &mut ck,
+                    Stage::Production,
+                    end,
+                    clock,
+                    progress,
+                )?;
+                let (x, y) = e.unwrapped_positions();
+                let (vx, vy) = if cfg.record_velocities {
+                    e.velocities()
+                } else {
+                    (vec![], vec![])
+                };
+                st.frames.push(Frame {
+                    time: at,
+                    x,
+                    y,
+                    vx,
+                    vy,
+                });
+            }
+            Step::End => {
+                advance(
+                    &mut e,
+                    end,
+                    &mut st,
+                    &mut ck,
+                    Stage::Production,
+                    end,
+                    clock,
+                    progress,
+                )?;
+            }
         }
+        st.step += 1;
     }
-    if e.time() < t0 {
-        e.skip_to(t0);
-    }
-    let before = e.stats;
-    let ke0 = e.kinetic_energy();
-    let intruder0 = e.intruder().map(|k| e.particle(k).0);
-    let force_kicks0 = e.force_kicks();
-    let cpu_prod0 = resources::thread_cpu_seconds();
-    let n_relax_samples = s.samples.len();
-
-    // Production: frames at the schedule's times.
+    let cpu = ck.cpu;
+    let ProductionStart {
+        stats: before,
+        kinetic_energy: ke0,
+        intruder: intruder0,
+        force_kicks: force_kicks0,
+        relax_samples: n_relax_samples,
+        cpu_seconds: cpu_prod0,
+    } = st
+        .production
+        .clone()
+        .expect("the production step comes before the end");
+    let (s, frames, compress_time) = (st.sampler, st.frames, st.compress_time);
     let [lx, ly] = cfg.box_size();
-    let mut frames = Vec::new();
-    let clock = Instant::now();
-    for ft in cfg.schedule.times() {
-        advance(
-            &mut e,
-            t0 + ft,
-            &mut s,
-            Stage::Production,
-            t0 + prod,
-            clock,
-            progress,
-        );
-        let (x, y) = e.unwrapped_positions();
-        let (vx, vy) = if cfg.record_velocities {
-            e.velocities()
-        } else {
-            (vec![], vec![])
-        };
-        frames.push(Frame {
-            time: ft,
-            x,
-            y,
-            vx,
-            vy,
-        });
-    }
-    let end = t0 + prod;
-    advance(&mut e, end, &mut s, Stage::Production, end, clock, progress);
-    let cpu_prod = resources::thread_cpu_seconds() - cpu_prod0;
+    let cpu_prod = cpu.now() - cpu_prod0;
     let st = e.stats;
     let collisions = st.collisions - before.collisions;
 
@@ -494,7 +733,7 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
         kick_amplitude: p_dr,
         species_temperature,
         drift,
-        cpu_seconds: resources::thread_cpu_seconds() - cpu0,
+        cpu_seconds: cpu.now(),
         collisions_per_second: collisions as f64 / cpu_prod.max(1e-9),
         events_per_second: [
             collisions,

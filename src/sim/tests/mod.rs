@@ -7,7 +7,10 @@
 //! - [`intruder`], [`intruder_contact`], [`intruder_walls`], [`force_kicks`]:
 //!   paper I's pulled intruder (exact force, resting contact, walls in x, the
 //!   force as kicks).
+//! - [`checkpoint`]: a run stopped at a checkpoint and resumed is the same
+//!   bits; the clock's precision at a late time.
 
+mod checkpoint;
 mod force_kicks;
 mod friction;
 mod intruder;
