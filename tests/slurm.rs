@@ -480,7 +480,11 @@ fn long_trajectory(store: &Path) -> Vec<u8> {
     panic!("no simulate entry in {}", store.display());
 }
 
+/// Two minutes of two CPUs (a run longer than Slurm's shortest time limit,
+/// built twice): run by `make test-slurm`, not by `make test`, whose CI run
+/// must stay under 20 minutes on 2 cores.
 #[test]
+#[ignore = "two minutes: run by `make test-slurm`"]
 fn a_run_longer_than_the_partition_limit_finishes_through_a_chain() {
     if !slurm_available("a_run_longer_than_the_partition_limit_finishes_through_a_chain") {
         return;
