@@ -452,11 +452,18 @@ fn a_legend_never_covers_data() {
 fn a_wide_legend_leaves_the_axes_their_width() {
     let mut f = overlap_figure();
     for s in &mut f.panels[0].series {
-        s.label = format!("{}: τ = 1.234 ± 0.056, β = 0.789 ± 0.012, A = 0.95 ± 0.01", s.label);
+        s.label = format!(
+            "{}: τ = 1.234 ± 0.056, β = 0.789 ± 0.012, A = 0.95 ± 0.01",
+            s.label
+        );
     }
     let lay = layout(&f).unwrap();
     let (b, fr) = (lay[0].legend.expect("a legend"), lay[0].frame);
-    assert!(fr.width() > 0.7 * lay[0].cell.width(), "{fr:?} in {:?}", lay[0].cell);
+    assert!(
+        fr.width() > 0.7 * lay[0].cell.width(),
+        "{fr:?} in {:?}",
+        lay[0].cell
+    );
     assert!(!lay[0].marks.iter().any(|&q| b.contains(q)), "{b:?}");
     assert!(defects(&f).unwrap().is_empty());
 }

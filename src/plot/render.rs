@@ -583,7 +583,7 @@ fn lay_out_panel<DB: DrawingBackend>(
     };
     let (frame, legend_at) = match (p.legend, legend.entries.is_empty()) {
         (Legend::None, _) | (_, true) => (frame(inside), None),
-        (Legend::Right, _) => right_legend(frame, inside, &legend, sz),
+        (Legend::Right, _) => outside_legend(frame, inside, &legend, sz, false),
         _ => {
             let f = frame(inside);
             let taken = marks(root, &f, p, sz)?;
@@ -591,10 +591,10 @@ fn lay_out_panel<DB: DrawingBackend>(
                 Some(at) => (f, Some(at)),
                 // A wide legend (fitted values in its labels) beside the axes
                 // would squeeze them to a strip: above them instead.
-                None if legend.width > 0.4 * inside.width() => {
-                    top_legend(frame, inside, &legend, sz)
+                None => {
+                    let above = legend.width > 0.4 * inside.width();
+                    outside_legend(frame, inside, &legend, sz, above)
                 }
-                None => right_legend(frame, inside, &legend, sz),
             }
         }
     };
@@ -705,29 +705,25 @@ fn vline_label_at(r: &Rect, x: f64, sz: Sizes) -> P {
     (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend)
 }
 
-/// Shrink the axes to make room for the legend on the right.
-fn right_legend(
+/// Shrink the axes to make room for the legend beside them (on the right) or,
+/// `above`, over them at their left edge.
+fn outside_legend(
     frame: impl Fn(Rect) -> Frame,
     inside: Rect,
     legend: &LegendBox,
     sz: Sizes,
+    above: bool,
 ) -> (Frame, Option<P>) {
+    let gap = 0.6 * sz.label;
     let mut rect = inside;
-    rect.x1 -= legend.width + 0.6 * sz.label;
-    let at = (rect.x1 + 0.6 * sz.label, rect.y0);
+    let at = if above {
+        rect.y0 += legend.height + gap;
+        (inside.x0, inside.y0)
+    } else {
+        rect.x1 -= legend.width + gap;
+        (rect.x1 + gap, rect.y0)
+    };
     (frame(rect), Some(at))
-}
-
-/// The legend above the axes, at their left edge; the axes lose its height.
-fn top_legend(
-    frame: impl Fn(Rect) -> Frame,
-    inside: Rect,
-    legend: &LegendBox,
-    sz: Sizes,
-) -> (Frame, Option<P>) {
-    let mut rect = inside;
-    rect.y0 += legend.height + 0.6 * sz.label;
-    (frame(rect), Some((inside.x0, inside.y0)))
 }
 
 fn corner_position(r: &Rect, corner: Legend, legend: &LegendBox, sz: Sizes) -> P {
