@@ -1,0 +1,199 @@
+//! The legend: its entries and size, where it goes (a free corner inside the
+//! axes, or outside them), and drawing it.
+
+use super::*;
+
+/// A legend entry: its text and the series it stands for (series sharing a
+/// label share an entry, e.g. the points and the fitted curve of one phi).
+#[derive(Clone, Debug)]
+pub(super) struct Entry {
+    pub(super) label: String,
+    pub(super) series: Vec<usize>,
+}
+
+/// The legend's entries and measured size.
+#[derive(Clone, Debug)]
+pub(super) struct LegendBox {
+    pub(super) entries: Vec<Entry>,
+    pub(super) row: f64,
+    pub(super) sample: f64,
+    pub(super) width: f64,
+    pub(super) height: f64,
+}
+
+pub(super) fn measure_legend<DB: DrawingBackend>(
+    area: &Area<DB>,
+    p: &Panel,
+    sz: Sizes,
+) -> Result<LegendBox> {
+    let mut entries: Vec<Entry> = vec![];
+    for (i, s) in p
+        .series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !s.label.is_empty())
+    {
+        match entries.iter_mut().find(|e| e.label == s.label) {
+            Some(e) => e.series.push(i),
+            None => entries.push(Entry {
+                label: s.label.clone(),
+                series: vec![i],
+            }),
+        }
+    }
+    // Group values in order of value, even when they come from several layers
+    // (one ensemble per eps); the other entries after them, as given.
+    let key = |e: &Entry| e.label.trim().parse::<f64>().ok();
+    entries.sort_by(|a, b| match (key(a), key(b)) {
+        (Some(x), Some(y)) => x.total_cmp(&y),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => std::cmp::Ordering::Equal,
+    });
+    let row = 1.35 * sz.legend;
+    let sample = 2.2 * sz.legend;
+    let mut text_w: f64 = text_size(area, &p.legend_title, sz.legend)?.0 - sample - 0.4 * sz.legend;
+    for e in &entries {
+        text_w = text_w.max(text_size(area, &e.label, sz.legend)?.0);
+    }
+    let rows = entries.len() + usize::from(!p.legend_title.is_empty());
+    Ok(LegendBox {
+        width: 0.5 * sz.legend + sample + 0.4 * sz.legend + text_w + 0.6 * sz.legend,
+        height: rows as f64 * row + 0.5 * sz.legend,
+        entries,
+        row,
+        sample,
+    })
+}
+
+/// Shrink the axes to make room for the legend beside them (on the right) or,
+/// `above`, over them at their left edge.
+pub(super) fn outside_legend(
+    frame: impl Fn(Rect) -> Frame,
+    inside: Rect,
+    legend: &LegendBox,
+    sz: Sizes,
+    above: bool,
+) -> (Frame, Option<P>) {
+    let gap = 0.6 * sz.label;
+    let mut rect = inside;
+    let at = if above {
+        rect.y0 += legend.height + gap;
+        (inside.x0, inside.y0)
+    } else {
+        rect.x1 -= legend.width + gap;
+        (rect.x1 + gap, rect.y0)
+    };
+    (frame(rect), Some(at))
+}
+
+pub(super) fn corner_position(r: &Rect, corner: Legend, legend: &LegendBox, sz: Sizes) -> P {
+    let m = 0.5 * sz.label;
+    let left = r.x0 + m;
+    let right = r.x1 - m - legend.width;
+    let top = r.y0 + m;
+    let bottom = r.y1 - m - legend.height;
+    match corner {
+        Legend::TopLeft => (left, top),
+        Legend::BottomLeft => (left, bottom),
+        Legend::BottomRight => (right, bottom),
+        _ => (right, top),
+    }
+}
+
+/// The first of `order`'s inside corners whose legend box covers none of
+/// `taken`, if the legend fits at all.
+pub(super) fn free_corner(
+    f: &Frame,
+    order: &[Legend],
+    taken: &[P],
+    legend: &LegendBox,
+    sz: Sizes,
+) -> Option<P> {
+    let r = f.rect;
+    if legend.width > 0.8 * r.width() || legend.height > 0.9 * r.height() {
+        return None;
+    }
+    let pad = sz.marker + 1.0;
+    order
+        .iter()
+        .map(|&c| corner_position(&r, c, legend, sz))
+        .find(|&(x, y)| {
+            let b = Rect {
+                x0: x - pad,
+                y0: y - pad,
+                x1: x + legend.width + pad,
+                y1: y + legend.height + pad,
+            };
+            !taken.iter().any(|&q| b.contains(q))
+        })
+}
+
+pub(super) fn draw_legend<DB: DrawingBackend>(
+    area: &Area<DB>,
+    p: &Panel,
+    colors: &[Color],
+    lb: &LegendBox,
+    (x, y): P,
+    sz: Sizes,
+) -> Result<()> {
+    let box_style = RGBColor(0xb0, 0xb0, 0xb0).stroke_width(1);
+    let corners = [px((x, y)), px((x + lb.width, y + lb.height))];
+    area.draw(&Rectangle::new(corners, WHITE.filled()))
+        .map_err(err)?;
+    area.draw(&Rectangle::new(corners, box_style))
+        .map_err(err)?;
+    let style = text_style(sz.legend, INK, HPos::Left, VPos::Center);
+    let x_sample = x + 0.5 * sz.legend;
+    let x_text = x_sample + lb.sample + 0.4 * sz.legend;
+    let mut row_y = y + 0.25 * sz.legend + lb.row / 2.0;
+    if !p.legend_title.is_empty() {
+        draw_text(area, &p.legend_title, &style, (x_sample, row_y))?;
+        row_y += lb.row;
+    }
+    let color_of = |i: usize| {
+        if p.series[i].legend_ink {
+            INK
+        } else {
+            rgb(colors[i])
+        }
+    };
+    for e in &lb.entries {
+        // One sample for all the series of the entry: the line of the first
+        // drawn as a line, the marker of the first drawn with markers on it.
+        let line = e.series.iter().find(|&&i| {
+            !matches!(
+                p.series[i].style,
+                Style::Points | Style::Disks | Style::Arrows
+            )
+        });
+        if let Some(&i) = line {
+            stroke(
+                area,
+                &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
+                color_of(i),
+                sz.line,
+                p.series[i].dashed,
+                sz,
+            )?;
+        }
+        let arrows = e
+            .series
+            .iter()
+            .find(|&&i| p.series[i].style == Style::Arrows);
+        let dots = e
+            .series
+            .iter()
+            .find(|&&i| !matches!(p.series[i].style, Style::Line | Style::Arrows));
+        if let Some(&i) = arrows {
+            let to = (x_sample + lb.sample, row_y);
+            arrow(area, (x_sample, row_y), to, color_of(i), sz)?;
+        } else if let Some(&i) = dots {
+            let at = (x_sample + lb.sample / 2.0, row_y);
+            marker(area, p.series[i].marker, at, sz.marker, color_of(i))?;
+        }
+        draw_text(area, &e.label, &style, (x_text, row_y))?;
+        row_y += lb.row;
+    }
+    Ok(())
+}
