@@ -52,6 +52,37 @@ pub struct OneFigure {
     pub root: RootArgs,
 }
 
+/// The figures a command works on, at one profile.
+#[derive(Args, Debug, Clone)]
+pub struct Figures {
+    /// Figure ids (file names of pipelines/ID.yaml without .yaml).
+    #[arg(value_name = "ID", required_unless_present_any = ["all", "ci"])]
+    pub ids: Vec<String>,
+    /// Every figure in pipelines/.
+    #[arg(long, conflicts_with_all = ["ids", "ci"])]
+    pub all: bool,
+    /// The figures gated in CI (`ci: true` in their pipelines/ID.yaml).
+    #[arg(long, conflicts_with = "ids")]
+    pub ci: bool,
+    /// Size of the runs: `ci` (seconds, for tests), `small` (a laptop, minutes;
+    /// shows every qualitative feature), `paper` (the paper's N and run lengths).
+    #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
+    pub profile: String,
+}
+
+impl Figures {
+    /// The ids to plan: all (an empty list), those gated in CI, or those named.
+    fn ids(&self, ws: &Workspace) -> Result<Vec<String>> {
+        Ok(if self.all {
+            Vec::new()
+        } else if self.ci {
+            pipeline::Catalogue::load(&ws.root)?.ci_figures()
+        } else {
+            self.ids.clone()
+        })
+    }
+}
+
 /// Where `repro figure` runs its stages.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq)]
 pub enum Executor {
@@ -67,19 +98,8 @@ pub enum Commands {
     /// Examples: `repro figure fig19`, `repro figure fig19 --profile ci`,
     /// `repro figure --all --jobs 2`, `repro figure fig19 --dry-run`.
     Figure {
-        /// Figure ids (file names of pipelines/ID.yaml without .yaml).
-        #[arg(value_name = "ID", required_unless_present_any = ["all", "ci"])]
-        ids: Vec<String>,
-        /// Build every figure in pipelines/.
-        #[arg(long, conflicts_with_all = ["ids", "ci"])]
-        all: bool,
-        /// Build the figures gated in CI (`ci: true` in their pipelines/ID.yaml).
-        #[arg(long, conflicts_with = "ids")]
-        ci: bool,
-        /// Size of the runs: `ci` (seconds, for tests), `small` (a laptop, minutes;
-        /// shows every qualitative feature), `paper` (the paper's N and run lengths).
-        #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
-        profile: String,
+        #[command(flatten)]
+        figures: Figures,
         /// Stages run at once (default: all cores). Results are identical for any value.
         #[arg(long, value_name = "N")]
         jobs: Option<usize>,
@@ -95,6 +115,30 @@ pub enum Commands {
         /// `--dry-run`, `slurm` prints the jobs, their resources and core-hours.
         #[arg(long, value_enum, default_value_t = Executor::Local)]
         executor: Executor,
+        #[command(flatten)]
+        root: RootArgs,
+    },
+    /// The planned cost of a build: per simulation its work (collisions, kicks,
+    /// force kicks, frames) and planned CPU time, the total and the longest.
+    /// With `--check`, beside each the CPU time its recorded run took (cached
+    /// stages only), failing if any is off by more than `--factor` either way.
+    ///
+    /// Examples: `repro plan --all --profile small`, `repro plan --all --check`.
+    Plan {
+        #[command(flatten)]
+        figures: Figures,
+        /// Compare the plan with the recorded CPU time of every built simulation.
+        #[arg(long)]
+        check: bool,
+        /// With `--check`: the largest accepted ratio of measured to planned (or
+        /// planned to measured).
+        #[arg(long, default_value_t = 2.0, value_name = "X")]
+        factor: f64,
+        /// With `--check`: runs whose planned and measured CPU times are both
+        /// below this many seconds are listed but not judged (a Slurm time limit
+        /// is two minutes at least; start-up dominates there).
+        #[arg(long, default_value_t = 1.0, value_name = "S")]
+        min_seconds: f64,
         #[command(flatten)]
         root: RootArgs,
     },
@@ -237,10 +281,7 @@ pub fn run(c: Commands) -> Result<()> {
     let reg = super::registry();
     match c {
         Commands::Figure {
-            ids,
-            all,
-            ci,
-            profile,
+            figures,
             jobs,
             dry_run,
             force,
@@ -248,13 +289,8 @@ pub fn run(c: Commands) -> Result<()> {
             root,
         } => {
             let ws = root.workspace();
-            let ids = if all {
-                Vec::new()
-            } else if ci {
-                pipeline::Catalogue::load(&ws.root)?.ci_figures()
-            } else {
-                ids
-            };
+            let ids = figures.ids(&ws)?;
+            let profile = figures.profile;
             for k in &force {
                 reg.get(k)?;
             }
@@ -308,6 +344,35 @@ pub fn run(c: Commands) -> Result<()> {
                 }
             }
             run.check()?;
+            Ok(())
+        }
+        Commands::Plan {
+            figures,
+            check,
+            factor,
+            min_seconds,
+            root,
+        } => {
+            let ws = root.workspace();
+            let ids = figures.ids(&ws)?;
+            let profile = figures.profile;
+            let check = check.then_some(pipeline::cost::Check {
+                factor,
+                min_seconds,
+            });
+            let report = pipeline::cost::plan(&ws, &reg, &ids, &profile, check.as_ref())?;
+            print!("{}", report.text);
+            if let Some(c) = &check
+                && report.outside > 0
+            {
+                bail!(
+                    "{} of {} recorded configuration(s): the mean CPU time of the built runs is more than {}x or less than 1/{}x the planned",
+                    report.outside,
+                    report.judged,
+                    c.factor,
+                    c.factor
+                );
+            }
             Ok(())
         }
         Commands::List { profile, root } => {

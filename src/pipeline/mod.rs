@@ -10,7 +10,8 @@
 //!   are registered by whoever assembles the registry (`stages::registry()`): this
 //!   module imports nothing from `stages`.
 //! - [`store`]: the content-addressed cache on disk; [`checkpoints`]: a running
-//!   stage's checkpoints and progress beside it; [`exec`]: parallel execution,
+//!   stage's checkpoints and progress beside it; [`cost`]: a stage's planned CPU
+//!   seconds; [`exec`]: parallel execution,
 //!   early cut-off, `status`/`why`; [`progress`]: bars, plain lines and the run
 //!   log; [`publish`]: `results/ID/` and provenance.
 //!
@@ -18,6 +19,7 @@
 
 pub mod canon;
 pub mod checkpoints;
+pub mod cost;
 pub mod exec;
 pub mod fingerprint;
 pub mod graph;

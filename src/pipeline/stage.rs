@@ -79,8 +79,15 @@ pub enum Holds {
 pub struct Work {
     /// Disks.
     pub n: u64,
-    /// Planned collisions (compression, relaxation and production).
+    /// Packing fraction (a collision costs more near jamming).
+    pub phi: f64,
+    /// Planned collisions (compression, relaxation and production), with the
+    /// bath's heating by a pulling force.
     pub collisions: f64,
+    /// Kicks of the drive (single disks or pairs).
+    pub drive_kicks: f64,
+    /// Momentum kicks of a pulled intruder (`force_mode: kicks`).
+    pub force_kicks: f64,
     /// Frames the trajectory keeps in memory until it is written.
     pub frames: u64,
 }

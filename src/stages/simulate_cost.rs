@@ -1,37 +1,92 @@
-//! What a simulation is planned to cost, from its configuration alone: disks,
-//! stored frames and collisions (with the measured collision rate over Enskog's),
-//! for the executors' resource requests (the `simulate` kind's
+//! What a simulation is planned to do, from its configuration alone: disks,
+//! stored frames, collisions (with the measured collision rate over Enskog's and
+//! the bath's heating by a pulling force), kicks of the drive and force kicks of
+//! an intruder; the executors turn it into CPU seconds
+//! ([`crate::pipeline::cost`]) and resource requests (the `simulate` kind's
 //! [`StageKind::plan`](crate::pipeline::StageKind::plan)).
 
 use crate::pipeline::stage::Work;
-use crate::sim::SimConfig;
+use crate::sim::engine::Kicks;
+use crate::sim::{ForceMode, SimConfig, enskog, run::drive};
 
-/// Planned work of a `simulate` stage, for Slurm's resource requests: N, the
-/// frames it keeps, and its collisions: N x (collision rate per disk) / 2 x (the
-/// relaxation and production time), plus ~100 per disk for the compression
-/// (docs/sim.md).
-/// The rate per disk is the Enskog frequency at T = 1 times the measured ratio of
-/// the real rate to it (docs/sim.md: 1.01 at phi = 0.60 up to 1.46 at 0.805).
+/// Planned work of a `simulate` stage: N, the frames it keeps, its collisions
+/// (N x (collision rate per disk) / 2 x (relaxation + production) x the heating
+/// factor [`heating`], plus up to ~100 per disk for the compression), the
+/// drive's kicks (its rate x the same time) and the intruder's force kicks (one
+/// every 1 / (kick_rate_factor omega_E), as the run spaces them).
+/// The rate per disk is the Enskog frequency at the drive's T times the measured
+/// ratio of the real rate to it (docs/sim.md: 1.01 at phi = 0.60 up to 1.46 at 0.805).
 pub fn planned_work(cfg: &SimConfig) -> Work {
     let nf = cfg.n as f64;
-    let large = cfg.n_large() as f64 / nf;
-    // The bath's two species (an intruder, species 2, is left out, as in the run).
-    let omega = crate::sim::enskog::collision_frequency(
+    let omega = bath_enskog(cfg, cfg.temperature);
+    let frames = cfg.schedule.times().len() as u64;
+    let time = cfg.relax_time + cfg.schedule.end();
+    // omega counts collisions per disk; each collision involves two disks.
+    // The compression from phi = 0.3 takes ~100 collisions per disk up to the
+    // dense states (docs/sim.md), none at phi <= 0.3.
+    let compression = 100.0 * ((cfg.phi - 0.3) / 0.5).clamp(0.0, 1.0);
+    let collisions = nf * (omega / 2.0 * enskog_ratio(cfg.phi) * heating(cfg) * time + compression);
+    // An undriven or elastic run (zero kick amplitude) kicks nothing.
+    let (kicks, kick_rate, _) = drive(cfg, omega);
+    let kick_rate = if kicks == Kicks::Off { 0.0 } else { kick_rate };
+    let force_kicks = match &cfg.intruder {
+        Some(i) if i.force_mode == ForceMode::Kicks && i.force > 0.0 => {
+            time * i.kick_rate_factor * omega
+        }
+        _ => 0.0,
+    };
+    Work {
+        n: cfg.n as u64,
+        phi: cfg.phi,
+        collisions,
+        drive_kicks: kick_rate * time,
+        force_kicks,
+        frames,
+    }
+}
+
+/// The Enskog collision frequency per disk of the bath's two species at
+/// temperature `t` (an intruder, species 2, is left out, as in the run).
+fn bath_enskog(cfg: &SimConfig, t: f64) -> f64 {
+    let large = cfg.n_large() as f64 / cfg.n as f64;
+    enskog::collision_frequency(
         cfg.phi,
         &cfg.radii()[..2],
         &cfg.species_masses()[..2],
         &[1.0 - large, large],
-        1.0,
-    );
-    let frames = cfg.schedule.times().len() as u64;
-    // omega counts collisions per disk; each collision involves two disks.
-    let collisions =
-        nf * (omega / 2.0 * enskog_ratio(cfg.phi) * (cfg.relax_time + cfg.schedule.end()) + 100.0);
-    Work {
-        n: cfg.n as u64,
-        collisions,
-        frames,
+        t,
+    )
+}
+
+/// The factor by which a pulled intruder multiplies the bath's collisions: the
+/// work F v heats the bath (T ~ 10^2 at F ~ 3 x 10^3, N = 500) and compacts the
+/// disks ahead of it, where collisions come fast and carry little energy.
+///
+/// In linear response v = F / zeta, and the heating per disk F^2 / (zeta N)
+/// over the bath's cooling rate gamma_eff reaches T when F ~ F_h =
+/// C sqrt(N T gamma_eff): the collisions grow as (F / F_h)^2 from there, and
+/// as (F / F_h)^(1/2) once the compacted layer ahead of the intruder sets the
+/// rate, past x = F / F_h ~ 13. The cooling rate is the friction gamma plus the
+/// collisions' share (1 - eps^2) omega_E / 4; without friction (paper I's
+/// front, pushed into a closed box) only collisions cool, and those of the
+/// compacted layer carry little energy: there the share is 50 times smaller
+/// (measured: the front's bath makes 450 times its collisions at rest, at a
+/// mean T of 1.07 against the drive's 0.1). The constants are fitted to the recorded runs of the ci
+/// and small profiles (docs/measurements.md, 2026-11-26: x = 3 gives a factor
+/// 10, x = 10 about 50, x = 172 (F = 10^4, T = 0.04) 580, the front (F = 500,
+/// gamma = 0) about 450); `repro plan --check` compares every recorded
+/// configuration with its plan.
+pub fn heating(cfg: &SimConfig) -> f64 {
+    let Some(i) = &cfg.intruder else { return 1.0 };
+    if i.force <= 0.0 {
+        return 1.0;
     }
+    let t = cfg.temperature;
+    let share = if cfg.gamma > 0.0 { 1.0 } else { 1.0 / 50.0 };
+    let gamma_eff = cfg.gamma + share * (1.0 - cfg.eps * cfg.eps) * bath_enskog(cfg, t) / 4.0;
+    let f_h = 12.0 * (cfg.n as f64 * t * gamma_eff).sqrt();
+    let x = i.force / f_h;
+    1.0 + x * x / (1.0 + (x / 13.0).powf(1.5))
 }
 
 /// Measured collision rate over the Enskog frequency at the measured T, by phi

@@ -1,12 +1,13 @@
 //! Resources of a Slurm job from the planned work: memory from the measured bytes
-//! per disk times N, the time limit from the planned collisions over the measured
-//! collision rate, one CPU per stage; each times a margin from the profile's
+//! per disk times N, the time limit from the planned CPU seconds
+//! ([`cost`](super::super::cost)), one CPU per stage; each times a margin from the profile's
 //! `slurm:` settings.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::super::cost;
 use super::super::graph::Graph;
 use super::super::spec::{Catalogue, SlurmSpec, SpecError};
 use super::super::stage::Work;
@@ -19,26 +20,6 @@ pub const ENGINE_BYTES_PER_DISK: f64 = 198.0;
 pub const FRAME_BYTES_PER_DISK: f64 = 2.0 * 16.0;
 /// Process baseline (binary, allocator, Parquet writer), MiB.
 pub const BASE_MIB: f64 = 64.0;
-
-/// Measured driven collisions per CPU second at phi = 0.78 (docs/measurements.md,
-/// 2026-11-22 and 11-23, `repro bench`; the lower end of each range): (N, rate).
-const SPEED: &[(f64, f64)] = &[(1e4, 1.0e6), (1e5, 0.75e6), (1e6, 0.46e6), (4e6, 0.40e6)];
-
-/// Collisions per CPU second at N disks: log-linear between the measured sizes,
-/// the end values outside them.
-pub fn collisions_per_second(n: f64) -> f64 {
-    if n <= SPEED[0].0 {
-        return SPEED[0].1;
-    }
-    for w in SPEED.windows(2) {
-        let ((n0, r0), (n1, r1)) = (w[0], w[1]);
-        if n <= n1 {
-            let f = (n / n0).ln() / (n1 / n0).ln();
-            return r0 + f * (r1 - r0);
-        }
-    }
-    SPEED[SPEED.len() - 1].1
-}
 
 /// Settings of one job: where it goes and the margins on its resources.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -166,32 +147,20 @@ pub struct Resources {
     pub expected_s: f64,
 }
 
-/// Analyses, fits and plots: time and memory from the bytes they read (their
-/// work is not modelled per kind). Measured on the ci profile (2026-11-24,
-/// docs/measurements.md): the slowest per input byte was `chi4_peaks` at 4.4 MB/s
-/// (tau_alpha 23-69 MB/s); `aging` peaked at 25 MB of RSS for 2.5 MB of input
-/// over an 11 MB process baseline (5.6 bytes per input byte). Half the slowest
-/// speed, and 6 bytes per input byte over the baseline [`BASE_MIB`].
-pub const ANALYSIS_BYTES_PER_SECOND: f64 = 2e6;
+/// Analyses, fits and plots: memory from the bytes they read. Measured on the
+/// ci profile (2026-11-24, docs/measurements.md): `aging` peaked at 25 MB of RSS
+/// for 2.5 MB of input over an 11 MB process baseline (5.6 bytes per input
+/// byte); 6 bytes per input byte over the baseline [`BASE_MIB`].
 pub const ANALYSIS_MEM_PER_INPUT_BYTE: f64 = 6.0;
 
 /// Resources of a stage with planned `work` (simulations) or reading
 /// `input_bytes` (everything else).
 pub fn resources(work: Option<&Work>, input_bytes: u64, s: &Settings) -> Resources {
-    let (mem_bytes, secs) = match work {
-        Some(w) => {
-            let n = w.n as f64;
-            let mem = n * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK);
-            (mem, w.collisions / collisions_per_second(n))
-        }
-        None => {
-            let b = input_bytes as f64;
-            (
-                b * ANALYSIS_MEM_PER_INPUT_BYTE,
-                10.0 + b / ANALYSIS_BYTES_PER_SECOND,
-            )
-        }
+    let mem_bytes = match work {
+        Some(w) => w.n as f64 * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK),
+        None => input_bytes as f64 * ANALYSIS_MEM_PER_INPUT_BYTE,
     };
+    let secs = cost::seconds(work, input_bytes);
     let mem_mib = (BASE_MIB + mem_bytes / (1024.0 * 1024.0)) * s.mem_margin;
     // Slurm counts time limits in minutes; two at least, for start-up on a busy node.
     let time_min = ((secs * s.time_margin) / 60.0).ceil().max(2.0);
@@ -323,27 +292,21 @@ mod tests {
     }
 
     #[test]
-    fn speed_interpolates_between_measured_sizes() {
-        assert_eq!(collisions_per_second(1000.0), 1.0e6);
-        assert_eq!(collisions_per_second(1e6), 0.46e6);
-        assert_eq!(collisions_per_second(1e7), 0.40e6);
-        let mid = collisions_per_second(10f64.powf(5.5));
-        assert!((mid - 0.605e6).abs() < 1.0, "{mid}");
-    }
-
-    #[test]
     fn resources_scale_with_n_and_collisions_with_margins() {
         let s = Settings::default();
         let w = Work {
             n: 1_000_000,
+            phi: 0.78,
             collisions: 0.46e6 * 3600.0,
-            frames: 100,
+            drive_kicks: 0.0,
+            force_kicks: 0.0,
+            frames: 0,
         };
         let r = resources(Some(&w), 0, &s);
         // One hour of work at 0.46e6 collisions/s, times the margin 3.
         assert!((r.expected_s - 3600.0).abs() < 1e-6);
         assert_eq!(r.time_min, 180);
-        let mib: f64 = (64.0 + 1e6 * (198.0 + 100.0 * 32.0) / 1048576.0) * 1.5;
+        let mib: f64 = (64.0 + 1e6 * 198.0 / 1048576.0) * 1.5;
         assert_eq!(r.mem_mib, mib.ceil() as u64);
         assert_eq!(r.cpus, 1);
         let tight = Settings {
