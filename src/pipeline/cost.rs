@@ -69,16 +69,48 @@ pub fn simulation_seconds(w: &Work) -> f64 {
 /// Analyses, fits and plots: time from the bytes they read (their work is not
 /// modelled per kind). Measured on the ci profile (2026-11-24,
 /// docs/measurements.md): the slowest per input byte was `chi4_peaks` at 4.4 MB/s
-/// (tau_alpha 23-69 MB/s); half that speed, plus 10 s of start-up.
+/// (tau_alpha 23-69 MB/s); half that speed, plus 0.2 s (the median stage of a
+/// ci build).
 pub const ANALYSIS_BYTES_PER_SECOND: f64 = 2e6;
+pub const ANALYSIS_SECONDS: f64 = 0.2;
 
 /// Planned CPU seconds of a stage: a simulation from its work, anything else from
 /// the bytes it reads.
 pub fn seconds(work: Option<&Work>, input_bytes: u64) -> f64 {
     match work {
         Some(w) => simulation_seconds(w),
-        None => 10.0 + input_bytes as f64 / ANALYSIS_BYTES_PER_SECOND,
+        None => ANALYSIS_SECONDS + input_bytes as f64 / ANALYSIS_BYTES_PER_SECOND,
     }
+}
+
+/// Bytes a simulation's trajectory is planned to hold: x and y (f64) per disk
+/// and frame (what a stage reading it reads, before it exists).
+pub fn trajectory_bytes(w: &Work) -> u64 {
+    w.n * w.frames * 16
+}
+
+/// Planned CPU seconds of every node of `graph`, an input not built yet counted
+/// at its planned trajectory size: what the progress line's estimate of the end
+/// starts from.
+pub fn node_seconds(graph: &super::Graph, reg: &Registry) -> Vec<f64> {
+    let work: Vec<Option<Work>> = graph
+        .nodes
+        .iter()
+        .map(|n| reg.work(&n.kind, &n.params))
+        .collect();
+    graph
+        .nodes
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let bytes = n
+                .inputs
+                .iter()
+                .filter_map(|&j| work[j].as_ref().map(trajectory_bytes))
+                .sum();
+            seconds(work[i].as_ref(), bytes)
+        })
+        .collect()
 }
 
 /// What `repro plan --check` judges: a recorded run off by more than `factor`
@@ -283,7 +315,7 @@ mod tests {
         let extra =
             1e6 * (SECONDS_PER_DRIVE_KICK + SECONDS_PER_FORCE_KICK) + 1e7 * SECONDS_PER_FRAME_DISK;
         assert!((simulation_seconds(&more) - 3600.0 - extra).abs() < 1e-6);
-        assert_eq!(seconds(None, 2_000_000), 11.0);
+        assert_eq!(seconds(None, 2_000_000), 1.2);
         let dense = Work { phi: 0.84, ..w };
         assert!((simulation_seconds(&dense) - 1.8 * 3600.0).abs() < 1e-6);
     }

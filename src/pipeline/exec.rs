@@ -215,6 +215,8 @@ pub fn execute(
         progress: Progress::new(opts.progress, nodes.len(), log.as_deref()),
         damaged: Mutex::new(Vec::new()),
     };
+    sh.progress
+        .plan(nodes, &super::cost::node_seconds(graph, reg), opts.jobs);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))
         .build()?;

@@ -7,6 +7,10 @@
 //! every [`heartbeat`] seconds per stage still running, with its last report (what
 //! it does, how far, the rate). Every line also goes to the log file, whatever
 //! stderr is.
+//!
+//! With a plan ([`Progress::plan`]: the planned CPU seconds of each stage,
+//! [`cost`](super::cost)), each finished stage's line and a line per heartbeat
+//! also say the elapsed time, the planned CPU time left and an estimated end.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -52,6 +56,13 @@ pub struct Progress {
     finished: Mutex<usize>,
     running: Mutex<BTreeMap<usize, Running>>,
     t0: Instant,
+    plan: Mutex<Option<Plan>>,
+}
+
+/// The planned CPU seconds of the stages still to finish, and how many run at once.
+struct Plan {
+    left: BTreeMap<usize, f64>,
+    workers: usize,
 }
 
 impl Progress {
@@ -82,7 +93,51 @@ impl Progress {
             finished: Mutex::new(0),
             running: Mutex::new(BTreeMap::new()),
             t0: Instant::now(),
+            plan: Mutex::new(None),
         }
+    }
+
+    /// The planned CPU seconds of each stage of the run (`seconds[i]` for node
+    /// `i` of `nodes`) and how many run at once: from here on the lines carry
+    /// an estimate of the end. A stage found cached drops its share unspent.
+    pub fn plan(&self, nodes: &[usize], seconds: &[f64], workers: usize) {
+        let left = nodes.iter().map(|&i| (i, seconds[i])).collect();
+        *self.plan.lock().unwrap() = Some(Plan {
+            left,
+            workers: workers.max(1),
+        });
+    }
+
+    /// `elapsed 12 min, planned 1.52 CPU h left, ends ~16:40 UTC`, or nothing
+    /// without a plan. A running stage counts the share it has not done (from
+    /// its last report); the end is the later of the work left spread over the
+    /// workers and the longest single stage left.
+    fn estimate(&self) -> String {
+        let plan = self.plan.lock().unwrap();
+        let Some(p) = &*plan else {
+            return String::new();
+        };
+        let running = self.running.lock().unwrap();
+        let (mut total, mut longest) = (0.0, 0.0f64);
+        for (i, &s) in &p.left {
+            let done = running
+                .get(i)
+                .and_then(|r| r.last.lock().unwrap().as_ref().map(|l| fraction(l.0, l.1)))
+                .unwrap_or(0.0);
+            let s = s * (1.0 - done);
+            total += s;
+            longest = longest.max(s);
+        }
+        let wall = (total / p.workers as f64).max(longest);
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64());
+        format!(
+            "elapsed {}, planned {} CPU left, ends ~{} UTC",
+            span(self.t0.elapsed().as_secs_f64()),
+            span(total),
+            clock(now + wall)
+        )
     }
 
     /// Write a line to the log and to stderr (above the bars on a terminal).
@@ -152,6 +207,9 @@ impl Progress {
         {
             b.finish_and_clear();
         }
+        if let Some(p) = &mut *self.plan.lock().unwrap() {
+            p.left.remove(&node);
+        }
         let k = {
             let mut f = self.finished.lock().unwrap();
             *f += 1;
@@ -163,9 +221,21 @@ impl Progress {
         let took = ran
             .map(|r| format!(" in {:.1} s", r.started.elapsed().as_secs_f64()))
             .unwrap_or_default();
+        let estimate = self.estimate();
+        if let Some(o) = &self.overall {
+            o.set_message(estimate.clone());
+        }
+        let estimate = if estimate.is_empty() || what == "cached" {
+            String::new()
+        } else {
+            format!("; {estimate}")
+        };
         // Cached stages only go to the log: the closing summary counts them.
         self.emit(
-            &format!("[{k}/{}] {what} {label} ({kind}){took}", self.total),
+            &format!(
+                "[{k}/{}] {what} {label} ({kind}){took}{estimate}",
+                self.total
+            ),
             what != "cached",
         );
     }
@@ -197,6 +267,13 @@ impl Progress {
                 r.started.elapsed().as_secs_f64()
             ));
         }
+        if !due.is_empty() {
+            let estimate = self.estimate();
+            if !estimate.is_empty() {
+                let k = *self.finished.lock().unwrap();
+                due.push(format!("[{k}/{}] {estimate}", self.total));
+            }
+        }
         for l in due {
             self.line(&l);
         }
@@ -208,6 +285,23 @@ impl Progress {
             o.finish_and_clear();
         }
     }
+}
+
+/// A duration: `42 s`, `12 min`, `3.4 h`.
+fn span(s: f64) -> String {
+    if s < 120.0 {
+        format!("{s:.0} s")
+    } else if s < 7200.0 {
+        format!("{:.0} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
+    }
+}
+
+/// Unix seconds as the UTC time of day, `HH:MM`.
+fn clock(unix: f64) -> String {
+    let m = (unix.max(0.0) as u64 / 60) % 1440;
+    format!("{:02}:{:02}", m / 60, m % 60)
 }
 
 fn fraction(done: f64, total: f64) -> f64 {

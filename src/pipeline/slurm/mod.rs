@@ -24,6 +24,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result, bail, ensure};
 
+use super::cost;
 use super::exec::{self, Outcome, RunReport, StageResult, State, stage_key};
 use super::graph::{Graph, Node};
 use super::progress::Progress;
@@ -142,6 +143,8 @@ impl Driver<'_> {
             .parent()
             .map(|d| d.join("log").join("LAST-RUN.log"));
         let progress = Progress::new(self.opts.progress, nodes.len(), log.as_deref());
+        // Slurm runs every ready stage at once: the end is the longest chain's.
+        progress.plan(nodes, &cost::node_seconds(g, self.reg), nodes.len());
         let mut results: Vec<Option<StageResult>> = vec![None; n];
         let mut watching: BTreeMap<usize, JobRecord> = BTreeMap::new();
         let mut damaged = Vec::new();
@@ -607,7 +610,7 @@ pub fn dry_run(
                 };
                 match d {
                     Some(e) => input_bytes(&store, std::slice::from_ref(&e)),
-                    None => work(&graph.nodes[j]).map_or(0, |w| w.n * w.frames * 16),
+                    None => work(&graph.nodes[j]).map_or(0, |w| cost::trajectory_bytes(&w)),
                 }
             })
             .sum();

@@ -153,6 +153,9 @@ pub struct Resources {
 /// byte); 6 bytes per input byte over the baseline [`BASE_MIB`].
 pub const ANALYSIS_MEM_PER_INPUT_BYTE: f64 = 6.0;
 
+/// Start-up of a job that runs an analysis, seconds (on a busy node).
+pub const JOB_START_S: f64 = 10.0;
+
 /// Resources of a stage with planned `work` (simulations) or reading
 /// `input_bytes` (everything else).
 pub fn resources(work: Option<&Work>, input_bytes: u64, s: &Settings) -> Resources {
@@ -160,7 +163,8 @@ pub fn resources(work: Option<&Work>, input_bytes: u64, s: &Settings) -> Resourc
         Some(w) => w.n as f64 * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK),
         None => input_bytes as f64 * ANALYSIS_MEM_PER_INPUT_BYTE,
     };
-    let secs = cost::seconds(work, input_bytes);
+    // A job of an analysis also loads the binary and the store on its node.
+    let secs = cost::seconds(work, input_bytes) + if work.is_none() { JOB_START_S } else { 0.0 };
     let mem_mib = (BASE_MIB + mem_bytes / (1024.0 * 1024.0)) * s.mem_margin;
     // Slurm counts time limits in minutes; two at least, for start-up on a busy node.
     let time_min = ((secs * s.time_margin) / 60.0).ceil().max(2.0);
