@@ -373,29 +373,33 @@ fn a_job_killed_by_scancel_is_reported_and_only_it_is_resubmitted() {
     assert!(entry_exists(root, &victim_key));
 }
 
+/// A job killed at its time limit goes again once with twice the planned
+/// limit (that it goes only once: the unit test of
+/// `resubmit_after_time_limit`). About five minutes of waiting
+/// (Slurm's smallest limit is one minute), so it runs in `make test-slurm`.
 #[test]
-fn a_job_over_its_time_limit_is_reported_as_a_timeout() {
-    if !slurm_available("a_job_over_its_time_limit_is_reported_as_a_timeout") {
+#[ignore = "five minutes: run by `make test-slurm`"]
+fn a_job_over_its_time_limit_is_resubmitted_once_with_a_longer_limit() {
+    if !slurm_available("a_job_over_its_time_limit_is_resubmitted_once_with_a_longer_limit") {
         return;
     }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let tmp = tempfile::tempdir().unwrap();
-    let root = tmp.path();
-    // One minute (Slurm's smallest limit) for simulations sleeping 10 minutes.
+    // One minute (the profile's `--time=1`) for simulations sleeping 150 s: the
+    // first jobs time out, the second ones (the planned two minutes, twice)
+    // finish.
+    let root = tmp.path().join("once");
     slow_catalogue(
-        root,
-        600_000,
+        &root,
+        150_000,
         "    slurm: {extra: [\"--time=1\"], time_margin: 1}\n",
     );
-    let o = run(&mut slurm_figure(root));
+    let o = run(&mut slurm_figure(&root));
     let t = text(&o);
-    assert!(!o.status.success(), "{t}");
-    assert!(t.contains("TIMEOUT"), "{t}");
-    assert!(t.contains("ended without a result"), "{t}");
-    assert!(t.contains(".log"), "{t}");
-    assert!(
-        !root.join(".repro/store/entries").exists()
-            || files(&root.join(".repro/store/entries")).is_empty()
-    );
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("hit its time limit"), "{t}");
+    assert!(t.contains("resubmitting once with 2x the limit"), "{t}");
+    assert!(t.contains("0-00:04:00"), "{t}");
 }
 
 #[test]

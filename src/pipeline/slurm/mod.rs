@@ -123,6 +123,17 @@ fn now() -> u64 {
         .unwrap_or(0)
 }
 
+/// The factor on the time limit of a job that ended at its limit without a
+/// result (Slurm state TIMEOUT, from `squeue` or `scontrol`'s `details`),
+/// the first time only: the plan was short, so the stage goes again with twice
+/// the limit (a simulation resumes from its last checkpoint). `None`: it ended
+/// otherwise, or was resubmitted already.
+pub fn resubmit_after_time_limit(st: &JobState, details: &str, resubmitted: bool) -> Option<f64> {
+    let timeout = matches!(st, JobState::Ended { state, .. } if state.starts_with("TIMEOUT"))
+        || details.contains("TIMEOUT");
+    (timeout && !resubmitted).then_some(2.0)
+}
+
 fn describe(s: &JobState) -> String {
     match s {
         JobState::Queued { reason } => format!("queued ({reason})"),
@@ -147,6 +158,9 @@ impl Driver<'_> {
         progress.plan(nodes, &cost::node_seconds(g, self.reg), nodes.len());
         let mut results: Vec<Option<StageResult>> = vec![None; n];
         let mut watching: BTreeMap<usize, JobRecord> = BTreeMap::new();
+        // Stages resubmitted once after their time limit, with the factor on it.
+        let mut longer: BTreeMap<usize, f64> = BTreeMap::new();
+        let mut retry: Vec<(usize, String, Vec<Entry>)> = Vec::new();
         let mut damaged = Vec::new();
         let finish = |results: &mut Vec<Option<StageResult>>, i: usize, r: StageResult| {
             let what = match &r.outcome {
@@ -171,13 +185,37 @@ impl Driver<'_> {
                 watching.remove(&i);
                 // A forced stage had an entry before: only a completed job counts.
                 let entry = self.store.lookup(&rec.key);
+                let why = || state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
+                if entry.is_none() && !rec.force {
+                    let w = why();
+                    if let Some(f) = resubmit_after_time_limit(&st, &w, longer.contains_key(&i)) {
+                        progress.line(&format!(
+                            "{}: Slurm job {} hit its time limit ({w}); resubmitting once with {f}x the limit{}",
+                            rec.label,
+                            rec.job_id,
+                            if self.reg.work(&rec.kind, &g.nodes[i].params).is_some() {
+                                ", resuming from its last checkpoint"
+                            } else {
+                                ""
+                            }
+                        ));
+                        longer.insert(i, f);
+                        let inputs = rec
+                            .inputs
+                            .iter()
+                            .filter_map(|k| self.store.lookup(k))
+                            .collect();
+                        retry.push((i, rec.key.clone(), inputs));
+                        continue;
+                    }
+                }
                 let r = match entry {
                     Some(e) if !rec.force || st == JobState::Completed => StageResult {
                         outcome: Outcome::Executed,
                         entry: Some(e),
                     },
                     _ => {
-                        let why = state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
+                        let why = why();
                         StageResult {
                             outcome: Outcome::Failed {
                                 error: format!(
@@ -194,9 +232,12 @@ impl Driver<'_> {
                 finish(&mut results, i, r);
             }
             // Stages whose inputs are all done: cached, adopted or ready.
-            let mut ready: Vec<(usize, String, Vec<Entry>)> = Vec::new();
+            let mut ready: Vec<(usize, String, Vec<Entry>)> = std::mem::take(&mut retry);
             for &i in nodes {
-                if results[i].is_some() || watching.contains_key(&i) {
+                if results[i].is_some()
+                    || watching.contains_key(&i)
+                    || ready.iter().any(|(j, _, _)| *j == i)
+                {
                     continue;
                 }
                 let node = &g.nodes[i];
@@ -275,7 +316,7 @@ impl Driver<'_> {
                 }
             }
             if !ready.is_empty() {
-                for rec in self.submit(&ready)? {
+                for rec in self.submit(&ready, &longer)? {
                     let i = ready
                         .iter()
                         .find(|(_, k, _)| *k == rec.key)
@@ -302,7 +343,12 @@ impl Driver<'_> {
 
     /// Submit `ready` stages: one job (an array when several) per kind and
     /// settings. Records each stage's job in the store; returns the records.
-    fn submit(&self, ready: &[(usize, String, Vec<Entry>)]) -> Result<Vec<JobRecord>> {
+    /// `longer`: stages resubmitted after their time limit, with the factor on it.
+    fn submit(
+        &self,
+        ready: &[(usize, String, Vec<Entry>)],
+        longer: &BTreeMap<usize, f64>,
+    ) -> Result<Vec<JobRecord>> {
         let g = self.graph;
         let mut groups: BTreeMap<(String, String), Vec<usize>> = BTreeMap::new();
         for (k, (i, _, _)) in ready.iter().enumerate() {
@@ -332,7 +378,15 @@ impl Driver<'_> {
                 })
                 .collect();
             let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
-            let time = res.iter().map(|r| r.time_min).max().unwrap_or(2);
+            let time = members
+                .iter()
+                .zip(&res)
+                .map(|(&k, r)| {
+                    let f = longer.get(&ready[k].0).copied().unwrap_or(1.0);
+                    (r.time_min as f64 * f).ceil() as u64
+                })
+                .max()
+                .unwrap_or(2);
             // Only simulations (kinds that plan work) checkpoint.
             let resumable = self
                 .reg
@@ -357,6 +411,11 @@ impl Driver<'_> {
                 args.push(format!("--array=0-{}", keys.len() - 1));
             }
             args.extend(settings.sbatch_args());
+            if members.iter().any(|&k| longer.contains_key(&ready[k].0)) {
+                // After the profile's own options: a `--time` among them set the
+                // limit the job hit.
+                args.push(format!("--time={}", plan::time_limit(time)));
+            }
             let script = format!(
                 "#!/bin/bash\n# repro: {} stage(s) of kind {kind}\nKEYS=({})\nexec {} worker --store {} --key \"${{KEYS[${{SLURM_ARRAY_TASK_ID:-0}}]}}\"\n",
                 keys.len(),
@@ -671,4 +730,40 @@ pub fn dry_run(
         groups.len()
     );
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_job_that_hit_its_time_limit_is_resubmitted_once_with_twice_the_limit() {
+        let ended = |s: &str| JobState::Ended {
+            state: s.to_string(),
+            reason: "None".to_string(),
+        };
+        assert_eq!(
+            resubmit_after_time_limit(&ended("TIMEOUT"), "", false),
+            Some(2.0)
+        );
+        // squeue forgot the job; scontrol still knows why it ended.
+        assert_eq!(
+            resubmit_after_time_limit(
+                &JobState::Unknown,
+                "JobState=TIMEOUT Reason=TimeLimit",
+                false
+            ),
+            Some(2.0)
+        );
+        assert_eq!(resubmit_after_time_limit(&ended("TIMEOUT"), "", true), None);
+        assert_eq!(resubmit_after_time_limit(&ended("FAILED"), "", false), None);
+        assert_eq!(
+            resubmit_after_time_limit(&ended("OUT_OF_MEMORY"), "", false),
+            None
+        );
+        assert_eq!(
+            resubmit_after_time_limit(&JobState::Completed, "", false),
+            None
+        );
+    }
 }
