@@ -57,6 +57,8 @@ pub struct Progress {
     running: Mutex<BTreeMap<usize, Running>>,
     t0: Instant,
     plan: Mutex<Option<Plan>>,
+    /// When the last heartbeat line with the estimate was printed.
+    estimated: Mutex<Instant>,
 }
 
 /// The planned CPU seconds of the stages still to finish, and how many run at once.
@@ -94,6 +96,7 @@ impl Progress {
             running: Mutex::new(BTreeMap::new()),
             t0: Instant::now(),
             plan: Mutex::new(None),
+            estimated: Mutex::new(Instant::now()),
         }
     }
 
@@ -240,7 +243,8 @@ impl Progress {
         );
     }
 
-    /// One line per stage running for more than a heartbeat since its last line.
+    /// One line per stage running for more than a heartbeat since its last line,
+    /// and one with the build's estimate per heartbeat.
     pub fn beat(&self, every: Duration) {
         let mut due = Vec::new();
         for r in self.running.lock().unwrap().values_mut() {
@@ -267,13 +271,18 @@ impl Progress {
                 r.started.elapsed().as_secs_f64()
             ));
         }
-        if !due.is_empty() {
+        // The whole build's estimate once a heartbeat, also while every stage
+        // runs elsewhere (Slurm jobs report no progress here).
+        let mut last = self.estimated.lock().unwrap();
+        if last.elapsed() >= every {
+            *last = Instant::now();
             let estimate = self.estimate();
             if !estimate.is_empty() {
                 let k = *self.finished.lock().unwrap();
                 due.push(format!("[{k}/{}] {estimate}", self.total));
             }
         }
+        drop(last);
         for l in due {
             self.line(&l);
         }

@@ -328,6 +328,7 @@ impl Driver<'_> {
             if watching.is_empty() {
                 break;
             }
+            progress.beat(super::progress::heartbeat());
             std::thread::sleep(self.opts.poll);
         }
         progress.done();
