@@ -423,9 +423,14 @@ impl StageKind for Plot {
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<PlotParams>("plot", params).map(|_| ())
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: PlotParams = typed("plot", params)?;
         let fig = figure(&p, inputs)?;
+        // What the layout check sees in the real data (the spec test sees
+        // synthetic data only), shown with the build's output.
+        for d in crate::plot::defects(&fig)? {
+            ctx.note(format!("figure defect: {d}"));
+        }
         let svg = crate::plot::draw_svg_string(&fig)?;
         let png = crate::plot::draw_png_bytes(&fig)?;
         Ok(Output::single("svg", svg.into_bytes()).with("png", png))
@@ -439,7 +444,11 @@ mod tests {
     /// A table every column of `layer` can be read from: three groups of twelve
     /// points along a rising curve inside the panel's axes, errors of 5% of the
     /// value but one twenty times its value (the bar a referee sees first).
-    fn synthetic(layer: &super::Layer, ps: &super::PanelSpec) -> super::Columns {
+    fn synthetic(
+        layer: &super::Layer,
+        ps: &super::PanelSpec,
+        ranges: &std::collections::BTreeMap<String, (f64, f64)>,
+    ) -> super::Columns {
         let along = |axis: &super::Axis, f: f64, lin: (f64, f64), log: (f64, f64)| {
             let (lo, hi) = axis.range.unwrap_or(if axis.log { log } else { lin });
             if axis.log {
@@ -467,7 +476,9 @@ mod tests {
                     put(e, if big { 20.0 * y.abs() } else { 0.05 * y.abs() });
                 }
                 if let Some(g) = &layer.group {
-                    put(g, [0.6, 0.7, 0.78][j]);
+                    // Inside the column's colour range, where the figure has one.
+                    let (lo, hi) = ranges.get(g).copied().unwrap_or((0.6, 0.78));
+                    put(g, lo + (hi - lo) * [0.0, 0.5, 1.0][j]);
                 }
                 if let Some(r) = &layer.radius {
                     put(r, 0.01);
@@ -497,6 +508,10 @@ mod tests {
             .collect();
         files.sort();
         let (mut found, mut bad) = (0, vec![]);
+        // The colour range of each paper-wide group column, per paper: one
+        // colour per phi (eps, a) in every figure of a paper.
+        let mut ranges: std::collections::BTreeMap<(&str, String), (String, (f64, f64))> =
+            Default::default();
         for f in &files {
             let text = std::fs::read_to_string(f).unwrap();
             // The specs' own parser: YAML 1.2 booleans only, so `y: y` stays a name.
@@ -531,7 +546,7 @@ mod tests {
                         .iter()
                         .find(|ps| ps.layers.iter().any(|l| std::ptr::eq(l, layer)))
                         .unwrap();
-                    Ok(synthetic(layer, ps))
+                    Ok(synthetic(layer, ps, &p.colour_ranges))
                 };
                 let fill = |t: &str| {
                     let mut out = t.to_string();
@@ -543,6 +558,31 @@ mod tests {
                 };
                 let fig = super::build(&p, table, fill).unwrap();
                 let name = f.file_name().unwrap().to_string_lossy().to_string();
+                let paper = match name.as_str() {
+                    n if n.starts_with("intruder-fig") => Some("paper I"),
+                    n if n.starts_with("fig") => Some("paper H"),
+                    _ => None,
+                };
+                let columns = p
+                    .panels
+                    .iter()
+                    .flat_map(|ps| &ps.layers)
+                    .filter_map(|l| l.group.clone())
+                    .filter(|c| ["phi", "eps", "a"].contains(&c.as_str()));
+                for column in columns.filter(|_| paper.is_some()) {
+                    let key = (paper.unwrap(), column.clone());
+                    match (p.colour_ranges.get(&column), ranges.get(&key)) {
+                        (None, _) => bad.push(format!(
+                            "{name} {stage}: groups by {column} without its colour range"
+                        )),
+                        (Some(r), Some((other, r0))) if r != r0 => bad.push(format!(
+                            "{name} {stage}: colour range of {column} {r:?}, {other} has {r0:?}"
+                        )),
+                        (Some(&r), _) => {
+                            ranges.entry(key).or_insert((name.clone(), r));
+                        }
+                    }
+                }
                 // REPRO_PLOT_SAMPLES=dir: the synthetic figures, for looking at.
                 if let Some(dir) = std::env::var_os("REPRO_PLOT_SAMPLES") {
                     let stem = format!("spec-{}-{}", name.trim_end_matches(".yaml"), found);
