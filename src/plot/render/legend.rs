@@ -50,7 +50,17 @@ pub(super) fn measure_legend<DB: DrawingBackend>(
     }
     // Group values in order of value, even when they come from several layers
     // (one ensemble per eps); the other entries after them, as given.
-    let key = |e: &Entry| e.label.trim().parse::<f64>().ok();
+    let key = |e: &Entry| {
+        // A shared style's entry (legend_ink) names no one value.
+        let group = e
+            .series
+            .first()
+            .filter(|&&i| !p.series[i].legend_ink)
+            .and_then(|&i| p.series[i].group.as_ref());
+        group
+            .map(|g| g.value)
+            .or_else(|| e.label.trim().parse::<f64>().ok())
+    };
     entries.sort_by(|a, b| match (key(a), key(b)) {
         (Some(x), Some(y)) => x.total_cmp(&y),
         (Some(_), None) => std::cmp::Ordering::Less,
