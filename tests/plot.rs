@@ -604,3 +604,32 @@ fn a_reference_label_never_covers_data() {
     assert!(svg_texts(&svg).contains(&"68.3%".to_string()));
     assert!(defects(&f).unwrap().is_empty(), "{:?}", defects(&f));
 }
+
+/// A paper's value just past the data (fig11's slow d_f = 1.91 over d_f of
+/// 1.1 to 1.83) is brought into view; one far from them does not squeeze them.
+#[test]
+fn a_reference_line_near_the_data_is_in_view() {
+    let x: Vec<f64> = (0..8).map(|i| 0.60 + 0.025 * i as f64).collect();
+    let y: Vec<f64> = (0..8).map(|i| 1.10 + 0.105 * i as f64).collect();
+    let mut p = panel(
+        "",
+        axis("φ", false),
+        axis("d_{f}", false),
+        vec![series("slow", x, y)],
+    );
+    for (at, label) in [(1.91, "slow"), (5.0, "far")] {
+        p.hlines.push(RefLine {
+            at,
+            label: label.into(),
+            dashed: true,
+            color: None,
+        });
+    }
+    let f = Figure {
+        panels: vec![p],
+        ..overlap_figure()
+    };
+    let lay = layout(&f).unwrap();
+    assert!(lay[0].y.hi > 1.91 && lay[0].y.hi < 2.1, "{:?}", lay[0].y);
+    assert!(defects(&f).unwrap().is_empty(), "{:?}", defects(&f));
+}

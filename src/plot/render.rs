@@ -335,7 +335,14 @@ fn scales(p: &Panel) -> (Scale, Scale) {
                 .map(move |v| back(t(v).clamp(lo - reach, hi + reach)))
         })
     });
-    let ys = values.iter().copied().chain(ends).collect();
+    // A reference line as near the values as a bar may reach is brought into
+    // view (a paper's value just past the data), a far one is not.
+    let near = p
+        .hlines
+        .iter()
+        .map(|l| l.at)
+        .filter(|&v| y_axis.accepts(v) && t(v) >= lo - reach && t(v) <= hi + reach);
+    let ys = values.iter().copied().chain(ends).chain(near).collect();
     (fit(&p.x, xs), fit(&p.y, ys))
 }
 
