@@ -490,6 +490,16 @@ fn one_group_value_has_one_colour_everywhere() {
     let lay = layout(&f).unwrap();
     assert_eq!(lay[0].colors[1..], lay[1].colors[..]);
     assert!(defects(&f).unwrap().is_empty());
+    // A colour range that stops short of a value gives it the colour of the
+    // range's end, which another value has (a = 3 and a = 4 in one colour).
+    let mut short = f.clone();
+    short.colour_ranges.insert("phi".into(), (0.60, 0.79));
+    let d = defects(&short).unwrap();
+    assert!(
+        d.iter()
+            .any(|d| d.contains("phi = 0.8 lies outside its colour range")),
+        "{d:?}"
+    );
     f.panels[1].series[0].color = Some(repro::plot::Color([0, 0, 0]));
     let d = defects(&f).unwrap();
     assert!(d.iter().any(|d| d.contains("phi = 0.78 drawn in")), "{d:?}");
@@ -540,4 +550,86 @@ fn one_long_error_bar_does_not_set_the_axis() {
         );
         assert!(defects(&f).unwrap().is_empty());
     }
+}
+
+/// A reference line's label goes where it covers no data (here not at the
+/// right end, where the curve runs), and into the legend when the data cover
+/// its line everywhere (coverage curves all around 68.3%).
+#[test]
+fn a_reference_label_never_covers_data() {
+    let x: Vec<f64> = (0..=50).map(|i| i as f64 / 50.0).collect();
+    // Curves just above and below the line over its right half.
+    let right: Vec<f64> = x.iter().map(|x| 0.5 + 0.5 * x).collect();
+    let mut p = panel(
+        "",
+        axis("x", false),
+        axis("y", false),
+        vec![
+            series("data", x.clone(), x.clone()),
+            series("above", right.clone(), vec![0.93; 51]),
+            series("below", right, vec![0.87; 51]),
+        ],
+    );
+    p.hlines.push(RefLine {
+        at: 0.9,
+        label: "paper".into(),
+        dashed: true,
+        color: None,
+    });
+    let mut f = Figure {
+        panels: vec![p],
+        ..overlap_figure()
+    };
+    let lay = layout(&f).unwrap();
+    let (_, b) = &lay[0].labels[0];
+    assert!(!lay[0].marks.iter().any(|&q| b.contains(q)), "{b:?}");
+    assert!(b.x1 < lay[0].frame.x0 + 0.5 * lay[0].frame.width(), "{b:?}");
+    assert!(defects(&f).unwrap().is_empty());
+
+    f.panels[0].series = (0..6)
+        .map(|k| {
+            let y = x
+                .iter()
+                .map(|x| 0.64 + 0.015 * k as f64 + 0.01 * (9.0 * x).sin())
+                .collect();
+            series(&format!("form {k}"), x.clone(), y)
+        })
+        .collect();
+    f.panels[0].hlines[0].at = 0.683;
+    f.panels[0].hlines[0].label = "68.3%".into();
+    f.panels[0].y.range = Some((0.0, 1.0));
+    let lay = layout(&f).unwrap();
+    assert!(lay[0].labels.is_empty(), "{:?}", lay[0].labels);
+    let svg = draw_svg_string(&f).unwrap();
+    assert!(svg_texts(&svg).contains(&"68.3%".to_string()));
+    assert!(defects(&f).unwrap().is_empty(), "{:?}", defects(&f));
+}
+
+/// A paper's value just past the data (fig11's slow d_f = 1.91 over d_f of
+/// 1.1 to 1.83) is brought into view; one far from them does not squeeze them.
+#[test]
+fn a_reference_line_near_the_data_is_in_view() {
+    let x: Vec<f64> = (0..8).map(|i| 0.60 + 0.025 * i as f64).collect();
+    let y: Vec<f64> = (0..8).map(|i| 1.10 + 0.105 * i as f64).collect();
+    let mut p = panel(
+        "",
+        axis("φ", false),
+        axis("d_{f}", false),
+        vec![series("slow", x, y)],
+    );
+    for (at, label) in [(1.91, "slow"), (5.0, "far")] {
+        p.hlines.push(RefLine {
+            at,
+            label: label.into(),
+            dashed: true,
+            color: None,
+        });
+    }
+    let f = Figure {
+        panels: vec![p],
+        ..overlap_figure()
+    };
+    let lay = layout(&f).unwrap();
+    assert!(lay[0].y.hi > 1.91 && lay[0].y.hi < 2.1, "{:?}", lay[0].y);
+    assert!(defects(&f).unwrap().is_empty(), "{:?}", defects(&f));
 }

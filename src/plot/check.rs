@@ -1,7 +1,9 @@
 //! What a referee would flag in a laid-out figure, found without looking at
-//! pixels: a legend over data, one group value in two colours, markup left
-//! unrendered in a label, an axis stretched by a single error bar, axes
-//! squeezed by a legend beside them.
+//! pixels: a legend over data, one group value in two colours (or a value
+//! outside its colour range), markup left unrendered in a label, a
+//! reference-line label over data or under the legend, an axis stretched by
+//! a single error bar or with fewer than two tick labels, axes squeezed by a
+//! legend beside them.
 
 use anyhow::Result;
 
@@ -16,6 +18,19 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
             "label {bad:?} has `^` or `_` outside `^{{...}}`/`_{{...}}`"
         ));
     }
+    for (column, v, (lo, hi)) in fig.panels.iter().flat_map(|p| &p.series).filter_map(|s| {
+        let g = s.group.as_ref()?;
+        let &r = fig.colour_ranges.get(&g.column)?;
+        Some((&g.column, g.value, r))
+    }) {
+        // The palette is clamped at the range's ends: values past them would
+        // share the end's colour with another value.
+        if !(lo - 1e-9..=hi + 1e-9).contains(&v) {
+            out.push(format!(
+                "{column} = {v} lies outside its colour range [{lo}, {hi}]: it takes the colour of another value"
+            ));
+        }
+    }
     let mut seen: Vec<(&Group, super::Color)> = vec![];
     for (k, (p, lay)) in fig.panels.iter().zip(layout).enumerate() {
         let name = format!("panel {} {:?}", k + 1, p.title);
@@ -23,6 +38,22 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
             && let Some(q) = lay.marks.iter().find(|&&q| b.contains(q))
         {
             out.push(format!("{name}: the legend covers data at pixel {q:?}"));
+        }
+        for (text, b) in &lay.labels {
+            if lay.marks.iter().any(|&q| b.contains(q)) {
+                out.push(format!("{name}: the label {text:?} covers data"));
+            }
+            if lay.legend.is_some_and(|l| l.overlaps(b)) {
+                out.push(format!("{name}: the legend hides the label {text:?}"));
+            }
+        }
+        for (axis, s) in [("x", lay.x), ("y", lay.y)] {
+            let n = s.ticks().iter().filter(|t| t.label.is_some()).count();
+            if n < 2 {
+                out.push(format!(
+                    "{name}: the {axis} axis has {n} labelled tick(s); two give its scale"
+                ));
+            }
         }
         for (s, &c) in p.series.iter().zip(&lay.colors) {
             let Some(g) = &s.group else { continue };
@@ -124,6 +155,51 @@ fn stretched(p: &super::Panel, lay: &PanelLayout) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::typeset;
+    use crate::plot::{Axis, Figure, Panel, Rect, RefLine, Series};
+
+    /// A reference-line label laid over data, or under the legend, is a defect.
+    #[test]
+    fn a_label_over_data_or_under_the_legend_is_a_defect() {
+        let x: Vec<f64> = (0..20).map(f64::from).collect();
+        let fig = Figure {
+            title: String::new(),
+            panels: vec![Panel {
+                x: Axis::default(),
+                y: Axis::default(),
+                series: vec![Series {
+                    label: "data".into(),
+                    x: x.clone(),
+                    y: x,
+                    ..Default::default()
+                }],
+                hlines: vec![RefLine {
+                    at: 15.0,
+                    label: "paper".into(),
+                    dashed: true,
+                    color: None,
+                }],
+                ..Default::default()
+            }],
+            columns: None,
+            width: 600,
+            height: 400,
+            colour_ranges: Default::default(),
+        };
+        let mut lay = crate::plot::layout(&fig).unwrap();
+        assert!(super::defects(&fig, &lay).unwrap().is_empty());
+        let (qx, qy) = lay[0].marks[10];
+        lay[0].labels[0].1 = Rect {
+            x0: qx - 5.0,
+            y0: qy - 5.0,
+            x1: qx + 5.0,
+            y1: qy + 5.0,
+        };
+        let d = super::defects(&fig, &lay).unwrap();
+        assert!(d.iter().any(|d| d.contains("covers data")), "{d:?}");
+        lay[0].labels[0].1 = lay[0].legend.unwrap();
+        let d = super::defects(&fig, &lay).unwrap();
+        assert!(d.iter().any(|d| d.contains("the legend hides")), "{d:?}");
+    }
 
     #[test]
     fn markup_outside_braces_is_a_defect() {

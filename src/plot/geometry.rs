@@ -17,6 +17,10 @@ impl Rect {
     pub fn contains(&self, (x, y): P) -> bool {
         x >= self.x0 - 0.5 && x <= self.x1 + 0.5 && y >= self.y0 - 0.5 && y <= self.y1 + 0.5
     }
+    /// Whether the two boxes share some area.
+    pub fn overlaps(&self, o: &Rect) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
     pub fn width(&self) -> f64 {
         self.x1 - self.x0
     }

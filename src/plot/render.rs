@@ -335,7 +335,14 @@ fn scales(p: &Panel) -> (Scale, Scale) {
                 .map(move |v| back(t(v).clamp(lo - reach, hi + reach)))
         })
     });
-    let ys = values.iter().copied().chain(ends).collect();
+    // A reference line as near the values as a bar may reach is brought into
+    // view (a paper's value just past the data), a far one is not.
+    let near = p
+        .hlines
+        .iter()
+        .map(|l| l.at)
+        .filter(|&v| y_axis.accepts(v) && t(v) >= lo - reach && t(v) <= hi + reach);
+    let ys = values.iter().copied().chain(ends).chain(near).collect();
     (fit(&p.x, xs), fit(&p.y, ys))
 }
 
@@ -395,9 +402,13 @@ pub struct PanelLayout {
     pub y: Scale,
     /// The legend box, if any.
     pub legend: Option<Rect>,
-    /// Pixel samples of everything drawn inside the axes: markers, lines
-    /// (every two pixels), error bars, reference-line labels.
+    /// Pixel samples of the data drawn inside the axes: markers, lines
+    /// (every two pixels), error bars.
     pub marks: Vec<P>,
+    /// The box of each reference-line label drawn on the axes, with its text
+    /// (a label moved into the legend has none).
+    pub labels: Vec<(String, Rect)>,
+    label_colors: Vec<Option<Color>>,
     /// The colour of each series.
     pub colors: Vec<Color>,
     /// The notes above the axes, the panel's and the plotter's.
@@ -504,7 +515,6 @@ fn lay_out_panel<DB: DrawingBackend>(
     let top =
         pad + room(&p.title, 0.4 * sz.label).max(0.5 * tick_h) + lines.len() as f64 * note_row(sz);
 
-    let legend = measure_legend(root, p, sz)?;
     let inside = Rect {
         x0: cell.x0 + left,
         y0: cell.y0 + top,
@@ -512,6 +522,17 @@ fn lay_out_panel<DB: DrawingBackend>(
         y1: cell.y1 - bottom,
     };
     let frame = |rect| Frame { rect, x: xs, y: ys };
+    // A reference-line label with no free place along its line goes into the
+    // legend instead of over the data.
+    let first = frame(inside);
+    let first_marks = marks(&first, p);
+    let crowded: Vec<usize> = ref_labels(root, &first, p, sz, &first_marks, &[])?
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.as_ref().is_some_and(|l| l.2))
+        .map(|(k, _)| k)
+        .collect();
+    let legend = measure_legend(root, p, sz, &crowded)?;
     let corners = [
         Legend::TopRight,
         Legend::TopLeft,
@@ -526,11 +547,18 @@ fn lay_out_panel<DB: DrawingBackend>(
             .collect(),
     };
     let (frame, legend_at) = match (p.legend, legend.entries.is_empty()) {
-        (Legend::None, _) | (_, true) => (frame(inside), None),
+        // `none` leaves the series out; a crowded reference label still shows.
+        (_, true) => (frame(inside), None),
         (Legend::Right, _) => outside_legend(frame, inside, &legend, sz, false),
         _ => {
             let f = frame(inside);
-            let taken = marks(root, &f, p, sz)?;
+            let mut taken = marks(&f, p);
+            for (_, b, _) in ref_labels(root, &f, p, sz, &taken, &crowded)?
+                .into_iter()
+                .flatten()
+            {
+                fill_rect(&b, &mut taken);
+            }
             match free_corner(&f, &order, &taken, &legend, sz) {
                 Some(at) => (f, Some(at)),
                 // A wide legend (fitted values in its labels) beside the axes
@@ -542,7 +570,16 @@ fn lay_out_panel<DB: DrawingBackend>(
             }
         }
     };
-    let marks = marks(root, &frame, p, sz)?;
+    let marks = marks(&frame, p);
+    let mut labels = vec![];
+    let mut label_colors = vec![];
+    let placed = ref_labels(root, &frame, p, sz, &marks, &crowded)?;
+    for (l, (line, _)) in placed.into_iter().zip(labelled_lines(p)) {
+        if let Some((text, b, _)) = l {
+            labels.push((text, b));
+            label_colors.push(line.color);
+        }
+    }
     Ok(PanelLayout {
         frame: frame.rect,
         x: xs,
@@ -554,6 +591,8 @@ fn lay_out_panel<DB: DrawingBackend>(
             y1: y + legend.height,
         }),
         marks,
+        labels,
+        label_colors,
         colors,
         notes,
         lines,
@@ -598,55 +637,42 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         draw_series(root, &frame, s, rgb(c), sz)?;
     }
 
-    // Their labels over the data, on white, so that no curve hides them.
-    for l in &p.hlines {
-        let y = r.y1 - ys.fraction(l.at) * r.height();
-        if y >= r.y0 && y <= r.y1 && !l.label.is_empty() {
-            let color = l.color.map_or(GREY, rgb);
-            let (x1, y1) = hline_label_at(&r, y, sz);
-            let (w, h) = text_size(root, &l.label, sz.legend)?;
-            let back = [px((x1 - w - 1.0, y1 - h)), px((x1 + 1.0, y1))];
-            root.draw(&Rectangle::new(back, WHITE.filled()))
-                .map_err(err)?;
-            let style = text_style(sz.legend, color, HPos::Right, VPos::Bottom);
-            draw_text(root, &l.label, &style, (x1, y1))?;
-        }
-    }
-    for l in &p.vlines {
-        let x = r.x0 + xs.fraction(l.at) * r.width();
-        if x >= r.x0 && x <= r.x1 && !l.label.is_empty() {
-            let color = l.color.map_or(GREY, rgb);
-            let (x0, y0) = vline_label_at(&r, x, sz);
-            let (w, h) = text_size(root, &l.label, sz.legend)?;
-            let back = [px((x0 - 1.0, y0)), px((x0 + w + 1.0, y0 + h))];
-            root.draw(&Rectangle::new(back, WHITE.filled()))
-                .map_err(err)?;
-            let style = text_style(sz.legend, color, HPos::Left, VPos::Top);
-            draw_text(root, &l.label, &style, (x0, y0))?;
-        }
+    // Their labels where they cover no data, on white, so that no curve hides them.
+    for ((text, b), c) in lay.labels.iter().zip(&lay.label_colors) {
+        let color = c.map_or(GREY, rgb);
+        let back = [px((b.x0 - 1.0, b.y0)), px((b.x1 + 1.0, b.y1))];
+        root.draw(&Rectangle::new(back, WHITE.filled()))
+            .map_err(err)?;
+        let style = text_style(sz.legend, color, HPos::Left, VPos::Bottom);
+        draw_text(root, text, &style, (b.x0, b.y1))?;
     }
 
-    // The title sits above the notes, which sit on the frame.
+    // The title sits above the notes, which sit on the frame, or on a legend
+    // set above it.
+    let top = lay
+        .legend
+        .filter(|l| l.y1 <= r.y0 + 0.5)
+        .map_or(r.y0, |l| l.y0);
     let notes_h = lay.lines.len() as f64 * note_row(sz);
-    draw_axes(root, &frame, p, sz, lay.ticks_size, lay.cell, notes_h)?;
+    draw_axes(
+        root,
+        &frame,
+        p,
+        sz,
+        lay.ticks_size,
+        lay.cell,
+        notes_h + r.y0 - top,
+    )?;
     let note_style = text_style(sz.legend, NOTE, HPos::Left, VPos::Bottom);
     let n = lay.lines.len();
     for (k, line) in lay.lines.iter().enumerate() {
-        let y = r.y0 - 0.3 * sz.legend - (n - 1 - k) as f64 * note_row(sz);
+        let y = top - 0.3 * sz.legend - (n - 1 - k) as f64 * note_row(sz);
         draw_text(root, line, &note_style, (r.x0, y))?;
     }
     if let (Some(lb), Some(at)) = (&lay.legend_box, lay.legend) {
         draw_legend(root, p, &lay.colors, lb, (at.x0, at.y0), sz)?;
     }
     Ok(())
-}
-
-fn hline_label_at(r: &Rect, y: f64, sz: Sizes) -> P {
-    (r.x1 - 0.4 * sz.legend, y - 0.2 * sz.legend)
-}
-
-fn vline_label_at(r: &Rect, x: f64, sz: Sizes) -> P {
-    (x + 0.3 * sz.legend, r.y0 + 0.3 * sz.legend)
 }
 
 /// Points every two pixels along the polyline.
@@ -665,9 +691,9 @@ fn along(piece: &[P], out: &mut Vec<P>) {
     }
 }
 
-/// Pixel samples of what a panel draws inside its axes: markers, lines and
-/// error bars every two pixels, and the boxes of reference-line labels.
-fn marks<DB: DrawingBackend>(area: &Area<DB>, f: &Frame, p: &Panel, sz: Sizes) -> Result<Vec<P>> {
+/// Pixel samples of the data a panel draws inside its axes: markers, lines
+/// and error bars every two pixels.
+fn marks(f: &Frame, p: &Panel) -> Vec<P> {
     let r = f.rect;
     let mut out: Vec<P> = Vec::new();
     for s in &p.series {
@@ -682,35 +708,108 @@ fn marks<DB: DrawingBackend>(area: &Area<DB>, f: &Frame, p: &Panel, sz: Sizes) -
             along(&[a, b], &mut out);
         }
     }
-    let mut label_box = |text: &str, (x, y): P, right: bool| -> Result<()> {
-        if text.is_empty() {
-            return Ok(());
-        }
-        let (w, h) = text_size(area, text, sz.legend)?;
-        let x0 = if right { x - w } else { x };
-        let y0 = if right { y - h } else { y };
-        let (nx, ny) = ((w / 3.0).ceil() as usize, (h / 3.0).ceil() as usize);
-        for i in 0..=nx {
-            for j in 0..=ny {
-                out.push((
-                    x0 + w * i as f64 / nx.max(1) as f64,
-                    y0 + h * j as f64 / ny.max(1) as f64,
-                ));
-            }
-        }
-        Ok(())
-    };
-    for l in &p.hlines {
-        let y = r.y1 - f.y.fraction(l.at) * r.height();
-        if y >= r.y0 && y <= r.y1 {
-            label_box(&l.label, hline_label_at(&r, y, sz), true)?;
+    out
+}
+
+/// Samples every three pixels over `b`, so that a legend avoids it.
+fn fill_rect(b: &Rect, out: &mut Vec<P>) {
+    let (nx, ny) = (
+        (b.width() / 3.0).ceil() as usize,
+        (b.height() / 3.0).ceil() as usize,
+    );
+    for i in 0..=nx {
+        for j in 0..=ny {
+            out.push((
+                b.x0 + b.width() * i as f64 / nx.max(1) as f64,
+                b.y0 + b.height() * j as f64 / ny.max(1) as f64,
+            ));
         }
     }
-    for l in &p.vlines {
-        let x = r.x0 + f.x.fraction(l.at) * r.width();
-        if x >= r.x0 && x <= r.x1 {
-            label_box(&l.label, vline_label_at(&r, x, sz), false)?;
+}
+
+/// The reference lines with a label, hlines (true) then vlines.
+pub(super) fn labelled_lines(p: &Panel) -> Vec<(&super::spec::RefLine, bool)> {
+    p.hlines
+        .iter()
+        .map(|l| (l, true))
+        .chain(p.vlines.iter().map(|l| (l, false)))
+        .filter(|(l, _)| !l.label.is_empty())
+        .collect()
+}
+
+/// Where each labelled reference line's label goes (hlines, then vlines; None
+/// for a line outside the axes or a label in `skip`, which the legend holds):
+/// the first place along the line, at either end or the middle, on either
+/// side, whose box covers none of `taken` nor an earlier label, and whether
+/// every place covers some (the first place is then taken).
+fn ref_labels<DB: DrawingBackend>(
+    area: &Area<DB>,
+    f: &Frame,
+    p: &Panel,
+    sz: Sizes,
+    taken: &[P],
+    skip: &[usize],
+) -> Result<Vec<Option<(String, Rect, bool)>>> {
+    let r = f.rect;
+    let (gap, inset) = (0.2 * sz.legend, 0.4 * sz.legend);
+    let mut out: Vec<Option<(String, Rect, bool)>> = vec![];
+    for (k, (l, horizontal)) in labelled_lines(p).into_iter().enumerate() {
+        let at = if horizontal {
+            r.y1 - f.y.fraction(l.at) * r.height()
+        } else {
+            r.x0 + f.x.fraction(l.at) * r.width()
+        };
+        let inside = if horizontal {
+            (r.y0..=r.y1).contains(&at)
+        } else {
+            (r.x0..=r.x1).contains(&at)
+        };
+        if !inside || skip.contains(&k) {
+            out.push(None);
+            continue;
         }
+        let (w, h) = text_size(area, &l.label, sz.legend)?;
+        let places: Vec<P> = if horizontal {
+            let (above, below) = (at - gap - h, at + gap);
+            let (right, left, mid) = (r.x1 - inset - w, r.x0 + inset, (r.x0 + r.x1 - w) / 2.0);
+            vec![
+                (right, above),
+                (left, above),
+                (right, below),
+                (left, below),
+                (mid, above),
+                (mid, below),
+            ]
+        } else {
+            let (right, left) = (at + 0.3 * sz.legend, at - 0.3 * sz.legend - w);
+            let (top, bottom, mid) = (r.y0 + inset, r.y1 - inset - h, (r.y0 + r.y1 - h) / 2.0);
+            vec![
+                (right, top),
+                (left, top),
+                (right, bottom),
+                (left, bottom),
+                (right, mid),
+                (left, mid),
+            ]
+        };
+        let boxes: Vec<Rect> = places
+            .into_iter()
+            .map(|(x0, y0)| Rect {
+                x0,
+                y0,
+                x1: x0 + w,
+                y1: y0 + h,
+            })
+            .filter(|b| b.x0 >= r.x0 && b.x1 <= r.x1 && b.y0 >= r.y0 && b.y1 <= r.y1)
+            .collect();
+        let earlier: Vec<Rect> = out.iter().flatten().map(|l| l.1).collect();
+        let free = |b: &Rect| {
+            !taken.iter().any(|&q| b.contains(q)) && !earlier.iter().any(|e| e.overlaps(b))
+        };
+        out.push(match boxes.iter().find(|b| free(b)) {
+            Some(&b) => Some((l.label.clone(), b, false)),
+            None => boxes.first().map(|&b| (l.label.clone(), b, true)),
+        });
     }
     Ok(out)
 }

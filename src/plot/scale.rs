@@ -124,6 +124,11 @@ impl Scale {
                 out.push(Tick { at, label });
             }
         }
+        // Under a decade with at most one mantissa inside (9.5 to 19): one
+        // label cannot give the scale; round linear steps can.
+        if out.iter().filter(|t| t.label.is_some()).count() < 2 {
+            return self.linear_ticks();
+        }
         out
     }
 
@@ -253,12 +258,11 @@ mod tests {
             log: true,
         };
         assert_eq!(labels(s), ["0.2", "0.5"]);
-        let s = Scale {
-            lo: 0.31,
-            hi: 0.45,
-            log: true,
-        };
-        assert_eq!(labels(s), ["0.4"]);
+        // Every log axis has at least two labels, however narrow.
+        for (lo, hi) in [(9.5, 19.0), (7.2, 9.9), (0.31, 0.45), (101.0, 180.0)] {
+            let s = Scale { lo, hi, log: true };
+            assert!(labels(s).len() >= 2, "{lo}..{hi}: {:?}", labels(s));
+        }
     }
 
     #[test]

@@ -57,6 +57,10 @@ fn fill(text: &str, inputs: &[Artifact]) -> Result<String> {
             .find('}')
             .with_context(|| format!("plot: `{{=` without `}}` in label \"{text}\""))?;
         let key = &rest[i + 2..i + end];
+        let (key, raw) = match key.strip_suffix(":value") {
+            Some(k) => (k, true),
+            None => (key, false),
+        };
         let (stage, quantity) = key.split_once('.').with_context(|| {
             format!("plot: `{{={key}}}` in label \"{text}\" needs the form {{=STAGE.QUANTITY}}")
         })?;
@@ -66,7 +70,11 @@ fn fill(text: &str, inputs: &[Artifact]) -> Result<String> {
             .quantity(quantity)
             .with_context(|| format!("plot: label \"{text}\""))?;
         out.push_str(&rest[..i]);
-        out.push_str(&value_with_error(v, e));
+        out.push_str(&if raw {
+            format!("{v}")
+        } else {
+            value_with_error(v, e)
+        });
         rest = &rest[i + end + 1..];
     }
     out.push_str(rest);
@@ -88,6 +96,10 @@ pub struct Layer {
     /// One series per distinct value of this column, labelled by the value.
     #[serde(default)]
     pub group: Option<String>,
+    /// The group value of every row, for a table without the group column
+    /// (one ensemble's own table, e.g. eps = 0.9): drawn in that value's colour.
+    #[serde(default)]
+    pub at: Option<f64>,
     #[serde(default, rename = "where")]
     pub filter: Where,
     /// Legend entry of an ungrouped series; prefix of grouped labels.
@@ -114,6 +126,10 @@ pub struct Layer {
     /// profile has no such state point) is said in a note on the panel.
     #[serde(default)]
     pub expect: Vec<f64>,
+    /// Why an expected value may be absent, when the profile has the state
+    /// point but the layer leaves it out (e.g. its fit is unreliable).
+    #[serde(default)]
+    pub absent: Option<String>,
 }
 
 /// The legend entries of a layer.
@@ -222,6 +238,67 @@ pub struct PanelSpec {
     /// Sentences printed above the axes (what differs from the paper, and why).
     #[serde(default)]
     pub notes: Vec<String>,
+    /// Curves of a fit form at given parameters: what the paper draws as a
+    /// guide, not fitted here (e.g. the algebraic decay of Eq. 8).
+    #[serde(default)]
+    pub curves: Vec<GuideCurve>,
+}
+
+/// A form of the fit catalogue at fixed parameters over [x_min, x_max].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GuideCurve {
+    pub form: String,
+    /// Numbers, or a fitted value `"{=STAGE.QUANTITY}"` (e.g. a prefactor
+    /// that puts the guide through the data).
+    pub params: std::collections::BTreeMap<String, Value>,
+    pub x: (f64, f64),
+    #[serde(default)]
+    pub label: String,
+    #[serde(default)]
+    pub dashed: bool,
+    #[serde(default)]
+    pub color: Option<Color>,
+}
+
+impl GuideCurve {
+    /// The curve as a series, sampled evenly (in log x on a log axis);
+    /// `value` reads a fitted value `{=STAGE.QUANTITY}`.
+    fn series(&self, log_x: bool, value: impl Fn(&str) -> Result<f64>) -> Result<Series> {
+        let form = crate::fit::catalogue::find(&self.form).map_err(anyhow::Error::msg)?;
+        let p = form
+            .params
+            .iter()
+            .map(|n| {
+                let what = || format!("plot: curve of form {}: parameter {n}", form.name);
+                match self.params.get(*n) {
+                    Some(Value::Number(x)) => x.as_f64().with_context(what),
+                    Some(Value::String(t)) => value(t).with_context(what),
+                    _ => {
+                        Err(anyhow::anyhow!("a number or \"{{=STAGE.QUANTITY}}\"").context(what()))
+                    }
+                }
+            })
+            .collect::<Result<Vec<f64>>>()?;
+        let (a, b) = self.x;
+        let at = |k: usize| {
+            let f = k as f64 / 199.0;
+            if log_x {
+                a * (b / a).powf(f)
+            } else {
+                a + f * (b - a)
+            }
+        };
+        let x: Vec<f64> = (0..200).map(at).collect();
+        Ok(Series {
+            label: self.label.clone(),
+            y: x.iter().map(|&x| (form.model)(&p, &[], x)).collect(),
+            x,
+            dashed: self.dashed,
+            color: self.color,
+            ..Default::default()
+        })
+    }
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -250,7 +327,14 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     let rows = c.select(&layer.filter)?;
     let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
     let e = layer.y_err.as_ref().map(|n| c.col(n)).transpose()?;
-    let g = layer.group.as_ref().map(|n| c.col(n)).transpose()?;
+    let g = match (&layer.group, layer.at) {
+        (Some(_), Some(_)) => None,
+        (n, None) => n.as_ref().map(|n| c.col(n)).transpose()?,
+        (None, Some(_)) => anyhow::bail!(
+            "plot: layer from '{}': `at` is the value of its `group` column; give both",
+            layer.from
+        ),
+    };
     let rad = layer.radius.as_ref().map(|n| c.col(n)).transpose()?;
     if (layer.style == Style::Disks) != rad.is_some() {
         anyhow::bail!(
@@ -284,7 +368,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     };
     let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
     for &i in &rows {
-        let key = g.map(|g| g[i]).unwrap_or(0.0);
+        let key = g.map(|g| g[i]).or(layer.at).unwrap_or(0.0);
         match groups.iter_mut().find(|(k, _)| k.total_cmp(&key).is_eq()) {
             Some((_, v)) => v.push(i),
             None => groups.push((key, vec![i])),
@@ -340,8 +424,12 @@ fn missing(layer: &Layer, heading: &str, drawn: &[Series]) -> Option<String> {
         return None;
     }
     let name = if heading.is_empty() { column } else { heading };
+    let why = layer
+        .absent
+        .as_deref()
+        .unwrap_or("this profile has no such state point.");
     Some(format!(
-        "The paper shows {name} = {}; this profile has no such state point.",
+        "The paper shows {name} = {}; {why}",
         absent.join(", ")
     ))
 }
@@ -379,6 +467,18 @@ fn build(
                 .collect();
             notes.extend(missing(&layer, &ps.legend_title, &drawn));
             all.extend(drawn);
+        }
+        for c in &ps.curves {
+            // A fitted value at full precision: `fill` with a `:value` key.
+            let value = |t: &str| -> Result<f64> {
+                let key = t.strip_suffix('}').map(|k| format!("{k}:value}}"));
+                let text = fill(key.as_deref().unwrap_or(t))?;
+                text.parse()
+                    .with_context(|| format!("{t:?} is not a number nor a fitted value"))
+            };
+            let mut s = c.series(ps.x.log, value)?;
+            s.label = fill(&s.label)?;
+            all.push(s);
         }
         panels.push(Panel {
             title: fill(&ps.title)?,
@@ -423,9 +523,14 @@ impl StageKind for Plot {
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<PlotParams>("plot", params).map(|_| ())
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: PlotParams = typed("plot", params)?;
         let fig = figure(&p, inputs)?;
+        // What the layout check sees in the real data (the spec test sees
+        // synthetic data only), shown with the build's output.
+        for d in crate::plot::defects(&fig)? {
+            ctx.note(format!("figure defect: {d}"));
+        }
         let svg = crate::plot::draw_svg_string(&fig)?;
         let png = crate::plot::draw_png_bytes(&fig)?;
         Ok(Output::single("svg", svg.into_bytes()).with("png", png))
@@ -439,7 +544,11 @@ mod tests {
     /// A table every column of `layer` can be read from: three groups of twelve
     /// points along a rising curve inside the panel's axes, errors of 5% of the
     /// value but one twenty times its value (the bar a referee sees first).
-    fn synthetic(layer: &super::Layer, ps: &super::PanelSpec) -> super::Columns {
+    fn synthetic(
+        layer: &super::Layer,
+        ps: &super::PanelSpec,
+        ranges: &std::collections::BTreeMap<String, (f64, f64)>,
+    ) -> super::Columns {
         let along = |axis: &super::Axis, f: f64, lin: (f64, f64), log: (f64, f64)| {
             let (lo, hi) = axis.range.unwrap_or(if axis.log { log } else { lin });
             if axis.log {
@@ -467,7 +576,9 @@ mod tests {
                     put(e, if big { 20.0 * y.abs() } else { 0.05 * y.abs() });
                 }
                 if let Some(g) = &layer.group {
-                    put(g, [0.6, 0.7, 0.78][j]);
+                    // Inside the column's colour range, where the figure has one.
+                    let (lo, hi) = ranges.get(g).copied().unwrap_or((0.6, 0.78));
+                    put(g, lo + (hi - lo) * [0.0, 0.5, 1.0][j]);
                 }
                 if let Some(r) = &layer.radius {
                     put(r, 0.01);
@@ -497,6 +608,10 @@ mod tests {
             .collect();
         files.sort();
         let (mut found, mut bad) = (0, vec![]);
+        // The colour range of each paper-wide group column, per paper: one
+        // colour per phi (eps, a) in every figure of a paper.
+        let mut ranges: std::collections::BTreeMap<(&str, String), (String, (f64, f64))> =
+            Default::default();
         for f in &files {
             let text = std::fs::read_to_string(f).unwrap();
             // The specs' own parser: YAML 1.2 booleans only, so `y: y` stays a name.
@@ -531,18 +646,48 @@ mod tests {
                         .iter()
                         .find(|ps| ps.layers.iter().any(|l| std::ptr::eq(l, layer)))
                         .unwrap();
-                    Ok(synthetic(layer, ps))
+                    Ok(synthetic(layer, ps, &p.colour_ranges))
                 };
                 let fill = |t: &str| {
                     let mut out = t.to_string();
                     while let Some(i) = out.find("{=") {
                         let j = i + out[i..].find('}').unwrap();
-                        out.replace_range(i..=j, "0.50 ± 0.02");
+                        let text = if out[i..j].ends_with(":value") {
+                            "0.5"
+                        } else {
+                            "0.50 ± 0.02"
+                        };
+                        out.replace_range(i..=j, text);
                     }
                     Ok(out)
                 };
                 let fig = super::build(&p, table, fill).unwrap();
                 let name = f.file_name().unwrap().to_string_lossy().to_string();
+                let paper = match name.as_str() {
+                    n if n.starts_with("intruder-fig") => Some("paper I"),
+                    n if n.starts_with("fig") => Some("paper H"),
+                    _ => None,
+                };
+                let columns = p
+                    .panels
+                    .iter()
+                    .flat_map(|ps| &ps.layers)
+                    .filter_map(|l| l.group.clone())
+                    .filter(|c| ["phi", "eps", "a"].contains(&c.as_str()));
+                for column in columns.filter(|_| paper.is_some()) {
+                    let key = (paper.unwrap(), column.clone());
+                    match (p.colour_ranges.get(&column), ranges.get(&key)) {
+                        (None, _) => bad.push(format!(
+                            "{name} {stage}: groups by {column} without its colour range"
+                        )),
+                        (Some(r), Some((other, r0))) if r != r0 => bad.push(format!(
+                            "{name} {stage}: colour range of {column} {r:?}, {other} has {r0:?}"
+                        )),
+                        (Some(&r), _) => {
+                            ranges.entry(key).or_insert((name.clone(), r));
+                        }
+                    }
+                }
                 // REPRO_PLOT_SAMPLES=dir: the synthetic figures, for looking at.
                 if let Some(dir) = std::env::var_os("REPRO_PLOT_SAMPLES") {
                     let stem = format!("spec-{}-{}", name.trim_end_matches(".yaml"), found);
@@ -561,6 +706,46 @@ mod tests {
         }
         assert!(found >= 30, "only {found} plot stages in {}", dir.display());
         assert!(bad.is_empty(), "{} defects:\n{}", bad.len(), bad.join("\n"));
+    }
+
+    /// A layer of one ensemble's table (no eps column) drawn `at` its eps
+    /// takes that value's colour beside the other ensembles; an expected value
+    /// the layer leaves out is said in a note with the layer's reason.
+    #[test]
+    fn a_layer_at_one_group_value_and_an_absent_one() {
+        let yaml = r#"
+colour_ranges: {eps: [0.7, 1.0]}
+panels:
+  - x: {label: "size"}
+    y: {label: "χ"}
+    legend_title: "ε"
+    layers:
+      - {from: others, x: size, y: chi, group: eps, expect: [0.7, 0.8, 1.0], absent: "its fit is unreliable."}
+      - {from: own, x: size, y: chi, group: eps, at: 0.9}
+"#;
+        let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+        let p: super::PlotParams = serde_json::from_value(v).unwrap();
+        let table = |layer: &super::Layer| {
+            let mut c = super::Columns::default();
+            let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
+            put("size", vec![1.0, 2.0, 1.0, 2.0]);
+            put("chi", vec![1.0, 2.0, 1.5, 2.5]);
+            if layer.from == "others" {
+                put("eps", vec![0.7, 0.7, 0.8, 0.8]);
+            }
+            c.rows = 4;
+            Ok(c)
+        };
+        let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+        let s = &fig.panels[0].series;
+        assert_eq!(s.len(), 3);
+        assert_eq!(s[2].group.as_ref().unwrap().value, 0.9);
+        assert_eq!(s[2].label, "0.90");
+        assert_eq!(
+            fig.panels[0].notes,
+            ["The paper shows ε = 1.00; its fit is unreliable."]
+        );
+        assert!(crate::plot::defects(&fig).unwrap().is_empty());
     }
 
     #[test]

@@ -9,6 +9,9 @@ use super::*;
 pub(super) struct Entry {
     pub(super) label: String,
     pub(super) series: Vec<usize>,
+    /// A reference line's label, its line in the legend (no free place on
+    /// the axes): colour and dashes.
+    pub(super) line: Option<(Option<Color>, bool)>,
 }
 
 /// The legend's entries and measured size.
@@ -21,35 +24,61 @@ pub(super) struct LegendBox {
     pub(super) height: f64,
 }
 
+/// The legend's entries, with the labels of the reference lines `lines`
+/// (indices into [`labelled_lines`]), and its size.
 pub(super) fn measure_legend<DB: DrawingBackend>(
     area: &Area<DB>,
     p: &Panel,
     sz: Sizes,
+    lines: &[usize],
 ) -> Result<LegendBox> {
     let mut entries: Vec<Entry> = vec![];
     for (i, s) in p
         .series
         .iter()
         .enumerate()
-        .filter(|(_, s)| !s.label.is_empty())
+        .filter(|(_, s)| !s.label.is_empty() && p.legend != Legend::None)
     {
         match entries.iter_mut().find(|e| e.label == s.label) {
             Some(e) => e.series.push(i),
             None => entries.push(Entry {
                 label: s.label.clone(),
                 series: vec![i],
+                line: None,
             }),
         }
     }
     // Group values in order of value, even when they come from several layers
     // (one ensemble per eps); the other entries after them, as given.
-    let key = |e: &Entry| e.label.trim().parse::<f64>().ok();
+    let key = |e: &Entry| {
+        // A shared style's entry (legend_ink) names no one value.
+        let group = e
+            .series
+            .first()
+            .filter(|&&i| !p.series[i].legend_ink)
+            .and_then(|&i| p.series[i].group.as_ref());
+        group
+            .map(|g| g.value)
+            .or_else(|| e.label.trim().parse::<f64>().ok())
+    };
     entries.sort_by(|a, b| match (key(a), key(b)) {
         (Some(x), Some(y)) => x.total_cmp(&y),
         (Some(_), None) => std::cmp::Ordering::Less,
         (None, Some(_)) => std::cmp::Ordering::Greater,
         (None, None) => std::cmp::Ordering::Equal,
     });
+    for (l, _) in labelled_lines(p)
+        .into_iter()
+        .enumerate()
+        .filter(|(k, _)| lines.contains(k))
+        .map(|(_, l)| l)
+    {
+        entries.push(Entry {
+            label: l.label.clone(),
+            series: vec![],
+            line: Some((l.color, l.dashed)),
+        });
+    }
     let row = 1.35 * sz.legend;
     let sample = 2.2 * sz.legend;
     let mut text_w: f64 = text_size(area, &p.legend_title, sz.legend)?.0 - sample - 0.4 * sz.legend;
@@ -159,6 +188,14 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         }
     };
     for e in &lb.entries {
+        if let Some((c, dashed)) = e.line {
+            let color = c.map_or(GREY, rgb);
+            let ends = [(x_sample, row_y), (x_sample + lb.sample, row_y)];
+            stroke(area, &ends, color, 1, dashed, sz)?;
+            draw_text(area, &e.label, &style, (x_text, row_y))?;
+            row_y += lb.row;
+            continue;
+        }
         // One sample for all the series of the entry: the line of the first
         // drawn as a line, the marker of the first drawn with markers on it.
         let line = e.series.iter().find(|&&i| {
