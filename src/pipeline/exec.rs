@@ -215,8 +215,17 @@ pub fn execute(
         progress: Progress::new(opts.progress, nodes.len(), log.as_deref()),
         damaged: Mutex::new(Vec::new()),
     };
-    sh.progress
-        .plan(nodes, &super::cost::node_seconds(graph, reg), opts.jobs);
+    // Only the stages that will run count toward the estimate of the end (a
+    // stale one may still be cut off early when its output comes out unchanged).
+    if opts.progress {
+        let stale: Vec<usize> = status(graph, nodes, reg, store, &opts.force)
+            .into_iter()
+            .filter(|(_, s)| !matches!(s, State::Cached { .. }))
+            .map(|(i, _)| i)
+            .collect();
+        sh.progress
+            .plan(&stale, &super::cost::node_seconds(graph, reg), opts.jobs);
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))
         .build()?;
