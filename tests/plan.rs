@@ -7,7 +7,7 @@
 //! `repro plan --check` compares CPU times.
 
 use repro::pipeline::Workspace;
-use repro::pipeline::cost::configuration;
+use repro::study::plan::configuration;
 
 /// (profile, simulation label without the replica, measured mean collisions per
 /// run). Recorded 2026-11-26 (docs/measurements.md): `repro plan --check`

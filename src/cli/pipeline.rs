@@ -356,11 +356,11 @@ pub fn run(c: Commands) -> Result<()> {
             let ws = root.workspace();
             let ids = figures.ids(&ws)?;
             let profile = figures.profile;
-            let check = check.then_some(pipeline::cost::Check {
+            let check = check.then_some(crate::study::plan::Check {
                 factor,
                 min_seconds,
             });
-            let report = pipeline::cost::plan(&ws, &reg, &ids, &profile, check.as_ref())?;
+            let report = crate::study::plan::plan(&ws, &reg, &ids, &profile, check.as_ref())?;
             print!("{}", report.text);
             if let Some(c) = &check
                 && report.outside > 0

@@ -10,6 +10,8 @@
 //!   the check of a built figure against them.
 //! - [`coverage`]: whether quoted errors cover the seed-to-seed scatter.
 //! - [`frontier`]: accuracy of the key numbers against their CPU cost.
+//! - [`plan`]: the planned cost of a build, and with `--check` beside the CPU
+//!   time its built simulations took.
 //! - [`report`]: the gallery and the table of every key number, written from the
 //!   compare tables (never typed by hand): one model, rendered as Markdown and as
 //!   an HTML scoreboard with a page per figure.
@@ -17,6 +19,7 @@
 pub mod coverage;
 pub mod frontier;
 pub mod golden;
+pub mod plan;
 pub mod report;
 pub mod results;
 pub mod variant;
