@@ -547,6 +547,44 @@ fn divergent_forms_on_data_without_divergence_fail_clearly() {
 }
 
 #[test]
+fn oz_quartic_on_plain_oz_data_is_the_oz_fit_with_a_zero() {
+    // S4 with no q^4 term (A = 0 exactly), once exact and once with 1% noise
+    // bending it slightly up at large q (as the self part does in the
+    // simulations): the quartic fit's best point inside A^2 >= 0 is A = 0 (or
+    // near it), and chi0 and xi are the plain OZ fit's within its errors.
+    let q = linspace(0.1, 1.0, 20);
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for (noise, bend) in [(0.0, 0.0), (0.0, 0.02), (0.01, 0.005)] {
+        let s4: Vec<f64> = q
+            .iter()
+            .map(|q| {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                20.0 / (1.0 + (4.0 * q).powi(2)) * (1.0 + noise * e + bend * q * q)
+            })
+            .collect();
+        let sigma: Vec<f64> = s4.iter().map(|s| 0.01 * s).collect();
+        let d = Data::new(&q, &s4, &sigma);
+        let oz = forms::oz(d, &[]).unwrap();
+        let quartic = forms::oz_quartic(d, &[]).unwrap();
+        let a = quartic.value("A");
+        assert!(a < 0.1, "noise {noise}, bend {bend}: A = {a}");
+        for name in ["chi0", "xi"] {
+            let (v, w) = (quartic.value(name), oz.value(name));
+            assert!(
+                (v - w).abs() < 2.0 * oz.error(name).max(1e-9 * w),
+                "noise {noise}, {name}: {v} vs OZ {w} +- {}",
+                oz.error(name)
+            );
+        }
+        if bend > 0.01 {
+            // Bending up, the data want A^2 < 0: the fit stops at A = 0 and says so.
+            assert_eq!(a, 0.0);
+            assert!(quartic.warnings.iter().any(|w| w.contains("no q^4 term")));
+        }
+    }
+}
+
+#[test]
 fn oz_with_xi_beyond_the_box_is_unreliable() {
     // xi = 50 but the smallest q is 0.1: every q xi >= 5, no plateau.
     let q = linspace(0.1, 1.0, 20);

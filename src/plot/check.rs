@@ -113,12 +113,13 @@ fn labels(fig: &Figure) -> Vec<&str> {
     out
 }
 
-/// Whether `label` prints as meant: no `^` or `_` left once the markup
-/// `^{...}` and `_{...}` is set as super- and subscripts.
+/// Whether `label` prints as meant: no `^`, `_` or brace left once the markup
+/// `^{...}` and `_{...}` is set as super- and subscripts (markup does not nest:
+/// `^{−γ_{ξ}}` would print `_{ξ` and a brace).
 pub fn typeset(label: &str) -> bool {
     spans(label)
         .iter()
-        .all(|(piece, _)| !piece.contains(['^', '_']))
+        .all(|(piece, _)| !piece.contains(['^', '_', '{', '}']))
 }
 
 /// Why the fitted y range reaches well past the values (by more than the
@@ -208,5 +209,6 @@ mod tests {
         assert!(!typeset("phi_0"));
         assert!(!typeset("χ₄ ∝ ξ^d′f"));
         assert!(!typeset("gamma_chi_over_gamma_xi"));
+        assert!(!typeset("(φ_{c} − φ)^{−γ_{ξ}}"), "nested markup");
     }
 }

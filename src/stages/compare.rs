@@ -166,17 +166,19 @@ impl StageKind for Compare {
                             e,
                             "agree",
                             format!(
-                                "|{} - {}| = {d:.3e} <= {}",
+                                "|{} - {}| = {} <= {}",
                                 significant(v),
                                 pval.value,
+                                digits(d, 3),
                                 pval.tolerance
                             ),
                         )
                     } else {
                         let miss = format!(
-                            "|{} - {}| = {d:.3e} > {}",
+                            "|{} - {}| = {} > {}",
                             significant(v),
                             pval.value,
+                            digits(d, 3),
                             pval.tolerance
                         );
                         match p.out_of_reach.get(&pval.quantity) {
@@ -213,21 +215,42 @@ impl StageKind for Compare {
 /// `v` to five significant digits for the reason text (the full value is in the
 /// `ours` column): 1.4581683449 -> 1.4582, 0.000123456 -> 0.00012346.
 fn significant(v: f64) -> String {
+    digits(v, 5)
+}
+
+/// `v` to `n` significant digits: plain decimals from 0.001 to 10^6, otherwise
+/// `1.93e-14` (trailing zeros of the mantissa dropped), never 17 digits.
+fn digits(v: f64, n: i32) -> String {
     if !v.is_finite() || v == 0.0 {
-        return v.to_string();
+        return (v + 0.0).to_string();
     }
-    let decimals = (4 - v.abs().log10().floor() as i32).clamp(0, 17) as usize;
+    let e = v.abs().log10().floor() as i32;
+    if !(-3..6).contains(&e) {
+        let m = format!("{:.*e}", (n - 1).max(0) as usize, v);
+        return match m.split_once('e') {
+            Some((mant, exp)) if mant.contains('.') => {
+                format!("{}e{exp}", mant.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => m,
+        };
+    }
+    let decimals = (n - 1 - e).clamp(0, 17) as usize;
     format!("{v:.decimals$}")
 }
 
 #[cfg(test)]
 mod tests {
-    use super::significant;
+    use super::{digits, significant};
 
     #[test]
     fn reasons_quote_five_significant_digits() {
         assert_eq!(significant(1.458168344974518), "1.4582");
-        assert_eq!(significant(-0.000123456789), "-0.00012346");
+        assert_eq!(significant(-0.000123456789), "-1.2346e-4");
+        assert_eq!(significant(1.93e-14), "1.93e-14");
+        assert_eq!(significant(-1e-10), "-1e-10");
+        assert_eq!(significant(0.0123456), "0.012346");
+        assert_eq!(digits(2.518e-2, 3), "0.0252");
+        assert_eq!(digits(12.83, 3), "12.8");
         assert_eq!(significant(3.364382336836832), "3.3644");
         assert_eq!(significant(12345.678), "12346");
         assert_eq!(significant(0.0), "0");

@@ -58,22 +58,39 @@ pub fn oz_quartic(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitErro
         (0.0, f64::INFINITY),
         (0.0, f64::INFINITY),
     ];
-    let mut fit = fit_form(
+    let names = ["chi0", "xi", "A"];
+    let mut fit = match fit_form(
         FORM,
-        &["chi0", "xi", "A"],
+        &names,
         &model,
         data,
         vec![chi0, xi, a],
-        bounds,
+        bounds.clone(),
         fixed,
-    )
-    .map_err(|e| match e {
-        FitError::AtBound { parameter, .. } if parameter == "A" => FitError::unreliable(
-            FORM,
-            "A -> 0: the data show no q^4 term; use the plain OZ form (oz)",
-        ),
-        e => e,
-    })?;
+    ) {
+        // A^2 >= 0 is the form's domain: where the data show no q^4 term the
+        // best fit inside it is A = 0, i.e. the plain OZ fit (paper H, Fig. 25:
+        // "in almost all cases the two values fall on top of each other").
+        Err(FitError::AtBound { parameter, .. }) if parameter == "A" => {
+            let mut at_zero: Vec<(&str, f64)> = fixed.to_vec();
+            at_zero.push(("A", 0.0));
+            let mut f = fit_form(
+                FORM,
+                &names,
+                &model,
+                data,
+                vec![chi0, xi, 0.0],
+                bounds,
+                &at_zero,
+            )?;
+            f.warnings.push(
+                "A = 0: the data show no q^4 term, so chi0 and xi are those of the plain OZ form"
+                    .to_string(),
+            );
+            f
+        }
+        r => r?,
+    };
     check_plateau(FORM, data, &mut fit)?;
     Ok(fit)
 }

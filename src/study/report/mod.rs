@@ -263,6 +263,24 @@ fn built_figures(results: &Path, profile: Option<&str>) -> Result<(String, Vec<F
             }
         );
     }
+    // A number a figure only carries (a stage it shares, e.g. intruder-fig1's
+    // front speeds) but another figure compares is listed there, with its
+    // verdict, not again among the first one's other numbers.
+    let compared_elsewhere: Vec<(String, String, f64)> = out
+        .iter()
+        .flat_map(|f| {
+            f.compared
+                .iter()
+                .map(|c| (f.id.clone(), c.quantity.clone(), c.ours))
+        })
+        .collect();
+    for f in &mut out {
+        f.others.retain(|(q, v)| {
+            !compared_elsewhere.iter().any(|(id, cq, ours)| {
+                id != &f.id && cq == q && (ours == &v.value || ours.is_nan() && v.value.is_nan())
+            })
+        });
+    }
     Ok((profile, out))
 }
 
@@ -400,7 +418,14 @@ pub fn plain(v: f64) -> String {
     let short = format!("{:.5e}", v);
     let back: f64 = short.parse().unwrap_or(v);
     let s = format!("{}", back + 0.0);
-    if s.len() <= 12 { s } else { short }
+    if s.len() <= 12 {
+        return s;
+    }
+    // 1e-10, not 1.00000e-10.
+    match short.split_once('e') {
+        Some((m, e)) => format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.')),
+        None => short,
+    }
 }
 
 pub(crate) fn error(err: f64) -> String {
@@ -572,6 +597,28 @@ mod tests {
     }
 
     #[test]
+    fn a_number_another_figure_compares_is_not_listed_again_among_others() {
+        let dir = tempfile::tempdir().unwrap();
+        let results = dir.path().join("results");
+        built(&results, "fig4", "ci", 0.8, 0.01);
+        built(&results, "fig3", "ci", 0.7, 0.01);
+        // fig3 carries fig4's compared phi_0 (a shared stage) and its own B.
+        let rows = [
+            ("phi_0".to_string(), 0.8, 0.01),
+            ("B".to_string(), 0.25, 0.02),
+        ];
+        let b = crate::table::results::quantity_batch(&[], &rows, "", None).unwrap();
+        crate::table::write_parquet(&results.join("fig3/shared.parquet"), &[b], &[]).unwrap();
+        std::fs::remove_file(results.join("fig3/compare.parquet")).unwrap();
+        write(dir.path(), &results, None, true).unwrap();
+        let md = std::fs::read_to_string(results.join("REPORT.md")).unwrap();
+        let others = &md[md.find("## Other fitted numbers").unwrap()..];
+        let others = &others[..others.find("## Gallery").unwrap_or(others.len())];
+        assert!(others.contains("| fig3 | B | 0.250 | 0.020 |"), "{others}");
+        assert!(!others.contains("phi_0"), "{others}");
+    }
+
+    #[test]
     fn figures_of_another_profile_are_left_out_or_named() {
         let dir = tempfile::tempdir().unwrap();
         let results = dir.path().join("results");
@@ -657,6 +704,8 @@ mod tests {
         assert_eq!(plain(0.83), "0.83");
         assert_eq!(plain(0.1 + 0.2), "0.3");
         assert_eq!(plain(-0.0), "0");
+        assert_eq!(plain(-1e-10), "-1e-10");
+        assert_eq!(plain(1.25e-12), "1.25e-12");
         assert_eq!(
             utc(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1_795_000_000)),
             "2026-11-18 11:06 UTC"
