@@ -318,6 +318,66 @@ pub struct PlotParams {
     pub colour_ranges: std::collections::BTreeMap<String, (f64, f64)>,
 }
 
+/// Data units per unit of the vector columns of an arrows layer.
+fn arrow_scale(
+    layer: &Layer,
+    a: &ArrowColumns,
+    x: &[f64],
+    y: &[f64],
+    dx: &[f64],
+    dy: &[f64],
+    rows: &[usize],
+) -> Result<f64> {
+    Ok(match a.scale {
+        ArrowScale::Fixed(k) if k.is_finite() && k > 0.0 => k,
+        ArrowScale::Fixed(k) => anyhow::bail!(
+            "plot: layer from '{}': arrows.scale = {k} must be a finite number > 0 or `auto`",
+            layer.from
+        ),
+        // No grid or no motion: the arrows are drawn at length zero.
+        ArrowScale::Named(AutoScale::Auto) => auto_arrow_scale(x, y, dx, dy, rows).unwrap_or(1.0),
+    })
+}
+
+/// Three significant digits, e.g. an arrow scale 0.0152 or a speed 312.
+fn three_digits(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let d = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    format!("{v:.d$}")
+}
+
+/// The key of an arrows layer, printed on its panel: how long an arrow is per
+/// unit of its vector, and the longest vector drawn (a velocity field's scale).
+fn arrow_key(layer: &Layer, c: &Columns) -> Result<Option<String>> {
+    let Some(a) = &layer.arrows else {
+        return Ok(None);
+    };
+    if c.rows == 0 {
+        return Ok(None);
+    }
+    let rows = c.select(&layer.filter)?;
+    let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
+    let (dx, dy) = (c.col(&a.dx)?, c.col(&a.dy)?);
+    let k = arrow_scale(layer, a, x, y, dx, dy, &rows)?;
+    let longest = rows
+        .iter()
+        .map(|&i| dx[i].hypot(dy[i]))
+        .filter(|l| l.is_finite())
+        .fold(0.0, f64::max);
+    Ok(Some(format!(
+        "Arrows: ({}, {}) × {} in units of {}; the longest |({}, {})| = {}.",
+        a.dx,
+        a.dy,
+        three_digits(k),
+        layer.x,
+        a.dx,
+        a.dy,
+        three_digits(longest)
+    )))
+}
+
 /// The series of one layer.
 fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     // An empty table (e.g. the curve of a fit that failed, see its note) draws nothing.
@@ -351,18 +411,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     let arrows = match &layer.arrows {
         Some(a) => {
             let (dx, dy) = (c.col(&a.dx)?, c.col(&a.dy)?);
-            let k = match a.scale {
-                ArrowScale::Fixed(k) if k.is_finite() && k > 0.0 => k,
-                ArrowScale::Fixed(k) => anyhow::bail!(
-                    "plot: layer from '{}': arrows.scale = {k} must be a finite number > 0 or `auto`",
-                    layer.from
-                ),
-                // No grid or no motion: the arrows are drawn at length zero.
-                ArrowScale::Named(AutoScale::Auto) => {
-                    auto_arrow_scale(x, y, dx, dy, &rows).unwrap_or(1.0)
-                }
-            };
-            Some((dx, dy, k))
+            Some((dx, dy, arrow_scale(layer, a, x, y, dx, dy, &rows)?))
         }
         None => None,
     };
@@ -466,6 +515,7 @@ fn build(
                 .filter(|s| !s.x.is_empty())
                 .collect();
             notes.extend(missing(&layer, &ps.legend_title, &drawn));
+            notes.extend(arrow_key(&layer, &c)?);
             all.extend(drawn);
         }
         for c in &ps.curves {
@@ -764,6 +814,36 @@ panels:
     /// `scale: auto` makes the longest arrow 0.9 of the grid step (here the
     /// x step 2 of a 3 x 2 grid with y step 3; the longest vector is 5 long),
     /// and is read from YAML beside a number; `scale: 0` is refused.
+    #[test]
+    fn a_velocity_field_panel_prints_its_arrow_scale() {
+        let yaml = r#"
+panels:
+  - x: {label: "x"}
+    y: {label: "z"}
+    legend: none
+    layers:
+      - {from: field, x: x, y: "y", style: arrows, arrows: {dx: vx, dy: vy, scale: auto}}
+"#;
+        let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+        let p: super::PlotParams = serde_json::from_value(v).unwrap();
+        let table = |_: &super::Layer| {
+            let mut c = super::Columns::default();
+            let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
+            put("x", vec![0.0, 2.0, 0.0, 2.0]);
+            put("y", vec![0.0, 0.0, 2.0, 2.0]);
+            put("vx", vec![3.0, 0.0, 1.0, 0.0]);
+            put("vy", vec![4.0, 1.0, 0.0, 0.0]);
+            c.rows = 4;
+            Ok(c)
+        };
+        let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+        // The longest vector (5) spans 0.9 of the grid step 2: scale 0.36.
+        assert_eq!(
+            fig.panels[0].notes,
+            ["Arrows: (vx, vy) × 0.360 in units of x; the longest |(vx, vy)| = 5.00."]
+        );
+    }
+
     #[test]
     fn auto_arrow_scale_fits_the_longest_arrow_in_a_grid_cell() {
         use super::{ArrowColumns, ArrowScale, AutoScale, auto_arrow_scale};
