@@ -263,7 +263,12 @@ fn data_outside_a_fixed_range_is_clipped_to_the_axes() {
         .unwrap();
     let (x0, y0, x1, y1) = (frame[0], frame[1], frame[0] + frame[2], frame[1] + frame[3]);
     let mut n = 0;
-    for pl in svg.split("<polyline").skip(1) {
+    // Wide lines are drawn as filled polygons, one per segment.
+    let shapes = svg
+        .split("<polyline")
+        .skip(1)
+        .chain(svg.split("<polygon").skip(1));
+    for pl in shapes {
         let pts = pl
             .split("points=\"")
             .nth(1)

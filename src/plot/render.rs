@@ -176,12 +176,42 @@ fn polyline<DB: DrawingBackend>(
     color: RGBColor,
     width: u32,
 ) -> Result<()> {
-    let style = ShapeStyle::from(&color).stroke_width(width);
-    area.draw(&PathElement::new(
-        pts.iter().map(|&p| px(p)).collect::<Vec<_>>(),
-        style,
-    ))
-    .map_err(err)
+    if width <= 1 {
+        let style = ShapeStyle::from(&color).stroke_width(width);
+        return area
+            .draw(&PathElement::new(
+                pts.iter().map(|&p| px(p)).collect::<Vec<_>>(),
+                style,
+            ))
+            .map_err(err);
+    }
+    // A wide line as one filled quadrilateral per segment and a disk at each
+    // joint: plotters' bitmap backend widens a path vertically only, so steep
+    // segments came out one pixel thin (chi4(t) rising to its peak).
+    let h = width as f64 / 2.0;
+    let fill = color.filled();
+    for w in pts.windows(2) {
+        let ((ax, ay), (bx, by)) = (w[0], w[1]);
+        let len = (bx - ax).hypot(by - ay);
+        if !(len > 0.0) {
+            continue;
+        }
+        let (nx, ny) = (-(by - ay) / len * h, (bx - ax) / len * h);
+        let quad = vec![
+            px((ax + nx, ay + ny)),
+            px((bx + nx, by + ny)),
+            px((bx - nx, by - ny)),
+            px((ax - nx, ay - ny)),
+        ];
+        area.draw(&Polygon::new(quad, fill)).map_err(err)?;
+    }
+    if pts.len() > 2 {
+        for &p in &pts[1..pts.len() - 1] {
+            area.draw(&Circle::new(px(p), h.round() as i32, fill))
+                .map_err(err)?;
+        }
+    }
+    Ok(())
 }
 
 /// Draw the whole figure on `root` (already sized to the figure).
