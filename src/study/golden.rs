@@ -615,7 +615,36 @@ pub fn seed_numbers(
             seed: Some(seed),
             ..base.clone()
         };
-        let built = variant::build(root, experiment, profile, &v, ids, opts)?;
+        // A seed whose build fails (a stage that cannot run at that seed, e.g.
+        // a compression that jams) is a result, not the end of the survey: CI
+        // at that seed would fail, so under a gate it counts as a false alarm,
+        // and its numbers are missing (NaN) like those of a failed fit.
+        let built = match variant::build(root, experiment, profile, &v, ids, opts) {
+            Ok(b) => b,
+            Err(e) => {
+                // The first stage that failed names the cause; the summary
+                // line only counts them.
+                let text = format!("{e:#}");
+                let first = text
+                    .lines()
+                    .find(|l| l.contains(" failed: "))
+                    .or_else(|| text.lines().next())
+                    .unwrap_or_default()
+                    .trim()
+                    .to_string();
+                eprintln!("master seed {seed}: the build failed: {first}");
+                if gate.is_some() {
+                    checks.push(SeedCheck {
+                        seed,
+                        failures: vec![format!("the build failed: {first}")],
+                    });
+                }
+                for e in values.values_mut() {
+                    e.resize(k + 1, none);
+                }
+                continue;
+            }
+        };
         if let Some(g) = gate.filter(|g| {
             ids.iter()
                 .any(|id| g.quantities.iter().any(|q| &q.figure == id))
