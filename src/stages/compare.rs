@@ -220,7 +220,7 @@ fn significant(v: f64) -> String {
 
 /// `v` to `n` significant digits: plain decimals from 0.001 to 10^6, otherwise
 /// `1.93e-14` (trailing zeros of the mantissa dropped), never 17 digits.
-fn digits(v: f64, n: i32) -> String {
+pub(super) fn digits(v: f64, n: i32) -> String {
     if !v.is_finite() || v == 0.0 {
         return (v + 0.0).to_string();
     }

@@ -339,15 +339,6 @@ fn arrow_scale(
     })
 }
 
-/// Three significant digits, e.g. an arrow scale 0.0152 or a speed 312.
-fn three_digits(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let d = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-    format!("{v:.d$}")
-}
-
 /// The key of an arrows layer, printed on its panel: how long an arrow is per
 /// unit of its vector, and the longest vector drawn (a velocity field's scale).
 fn arrow_key(layer: &Layer, c: &Columns) -> Result<Option<String>> {
@@ -370,11 +361,11 @@ fn arrow_key(layer: &Layer, c: &Columns) -> Result<Option<String>> {
         "Arrows: ({}, {}) × {} in units of {}; the longest |({}, {})| = {}.",
         a.dx,
         a.dy,
-        three_digits(k),
+        super::compare::digits(k, 3),
         layer.x,
         a.dx,
         a.dy,
-        three_digits(longest)
+        super::compare::digits(longest, 3)
     )))
 }
 
