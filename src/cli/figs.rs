@@ -49,7 +49,8 @@ pub struct CoverageArgs {
     pub ids: Vec<String>,
     #[arg(long, default_value = "ci")]
     pub profile: String,
-    #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3, 4, 5, 6, 7, 8, 9, 10])]
+    /// Master seeds, separated by commas (11,12,13).
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3,4,5,6,7,8,9,10")]
     pub seeds: Vec<u64>,
     /// Suffix of the output file: results/coverage-PROFILE[-LABEL].json.
     #[arg(long, default_value = "")]
@@ -79,7 +80,8 @@ pub struct RegressArgs {
     /// Rebuild the golden file: run the figures at each of --seeds.
     #[arg(long)]
     pub record: bool,
-    #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3, 4, 5])]
+    /// With --record: the master seeds, separated by commas.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3,4,5")]
     pub seeds: Vec<u64>,
     /// With --record: a key number left out of the bands by hand, with the reason
     /// written into the golden file: FIGURE:QUANTITY=REASON (repeat the option).
@@ -101,12 +103,12 @@ pub struct FrontierArgs {
     /// Profile whose grid and run lengths are the base of every variant.
     #[arg(long, default_value = "ci")]
     pub profile: String,
-    #[arg(long, value_delimiter = ',', default_values_t = [500usize, 1000, 2000])]
+    #[arg(long, value_delimiter = ',', default_value = "500,1000,2000")]
     pub n: Vec<usize>,
-    #[arg(long, value_delimiter = ',', default_values_t = [2u64])]
+    #[arg(long, value_delimiter = ',', default_value = "2")]
     pub replicas: Vec<u64>,
     /// Master seeds of each configuration (the spread between them is the error).
-    #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3])]
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
     pub seeds: Vec<u64>,
     /// Name of these configurations; rows of other labels already in
     /// results/frontier/ID-PROFILE.json are kept, so one chart compares them.

@@ -96,7 +96,7 @@ pub struct SimArgs {
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// System sizes.
-    #[arg(long, value_delimiter = ',', default_values_t = [10_000usize, 100_000, 1_000_000])]
+    #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
     pub n: Vec<usize>,
     /// Measured time per size (after relaxation).
     #[arg(long, default_value_t = 2.0)]

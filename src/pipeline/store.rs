@@ -155,13 +155,26 @@ impl Store {
             .write(true)
             .open(dir.join("store.lock"))?;
         if exclusive {
-            match lock.try_lock() {
-                Ok(()) => {}
-                Err(std::fs::TryLockError::WouldBlock) => bail!(
-                    "another repro process is using the store {}; run gc when it has finished",
-                    dir.display()
-                ),
-                Err(std::fs::TryLockError::Error(e)) => return Err(e.into()),
+            // A process forked by this one (git, a plotter) holds a copy of a
+            // just-dropped store's lock until it calls exec: wait that out
+            // (milliseconds) before calling it another repro's.
+            let mut waited = std::time::Duration::ZERO;
+            loop {
+                match lock.try_lock() {
+                    Ok(()) => break,
+                    Err(std::fs::TryLockError::WouldBlock)
+                        if waited < std::time::Duration::from_secs(2) =>
+                    {
+                        let step = std::time::Duration::from_millis(20);
+                        std::thread::sleep(step);
+                        waited += step;
+                    }
+                    Err(std::fs::TryLockError::WouldBlock) => bail!(
+                        "another repro process is using the store {}; run gc when it has finished",
+                        dir.display()
+                    ),
+                    Err(std::fs::TryLockError::Error(e)) => return Err(e.into()),
+                }
             }
         } else {
             lock.lock_shared()?;
