@@ -49,6 +49,11 @@ struct CompareParams {
     /// that it is too small rather than that the physics is wrong.
     #[serde(default)]
     out_of_reach: std::collections::BTreeMap<String, String>,
+    /// What a reader should know whatever the verdict (quantity -> note, e.g. that
+    /// a fresh seed can land four quoted errors out), set per profile like
+    /// `out_of_reach`: appended to the reason.
+    #[serde(default)]
+    caveats: std::collections::BTreeMap<String, String>,
 }
 
 /// A column of `b` as f64 or strings, with a clear error.
@@ -76,9 +81,14 @@ impl StageKind for Compare {
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CompareParams = typed("compare", params)?;
-        for q in p.out_of_reach.keys() {
+        for (field, q) in p
+            .out_of_reach
+            .keys()
+            .map(|q| ("out_of_reach", q))
+            .chain(p.caveats.keys().map(|q| ("caveats", q)))
+        {
             if !p.paper.iter().any(|v| &v.quantity == q) {
-                bail!("compare: out_of_reach names '{q}', which is not one of the paper values");
+                bail!("compare: {field} names '{q}', which is not one of the paper values");
             }
         }
         for v in &p.paper {
@@ -196,7 +206,10 @@ impl StageKind for Compare {
             pv.push(other.map_or(pval.value, |o| o.map_or(f64::NAN, |o| o.1)));
             tol.push(pval.tolerance);
             verdict.push(ver.to_string());
-            reason.push(why);
+            reason.push(match p.caveats.get(&pval.quantity) {
+                Some(c) => format!("{why}; {c}"),
+                None => why,
+            });
         }
         let b = results::CompareColumns {
             quantity: q,
@@ -240,7 +253,64 @@ pub(super) fn digits(v: f64, n: i32) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{digits, significant};
+    use super::{Compare, digits, significant};
+    use crate::pipeline::{StageCtx, StageKind};
+    use crate::stages::tables::Columns;
+    use crate::stages::test_support::{artifact, yaml};
+    use crate::table::read_parquet_bytes;
+    use crate::table::results::{REASON, VERDICT, quantity_batch};
+
+    /// Verdicts against the paper: inside the tolerance agrees, outside
+    /// disagrees unless the profile says it is out of reach; a caveat is
+    /// appended to the reason whatever the verdict.
+    #[test]
+    fn verdicts_follow_the_tolerance_and_caveats_reach_the_reason() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = [
+            ("a".to_string(), 1.55, 0.1),
+            ("b".to_string(), 2.0, 0.1),
+            ("c".to_string(), 3.0, 0.1),
+        ];
+        let fit = artifact(
+            dir.path(),
+            "fit",
+            quantity_batch(&[], &rows, "", None).unwrap(),
+        );
+        let params = yaml(
+            "paper:\n\
+             - {quantity: a, value: 1.6, tolerance: 0.3}\n\
+             - {quantity: b, value: 1.0, tolerance: 0.3}\n\
+             - {quantity: c, value: 1.0, tolerance: 0.3}\n\
+             - {quantity: d, value: 1.0, tolerance: 0.3}\n\
+             out_of_reach: {c: needs a bigger box}\n\
+             caveats: {a: one seed in twenty lands 4 errors out}\n",
+        );
+        Compare.validate(&params).unwrap();
+        let mut bad = params.clone();
+        bad["caveats"] = yaml("{e: x}");
+        let e = Compare.validate(&bad).unwrap_err().to_string();
+        assert!(e.contains("caveats names 'e'"), "{e}");
+        let ctx = StageCtx::new(0, "compare".into(), None);
+        let out = Compare.run(&ctx, &params, &[fit]).unwrap();
+        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(
+            c.str[VERDICT],
+            ["agree", "disagree", "out_of_reach", "missing"]
+        );
+        let reason = &c.str[REASON];
+        assert!(
+            reason[0].starts_with("|1.5500 - 1.6| = 0.0500 <= 0.3; one seed in twenty"),
+            "{}",
+            reason[0]
+        );
+        assert!(
+            reason[2].starts_with("needs a bigger box; |3.0000 - 1|"),
+            "{}",
+            reason[2]
+        );
+        assert!(reason[3].contains("no input reports 'd'"), "{}", reason[3]);
+    }
 
     #[test]
     fn reasons_quote_five_significant_digits() {
