@@ -702,6 +702,48 @@ mod tests {
         }
     }
 
+    /// A seed whose build fails is a CI failure at that seed, with the cause,
+    /// and the survey goes on to the next seed instead of losing the table.
+    #[test]
+    fn a_seed_whose_build_fails_is_a_ci_failure_and_the_survey_goes_on() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("experiments")).unwrap();
+        std::fs::write(
+            dir.path().join("experiments/e.yaml"),
+            "description: t\nkind: simulate\nseed: 3\nparams: {eps: 0.9}\n\
+             profiles:\n  ci:\n    grid: {phi: [0.6]}\n    replicas: 2\n    params: {n: 100}\n",
+        )
+        .unwrap();
+        let gate = file(&[1, 2], &["nofig"], &[]);
+        let ids = vec!["nofig".to_string()];
+        let opts = RunOptions {
+            progress: false,
+            ..RunOptions::default()
+        };
+        let (values, checks) = seed_numbers(
+            dir.path(),
+            "e",
+            "ci",
+            &ids,
+            &[7, 8],
+            &Variant::default(),
+            Some(&gate),
+            &opts,
+        )
+        .unwrap();
+        assert!(values.is_empty(), "{values:?}");
+        assert_eq!(checks.iter().map(|c| c.seed).collect::<Vec<_>>(), [7, 8]);
+        for c in &checks {
+            assert!(
+                c.failures.len() == 1
+                    && c.failures[0].starts_with("the build failed: ")
+                    && c.failures[0].contains("nofig"),
+                "{:?}",
+                c.failures
+            );
+        }
+    }
+
     /// Recording one figure replaces its bands and keeps every other figure's;
     /// bands of other master seeds are not mixed in.
     #[test]
