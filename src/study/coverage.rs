@@ -108,6 +108,7 @@ pub fn from_golden(g: &GoldenFile, ids: &[String]) -> Vec<Coverage> {
                     value,
                     error,
                     verdict: None,
+                    margin: f64::NAN,
                 })
                 .collect();
             coverage(&q.figure, &q.quantity, &per_seed)
@@ -216,6 +217,7 @@ mod tests {
             value,
             error,
             verdict: None,
+            margin: f64::NAN,
         }
     }
 

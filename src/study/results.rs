@@ -69,6 +69,10 @@ pub struct Fitted {
     pub error: f64,
     /// The paper verdict, for a number the figure compares with its paper.
     pub verdict: Option<Verdict>,
+    /// Where it agrees: how far inside the agreement it lies, | tolerance -
+    /// |ours - paper| | (for a value, the distance to the tolerance's edge; for
+    /// a claim, the distance beyond the bound's margin). NaN otherwise.
+    pub margin: f64,
 }
 
 /// Every published fit table's rows (quantity, value, error) of a built figure,
@@ -94,6 +98,7 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
                         value: r.value,
                         error: r.error,
                         verdict: None,
+                        margin: f64::NAN,
                     },
                 );
             }
@@ -114,6 +119,7 @@ pub fn key_numbers_with_errors(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
                     value: c.ours,
                     error: c.ours_err,
                     verdict: Some(c.verdict),
+                    margin: (c.tolerance - (c.ours - c.paper).abs()).abs(),
                 },
             );
         }
