@@ -268,6 +268,22 @@ fn tiny_figure_end_to_end_then_regression_check() {
     };
     let e = repro::study::golden::all_recorded(&empty, g, &tiny, &ws.results).unwrap_err();
     assert!(format!("{e}").contains("--seeds 1,2 tinyfig"), "{e}");
+    // ... but one whose every key number is ungated with a reason is recorded.
+    let all_ungated = GoldenFile {
+        quantities: vec![],
+        ungated: repro::study::results::key_numbers(&ws.results.join("tinyfig"))
+            .unwrap()
+            .keys()
+            .map(|q| {
+                (
+                    format!("tinyfig:{q}"),
+                    "its fit fails at some seeds".to_string(),
+                )
+            })
+            .collect(),
+        ..good.clone()
+    };
+    repro::study::golden::all_recorded(&all_ungated, g, &tiny, &ws.results).unwrap();
     let bad = GoldenFile {
         quantities: vec![golden(
             "tinyfig",
