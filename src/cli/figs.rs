@@ -288,7 +288,12 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     let results = Workspace::new(&a.variant.root).results;
     let out = results.join(format!("{stem}.json"));
     std::fs::create_dir_all(&results)?;
-    let json = serde_json::json!({ "seeds": a.seeds, "rows": rows, "regress": checks });
+    // With --golden the seeds are the ones the file was recorded at.
+    let seeds = match (&a.golden, &gates_from) {
+        (Some(_), Some(g)) => g.seeds.clone(),
+        _ => a.seeds.clone(),
+    };
+    let json = serde_json::json!({ "seeds": seeds, "rows": rows, "regress": checks });
     crate::table::write_atomic(&out, serde_json::to_string_pretty(&json)?.as_bytes())?;
     println!("wrote {}", out.display());
     let command = std::env::args()
@@ -297,7 +302,7 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     let md = crate::study::coverage::markdown(
         &command,
         crate::pipeline::publish::git_commit(&a.variant.root).as_deref(),
-        &a.seeds,
+        &seeds,
         &rows,
         &gates,
         &checks,
