@@ -1190,4 +1190,26 @@ fn without_a_terminal_each_finished_stage_and_long_stage_prints_a_line() {
         log.lines().filter(|l| l.contains("] executed ")).count(),
         19
     );
+    // A second run (all cached) has its own log; the first run's is kept whole
+    // and LAST-RUN.log is the newest.
+    assert!(repro(d.path()).output().unwrap().status.success());
+    let logs: Vec<String> = std::fs::read_dir(d.path().join(".repro/log"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("run-"))
+        .collect();
+    assert_eq!(logs.len(), 2, "{logs:?}");
+    let texts: Vec<String> = logs
+        .iter()
+        .map(|n| std::fs::read_to_string(d.path().join(".repro/log").join(n)).unwrap())
+        .collect();
+    assert!(
+        texts.iter().any(|t| t.matches("] executed ").count() == 19),
+        "{texts:?}"
+    );
+    let last = std::fs::read_to_string(d.path().join(".repro/log/LAST-RUN.log")).unwrap();
+    assert!(
+        last.contains("cached") && !last.contains("] executed "),
+        "{last}"
+    );
 }

@@ -82,10 +82,7 @@ impl Progress {
             );
             b
         });
-        let log = log.and_then(|p| {
-            std::fs::create_dir_all(p.parent()?).ok()?;
-            File::create(p).ok().map(Mutex::new)
-        });
+        let log = log.and_then(|p| open_run_log(p).map(Mutex::new));
         Progress {
             bars,
             overall,
@@ -305,6 +302,44 @@ fn span(s: f64) -> String {
     } else {
         format!("{:.1} h", s / 3600.0)
     }
+}
+
+/// How many runs' logs `.repro/log` keeps.
+const KEPT_RUN_LOGS: usize = 20;
+
+/// This run's own log file, `run-UNIXSECONDS-PID.log` beside `last`, with
+/// `last` (LAST-RUN.log) made a symlink to it: two runs at once in one project
+/// each keep a whole log (one shared file had both truncating and writing it).
+/// The oldest logs beyond [`KEPT_RUN_LOGS`] are removed.
+fn open_run_log(last: &std::path::Path) -> Option<File> {
+    let dir = last.parent()?;
+    std::fs::create_dir_all(dir).ok()?;
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let name = format!("run-{secs:011}-{}.log", std::process::id());
+    let file = File::create(dir.join(&name)).ok()?;
+    let mut old: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("run-") && n.ends_with(".log"))
+        })
+        .collect();
+    old.sort();
+    for p in old.iter().take(old.len().saturating_sub(KEPT_RUN_LOGS)) {
+        let _ = std::fs::remove_file(p);
+    }
+    // Replace LAST-RUN.log (a file from older versions, or the previous link)
+    // atomically by a link to this run's log.
+    let tmp = dir.join(format!(".{name}.link"));
+    let _ = std::fs::remove_file(&tmp);
+    if std::os::unix::fs::symlink(&name, &tmp).is_ok() {
+        let _ = std::fs::rename(&tmp, last);
+    }
+    Some(file)
 }
 
 /// Unix seconds as the UTC time of day, `HH:MM`.
