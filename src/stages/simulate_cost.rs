@@ -7,7 +7,7 @@
 
 use crate::pipeline::stage::Work;
 use crate::sim::engine::Kicks;
-use crate::sim::{ForceMode, SimConfig, enskog, run::drive};
+use crate::sim::{Drive, ForceMode, SimConfig, enskog, run::drive};
 
 /// Planned work of a `simulate` stage: N, the frames it keeps, its collisions
 /// (N x (collision rate per disk) / 2 x (relaxation + production) x the heating
@@ -25,7 +25,14 @@ pub fn planned_work(cfg: &SimConfig) -> Work {
     // The compression from phi = 0.3 takes ~100 collisions per disk up to the
     // dense states (docs/sim.md), none at phi <= 0.3.
     let compression = 100.0 * ((cfg.phi - 0.3) / 0.5).clamp(0.0, 1.0);
-    let collisions = nf * (omega / 2.0 * enskog_ratio(cfg.phi) * heating(cfg) * time + compression);
+    let at_t = nf * omega / 2.0 * enskog_ratio(cfg.phi) * time;
+    let collisions = if cfg.drive == Drive::None {
+        at_t * haff(cfg, omega * time)
+            + nf * compression
+            + (at_t + nf * compression) * 4.0 * collapse(cfg)
+    } else {
+        (at_t * heating(cfg) + nf * compression) * (1.0 + 2.5 * collapse(cfg))
+    };
     // An undriven or elastic run (zero kick amplitude) kicks nothing.
     let (kicks, kick_rate, _) = drive(cfg, omega);
     let kick_rate = if kicks == Kicks::Off { 0.0 } else { kick_rate };
@@ -87,6 +94,31 @@ pub fn heating(cfg: &SimConfig) -> f64 {
     let f_h = 12.0 * (cfg.n as f64 * t * gamma_eff).sqrt();
     let x = i.force / f_h;
     1.0 + x * x / (1.0 + (x / 13.0).powf(1.5))
+}
+
+/// The fraction of an undriven run's collisions at the starting rate that
+/// free cooling leaves: Haff's law T = T0 / (1 + t / t0)^2 with 1 / t0 = (1 -
+/// eps^2) omega / 8 leaves ln(1 + x) / x of omega t, x = (1 - eps^2) omega t / 8.
+fn haff(cfg: &SimConfig, omega_t: f64) -> f64 {
+    let x = (1.0 - cfg.eps * cfg.eps) * omega_t / 8.0;
+    if x > 1e-9 { x.ln_1p() / x } else { 1.0 }
+}
+
+/// Dense, very inelastic runs collapse into clusters whose collisions only the
+/// guard (collapse_tc) bounds: log10(1e-4 / tc) at eps <= 0.1 and phi >= 0.8,
+/// falling linearly to nothing at eps = 0.6 and at phi = 0.55. The extra
+/// collisions are 4 times it of the plan without collapse when undriven, 2.5
+/// times when driven. Fitted to the stability-collapse runs of the small
+/// profile (N = 2000, eps 0.1-1, phi 0.3-0.8, tc 1e-7-1e-5; docs/measurements.md).
+fn collapse(cfg: &SimConfig) -> f64 {
+    let decades = if cfg.collapse_tc > 0.0 {
+        (1e-4 / cfg.collapse_tc).log10().clamp(0.0, 4.0)
+    } else {
+        4.0
+    };
+    let inelastic = ((0.6 - cfg.eps) / 0.5).clamp(0.0, 1.0);
+    let dense = ((cfg.phi - 0.55) / 0.25).clamp(0.0, 1.0);
+    decades * inelastic * dense
 }
 
 /// Measured collision rate over the Enskog frequency at the measured T, by phi
