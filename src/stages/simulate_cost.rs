@@ -147,3 +147,53 @@ fn enskog_ratio(phi: f64) -> f64 {
     }
     R[R.len() - 1].1
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(drive: Drive, eps: f64, phi: f64, tc: f64) -> SimConfig {
+        SimConfig {
+            drive,
+            eps,
+            phi,
+            collapse_tc: tc,
+            ..SimConfig::default()
+        }
+    }
+
+    /// Haff's law: no cooling without dissipation, and a cooled run makes
+    /// ln(1 + x) / x of the collisions it would at the starting rate.
+    #[test]
+    fn free_cooling_follows_haffs_law() {
+        assert_eq!(haff(&cfg(Drive::None, 1.0, 0.7, 1e-6), 1000.0), 1.0);
+        let h = haff(&cfg(Drive::None, 0.6, 0.7, 1e-6), 100.0);
+        let x: f64 = 0.64 * 100.0 / 8.0;
+        assert!((h - (1.0 + x).ln() / x).abs() < 1e-12, "{h}");
+        // Slow cooling (eps -> 1): the first-order loss x / 2.
+        let slow = haff(&cfg(Drive::None, 0.9999, 0.7, 1e-6), 10.0);
+        assert!(
+            (1.0 - slow - 0.5 * 2e-4 * 10.0 / 8.0).abs() < 1e-6,
+            "{slow}"
+        );
+    }
+
+    /// Collapse adds collisions only to dense, very inelastic runs, more the
+    /// later the guard steps in (smaller collapse_tc).
+    #[test]
+    fn collapse_needs_density_and_dissipation() {
+        assert_eq!(collapse(&cfg(Drive::None, 0.7, 0.8, 1e-7)), 0.0);
+        assert_eq!(collapse(&cfg(Drive::None, 0.1, 0.5, 1e-7)), 0.0);
+        let (a, b) = (
+            collapse(&cfg(Drive::None, 0.1, 0.8, 1e-5)),
+            collapse(&cfg(Drive::None, 0.1, 0.8, 1e-7)),
+        );
+        assert!(
+            (a - 1.0).abs() < 1e-12 && (b - 3.0).abs() < 1e-12,
+            "{a} {b}"
+        );
+        let undriven = planned_work(&cfg(Drive::None, 0.1, 0.8, 1e-7)).collisions;
+        let driven = planned_work(&cfg(Drive::NeighbourPairs, 0.1, 0.8, 1e-7)).collisions;
+        assert!(undriven > 0.0 && driven > 0.0);
+    }
+}
