@@ -26,12 +26,15 @@ pub fn planned_work(cfg: &SimConfig) -> Work {
     // dense states (docs/sim.md), none at phi <= 0.3.
     let compression = 100.0 * ((cfg.phi - 0.3) / 0.5).clamp(0.0, 1.0);
     let at_t = nf * omega / 2.0 * enskog_ratio(cfg.phi) * time;
-    let collisions = if cfg.drive == Drive::None {
-        at_t * haff(cfg, omega * time)
+    let (collisions, forced_collisions) = if cfg.drive == Drive::None {
+        let c = at_t * haff(cfg, omega * time)
             + nf * compression
-            + (at_t + nf * compression) * 4.0 * collapse(cfg)
+            + (at_t + nf * compression) * 4.0 * collapse(cfg);
+        (c, 0.0)
     } else {
-        (at_t * heating(cfg) + nf * compression) * (1.0 + 2.5 * collapse(cfg))
+        let c = 1.0 + 2.5 * collapse(cfg);
+        let h = heating(cfg);
+        ((at_t * h + nf * compression) * c, at_t * (h - 1.0) * c)
     };
     // An undriven or elastic run (zero kick amplitude) kicks nothing.
     let (kicks, kick_rate, _) = drive(cfg, omega);
@@ -46,6 +49,7 @@ pub fn planned_work(cfg: &SimConfig) -> Work {
         n: cfg.n as u64,
         phi: cfg.phi,
         collisions,
+        forced_collisions,
         drive_kicks: kick_rate * time,
         force_kicks,
         frames,
@@ -83,6 +87,10 @@ fn bath_enskog(cfg: &SimConfig, t: f64) -> f64 {
 /// 10, x = 10 about 50, x = 172 (F = 10^4, T = 0.04) 580, the front (F = 500,
 /// gamma = 0) about 450); `repro plan --check` compares every recorded
 /// configuration with its plan.
+///
+/// With friction, in the steady state, a strong force meets a ceiling
+/// [`forced_ceiling`]: the factor is (h^-2 + ceiling^-2)^(-1/2) of the growth
+/// h above.
 pub fn heating(cfg: &SimConfig) -> f64 {
     let Some(i) = &cfg.intruder else { return 1.0 };
     if i.force <= 0.0 {
@@ -93,7 +101,37 @@ pub fn heating(cfg: &SimConfig) -> f64 {
     let gamma_eff = cfg.gamma + share * (1.0 - cfg.eps * cfg.eps) * bath_enskog(cfg, t) / 4.0;
     let f_h = 12.0 * (cfg.n as f64 * t * gamma_eff).sqrt();
     let x = i.force / f_h;
-    1.0 + x * x / (1.0 + (x / 13.0).powf(1.5))
+    let h = 1.0 + x * x / (1.0 + (x / 13.0).powf(1.5));
+    // The ceiling is the steady state's: a run that starts the force at rest
+    // and hardly relaxes (paper I's path, relax_tau = 10^-6) sees the layer
+    // form, not jam (N = 2000, phi = 0.8: 660 times the rest rate).
+    let steady = cfg.relax_time >= 0.1 * (cfg.relax_time + cfg.schedule.end());
+    if cfg.gamma > 0.0 && steady {
+        let c = forced_ceiling(cfg);
+        (h.powi(-2) + c.powi(-2)).powf(-0.5)
+    } else {
+        h
+    }
+}
+
+/// The most a strong force multiplies the collisions of a bath with friction:
+/// however hard it pulls (F = 3 x 10^4 - 10^5, the bath's T up to 10^4 times
+/// the drive's), the collisions per disk and unit time level off, the lower
+/// the denser: the layer ahead of the intruder jams. Measured on the small
+/// profile's runs (N = 500, docs/measurements.md, 2026-11-26) at eps = 0.9
+/// and the drive's T = 1: about 700-1000 times the rest rate up to phi = 0.7,
+/// 140 at 0.775, 100 at 0.8; so 1000 up to 0.7, falling log-linearly to 100
+/// at 0.8. The ceiling is on the rate, not on the factor: at the drive's T =
+/// 0.04 (rest rate sqrt(0.04) = 0.2 of T = 1's) the factor at 0.775 reached
+/// 550, i.e. 1 / sqrt(T). It grows with the dissipation as (1 - eps^2) / 0.19
+/// (eps = 0.7 at 0.8 reached 280 where eps = 0.9 levels off at 100; one
+/// configuration each), and is kept at eps = 0.9's for more elastic baths,
+/// where nothing was measured.
+fn forced_ceiling(cfg: &SimConfig) -> f64 {
+    let dense = ((cfg.phi - 0.7) / 0.1).max(0.0);
+    let at_eps09 = 1000.0 * 0.1f64.powf(dense);
+    let dissipation = ((1.0 - cfg.eps * cfg.eps) / 0.19).max(1.0);
+    at_eps09 * dissipation / cfg.temperature.max(1e-12).sqrt()
 }
 
 /// The fraction of an undriven run's collisions at the starting rate that
@@ -195,5 +233,39 @@ mod tests {
         let undriven = planned_work(&cfg(Drive::None, 0.1, 0.8, 1e-7)).collisions;
         let driven = planned_work(&cfg(Drive::NeighbourPairs, 0.1, 0.8, 1e-7)).collisions;
         assert!(undriven > 0.0 && driven > 0.0);
+    }
+
+    /// A strong force's collisions level off, lower the denser the bath, at a
+    /// rate (not a factor) fixed by phi: a colder drive allows a larger factor.
+    #[test]
+    fn a_strong_force_meets_a_ceiling_lower_the_denser() {
+        let ceiling = |eps: f64, phi: f64, t: f64| {
+            forced_ceiling(&SimConfig {
+                eps,
+                phi,
+                temperature: t,
+                ..SimConfig::default()
+            })
+        };
+        assert!((ceiling(0.9, 0.6, 1.0) - 1000.0).abs() < 1e-9);
+        assert!((ceiling(0.9, 0.8, 1.0) - 100.0).abs() < 1e-9);
+        assert!((ceiling(0.9, 0.8, 0.04) - 500.0).abs() < 1e-9);
+        assert!(ceiling(0.7, 0.8, 1.0) > 250.0);
+        assert!((ceiling(1.0, 0.8, 1.0) - 100.0).abs() < 1e-9);
+        // Under the ceiling the growth is untouched; far above it, it is the ceiling.
+        let pulled = |force: f64| SimConfig {
+            eps: 0.9,
+            phi: 0.8,
+            gamma: 1.0,
+            n: 500,
+            intruder: Some(crate::sim::config::Intruder::paper(force)),
+            ..SimConfig::default()
+        };
+        let weak = heating(&pulled(100.0));
+        assert!(weak > 1.0 && weak < 1.5, "{weak}");
+        let strong = heating(&pulled(1e7));
+        assert!((strong / 100.0 - 1.0).abs() < 0.01, "{strong}");
+        let w = planned_work(&pulled(1e5));
+        assert!(w.forced_collisions > 0.9 * w.collisions && w.forced_collisions < w.collisions);
     }
 }

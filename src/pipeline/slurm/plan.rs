@@ -302,6 +302,7 @@ mod tests {
             n: 1_000_000,
             phi: 0.78,
             collisions: 0.46e6 * 3600.0,
+            forced_collisions: 0.0,
             drive_kicks: 0.0,
             force_kicks: 0.0,
             frames: 0,
