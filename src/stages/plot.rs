@@ -603,7 +603,13 @@ mod tests {
         for j in 0..3 {
             for k in 0..12 {
                 let u = k as f64 / 11.0;
-                let x = along(&ps.x, 0.05 + 0.9 * u, (0.0, 1.0), (0.1, 100.0));
+                // Coloured by its own x (points of phi in phi's colours): x
+                // runs over the colour range, and is the group column too.
+                let own = layer.group.as_deref() == Some(layer.x.as_str());
+                let x = match ranges.get(&layer.x) {
+                    Some(&(lo, hi)) if own => lo + (hi - lo) * (0.05 + 0.9 * u),
+                    _ => along(&ps.x, 0.05 + 0.9 * u, (0.0, 1.0), (0.1, 100.0)),
+                };
                 let y = along(
                     &ps.y,
                     0.1 + 0.6 * u + 0.1 * j as f64,
@@ -616,7 +622,7 @@ mod tests {
                 if let Some(e) = &layer.y_err {
                     put(e, if big { 20.0 * y.abs() } else { 0.05 * y.abs() });
                 }
-                if let Some(g) = &layer.group {
+                if let Some(g) = layer.group.as_ref().filter(|_| !own) {
                     // Inside the column's colour range, where the figure has one.
                     let (lo, hi) = ranges.get(g).copied().unwrap_or((0.6, 0.78));
                     put(g, lo + (hi - lo) * [0.0, 0.5, 1.0][j]);

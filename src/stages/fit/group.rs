@@ -255,8 +255,12 @@ fn fit_value(
     one_unit: Option<&(f64, Vec<Vec<f64>>)>,
 ) -> Result<Group> {
     let k = y.len() as f64;
+    // Without y_err the points carry unit stand-in errors (for the fits'
+    // weights): combining them would quote 1/sqrt(k), a number about nothing.
     let (mean, err) = if y.is_empty() {
         (f64::NAN, f64::NAN)
+    } else if p.y_err.is_none() {
+        (y.iter().sum::<f64>() / k, f64::NAN)
     } else {
         (
             y.iter().sum::<f64>() / k,

@@ -602,3 +602,28 @@ fn the_gaussian_draws_its_fitted_curve() {
         );
     }
 }
+
+/// `value` quotes the combined per-point errors when it has them, and no
+/// error without them (not the 1/sqrt(k) of the unit stand-ins).
+#[test]
+fn a_value_without_errors_quotes_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = f64_batch(&[
+        ("t", vec![1.0, 2.0, 3.0, 4.0]),
+        ("Q", vec![1.0, 2.0, 3.0, 6.0]),
+        ("Q_err", vec![0.2; 4]),
+    ])
+    .unwrap();
+    let inputs = [artifact(dir.path(), "d", b)];
+    let ctx = StageCtx::new(0, "value".into(), None);
+    let error = |params: &str| {
+        let out = Fit.run(&ctx, &yaml(params), &inputs).unwrap();
+        let c = fitted(dir.path(), &out);
+        let i = (0..c.rows).find(|&i| c.str["quantity"][i] == "value").unwrap();
+        (c.col("value").unwrap()[i], c.col("error").unwrap()[i])
+    };
+    let (v, e) = error("{form: value, data: d, x: t, y: Q, y_err: Q_err}");
+    assert!((v - 3.0).abs() < 1e-12 && (e - 0.1).abs() < 1e-12, "{v} {e}");
+    let (v, e) = error("{form: value, data: d, x: t, y: Q}");
+    assert!((v - 3.0).abs() < 1e-12 && e.is_nan(), "{v} {e}");
+}
