@@ -27,6 +27,9 @@ fn legend_number(v: f64) -> String {
         format!("{r}")
     } else if ((r * 1e2).round() / 1e2 - r).abs() < 1e-12 {
         format!("{r:.2}")
+    } else if r.abs() >= 1.0 {
+        // A time between 1 and 10 off a round value (t0 = 7.333): one decimal.
+        format!("{r:.1}")
     } else {
         format!("{r:.3}")
     }
@@ -806,6 +809,8 @@ panels:
         assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
         assert_eq!(super::legend_number(29.333), "29");
         assert_eq!(super::legend_number(0.785), "0.785");
+        assert_eq!(super::legend_number(7.333), "7.3");
+        assert_eq!(super::legend_number(1.4), "1.40");
     }
 
     /// `scale: auto` makes the longest arrow 0.9 of the grid step (here the
