@@ -475,7 +475,9 @@ fn no_doc_quotes_a_key_number_other_than_the_report() {
     );
     let mut found = Vec::new();
     for (path, text) in docs() {
-        if path == REPORT || path == DATED_LOG {
+        // The generated reports are each their own profile's source.
+        let generated = path.starts_with("docs/report-") && path.ends_with(".md");
+        if path == REPORT || path == DATED_LOG || generated {
             continue;
         }
         found.extend(disagreements(&path, &text, &report));
