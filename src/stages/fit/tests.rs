@@ -619,11 +619,16 @@ fn a_value_without_errors_quotes_none() {
     let error = |params: &str| {
         let out = Fit.run(&ctx, &yaml(params), &inputs).unwrap();
         let c = fitted(dir.path(), &out);
-        let i = (0..c.rows).find(|&i| c.str["quantity"][i] == "value").unwrap();
+        let i = (0..c.rows)
+            .find(|&i| c.str["quantity"][i] == "value")
+            .unwrap();
         (c.col("value").unwrap()[i], c.col("error").unwrap()[i])
     };
     let (v, e) = error("{form: value, data: d, x: t, y: Q, y_err: Q_err}");
-    assert!((v - 3.0).abs() < 1e-12 && (e - 0.1).abs() < 1e-12, "{v} {e}");
+    assert!(
+        (v - 3.0).abs() < 1e-12 && (e - 0.1).abs() < 1e-12,
+        "{v} {e}"
+    );
     let (v, e) = error("{form: value, data: d, x: t, y: Q}");
     assert!((v - 3.0).abs() < 1e-12 && e.is_nan(), "{v} {e}");
 }
