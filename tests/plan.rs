@@ -56,7 +56,24 @@ const MEASURED: &[(&str, &str, f64)] = &[
     ("small", "intruder_eps09[force=100000,phi=0.7]", 2.211e8),
     ("small", "intruder_eps09[force=100000,phi=0.775]", 8.144e7),
     ("small", "intruder_eps09[force=100000,phi=0.8]", 8.670e7),
+    // eps = 0.7: the layer ahead of the intruder collapses under F >= 2048.
+    ("small", "intruder_eps07[force=2048,phi=0.3]", 3.162e6),
+    ("small", "intruder_eps07[force=2048,phi=0.5]", 4.007e7),
+    ("small", "intruder_eps07[force=2048,phi=0.6]", 2.520e7),
+    ("small", "intruder_eps07[force=2048,phi=0.7]", 3.824e7),
+    ("small", "intruder_eps07[force=2048,phi=0.75]", 6.706e7),
+    ("small", "intruder_eps07[force=2048,phi=0.8]", 1.369e8),
+    ("small", "intruder_eps07[force=8192,phi=0.3]", 1.246e8),
+    ("small", "intruder_eps07[force=8192,phi=0.5]", 3.093e8),
+    ("small", "intruder_eps07[force=8192,phi=0.6]", 4.403e8),
+    ("small", "intruder_eps07[force=8192,phi=0.7]", 2.380e8),
+    ("small", "intruder_eps07[force=8192,phi=0.75]", 1.017e9),
     ("small", "intruder_eps07[force=8192,phi=0.8]", 4.973e8),
+    // eps = 0.9 at phi >= 0.775 below the ceiling.
+    ("small", "intruder_eps09[force=3162,phi=0.775]", 1.748e7),
+    ("small", "intruder_eps09[force=3162,phi=0.8]", 1.489e7),
+    ("small", "intruder_eps09[force=10000,phi=0.775]", 4.358e7),
+    ("small", "intruder_eps09[force=10000,phi=0.8]", 2.785e7),
     (
         "small",
         "intruder_eps09_cold[force=1000,phi=0.6,temperature=0.04]",
@@ -84,8 +101,18 @@ const MEASURED: &[(&str, &str, f64)] = &[
 const KNOWN_OUTSIDE: &[(&str, &str, &str)] = &[
     (
         "small",
-        "intruder_eps07[force=8192,phi=0.8]",
-        "the compacted layer of the eps = 0.7 bath collapses: the guard acts on 16% of its collisions (measured/planned 2.9)",
+        "intruder_eps07[force=2048,phi=0.3]",
+        "in the dilute bath the layer hardly collapses at this force (the guard acts on 0.4% of the collisions, 2-6% at phi >= 0.5), where the layer's factor is a mean over phi (measured/planned 0.43)",
+    ),
+    (
+        "small",
+        "intruder_eps07[force=2048,phi=0.5]",
+        "the layer collapses more than the mean over phi (guard on 6% of the collisions), and the two replicas differ by 1.6 in CPU time (measured/planned 2.23)",
+    ),
+    (
+        "small",
+        "intruder_eps07[force=2048,phi=0.8]",
+        "the layer collapses most of all phi at F = 2048 (guard on 6.2% of the collisions; measured/planned 2.20)",
     ),
     (
         "small",

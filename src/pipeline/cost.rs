@@ -77,6 +77,12 @@ pub fn density_factor(phi: f64) -> f64 {
     jamming * dilute
 }
 
+/// What a collision of a pulled intruder's collapsing layer costs, in dense
+/// collisions: the eps = 0.7 runs at F = 2048-8192 (N = 500), where most
+/// collisions are the layer's, made 2.0-2.5 x 10^6 collisions per CPU s where
+/// a dense collision's rate is 1.3 x 10^6 (docs/measurements.md, 2026-11-27).
+const LAYER_COST: f64 = 0.5;
+
 /// Planned CPU seconds of a simulation doing `w`. The collisions a pulling
 /// force adds cost what a collision at 0.65-0.805 does, whatever the mean
 /// packing: the recorded heated runs (N = 500-2000, F = 3 x 10^3 - 10^5) made
@@ -85,7 +91,8 @@ pub fn density_factor(phi: f64) -> f64 {
 pub fn simulation_seconds(w: &Work) -> f64 {
     let n = w.n as f64;
     let at_rest = w.collisions - w.forced_collisions;
-    (at_rest * density_factor(w.phi) + w.forced_collisions) / collisions_per_second(n)
+    let forced = w.forced_collisions - w.layer_collisions + LAYER_COST * w.layer_collisions;
+    (at_rest * density_factor(w.phi) + forced) / collisions_per_second(n)
         + w.drive_kicks * SECONDS_PER_DRIVE_KICK
         + w.force_kicks * SECONDS_PER_FORCE_KICK
         + n * w.frames as f64 * SECONDS_PER_FRAME_DISK
@@ -159,6 +166,7 @@ mod tests {
             phi: 0.78,
             collisions: 0.46e6 * 3600.0,
             forced_collisions: 0.0,
+            layer_collisions: 0.0,
             drive_kicks: 0.0,
             force_kicks: 0.0,
             frames: 0,
@@ -186,6 +194,12 @@ mod tests {
             ..dilute
         };
         assert!((simulation_seconds(&forced) - 3600.0).abs() < 1e-6);
+        // Those of a collapsing layer cost half that.
+        let layer = Work {
+            layer_collisions: w.collisions,
+            ..forced
+        };
+        assert!((simulation_seconds(&layer) - 1800.0).abs() < 1e-6);
     }
 
     #[test]

@@ -88,6 +88,10 @@ pub struct Work {
     /// they happen in the hot, compacted layer around the intruder, where a
     /// collision costs what one at 0.65-0.805 does whatever the mean packing.
     pub forced_collisions: f64,
+    /// The part of `forced_collisions` in a collapsing layer ahead of the
+    /// intruder (inelastic baths): repeated collisions among a few disks, which
+    /// cost half a dense collision.
+    pub layer_collisions: f64,
     /// Kicks of the drive (single disks or pairs).
     pub drive_kicks: f64,
     /// Momentum kicks of a pulled intruder (`force_mode: kicks`).

@@ -92,6 +92,12 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
                 100.0 * lay.frame.width() / lay.cell.width()
             ));
         }
+        if lay.frame.height() < 0.4 * lay.cell.height() {
+            out.push(format!(
+                "{name}: the axes take {:.0}% of the panel's height (a legend or notes above them?)",
+                100.0 * lay.frame.height() / lay.cell.height()
+            ));
+        }
         if p.y.range.is_none()
             && let Some(why) = stretched(p, lay)
         {

@@ -594,10 +594,14 @@ fn lay_out_panel<DB: DrawingBackend>(
             }
             match free_corner(&f, &order, &taken, &legend, sz) {
                 Some(at) => (f, Some(at)),
-                // A wide legend (fitted values in its labels) beside the axes
-                // would squeeze them to a strip: above them instead.
+                // Beside the axes or above them, whichever leaves them more
+                // room: a wide legend (fitted values in its labels) beside
+                // them would squeeze them to a strip, a tall one (a dozen phi)
+                // above them too.
                 None => {
-                    let above = legend.width > 0.4 * inside.width();
+                    let beside = (inside.width() - legend.width).max(0.0) * inside.height();
+                    let over = inside.width() * (inside.height() - legend.height).max(0.0);
+                    let above = over > beside;
                     outside_legend(frame, inside, &legend, sz, above)
                 }
             }

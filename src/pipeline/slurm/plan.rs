@@ -303,6 +303,7 @@ mod tests {
             phi: 0.78,
             collisions: 0.46e6 * 3600.0,
             forced_collisions: 0.0,
+            layer_collisions: 0.0,
             drive_kicks: 0.0,
             force_kicks: 0.0,
             frames: 0,

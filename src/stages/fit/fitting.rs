@@ -87,7 +87,10 @@ pub(super) fn fit_data(
 }
 
 /// Finite points only; missing or non-positive errors replaced by the largest
-/// valid one (conservative), logged.
+/// valid one (conservative), logged. So are errors below 10^-9 of the largest:
+/// a jackknife over replicas that agree exactly (a histogram bin with the same
+/// count in each) leaves rounding, 10^-17, which would weight that point 10^30
+/// times the others and steer the fit by itself.
 pub(super) fn clean(
     ctx: &StageCtx,
     x: Vec<f64>,
@@ -109,12 +112,13 @@ pub(super) fn clean(
         .filter(|v| v.is_finite() && *v > 0.0)
         .fold(0.0, f64::max);
     let fill = if smax > 0.0 { smax } else { 1.0 };
+    let resolved = 1e-9 * smax;
     (
         pick(&x, &keep),
         pick(&y, &keep),
         keep.iter()
             .map(|&i| {
-                if s[i].is_finite() && s[i] > 0.0 {
+                if s[i].is_finite() && s[i] > resolved {
                     s[i]
                 } else {
                     fill

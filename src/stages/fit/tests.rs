@@ -632,3 +632,36 @@ fn a_value_without_errors_quotes_none() {
     let (v, e) = error("{form: value, data: d, x: t, y: Q}");
     assert!((v - 3.0).abs() < 1e-12 && e.is_nan(), "{v} {e}");
 }
+
+/// A point whose error is rounding (replicas that agree exactly) does not
+/// steer the fit: its error is taken as the largest, and D comes out right.
+#[test]
+fn an_error_of_rounding_size_does_not_steer_the_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let (d, t) = (0.4, 1.0);
+    let mut cols: [Vec<f64>; 3] = Default::default();
+    for i in 0..61 {
+        let dx = -6.0 + 0.2 * i as f64;
+        let w = 4.0 * d * t;
+        let p = (-dx * dx / w).exp() / (std::f64::consts::PI * w).sqrt();
+        // A tail bin at twice the Gaussian's value, its error 10^-17.
+        let (p, e) = if i == 50 {
+            (2.0 * p + 1e-3, 1e-17)
+        } else {
+            (p, 0.01)
+        };
+        cols[0].push(dx);
+        cols[1].push(p);
+        cols[2].push(e);
+    }
+    let [dx, p, e] = cols;
+    let b = f64_batch(&[("t", vec![t; 61]), ("dx", dx), ("P", p), ("P_err", e)]).unwrap();
+    let inputs = [artifact(dir.path(), "vh", b)];
+    let ctx = StageCtx::new(0, "gauss".into(), None);
+    let params = yaml("{form: gaussian, data: vh, x: dx, y: P, y_err: P_err, group_by: [t]}");
+    let out = Fit.run(&ctx, &params, &inputs).unwrap();
+    let c = fitted(dir.path(), &out);
+    let i = (0..c.rows).find(|&i| c.str["quantity"][i] == "D").unwrap();
+    let fit = c.col("value").unwrap()[i];
+    assert!((fit - d).abs() < 0.02, "D = {fit}, truth {d}");
+}
