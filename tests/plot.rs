@@ -470,7 +470,7 @@ fn a_wide_legend_leaves_the_axes_their_width() {
         lay[0].cell
     );
     assert!(!lay[0].marks.iter().any(|&q| b.contains(q)), "{b:?}");
-    assert!(defects(&f).unwrap().is_empty());
+    assert_eq!(defects(&f).unwrap(), Vec::<String>::new());
 }
 
 /// Series of one group value share a colour in every panel, markers and

@@ -92,7 +92,7 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
                 100.0 * lay.frame.width() / lay.cell.width()
             ));
         }
-        if lay.frame.height() < 0.4 * lay.cell.height() {
+        if lay.frame.height() < 0.2 * lay.cell.height() {
             out.push(format!(
                 "{name}: the axes take {:.0}% of the panel's height (a legend or notes above them?)",
                 100.0 * lay.frame.height() / lay.cell.height()
