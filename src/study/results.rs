@@ -84,7 +84,13 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
         .flatten()
         .map(|e| e.path())
         .filter(|p| {
-            p.extension().is_some_and(|x| x == "parquet") && !p.ends_with("compare.parquet")
+            // A fit's own table only: not its range scan (`fit.ranges.parquet`,
+            // whose windows carry the same quantity names and, read after it,
+            // would stand for the fit), jackknife refits or drawn curve.
+            let stem = p.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+            p.extension().is_some_and(|x| x == "parquet")
+                && !p.ends_with("compare.parquet")
+                && !stem.contains('.')
         })
         .collect();
     files.sort();
@@ -228,5 +234,27 @@ pub mod nan_as_null {
     /// One number: `null` reads back as NaN.
     pub fn one<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
+}
+
+#[cfg(test)]
+mod fitted_tests {
+    use crate::table::results::quantity_batch;
+    use crate::table::to_parquet_bytes;
+
+    /// A fit's key numbers come from its own table, not from its range scan's
+    /// windows, which carry the same names and sort after it.
+    #[test]
+    fn a_range_scan_does_not_stand_for_its_fit() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, a: f64| {
+            let b = quantity_batch(&[], &[("A".into(), a, 0.1)], "", None).unwrap();
+            std::fs::write(dir.path().join(name), to_parquet_bytes(&[b], &[]).unwrap()).unwrap();
+        };
+        write("fit.parquet", 1.0);
+        write("fit.ranges.parquet", 2.0);
+        write("fit.jackknife.parquet", 3.0);
+        let f = super::fitted(dir.path()).unwrap();
+        assert_eq!(f["A"].value, 1.0);
     }
 }
