@@ -1,5 +1,16 @@
 //! Dynamic susceptibility chi4(t) = N [<Q_r^2> - <Q_r>^2] (paper H, Eq. 14) for one or
 //! many sub-box sizes N (the scans of Fig. 19 and 24), and its peak chi4P at tau4.
+//!
+//! Paper H has one simulation per state point: <.> runs over its sub-boxes and
+//! the overbars over its time origins t0. With several replicas the variance is
+//! therefore taken within each replica, about that replica's own mean, and then
+//! averaged ([`Variance::PerReplica`]): pooling replicas about one grand mean adds
+//! N times the variance of the replicas' mean overlaps, a term that grows with
+//! the sub-box N and is no fluctuation of one system. Where the overbars sit in
+//! Eq. 14 is not legible in the paper; the two other readings are options
+//! (docs/figures.md, "Method").
+
+use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 use arrow_array::RecordBatch;
@@ -12,6 +23,23 @@ use super::stats::{
 use super::{default_a, default_rel_tol};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
+
+/// About which mean the variance of Q_r is taken.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Variance {
+    /// Per replica, about its mean over sub-boxes and time origins, then averaged
+    /// over replicas (weighted by samples): N [mean_t0 <Q_r^2> - (mean_t0 <Q_r>)^2]
+    /// of each simulation, as paper H with its one simulation per phi.
+    #[default]
+    PerReplica,
+    /// Per time origin, about that frame's mean over sub-boxes, then averaged:
+    /// N mean_t0 [<Q_r^2> - <Q_r>^2]. Blind to the drift of the mean and to
+    /// fluctuations of the whole box (zero with one sub-box).
+    PerOrigin,
+    /// About one grand mean over replicas, origins and sub-boxes.
+    Pooled,
+}
 
 /// Parameters of chi4(t).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -28,11 +56,51 @@ pub struct Params {
     /// Relative tolerance matching a lag to frame time differences.
     #[serde(default = "default_rel_tol")]
     pub rel_tol: f64,
+    /// About which mean the variance is taken (default: per replica).
+    #[serde(default)]
+    pub variance: Variance,
 }
 
-/// chi4 from the sums [sum Q_r, sum Q_r^2, boxes] for sub-boxes of mean number n.
-fn chi4_of(n: f64) -> impl Fn(&[f64]) -> f64 {
-    move |s: &[f64]| n * (s[1] / s[2] - (s[0] / s[2]).powi(2))
+/// chi4 of sub-boxes of mean number `n` from the (replica, origin) blocks of one
+/// lag, each holding [sum Q_r, sum Q_r^2, boxes, (sum Q_r)^2 / boxes per frame],
+/// with block `skip` left out (the jackknife's delete-one estimate).
+pub fn chi4_of(n: f64, v: Variance, blocks: &Blocks, skip: Option<&(usize, usize)>) -> f64 {
+    let mut tot = [0.0; 4];
+    let mut per_replica: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+    for k in blocks.keys() {
+        if Some(k) == skip {
+            continue;
+        }
+        let s = blocks.get(k).expect("key from this block set");
+        for (t, x) in tot.iter_mut().zip(s) {
+            *t += x;
+        }
+        let r = per_replica.entry(k.0).or_default();
+        r.0 += s[0];
+        r.1 += s[2];
+    }
+    let [s1, s2, b, s4] = tot;
+    match v {
+        Variance::Pooled => n * (s2 / b - (s1 / b).powi(2)),
+        Variance::PerOrigin => n * (s2 - s4) / b,
+        Variance::PerReplica => {
+            let between: f64 = per_replica.values().map(|(q, m)| q * q / m).sum();
+            n * (s2 - between) / b
+        }
+    }
+}
+
+/// [`chi4_of`] over all blocks, with its delete-one jackknife error.
+fn chi4_estimate(n: f64, v: Variance, blocks: &Blocks) -> Estimate {
+    Estimate {
+        value: chi4_of(n, v, blocks, None),
+        err: jackknife_err(
+            blocks
+                .keys()
+                .map(|k| chi4_of(n, v, blocks, Some(k)))
+                .collect(),
+        ),
+    }
 }
 
 fn run(trajs: &[&Trajectory], p: &Params) -> Result<Moments> {
@@ -52,15 +120,15 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 /// As [`compute`], pooling the time origins of several replicas (jackknife over
 /// (replica, origin bin) blocks).
 pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
-    table_of(&run(trajs, p)?, trajs)
+    table_of(&run(trajs, p)?, trajs, p.variance)
 }
 
 /// The table of [`compute_pooled`] from the moments.
-fn table_of(m: &Moments, trajs: &[&Trajectory]) -> Result<RecordBatch> {
+fn table_of(m: &Moments, trajs: &[&Trajectory], v: Variance) -> Result<RecordBatch> {
     let mut cols: [Vec<f64>; 6] = Default::default();
     for (s, (b, per_lag)) in m.boxes.iter().zip(&m.blocks).enumerate() {
         for ((lag, origins), blocks) in m.lags.iter().zip(per_lag).zip(m.error_blocks(trajs, s)) {
-            let c = blocks.jackknife(chi4_of(b.n_mean));
+            let c = chi4_estimate(b.n_mean, v, &blocks);
             cols[0].push(b.n_mean);
             cols[1].push(lag.t);
             cols[2].push(super::overlap::q_of(&blocks.total()));
@@ -92,18 +160,22 @@ pub struct Peak {
 /// its neighbours; errors by leaving out one (replica, origin bin) block at a time,
 /// never below the lag grid's resolution, [`peak_resolution`]).
 pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
-    Ok(peaks_of(&run(trajs, p)?, trajs))
+    Ok(peaks_of(&run(trajs, p)?, trajs, p.variance))
 }
 
 /// The peaks of [`peaks`] from the moments.
-fn peaks_of(m: &Moments, trajs: &[&Trajectory]) -> Vec<Peak> {
+fn peaks_of(m: &Moments, trajs: &[&Trajectory], v: Variance) -> Vec<Peak> {
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
     let mut out = Vec::new();
     for (s, b) in m.boxes.iter().enumerate() {
         let per_lag = &m.error_blocks(trajs, s);
-        let f = chi4_of(b.n_mean);
-        let totals: Vec<Vec<f64>> = per_lag.iter().map(Blocks::total).collect();
-        let curve: Vec<f64> = totals.iter().map(|s| f(s)).collect();
+        let curve_without = |skip: Option<&(usize, usize)>| -> Vec<f64> {
+            per_lag
+                .iter()
+                .map(|bl| chi4_of(b.n_mean, v, bl, skip))
+                .collect()
+        };
+        let curve = curve_without(None);
         let (tp, cp) = peak_log_t(&t, &curve).expect("at least one lag");
         let (t_res, c_res) = peak_resolution(&t, &curve).expect("at least one lag");
         let mut keys: Vec<(usize, usize)> =
@@ -112,14 +184,7 @@ fn peaks_of(m: &Moments, trajs: &[&Trajectory]) -> Vec<Peak> {
         keys.dedup();
         let loo: Vec<(f64, f64)> = keys
             .iter()
-            .map(|k| {
-                let c: Vec<f64> = per_lag
-                    .iter()
-                    .zip(&totals)
-                    .map(|(bl, tot)| f(&bl.total_without(tot, k)))
-                    .collect();
-                peak_log_t(&t, &c).unwrap_or((f64::NAN, f64::NAN))
-            })
+            .map(|k| peak_log_t(&t, &curve_without(Some(k))).unwrap_or((f64::NAN, f64::NAN)))
             .collect();
         out.push(Peak {
             n: b.n_mean,
@@ -154,7 +219,7 @@ pub fn clamp_sizes(p: &mut Params, n_particles: usize) {
 pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
     // One pass over the frame pairs serves the peaks and the curves.
     let m = run(trajs, p)?;
-    let peaks = peaks_of(&m, trajs);
+    let peaks = peaks_of(&m, trajs, p.variance);
     let op = super::overlap::Params {
         a: p.a,
         n: None,
@@ -163,7 +228,7 @@ pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
     };
     let tau = super::overlap::tau_alpha(trajs, &op).ok();
     let ta = tau.map(|x| x.value).unwrap_or(f64::NAN);
-    let table = table_of(&m, trajs)?;
+    let table = table_of(&m, trajs, p.variance)?;
     let col = |name: &str| -> Vec<f64> {
         table
             .column_by_name(name)
@@ -199,6 +264,48 @@ pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
 
 #[cfg(test)]
 mod tests {
+    /// The three readings of Eq. 14 against their definitions, from sub-box
+    /// overlaps made up by hand: two replicas whose mean overlaps differ (0.5 and
+    /// 0.7), two frames each, three sub-boxes per frame.
+    #[test]
+    fn the_variance_readings_of_eq_14_match_their_definitions() {
+        let q: [[[f64; 3]; 2]; 2] = [
+            [[0.4, 0.5, 0.6], [0.45, 0.5, 0.55]],
+            [[0.6, 0.7, 0.8], [0.7, 0.75, 0.65]],
+        ];
+        let n = 100.0;
+        let mut blocks = Blocks::default();
+        for (r, frames) in q.iter().enumerate() {
+            for (f, boxes) in frames.iter().enumerate() {
+                let s1: f64 = boxes.iter().sum();
+                let s2: f64 = boxes.iter().map(|x| x * x).sum();
+                blocks.add((r, f), &[s1, s2, 3.0, s1 * s1 / 3.0]);
+            }
+        }
+        let var = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64
+        };
+        let all: Vec<f64> = q.iter().flatten().flatten().copied().collect();
+        let per_rep: Vec<f64> = q
+            .iter()
+            .map(|r| var(&r.iter().flatten().copied().collect::<Vec<_>>()))
+            .collect();
+        let per_origin: Vec<f64> = q.iter().flatten().map(|b| var(b)).collect();
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12 * b.abs().max(1.0);
+        assert!(close(chi4_of(n, Variance::Pooled, &blocks, None), n * var(&all)));
+        assert!(close(chi4_of(n, Variance::PerReplica, &blocks, None), n * mean(&per_rep)));
+        assert!(close(chi4_of(n, Variance::PerOrigin, &blocks, None), n * mean(&per_origin)));
+        // The replicas' offset (0.5 against 0.7) is in the pooled reading only.
+        assert!(chi4_of(n, Variance::Pooled, &blocks, None) > 2.0 * chi4_of(n, Variance::PerReplica, &blocks, None));
+        // Leaving a block out is leaving its frame out.
+        let rest: Vec<f64> = q[0][1].iter().copied().collect();
+        let with_r0 = var(&rest);
+        let expect = n * (3.0 * with_r0 + 6.0 * per_rep[1]) / 9.0;
+        assert!(close(chi4_of(n, Variance::PerReplica, &blocks, Some(&(0, 0))), expect));
+    }
+
     use super::*;
     use crate::analysis::lags;
     use crate::analysis::synthetic::random_walk;
@@ -213,6 +320,7 @@ mod tests {
             n: vec![100.0, 5000.0],
             lags: None,
             rel_tol: 1e-6,
+            variance: Variance::default(),
         };
         clamp_sizes(&mut p, traj.n());
         assert_eq!(p.n, vec![100.0, 800.0]);
@@ -292,6 +400,7 @@ mod tests {
             n: vec![n],
             lags: lags_used,
             rel_tol: 1e-6,
+            variance: Variance::default(),
         };
         let c = compute_pooled(&[&traj], &p).unwrap();
         let (t, q, chi, no) = (

@@ -517,6 +517,7 @@ mod tests {
                 n: vec![1e6],
                 lags: None,
                 rel_tol: 1e-6,
+                variance: chi4::Variance::default(),
             },
         ));
         assert!(e.contains("N = 1000000") && e.contains("(0, 100]"), "{e}");

@@ -82,6 +82,61 @@ pub fn closest_gap(traj: &Trajectory) -> f64 {
     worst
 }
 
+/// The run's samples of T and P as (time from the start of production,
+/// negative during the relaxation; T; P).
+fn run_samples(summary: &Value) -> Result<Vec<[f64; 3]>> {
+    let series = summary
+        .get("series")
+        .and_then(Value::as_array)
+        .context("the run summary has no `series` of samples")?;
+    series
+        .iter()
+        .map(|s| {
+            let n = |k: &str| {
+                s.get(k)
+                    .and_then(Value::as_f64)
+                    .with_context(|| format!("a sample of the run summary has no number `{k}`"))
+            };
+            Ok([n("time")?, n("temperature")?, n("pressure")?])
+        })
+        .collect()
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, k) = v.fold((0.0, 0.0), |(s, k), x| (s + x, k + 1.0));
+    s / k
+}
+
+/// Stationarity of T and P (column k of [`run_samples`]): the relative change
+/// between the two halves of production, and how far the last tenth of the
+/// relaxation lies from the production mean (relative): a relaxation that
+/// reached the steady state ends at 0 within the noise.
+fn stationarity(s: &[[f64; 3]], k: usize) -> (f64, f64, f64) {
+    let prod: Vec<&[f64; 3]> = s.iter().filter(|x| x[0] >= 0.0).collect();
+    let relax: Vec<&[f64; 3]> = s.iter().filter(|x| x[0] < 0.0).collect();
+    let m = mean(prod.iter().map(|x| x[k]));
+    let h = prod.len() / 2;
+    let drift = (mean(prod[h..].iter().map(|x| x[k])) - mean(prod[..h].iter().map(|x| x[k]))) / m;
+    let tail = relax.len() - relax.len() / 10;
+    let end = mean(relax[tail.min(relax.len().saturating_sub(1))..].iter().map(|x| x[k])) / m - 1.0;
+    (m, drift, end)
+}
+
+/// The run's samples over the whole run, relaxation included: time (from the
+/// start of production), T, P and both relative to their production means.
+pub fn series(summary: &Value) -> Result<Vec<(&'static str, Vec<f64>)>> {
+    let s = run_samples(summary)?;
+    let (tm, _, _) = stationarity(&s, 1);
+    let (pm, _, _) = stationarity(&s, 2);
+    Ok(vec![
+        ("time", s.iter().map(|x| x[0]).collect()),
+        ("T", s.iter().map(|x| x[1]).collect()),
+        ("P", s.iter().map(|x| x[2]).collect()),
+        ("T_rel", s.iter().map(|x| x[1] / tm).collect()),
+        ("P_rel", s.iter().map(|x| x[2] / pm).collect()),
+    ])
+}
+
 fn number(summary: &Value, key: &str) -> Result<f64> {
     summary
         .get(key)
@@ -120,6 +175,9 @@ pub fn row(
     let guard_fraction = guard / collisions.max(1.0);
     let warn = cfg.guard_warning(guard as u64, collisions as u64).is_some();
     let [lx, ly] = cfg.box_size();
+    let s = run_samples(summary)?;
+    let (_, _, t_end) = stationarity(&s, 1);
+    let (p_mean, p_drift, p_end) = stationarity(&s, 2);
     Ok(vec![
         ("T", t),
         // The sampled T fluctuates; its spread over the samples is an upper bound
@@ -133,6 +191,10 @@ pub fn row(
         ("T_deviation", deviation),
         ("T_held", f64::from(u8::from(deviation.abs() <= tolerance))),
         ("T_drift", half(1) - half(0)),
+        ("T_relax_end", t_end),
+        ("P", p_mean),
+        ("P_drift", p_drift),
+        ("P_relax_end", p_end),
         ("collision_rate", rate),
         ("enskog_rate", enskog_at(t)),
         ("rate_over_enskog", rate / enskog_at(t)),
@@ -179,6 +241,28 @@ mod tests {
             }],
             schedule: None,
         }
+    }
+
+    /// Production from t = 0 with P rising linearly from 1 to 1.2 (relative
+    /// drift between the halves: 0.1 / 1.1) after a relaxation whose last
+    /// tenth sits at 0.9, 2/11 below the production mean 1.1.
+    #[test]
+    fn stationarity_reads_the_drift_and_the_end_of_the_relaxation() {
+        let mut s = Vec::new();
+        for k in 0..100 {
+            let t = -100.0 + k as f64;
+            s.push([t, 1.0, if t < -10.0 { 0.5 } else { 0.9 }]);
+        }
+        for k in 0..1000 {
+            let t = k as f64 / 1000.0;
+            s.push([t * 100.0, 1.0, 1.0 + 0.2 * t]);
+        }
+        let (m, drift, end) = stationarity(&s, 2);
+        assert!((m - 1.1).abs() < 1e-3, "{m}");
+        assert!((drift - 0.1 / 1.1).abs() < 1e-3, "{drift}");
+        assert!((end - (0.9 / m - 1.0)).abs() < 1e-12, "{end}");
+        let (_, t_drift, t_end) = stationarity(&s, 1);
+        assert!(t_drift.abs() < 1e-12 && t_end.abs() < 1e-12);
     }
 
     #[test]

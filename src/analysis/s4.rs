@@ -451,7 +451,7 @@ fn s4_with_zero(trajs: &[&Trajectory], p: &Params) -> Result<Vec<(f64, Shells, S
                 .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
                 .collect();
             acc.add(&w);
-            slow.push(theta.iter().sum::<f64>());
+            slow.push((r, theta.iter().sum::<f64>()));
         }
         let n = traj.n() as f64;
         out.push((lag.t, zero_shell(&slow, n), acc.shells(n)));
@@ -459,17 +459,27 @@ fn s4_with_zero(trajs: &[&Trajectory], p: &Params) -> Result<Vec<(f64, Shells, S
     Ok(out)
 }
 
-/// S4(q = 0) = var(N_slow) / N over the time origins (W(0) = N_slow), with a
-/// delete-one jackknife error (the variance is not a mean over origins).
-fn zero_shell(slow: &[f64], n: f64) -> Shells {
-    let s4 = |v: &[f64]| {
-        let k = v.len() as f64;
-        let m = v.iter().sum::<f64>() / k;
-        (v.iter().map(|x| x * x).sum::<f64>() / k - m * m) / n
+/// S4(q = 0) = var(N_slow) / N over the time origins (W(0) = N_slow), the
+/// variance taken within each replica about its own mean and averaged over
+/// replicas as chi4's (paper H has one simulation per phi; [`super::chi4::Variance`]),
+/// with a delete-one jackknife error (the variance is not a mean over origins).
+/// `slow`: (replica, N_slow) per time origin.
+fn zero_shell(slow: &[(usize, f64)], n: f64) -> Shells {
+    let s4 = |v: &[(usize, f64)]| {
+        let mut per: std::collections::BTreeMap<usize, (f64, f64)> = Default::default();
+        let mut sq = 0.0;
+        for &(r, x) in v {
+            let e = per.entry(r).or_default();
+            e.0 += x;
+            e.1 += 1.0;
+            sq += x * x;
+        }
+        let between: f64 = per.values().map(|(s, k)| s * s / k).sum();
+        (sq - between) / v.len() as f64 / n
     };
     let loo: Vec<f64> = (0..slow.len())
         .map(|i| {
-            let rest: Vec<f64> = [&slow[..i], &slow[i + 1..]].concat();
+            let rest: Vec<(usize, f64)> = [&slow[..i], &slow[i + 1..]].concat();
             s4(&rest)
         })
         .collect();
@@ -590,6 +600,7 @@ mod tests {
                 n: vec![traj.n() as f64],
                 lags: Some(vec![1.0]),
                 rel_tol: 1e-6,
+                variance: chi4::Variance::default(),
             },
         )
         .unwrap();
@@ -623,6 +634,7 @@ mod tests {
                 n: vec![50.0, 200.0],
                 lags: Some(vec![1.0]),
                 rel_tol: 1e-6,
+                variance: chi4::Variance::default(),
             },
         )
         .unwrap();
@@ -749,6 +761,7 @@ mod tests {
                 n: vec![400.0, 1600.0],
                 lags: Some(vec![1.0]),
                 rel_tol: 1e-6,
+                variance: chi4::Variance::default(),
             },
         )
         .unwrap();

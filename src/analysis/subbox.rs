@@ -83,9 +83,11 @@ impl SubBoxes {
         Some(idx[1] * self.count[0] + idx[0])
     }
 
-    /// For one frame pair: (sum over sub-boxes of Q_r, of Q_r^2, number of sub-boxes),
-    /// with Q_r = (number of slow particles in B_r at t0) / N.
-    pub fn overlap_moments(&self, x0: &[f64], y0: &[f64], slow: &[bool]) -> [f64; 3] {
+    /// For one frame pair: (sum over sub-boxes of Q_r, of Q_r^2, number of sub-boxes,
+    /// (sum of Q_r)^2 / number of sub-boxes), with Q_r = (number of slow particles in
+    /// B_r at t0) / N. The last is the frame's squared sub-box mean times its boxes:
+    /// what the per-origin variance of chi4 subtracts.
+    pub fn overlap_moments(&self, x0: &[f64], y0: &[f64], slow: &[bool]) -> [f64; 4] {
         let mut slow_count = vec![0u32; self.len()];
         for ((x, y), s) in x0.iter().zip(y0).zip(slow) {
             if *s && let Some(b) = self.locate(*x, *y) {
@@ -98,6 +100,7 @@ impl SubBoxes {
             s1 += q;
             s2 += q * q;
         }
-        [s1, s2, self.len() as f64]
+        let b = self.len() as f64;
+        [s1, s2, b, s1 * s1 / b]
     }
 }

@@ -20,6 +20,10 @@ pub struct Params {
     /// Relative deviation of T from its target that still counts as held.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// Instead of the one row: the run's samples of T and P over the whole run,
+    /// relaxation included (the stationarity check).
+    #[serde(default)]
+    pub series: bool,
 }
 
 fn default_tolerance() -> f64 {
@@ -73,8 +77,12 @@ impl StageKind for RunSummary {
             .with_context(|| format!("run_summary: the summary of {}", sim.label))?;
         let (_, cfg) = simulate::config(&sim.params)?;
         let traj = trajectories("run_summary", std::slice::from_ref(*sim))?;
-        let row = run_summary::row(&summary, &cfg, &traj[0], p.tolerance)?;
-        let cols: Vec<(&str, Vec<f64>)> = row.into_iter().map(|(k, v)| (k, vec![v])).collect();
+        let cols: Vec<(&str, Vec<f64>)> = if p.series {
+            run_summary::series(&summary)?
+        } else {
+            let row = run_summary::row(&summary, &cfg, &traj[0], p.tolerance)?;
+            row.into_iter().map(|(k, v)| (k, vec![v])).collect()
+        };
         Ok(Output::single(
             "parquet",
             to_parquet_bytes(&[f64_batch(&cols)?], &[])?,

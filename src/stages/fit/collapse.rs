@@ -43,6 +43,11 @@ pub struct CollapseParams {
     /// in): then xi is not a power law of phi, and only `g` is fitted.
     #[serde(default)]
     pub xi: Option<String>,
+    /// With `xi`: hold g at a number another fit reports (paper H, Fig. 19 and
+    /// 24: the exponents come from the independent fits, and the collapse tests
+    /// them) instead of fitting it; `bounds` then stays empty.
+    #[serde(default)]
+    pub g_from: Option<FromQuantity>,
     /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`), or of the
     /// `rescaling`'s fitted parameters.
     #[serde(default)]
@@ -105,7 +110,12 @@ impl StageKind for Collapse {
         if let Some(name) = &p.rescaling {
             return validate_named(&p, name);
         }
-        let keys: &[&str] = if p.xi.is_some() {
+        if p.g_from.is_some() && p.xi.is_none() {
+            bail!("collapse: `g_from` needs a measured `xi` column (g is then the only parameter)");
+        }
+        let keys: &[&str] = if p.g_from.is_some() {
+            &[]
+        } else if p.xi.is_some() {
             if p.phi_c.is_some() || p.phi_c_from.is_some() {
                 bail!(
                     "collapse: with a measured `xi` column, give neither `phi_c` nor `phi_c_from`"
@@ -126,6 +136,9 @@ impl StageKind for Collapse {
             }
         }
         if p.bounds.len() != keys.len() {
+            if keys.is_empty() {
+                bail!("collapse: with `g_from` nothing is fitted: leave `bounds` out");
+            }
             bail!(
                 "collapse: `bounds` takes exactly the keys {}",
                 keys.join(" and ")
@@ -186,7 +199,11 @@ impl StageKind for Collapse {
         } else {
             &["g", "gamma_xi"]
         };
-        let bounds: Vec<(f64, f64)> = fitted.iter().map(|k| p.bounds[*k]).collect();
+        // With `g_from` nothing is fitted and `bounds` is empty (validated).
+        let bounds: Vec<(f64, f64)> = fitted
+            .iter()
+            .map(|k| p.bounds.get(*k).copied().unwrap_or((f64::NAN, f64::NAN)))
+            .collect();
         // The measured xi of each curve with one replica of one unit left out
         // (`XI_jkK` with `jk_unit`, from a fit per state point that carries
         // them): the refits rescale with it, so that xi's share of the variance
@@ -235,6 +252,36 @@ impl StageKind for Collapse {
             }
             Some(m)
         };
+        if let Some(from) = &p.g_from {
+            // g held: the collapse is a test of the independent exponents, its
+            // quality S the verdict; g's error is the source fit's.
+            let (g, dg) = Columns::read(&inputs_of("collapse", inputs, &from.stage)?)?
+                .quantity(&from.quantity)?;
+            let (rows, note, best) = match collapse::quality(&curves, &rescale, &[g]) {
+                Ok(q) => (
+                    vec![
+                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                        ("collapse_S".to_string(), q.s, f64::NAN),
+                        ("curves".to_string(), curves.len() as f64, 0.0),
+                    ],
+                    String::new(),
+                    Some(vec![g, f64::NAN]),
+                ),
+                Err(e) => (
+                    vec![
+                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                        ("collapse_S".to_string(), f64::NAN, f64::NAN),
+                    ],
+                    format!("collapse quality failed: {e:#}"),
+                    None,
+                ),
+            };
+            let method = format!(
+                "g held at {}.{} (its fit's error); no fit",
+                from.stage, from.quantity
+            );
+            return collapse_output(&p, &curves, best.as_deref(), &rescale, &rows, &note, &method);
+        }
         let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
             Err(anyhow::anyhow!(
                 "phi_c = {phi_c} is not above every {} of the data",

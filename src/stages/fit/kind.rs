@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use serde_json::Value;
 
 use super::group::fit_group;
@@ -144,6 +144,9 @@ impl StageKind for Fit {
                 .collect();
             let mut fixed = fixed.clone();
             fixed.extend(group.iter().filter(|(k, _)| k == "t").cloned());
+            for (name, x0) in &p.fixed_at_x {
+                fixed.push((name.clone(), value_at_x(&p, &c, &keys, &key, *x0)?));
+            }
             fitted.push(fit_group(ctx, &p, &c, &rows, &group, &fixed, &shifted)?);
         }
         let pooled = pool_one_unit_errors(&mut fitted)?;
@@ -175,6 +178,23 @@ impl StageKind for Fit {
         }
         Ok(out)
     }
+}
+
+/// The y of the row of group `key` (the `group_by` columns `keys`) whose x is
+/// `x0`, from every row of the table (not only those the filter keeps).
+fn value_at_x(p: &FitParams, c: &Columns, keys: &[&[f64]], key: &[u64], x0: f64) -> Result<f64> {
+    let (x, y) = (c.col(&p.x)?, c.col(&p.y)?);
+    (0..c.rows)
+        .find(|&i| x[i] == x0 && keys.iter().zip(key).all(|(k, &v)| ordered(k[i]) == v))
+        .map(|i| y[i])
+        .with_context(|| {
+            format!(
+                "fit: `fixed_at_x` asks for {} at {} = {x0}, and the group {:?} has no such row",
+                p.y,
+                p.x,
+                key.iter().map(|&v| unordered(v)).collect::<Vec<_>>()
+            )
+        })
 }
 
 /// The inputs holding the data: from stage `data`, or every input when they all

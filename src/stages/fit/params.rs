@@ -99,6 +99,11 @@ pub struct FitParams {
     pub fixed: BTreeMap<String, f64>,
     #[serde(default)]
     pub fixed_from: BTreeMap<String, FromQuantity>,
+    /// Parameters held, in each group, at the group's own y where x equals the
+    /// given value (a row the `where` filter may leave out of the fit): paper H's
+    /// OZ fit with chi0 = chi4(tau_alpha), S4 at q = 0 (`{chi0: 0}`).
+    #[serde(default)]
+    pub fixed_at_x: BTreeMap<String, f64>,
     /// Quantity names for the parameters (default: the form's own names).
     #[serde(default)]
     pub rename: BTreeMap<String, String>,
