@@ -175,6 +175,10 @@ pub struct FrontParams {
     /// from 0 to the last frame; default: every frame).
     #[serde(default)]
     pub every: Option<f64>,
+    /// Count the intruder's own momentum in Px(x) (paper I does not say whether
+    /// its front profile leaves it out; default: left out, the bath's front).
+    #[serde(default)]
+    pub include_intruder: bool,
 }
 
 /// One replica's front data at the analysed times: the momentum profile per time
@@ -381,7 +385,7 @@ pub fn front(trajs: &[&Trajectory], p: &FrontParams) -> Result<[RecordBatch; 3]>
     let pp = ProfileParams {
         times: times.clone(),
         bins,
-        exclude_species: Some(INTRUDER),
+        exclude_species: (!p.include_intruder).then_some(INTRUDER),
     };
     let mut reps = Vec::with_capacity(trajs.len());
     let mut xs = Vec::new();
