@@ -31,7 +31,7 @@ fn series(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
         style: Style::Line,
         dashed: false,
         color: None,
-        marker: Marker::Circle,
+        marker: Marker::Auto,
         radius: None,
         arrows: None,
         ..Default::default()
@@ -92,6 +92,7 @@ fn overlap_figure() -> Figure {
         width: 720,
         height: 540,
         colour_ranges: Default::default(),
+        profile: None,
     }
 }
 
@@ -139,6 +140,7 @@ fn finite_size_figure() -> Figure {
         width: 1000,
         height: 440,
         colour_ranges: Default::default(),
+        profile: None,
     }
 }
 
@@ -411,7 +413,7 @@ mod robustness {
                 .collect();
             let mut p = panel("(a)", axis("x", xlog), axis("y", ylog), series);
             p.legend = legend;
-            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default() };
+            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default(), profile: None };
             let texts = svg_texts(&draw_svg_string(&f).unwrap());
             if legend != Legend::None {
                 for i in 0..data.len() {
