@@ -118,9 +118,9 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
 
 /// What a series is told apart by besides colour: its marker (none for a
 /// plain line) and whether its line is dashed (none for points).
-fn look(s: &Series, lay: &PanelLayout, i: usize) -> (Option<super::Marker>, Option<bool>) {
+fn look(s: &Series, lay: &PanelLayout, i: usize) -> (Option<super::Marker>, Option<(bool, bool)>) {
     let line = !matches!(s.style, Style::Points | Style::Disks | Style::Arrows);
-    (lay.markers[i], line.then_some(s.dashed))
+    (lay.markers[i], line.then_some((s.dashed, s.dotted)))
 }
 
 /// Pairs of series of one panel that a reader cannot tell apart: colours
@@ -184,15 +184,15 @@ fn legend_unlike(p: &super::Panel, lay: &PanelLayout) -> Vec<String> {
         let members: Vec<usize> = (i..p.series.len())
             .filter(|&j| p.series[j].label == s.label)
             .collect();
-        let lines: Vec<bool> = members
+        let lines: Vec<(bool, bool)> = members
             .iter()
             .filter(|&&j| !matches!(p.series[j].style, Style::Points | Style::Disks | Style::Arrows))
-            .map(|&j| p.series[j].dashed)
+            .map(|&j| (p.series[j].dashed, p.series[j].dotted))
             .collect();
         let marks: Vec<super::Marker> = members.iter().filter_map(|&j| lay.markers[j]).collect();
         if lines.windows(2).any(|w| w[0] != w[1]) {
             out.push(format!(
-                "legend entry {:?} stands for solid and dashed lines",
+                "legend entry {:?} stands for lines of several dash patterns",
                 s.label
             ));
         }

@@ -418,12 +418,28 @@ fn scales(p: &Panel) -> (Scale, Scale) {
     };
     let t = |v: f64| if p.y.log { v.log10() } else { v };
     let back = |v: f64| if p.y.log { 10f64.powf(v) } else { v };
-    let values: Vec<f64> = p
-        .series
-        .iter()
-        .flat_map(|s| s.y.iter().copied())
-        .filter(|&v| y_axis.accepts(v))
-        .collect();
+    // The data set the y range: fits and guides are drawn within it, and on
+    // a log axis so are points whose error exceeds their value (noise), when
+    // there are other points to set it.
+    let data = |keep_noise: bool, keep_fits: bool| -> Vec<f64> {
+        p.series
+            .iter()
+            .filter(|s| keep_fits || !s.fit)
+            .flat_map(|s| {
+                (0..s.y.len())
+                    .filter(move |&i| keep_noise || !noise(s, i, p.y.log))
+                    .map(move |i| s.y[i])
+            })
+            .filter(|&v| y_axis.accepts(v))
+            .collect()
+    };
+    let mut values = data(false, false);
+    if values.len() < 2 {
+        values = data(true, false);
+    }
+    if values.len() < 2 {
+        values = data(true, true);
+    }
     let (lo, hi) = values
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
@@ -560,19 +576,37 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
             vec!["Error bars end at the frame; some errors exceed their value.".into()]
         }
     };
-    // Noise on a log axis: points whose error exceeds their value, drawn open.
-    let shown_noise = p.series.iter().any(|s| {
-        matches!(s.style, Style::Points | Style::LinePoints)
-            && !s.marker.open()
-            && (0..s.y.len()).any(|i| {
-                noise(s, i, ys.log)
-                    && xs.accepts(s.x[i])
-                    && (xs.lo..=xs.hi).contains(&s.x[i])
-                    && (ys.lo..=ys.hi).contains(&s.y[i])
-            })
-    });
-    if shown_noise {
+    // Noise on a log axis: points whose error exceeds their value, drawn
+    // open where they fall inside the axes, left out (the y range is set by
+    // the other points) where they do not.
+    let (mut open, mut left_out) = (false, 0);
+    for s in p
+        .series
+        .iter()
+        .filter(|s| matches!(s.style, Style::Points | Style::LinePoints) && !s.fit)
+    {
+        for i in (0..s.y.len()).filter(|&i| noise(s, i, ys.log)) {
+            let in_x = xs.accepts(s.x[i]) && (xs.lo..=xs.hi).contains(&s.x[i]);
+            if !in_x {
+                continue;
+            }
+            if ys.accepts(s.y[i]) && (ys.lo..=ys.hi).contains(&s.y[i]) {
+                open |= !s.marker.open();
+            } else {
+                left_out += 1;
+            }
+        }
+    }
+    if open {
         out.push("Open markers of filled series: points whose error exceeds their value.".into());
+    }
+    if left_out > 0 {
+        out.push(format!(
+            "{left_out} point{} whose error exceeds {} value lie{} outside the axes, left out.",
+            if left_out == 1 { "" } else { "s" },
+            if left_out == 1 { "its" } else { "their" },
+            if left_out == 1 { "s" } else { "" },
+        ));
     }
     out
 }
@@ -820,13 +854,53 @@ fn stroke<DB: DrawingBackend>(
     dashed: bool,
     sz: Sizes,
 ) -> Result<()> {
-    stroke_over(area, line, color, width, dashed, false, sz)
+    let dash = if dashed { Dash::Dashed } else { Dash::Solid };
+    stroke_over(area, line, color, width, dash, false, sz)
 }
 
 /// The dash and gap lengths of a dashed line `width` pixels wide.
 fn dash_pattern(width: u32, sz: Sizes) -> (f64, f64) {
     let w = width as f64;
     (0.45 * sz.label + 2.0 * w, 0.25 * sz.label + w)
+}
+
+/// The dot and gap lengths of a dotted line `width` pixels wide.
+fn dot_pattern(width: u32) -> (f64, f64) {
+    let w = width as f64;
+    (w.max(1.5), 2.0 * w + 2.0)
+}
+
+/// How a series' line is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Dash {
+    Solid,
+    Dashed,
+    Dotted,
+}
+
+impl Dash {
+    pub(super) fn of(s: &Series) -> Dash {
+        match (s.dotted, s.dashed) {
+            (true, _) => Dash::Dotted,
+            (false, true) => Dash::Dashed,
+            _ => Dash::Solid,
+        }
+    }
+}
+
+/// `line` cut into its dashes (or dots), or whole when solid.
+fn pieces(line: &[P], dash: Dash, width: u32, sz: Sizes) -> Vec<Vec<P>> {
+    match dash {
+        Dash::Solid => vec![line.to_vec()],
+        Dash::Dashed => {
+            let (on, off) = dash_pattern(width, sz);
+            dashes(line, on, off)
+        }
+        Dash::Dotted => {
+            let (on, off) = dot_pattern(width);
+            dashes(line, on, off)
+        }
+    }
 }
 
 /// A solid or dashed polyline, with `halo` over a white one a pixel wider
@@ -836,16 +910,11 @@ fn stroke_over<DB: DrawingBackend>(
     line: &[P],
     color: RGBColor,
     width: u32,
-    dashed: bool,
+    dash: Dash,
     halo: bool,
     sz: Sizes,
 ) -> Result<()> {
-    let pieces = if dashed {
-        let (on, off) = dash_pattern(width, sz);
-        dashes(line, on, off)
-    } else {
-        vec![line.to_vec()]
-    };
+    let pieces = pieces(line, dash, width, sz);
     if halo {
         for d in &pieces {
             polyline(area, d, WHITE, width + 2)?;
@@ -921,7 +990,7 @@ fn draw_series<DB: DrawingBackend>(
     }
     if s.style != Style::Points {
         for piece in clip_polyline(&pts, &r) {
-            stroke_over(area, &piece, color, sz.line, s.dashed, s.fit, sz)?;
+            stroke_over(area, &piece, color, sz.line, Dash::of(s), s.fit, sz)?;
         }
     }
     let Some(shape) = shape else { return Ok(()) };

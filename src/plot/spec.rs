@@ -106,6 +106,9 @@ pub struct Series {
     pub style: Style,
     #[serde(default)]
     pub dashed: bool,
+    /// Dotted instead (e.g. the paper's Stokes-Einstein line).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dotted: bool,
     /// "#rrggbb"; default: the panel palette at this series' index.
     #[serde(default)]
     pub color: Option<Color>,

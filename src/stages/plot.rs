@@ -141,6 +141,8 @@ pub struct Layer {
     #[serde(default)]
     pub dashed: bool,
     #[serde(default)]
+    pub dotted: bool,
+    #[serde(default)]
     pub color: Option<Color>,
     /// Marker shape; `auto` (default): one shape per group value.
     #[serde(default)]
@@ -294,6 +296,8 @@ pub struct GuideCurve {
     #[serde(default)]
     pub dashed: bool,
     #[serde(default)]
+    pub dotted: bool,
+    #[serde(default)]
     pub color: Option<Color>,
 }
 
@@ -301,7 +305,26 @@ impl GuideCurve {
     /// The curve as a series, sampled evenly (in log x on a log axis);
     /// `value` reads a fitted value `{=STAGE.QUANTITY}`.
     fn series(&self, log_x: bool, value: impl Fn(&str) -> Result<f64>) -> Result<Series> {
-        let form = crate::fit::catalogue::find(&self.form).map_err(anyhow::Error::msg)?;
+        // Guides only a plot draws: the logistic master curve of Eq. 8 in
+        // x = beta ln(t/tau0), Q = A / (1 + e^((x - x0)/w)).
+        let logistic = crate::fit::catalogue::Form {
+            name: "logistic",
+            describe: "y = A / (1 + exp((x - x0) / w)) (paper H, Eq. 8 in x = beta ln(t/tau0))",
+            params: &["A", "x0", "w"],
+            log_x: false,
+            fit: |_, _| {
+                Err(crate::fit::FitError::InvalidInput {
+                    form: "logistic".into(),
+                    what: "is a guide of the plot stage, not a fit form".into(),
+                })
+            },
+            model: |p, _, x| p[0] / (1.0 + ((x - p[1]) / p[2]).exp()),
+        };
+        let form = if self.form == "logistic" {
+            &logistic
+        } else {
+            crate::fit::catalogue::find(&self.form).map_err(anyhow::Error::msg)?
+        };
         let p = form
             .params
             .iter()
@@ -331,6 +354,7 @@ impl GuideCurve {
             y: x.iter().map(|&x| (form.model)(&p, &[], x)).collect(),
             x,
             dashed: self.dashed,
+            dotted: self.dotted,
             color: self.color,
             fit: true,
             ..Default::default()
@@ -484,6 +508,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             y_err: e.map(|e| idx.iter().map(|&i| e[i]).collect()),
             style: layer.style,
             dashed: layer.dashed,
+            dotted: layer.dotted,
             color: layer.color,
             marker: layer.marker,
             fit: layer
@@ -544,6 +569,23 @@ fn build(
     table: impl Fn(&Layer) -> Result<Columns>,
     fill: impl Fn(&str) -> Result<String>,
 ) -> Result<Figure> {
+    // One arrow scale for the whole figure: `auto` fits the longest arrow of
+    // all its `auto` layers into a grid step, so panels compare by length.
+    let mut auto_scales: Vec<f64> = vec![];
+    for layer in p.panels.iter().flat_map(|ps| &ps.layers) {
+        let Some(a) = layer.arrows.as_ref().filter(|a| a.scale == ArrowScale::Named(AutoScale::Auto)) else {
+            continue;
+        };
+        let c = table(layer).with_context(|| format!("plot: layer from '{}'", layer.from))?;
+        if c.rows == 0 {
+            continue;
+        }
+        let rows = c.select(&layer.filter)?;
+        let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
+        let (dx, dy) = (c.col(&a.dx)?, c.col(&a.dy)?);
+        auto_scales.extend(auto_arrow_scale(x, y, dx, dy, &rows));
+    }
+    let shared_scale = auto_scales.into_iter().min_by(f64::total_cmp);
     let mut panels = Vec::new();
     for (k, ps) in p.panels.iter().enumerate() {
         let mut all = Vec::new();
@@ -557,6 +599,11 @@ fn build(
                 .with_context(|| format!("plot: panel {} layer from '{}'", k + 1, layer.from))?;
             let mut layer = layer.clone();
             layer.label = fill(&layer.label)?;
+            if let (Some(a), Some(k)) = (layer.arrows.as_mut(), shared_scale)
+                && a.scale == ArrowScale::Named(AutoScale::Auto)
+            {
+                a.scale = ArrowScale::Fixed(k);
+            }
             let drawn: Vec<Series> = series(&layer, &c)?
                 .into_iter()
                 .filter(|s| !s.x.is_empty())
@@ -594,7 +641,7 @@ fn build(
     let cols = p.columns.unwrap_or(n as usize).max(1) as u32;
     let rows = n.div_ceil(cols);
     let fig = Figure {
-        title: p.title.clone(),
+        title: fill(&p.title)?,
         panels,
         columns: p.columns,
         width: p.width.unwrap_or(560 * cols),

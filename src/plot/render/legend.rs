@@ -85,7 +85,10 @@ pub(super) fn measure_legend<DB: DrawingBackend>(
     let dashed = entries
         .iter()
         .flat_map(|e| &e.series)
-        .any(|&i| p.series[i].dashed && !matches!(p.series[i].style, Style::Points))
+        .any(|&i| {
+            (p.series[i].dashed || p.series[i].dotted)
+                && !matches!(p.series[i].style, Style::Points)
+        })
         || entries.iter().any(|e| e.line.is_some_and(|l| l.1));
     let (on, off) = dash_pattern(sz.line, sz);
     let sample = if dashed {
@@ -228,9 +231,8 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         if let Some(&i) = line {
             let s = &p.series[i];
             let ends = [(x_sample, row_y), (x_sample + lb.sample, row_y)];
-            let pieces = if s.dashed {
-                let (on, off) = dash_pattern(sz.line, sz);
-                dashes(&ends, on, off)
+            let pieces = if Dash::of(s) != Dash::Solid {
+                pieces(&ends, Dash::of(s), sz.line, sz)
             } else if shades.len() > 1 {
                 let n = shades.len() as f64;
                 (0..shades.len())
@@ -248,7 +250,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                 } else {
                     rgb(colors[i])
                 };
-                stroke_over(area, d, c, sz.line, false, s.fit, sz)?;
+                stroke_over(area, d, c, sz.line, Dash::Solid, s.fit, sz)?;
             }
         }
         let arrows = e
