@@ -952,6 +952,30 @@ panels:
         assert!(crate::plot::defects(&fig).unwrap().is_empty());
     }
 
+    /// `{=profile}` and `{=EXPERIMENT.PARAM}` print the build's own profile,
+    /// N and replicas (the planner's `build` parameter), so that a note is
+    /// true at every profile; the figure knows its profile.
+    #[test]
+    fn notes_state_the_build_they_are_drawn_on() {
+        let yaml = r#"
+build: {profile: small, experiments: {eps09_long: {n: 2000, replicas: 3, origins: 8, eps: 0.9}}}
+panels:
+  - x: {label: "a"}
+    y: {label: "ξ"}
+    notes: ["A small box ({=profile}: N = {=eps09_long.n}, {=eps09_long.replicas} replicas, ε = {=eps09_long.eps})."]
+    layers: []
+"#;
+        let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+        let p: super::PlotParams = serde_json::from_value(v).unwrap();
+        let fig = super::figure(&p, &[]).unwrap();
+        assert_eq!(
+            fig.panels[0].notes,
+            ["A small box (small: N = 2000, 3 replicas, ε = 0.9)."]
+        );
+        assert_eq!(fig.profile.as_deref(), Some("small"));
+        assert!(crate::plot::defects(&fig).unwrap().is_empty());
+    }
+
     #[test]
     fn fitted_values_round_to_their_error() {
         assert_eq!(value_with_error(0.80342, 0.0123), "0.803 ± 0.012");
