@@ -597,6 +597,13 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
             }
         }
     }
+    if open || left_out > 0 {
+        // Said below, with what is drawn of them.
+        out.retain(|n| !n.contains("exceed their value"));
+        if cut {
+            out.push("Error bars end at the frame.".into());
+        }
+    }
     if open {
         out.push("Open markers of filled series: points whose error exceeds their value.".into());
     }

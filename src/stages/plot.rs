@@ -177,8 +177,8 @@ pub enum LayerLegend {
     /// One entry per group value: the label followed by the value.
     #[default]
     Each,
-    /// One entry for the whole layer, its label beside a black sample of its
-    /// style (e.g. dashed: the power law of every phi, each in its colour).
+    /// One entry for the whole layer, its label beside a sample of its style
+    /// in each of its colours (e.g. dashed: the power law of every phi).
     Once,
     /// No entry.
     None,
@@ -493,12 +493,11 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     }
     groups.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
-    for (k, (key, mut idx)) in groups.into_iter().enumerate() {
+    for (key, mut idx) in groups {
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match (&layer.group, layer.legend) {
             (_, LayerLegend::None) => String::new(),
             (Some(_), LayerLegend::Each) => format!("{}{}", layer.label, legend_number(key)),
-            (Some(_), LayerLegend::Once) if k > 0 => String::new(),
             _ => layer.label.clone(),
         };
         out.push(Series {

@@ -80,8 +80,8 @@ pub(super) fn measure_legend<DB: DrawingBackend>(
         });
     }
     let row = 1.35 * sz.legend;
-    // A dashed sample shows three dashes and two gaps, clear of the marker
-    // at its middle; a solid one is shorter.
+    // A dashed sample shows its dash at the middle (under a marker) with a
+    // gap and half a dash on either side; a solid one is shorter.
     let dashed = entries
         .iter()
         .flat_map(|e| &e.series)
@@ -92,7 +92,7 @@ pub(super) fn measure_legend<DB: DrawingBackend>(
         || entries.iter().any(|e| e.line.is_some_and(|l| l.1));
     let (on, off) = dash_pattern(sz.line, sz);
     let sample = if dashed {
-        (3.0 * on + 2.0 * off).max(2.2 * sz.legend)
+        (2.0 * on + 2.0 * off).max(2.2 * sz.legend)
     } else {
         2.2 * sz.legend
     };
@@ -231,8 +231,19 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         if let Some(&i) = line {
             let s = &p.series[i];
             let ends = [(x_sample, row_y), (x_sample + lb.sample, row_y)];
-            let pieces = if Dash::of(s) != Dash::Solid {
-                pieces(&ends, Dash::of(s), sz.line, sz)
+            let pieces = if Dash::of(s) == Dash::Dashed {
+                // Half a dash, a gap, a dash (under the marker), a gap, half
+                // a dash: both gaps show beside the marker.
+                let (on, off) = dash_pattern(sz.line, sz);
+                let at = |d: f64| (x_sample + d.min(lb.sample), row_y);
+                let (a, b) = (0.5 * on, 0.5 * on + off);
+                vec![
+                    vec![at(0.0), at(a)],
+                    vec![at(b), at(b + on)],
+                    vec![at(b + on + off), at(lb.sample)],
+                ]
+            } else if Dash::of(s) == Dash::Dotted {
+                pieces(&ends, Dash::Dotted, sz.line, sz)
             } else if shades.len() > 1 {
                 let n = shades.len() as f64;
                 (0..shades.len())
