@@ -31,7 +31,7 @@ fn series(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
         style: Style::Line,
         dashed: false,
         color: None,
-        marker: Marker::Circle,
+        marker: Marker::Auto,
         radius: None,
         arrows: None,
         ..Default::default()
@@ -92,6 +92,7 @@ fn overlap_figure() -> Figure {
         width: 720,
         height: 540,
         colour_ranges: Default::default(),
+        profile: None,
     }
 }
 
@@ -139,6 +140,7 @@ fn finite_size_figure() -> Figure {
         width: 1000,
         height: 440,
         colour_ranges: Default::default(),
+        profile: None,
     }
 }
 
@@ -411,7 +413,7 @@ mod robustness {
                 .collect();
             let mut p = panel("(a)", axis("x", xlog), axis("y", ylog), series);
             p.legend = legend;
-            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default() };
+            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default(), profile: None };
             let texts = svg_texts(&draw_svg_string(&f).unwrap());
             if legend != Legend::None {
                 for i in 0..data.len() {
@@ -521,7 +523,8 @@ fn unrendered_markup_is_a_defect() {
 }
 
 /// One error bar twenty times its value neither stretches the y axis nor
-/// runs off the frame; a note says the bars end there.
+/// runs off the frame; a note says the bars end there (and, on a log axis,
+/// that its point, noise, is drawn open).
 #[test]
 fn one_long_error_bar_does_not_set_the_axis() {
     let x: Vec<f64> = (1..=8).map(f64::from).collect();
@@ -549,7 +552,11 @@ fn one_long_error_bar_does_not_set_the_axis() {
             lay[0]
                 .notes
                 .iter()
-                .any(|n| n.contains("exceed their value")),
+                .any(|n| n.contains(if log {
+                    "Open markers of filled series: points whose error exceeds their value"
+                } else {
+                    "some errors exceed their value"
+                })),
             "{:?}",
             lay[0].notes
         );
@@ -637,4 +644,116 @@ fn a_reference_line_near_the_data_is_in_view() {
     let lay = layout(&f).unwrap();
     assert!(lay[0].y.hi > 1.91 && lay[0].y.hi < 2.1, "{:?}", lay[0].y);
     assert!(defects(&f).unwrap().is_empty(), "{:?}", defects(&f));
+}
+
+/// Thirteen phi crowded near 0.8 (paper H's grid), drawn as before: colours
+/// linear in phi over 0.60-0.805 and one marker for all. The densest phi
+/// differ by CIEDE2000 < 10 and share marker and dash: a defect. Drawn as
+/// now (colours by rank, a marker shape per value), none.
+#[test]
+fn crowded_group_values_are_told_apart_by_rank_colour_and_shape() {
+    let x: Vec<f64> = (1..=6).map(f64::from).collect();
+    let make = |old: bool| {
+        let curves = PHI
+            .iter()
+            .enumerate()
+            .map(|(k, &phi)| {
+                let y = x.iter().map(|x| x * (1.0 + k as f64)).collect();
+                let mut s = series(&format!("{phi}"), x.clone(), y);
+                s.style = Style::LinePoints;
+                s.group = Some(Group {
+                    column: "phi".into(),
+                    value: phi,
+                });
+                if old {
+                    s.color = Some(repro::plot::viridis((phi - 0.60) / (0.805 - 0.60) * 0.88));
+                    s.marker = Marker::Circle;
+                }
+                s
+            })
+            .collect();
+        let mut p = panel("", axis("t", false), axis("y", false), curves);
+        p.legend = Legend::Right;
+        Figure {
+            panels: vec![p],
+            width: 900,
+            ..overlap_figure()
+        }
+    };
+    let d = defects(&make(true)).unwrap();
+    assert!(
+        d.iter().any(|d| d.contains("\"0.8\" and \"0.805\" differ by CIEDE2000")),
+        "{d:?}"
+    );
+    let new = make(false);
+    assert_eq!(defects(&new).unwrap(), Vec::<String>::new());
+    // Every pair of the new drawing closer than 10 differs in shape.
+    let lay = layout(&new).unwrap();
+    for i in 0..13 {
+        for j in i + 1..13 {
+            let de = repro::plot::delta_e(lay[0].colors[i], lay[0].colors[j]);
+            assert!(de >= 10.0 || lay[0].markers[i] != lay[0].markers[j], "{i} {j} {de}");
+        }
+    }
+    // Neighbours in rank never share a shape.
+    assert!(lay[0].markers.windows(2).all(|w| w[0] != w[1]));
+}
+
+/// A note naming a profile other than the one drawn is a defect; naming the
+/// drawn one, or the paper as a publication, is not.
+#[test]
+fn a_note_for_another_profile_is_a_defect() {
+    let mut f = overlap_figure();
+    f.panels[0].notes = vec!["A small box (ci: N = 1000, 2 replicas); the paper's φ = 0.805.".into()];
+    f.profile = Some("ci".into());
+    assert_eq!(defects(&f).unwrap(), Vec::<String>::new());
+    f.profile = Some("small".into());
+    let d = defects(&f).unwrap();
+    assert!(
+        d.iter().any(|d| d.contains("speaks of the ci profile, drawn at small")),
+        "{d:?}"
+    );
+    f.panels[0].notes = vec!["The θ′ branch (small and paper: 0.78-0.805).".into()];
+    f.profile = Some("ci".into());
+    assert_eq!(defects(&f).unwrap().len(), 2);
+}
+
+/// One legend entry stands for a solid and a dashed line (its sample shows
+/// one of them): a defect.
+#[test]
+fn a_legend_entry_unlike_its_series_is_a_defect() {
+    let x: Vec<f64> = (1..=6).map(f64::from).collect();
+    let a = series("fit", x.clone(), x.clone());
+    let mut b = series("fit", x.clone(), x.iter().map(|v| 2.0 * v).collect());
+    b.dashed = true;
+    b.color = Some(repro::plot::Color([0xd6, 0x27, 0x28]));
+    let mut f = overlap_figure();
+    f.panels = vec![panel("", axis("x", false), axis("y", false), vec![a, b])];
+    let d = defects(&f).unwrap();
+    assert!(d.iter().any(|d| d.contains("several dash patterns")), "{d:?}");
+}
+
+/// On a log axis a point whose error exceeds its value is noise: it does not
+/// set the y range, is drawn open inside the axes, left out (with a note)
+/// outside them.
+#[test]
+fn noise_on_a_log_axis_is_drawn_open_or_left_out() {
+    let x: Vec<f64> = (1..=8).map(f64::from).collect();
+    let mut y: Vec<f64> = x.iter().map(|x| 10f64.powf(-x)).collect();
+    y[7] = 1e-40;
+    let mut e: Vec<f64> = y.iter().map(|v| 0.1 * v).collect();
+    e[2] = 2.0 * y[2];
+    e[7] = 2.0 * y[7];
+    let mut s = series("data", x, y);
+    s.style = Style::Points;
+    s.y_err = Some(e);
+    let f = Figure {
+        panels: vec![panel("", axis("x", false), axis("y", true), vec![s])],
+        ..overlap_figure()
+    };
+    let lay = layout(&f).unwrap();
+    assert!(lay[0].y.lo > 1e-12, "{:?}", lay[0].y);
+    let notes = lay[0].notes.join(" ");
+    assert!(notes.contains("1 point whose error exceeds its value lies outside the axes"), "{notes}");
+    assert!(notes.contains("Open markers"), "{notes}");
 }

@@ -219,6 +219,51 @@ impl Planner<'_> {
         Ok(())
     }
 
+    /// What a plot's notes may state about the build it draws: the profile,
+    /// and of every experiment upstream of `inputs` its number-valued
+    /// parameters at this profile (e.g. `n`) and `replicas`
+    /// (`{=eps09.n}` in a note; [`crate::stages::plot`]).
+    fn build_info(&self, inputs: &[usize]) -> Value {
+        let mut seen = vec![false; self.graph.nodes.len()];
+        let mut stack = inputs.to_vec();
+        let mut names: BTreeMap<String, ()> = BTreeMap::new();
+        while let Some(n) = stack.pop() {
+            if std::mem::replace(&mut seen[n], true) {
+                continue;
+            }
+            let node = &self.graph.nodes[n];
+            for id in node.ids.iter().filter(|id| id.figure.is_none()) {
+                names.insert(id.stage.clone(), ());
+            }
+            stack.extend(node.inputs.iter().copied());
+        }
+        let mut experiments = serde_json::Map::new();
+        for name in names.keys() {
+            let Some((_, spec)) = self.cat.experiments.get(name) else {
+                continue;
+            };
+            let Some(prof) = spec.profiles.get(&self.graph.profile) else {
+                continue;
+            };
+            let mut m = serde_json::Map::new();
+            for (k, v) in spec.params.iter().chain(prof.value.params.iter()) {
+                if v.is_number() {
+                    m.insert(k.clone(), v.clone());
+                }
+            }
+            for (k, v) in &prof.value.grid {
+                if let [one] = v.value.as_slice()
+                    && one.is_number()
+                {
+                    m.insert(k.clone(), one.clone());
+                }
+            }
+            m.insert("replicas".into(), Value::from(prof.value.replicas.value));
+            experiments.insert(name.clone(), Value::Object(m));
+        }
+        serde_json::json!({"profile": self.graph.profile, "experiments": experiments})
+    }
+
     fn experiment(&mut self, name: &str) -> Result<Vec<usize>> {
         if let Some(v) = self.experiments.get(name) {
             return Ok(v.clone());
@@ -454,6 +499,9 @@ impl Planner<'_> {
                     }
                     let mut p = params.clone();
                     p.extend(sw.clone());
+                    if st.kind == "plot" {
+                        p.insert("build".into(), self.build_info(inputs));
+                    }
                     let profile = self.graph.profile.clone();
                     let locate = |e: anyhow::Error| {
                         let i = spec

@@ -3,12 +3,21 @@
 //! outside its colour range), markup left unrendered in a label, a
 //! reference-line label over data or under the legend, an axis stretched by
 //! a single error bar or with fewer than two tick labels, axes squeezed by a
-//! legend beside them.
+//! legend beside them, two series a reader cannot tell apart (colours closer
+//! than CIEDE2000 10 and one marker and dash), a legend sample unlike its
+//! series, a text naming a profile other than the one drawn.
 
 use anyhow::Result;
 
 use super::render::{PanelLayout, spans};
-use super::spec::{Figure, Group};
+use super::spec::{Figure, Group, Series, Style};
+
+/// Two series of one panel closer in colour than this (CIEDE2000) must
+/// differ in marker or dash.
+pub const MIN_DELTA_E: f64 = 10.0;
+
+/// The profile names, as the pipelines' profiles.
+const PROFILES: [&str; 3] = ["ci", "small", "paper"];
 
 /// Every defect of `fig` as laid out, one sentence each; empty when none.
 pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
@@ -69,23 +78,12 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
                 None => seen.push((g, c)),
             }
         }
-        for (i, s) in p
-            .series
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| !s.label.is_empty())
-        {
-            let other = p.series[..i]
-                .iter()
-                .zip(&lay.colors)
-                .find(|(o, oc)| o.label == s.label && **oc != lay.colors[i] && !s.legend_ink);
-            if other.is_some() {
-                out.push(format!(
-                    "{name}: legend entry {:?} stands for series of two colours",
-                    s.label
-                ));
-            }
-        }
+        out.extend(alike(p, lay).into_iter().map(|d| format!("{name}: {d}")));
+        out.extend(
+            legend_unlike(p, lay)
+                .into_iter()
+                .map(|d| format!("{name}: {d}")),
+        );
         if lay.frame.width() < 0.5 * lay.cell.width() {
             out.push(format!(
                 "{name}: the axes take {:.0}% of the panel's width (a legend beside them?)",
@@ -104,7 +102,165 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
             out.push(format!("{name}: {why}"));
         }
     }
+    if let Some(drawn) = &fig.profile {
+        for text in labels(fig) {
+            for w in profile_words(text) {
+                if w != drawn.as_str() {
+                    out.push(format!(
+                        "the text {text:?} speaks of the {w} profile, drawn at {drawn}"
+                    ));
+                }
+            }
+        }
+    }
     Ok(out)
+}
+
+/// What a series is told apart by besides colour: its marker (none for a
+/// plain line) and whether its line is dashed (none for points).
+fn look(s: &Series, lay: &PanelLayout, i: usize) -> (Option<super::Marker>, Option<(bool, bool)>) {
+    let line = !matches!(s.style, Style::Points | Style::Disks | Style::Arrows);
+    (lay.markers[i], line.then_some((s.dashed, s.dotted)))
+}
+
+/// Pairs of series of one panel that a reader cannot tell apart: colours
+/// closer than [`MIN_DELTA_E`] (CIEDE2000) with the same marker and dash.
+/// Series of one group value, or of one legend entry, are meant alike.
+fn alike(p: &super::Panel, lay: &PanelLayout) -> Vec<String> {
+    let named = |s: &Series| s.group.is_some() || !s.label.is_empty();
+    let mut out = vec![];
+    for (i, a) in p.series.iter().enumerate().filter(|(_, s)| named(s)) {
+        if matches!(a.style, Style::Disks | Style::Arrows) || a.x.is_empty() {
+            continue;
+        }
+        for (j, b) in p.series.iter().enumerate().skip(i + 1).filter(|(_, s)| named(s)) {
+            if matches!(b.style, Style::Disks | Style::Arrows) || b.x.is_empty() {
+                continue;
+            }
+            let same_group = match (&a.group, &b.group) {
+                (Some(g), Some(h)) => g.column == h.column && g.value == h.value,
+                (None, None) => false,
+                _ => false,
+            };
+            let same_entry = !a.label.is_empty() && a.label == b.label;
+            if same_group || same_entry {
+                continue;
+            }
+            // A fit's line beside points: told apart by being a line.
+            if look(a, lay, i) != look(b, lay, j) {
+                continue;
+            }
+            let d = super::colour::delta_e(lay.colors[i], lay.colors[j]);
+            if d < MIN_DELTA_E {
+                let name = |s: &Series| match (&s.group, s.label.is_empty()) {
+                    (_, false) => format!("{:?}", s.label),
+                    (Some(g), true) => format!("{} = {}", g.column, g.value),
+                    _ => "?".into(),
+                };
+                out.push(format!(
+                    "{} and {} differ by CIEDE2000 {d:.1} in colour (< {MIN_DELTA_E}) and share marker and dash",
+                    name(a),
+                    name(b)
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Legend entries whose series are drawn unlike one another (the sample
+/// shows one dash and one marker shape for all of them).
+fn legend_unlike(p: &super::Panel, lay: &PanelLayout) -> Vec<String> {
+    if lay.legend.is_none() {
+        return vec![];
+    }
+    let mut out = vec![];
+    let mut done: Vec<&str> = vec![];
+    for (i, s) in p.series.iter().enumerate() {
+        if s.label.is_empty() || done.contains(&s.label.as_str()) {
+            continue;
+        }
+        done.push(&s.label);
+        let members: Vec<usize> = (i..p.series.len())
+            .filter(|&j| p.series[j].label == s.label)
+            .collect();
+        let lines: Vec<(bool, bool)> = members
+            .iter()
+            .filter(|&&j| !matches!(p.series[j].style, Style::Points | Style::Disks | Style::Arrows))
+            .map(|&j| (p.series[j].dashed, p.series[j].dotted))
+            .collect();
+        let marks: Vec<super::Marker> = members.iter().filter_map(|&j| lay.markers[j]).collect();
+        if lines.windows(2).any(|w| w[0] != w[1]) {
+            out.push(format!(
+                "legend entry {:?} stands for lines of several dash patterns",
+                s.label
+            ));
+        }
+        if marks.windows(2).any(|w| w[0] != w[1]) {
+            out.push(format!(
+                "legend entry {:?} stands for series of several marker shapes",
+                s.label
+            ));
+        }
+    }
+    out
+}
+
+/// The profile names `text` speaks of: `ci` as a word; `small` followed by
+/// a colon (`small: N = 2000`) or `profile`; `paper` followed by `profile`;
+/// and `small` or `paper` joined by `and`/`or` to a profile word (`small and
+/// paper: 0.78-0.805`). "The paper's φ" and "a small box" are no profile.
+pub fn profile_words(text: &str) -> Vec<&'static str> {
+    let words: Vec<&str> = text
+        .split(|c: char| !(c.is_alphanumeric() || c == ':' || c == '\''))
+        .filter(|w| !w.is_empty())
+        .collect();
+    let bare = |w: &str| -> Option<&'static str> {
+        let w = w.trim_end_matches(':');
+        PROFILES.iter().copied().find(|p| *p == w)
+    };
+    let alone = |k: usize| -> bool {
+        let w = words[k];
+        let next = words.get(k + 1).copied().unwrap_or("");
+        match bare(w) {
+            Some("ci") => true,
+            Some("small") => w.ends_with(':') || next.starts_with("profile"),
+            Some(_) => next.starts_with("profile"),
+            None => false,
+        }
+    };
+    let mut named = vec![false; words.len()];
+    for k in 0..words.len() {
+        named[k] = alone(k);
+    }
+    // Lists: a profile word beside `and`/`or` and a named profile word.
+    for _ in 0..2 {
+        for k in 0..words.len() {
+            if named[k] || bare(words[k]).is_none() {
+                continue;
+            }
+            let joined = |j: Option<usize>, via: Option<usize>| {
+                matches!((j, via), (Some(j), Some(v)) if j < words.len()
+                    && matches!(words[v], "and" | "or")
+                    && bare(words[j]).is_some()
+                    && (named[j] || words[j].ends_with(':')))
+            };
+            if joined(Some(k + 2), Some(k + 1))
+                || joined(k.checked_sub(2), k.checked_sub(1))
+            {
+                named[k] = true;
+            }
+        }
+    }
+    let mut out = vec![];
+    for (k, w) in words.iter().enumerate() {
+        if let (true, Some(p)) = (named[k], bare(w))
+            && !out.contains(&p)
+        {
+            out.push(p);
+        }
+    }
+    out
 }
 
 /// Every text a figure prints.
@@ -191,6 +347,7 @@ mod tests {
             width: 600,
             height: 400,
             colour_ranges: Default::default(),
+            profile: None,
         };
         let mut lay = crate::plot::layout(&fig).unwrap();
         assert!(super::defects(&fig, &lay).unwrap().is_empty());
@@ -206,6 +363,18 @@ mod tests {
         lay[0].labels[0].1 = lay[0].legend.unwrap();
         let d = super::defects(&fig, &lay).unwrap();
         assert!(d.iter().any(|d| d.contains("the legend hides")), "{d:?}");
+    }
+
+    #[test]
+    fn profile_words_are_told_from_the_paper_and_small_things() {
+        use super::profile_words as w;
+        assert_eq!(w("ci: N = 1000, 2 replicas"), ["ci"]);
+        assert_eq!(w("the ci box"), ["ci"]);
+        assert_eq!(w("(small and paper: 0.78-0.805; ci stops at 0.78)"), ["small", "paper", "ci"]);
+        assert_eq!(w("the small profile draws it"), ["small"]);
+        assert_eq!(w("the paper profile's N"), ["paper"]);
+        assert!(w("the paper's φ = 0.805 panel; a small box (the paper: φ to 0.805)").is_empty());
+        assert!(w("small clusters and paper values; circles").is_empty());
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! goes where it covers no data.
 
 mod check;
+mod colour;
 mod font;
 mod geometry;
 mod palette;
@@ -18,7 +19,8 @@ use std::path::Path;
 use anyhow::{Context, Result, anyhow};
 use plotters::prelude::*;
 
-pub use check::typeset;
+pub use check::{profile_words, typeset};
+pub use colour::{ciede2000, delta_e, lab};
 pub use geometry::{P, Rect};
 pub use palette::viridis;
 pub use render::PanelLayout;

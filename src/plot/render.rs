@@ -250,24 +250,23 @@ pub fn lay_out<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<Vec<
     let rows = fig.panels.len().div_ceil(cols);
     let (cw, ch) = (w / cols as f64, (h - top) / rows as f64);
     let colors = series_colors(fig);
+    let markers = series_markers(fig);
     let mut out = Vec::new();
-    for (i, (panel, colors)) in fig.panels.iter().zip(colors).enumerate() {
+    for (i, ((panel, colors), markers)) in fig.panels.iter().zip(colors).zip(markers).enumerate() {
         let cell = Rect {
             x0: (i % cols) as f64 * cw,
             y0: top + (i / cols) as f64 * ch,
             x1: (i % cols + 1) as f64 * cw,
             y1: top + (i / cols + 1) as f64 * ch,
         };
-        out.push(lay_out_panel(root, panel, cell, colors)?);
+        out.push(lay_out_panel(root, panel, cell, colors, markers)?);
     }
     Ok(out)
 }
 
-/// The colour of every series, panel by panel: its own; else its group
-/// value's, one colour per value in all panels (from the figure's colour range
-/// of the column, else from the value's rank among the figure's values); else
-/// the panel palette at its place among the panel's other such series.
-fn series_colors(fig: &Figure) -> Vec<Vec<Color>> {
+/// The rank of every group value among the figure's values of its column,
+/// and how many values the column has.
+fn group_ranks(fig: &Figure) -> BTreeMap<&str, Vec<f64>> {
     let mut values: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
     for g in fig
         .panels
@@ -281,6 +280,26 @@ fn series_colors(fig: &Figure) -> Vec<Vec<Color>> {
         v.sort_by(f64::total_cmp);
         v.dedup_by(|a, b| a.total_cmp(b).is_eq());
     }
+    values
+}
+
+/// The rank of `g` among the figure's values of its column, of how many.
+fn rank_of(values: &BTreeMap<&str, Vec<f64>>, g: &super::spec::Group) -> (usize, usize) {
+    let vals = &values[g.column.as_str()];
+    let k = vals
+        .iter()
+        .position(|v| v.total_cmp(&g.value).is_eq())
+        .unwrap_or(0);
+    (k, vals.len())
+}
+
+/// The colour of every series, panel by panel: its own; else its group
+/// value's, one colour per value in all panels, spaced evenly by the value's
+/// rank among the figure's values of its column (not by the value itself: a
+/// dozen phi crowded near 0.8 would take near-identical colours); else the
+/// panel palette at its place among the panel's other such series.
+fn series_colors(fig: &Figure) -> Vec<Vec<Color>> {
+    let values = group_ranks(fig);
     fig.panels
         .iter()
         .map(|p| {
@@ -301,15 +320,11 @@ fn series_colors(fig: &Figure) -> Vec<Vec<Color>> {
                         return c;
                     }
                     if let Some(g) = &s.group {
-                        let vals = &values[g.column.as_str()];
-                        let k = vals
-                            .iter()
-                            .position(|v| v.total_cmp(&g.value).is_eq())
-                            .unwrap_or(0);
-                        let t = match fig.colour_ranges.get(&g.column) {
-                            Some(&(lo, hi)) => (g.value - lo) / (hi - lo),
-                            None if vals.len() > 1 => k as f64 / (vals.len() - 1) as f64,
-                            None => 0.0,
+                        let (k, n) = rank_of(&values, g);
+                        let t = if n > 1 {
+                            k as f64 / (n - 1) as f64
+                        } else {
+                            0.0
                         };
                         return palette::group_color(p.palette, t, k);
                     }
@@ -319,6 +334,66 @@ fn series_colors(fig: &Figure) -> Vec<Vec<Color>> {
                 .collect()
         })
         .collect()
+}
+
+/// The marker every series draws, panel by panel (`None`: a line without
+/// markers, disks, arrows): its own shape; else, for a group value, the
+/// shape of its rank in [`Marker::CYCLE`], and for a series coloured by the
+/// panel palette the shape of its place among them, so that series next in
+/// colour differ in shape; else a circle. Data lines of such a family carry
+/// their shape on a few of their points.
+fn series_markers(fig: &Figure) -> Vec<Vec<Option<Marker>>> {
+    let values = group_ranks(fig);
+    fig.panels
+        .iter()
+        .map(|p| {
+            let family_lines = p.series.iter().filter(|s| family_line(s)).count();
+            let mut k_plain = 0;
+            p.series
+                .iter()
+                .map(|s| {
+                    let plain = s.color.is_none() && s.group.is_none();
+                    let shape = match (s.marker, &s.group) {
+                        (Marker::Auto, Some(g)) => {
+                            Marker::CYCLE[rank_of(&values, g).0 % Marker::CYCLE.len()]
+                        }
+                        (Marker::Auto, None) if plain => {
+                            k_plain += 1;
+                            Marker::CYCLE[(k_plain - 1) % Marker::CYCLE.len()]
+                        }
+                        (Marker::Auto, None) => Marker::Circle,
+                        (m, _) => {
+                            k_plain += usize::from(plain);
+                            m
+                        }
+                    };
+                    match s.style {
+                        Style::Points | Style::LinePoints => Some(shape),
+                        Style::Line if family_line(s) && family_lines > 1 => Some(shape),
+                        _ => None,
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// A data line of a family (one group value, or one of the panel palette's
+/// colours), which carries its marker on a few of its points so that lines
+/// of neighbouring colours stay apart; fits and guides do not.
+fn family_line(s: &Series) -> bool {
+    s.style == Style::Line
+        && (s.group.is_some() || s.color.is_none())
+        && !s.fit
+        && !s.legend_ink
+}
+
+/// The points of a line that carry its markers: about eight, shifted by
+/// `phase` so that curves running together do not stack them.
+fn sparse_points(n: usize, phase: usize) -> impl Iterator<Item = usize> {
+    let step = (n / 8).max(1);
+    let first = (phase * step.div_ceil(3)) % step;
+    (first..n).step_by(step)
 }
 
 /// Axis scales of a panel: the given ranges, or ranges fitted to its values.
@@ -343,12 +418,28 @@ fn scales(p: &Panel) -> (Scale, Scale) {
     };
     let t = |v: f64| if p.y.log { v.log10() } else { v };
     let back = |v: f64| if p.y.log { 10f64.powf(v) } else { v };
-    let values: Vec<f64> = p
-        .series
-        .iter()
-        .flat_map(|s| s.y.iter().copied())
-        .filter(|&v| y_axis.accepts(v))
-        .collect();
+    // The data set the y range: fits and guides are drawn within it, and on
+    // a log axis so are points whose error exceeds their value (noise), when
+    // there are other points to set it.
+    let data = |keep_noise: bool, keep_fits: bool| -> Vec<f64> {
+        p.series
+            .iter()
+            .filter(|s| keep_fits || !s.fit)
+            .flat_map(|s| {
+                (0..s.y.len())
+                    .filter(move |&i| keep_noise || !noise(s, i, p.y.log))
+                    .map(move |i| s.y[i])
+            })
+            .filter(|&v| y_axis.accepts(v))
+            .collect()
+    };
+    let mut values = data(false, false);
+    if values.len() < 2 {
+        values = data(true, false);
+    }
+    if values.len() < 2 {
+        values = data(true, true);
+    }
     let (lo, hi) = values
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
@@ -444,6 +535,8 @@ pub struct PanelLayout {
     label_colors: Vec<Option<Color>>,
     /// The colour of each series.
     pub colors: Vec<Color>,
+    /// The marker each series draws (`None`: none, e.g. a fitted line).
+    pub markers: Vec<Option<Marker>>,
     /// The notes above the axes, the panel's and the plotter's.
     pub notes: Vec<String>,
     /// The notes wrapped to the frame width, as drawn.
@@ -476,13 +569,53 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
             }
         }
     }
-    match (cut, larger) {
+    let mut out: Vec<String> = match (cut, larger) {
         (false, _) => vec![],
         (true, false) => vec!["Error bars end at the frame.".into()],
         (true, true) => {
             vec!["Error bars end at the frame; some errors exceed their value.".into()]
         }
+    };
+    // Noise on a log axis: points whose error exceeds their value, drawn
+    // open where they fall inside the axes, left out (the y range is set by
+    // the other points) where they do not.
+    let (mut open, mut left_out) = (false, 0);
+    for s in p
+        .series
+        .iter()
+        .filter(|s| matches!(s.style, Style::Points | Style::LinePoints) && !s.fit)
+    {
+        for i in (0..s.y.len()).filter(|&i| noise(s, i, ys.log)) {
+            let in_x = xs.accepts(s.x[i]) && (xs.lo..=xs.hi).contains(&s.x[i]);
+            if !in_x {
+                continue;
+            }
+            if ys.accepts(s.y[i]) && (ys.lo..=ys.hi).contains(&s.y[i]) {
+                open |= !s.marker.open();
+            } else {
+                left_out += 1;
+            }
+        }
     }
+    if open || left_out > 0 {
+        // Said below, with what is drawn of them.
+        out.retain(|n| !n.contains("exceed their value"));
+        if cut {
+            out.push("Error bars end at the frame.".into());
+        }
+    }
+    if open {
+        out.push("Open markers of filled series: points whose error exceeds their value.".into());
+    }
+    if left_out > 0 {
+        out.push(format!(
+            "{left_out} point{} whose error exceeds {} value lie{} outside the axes, left out.",
+            if left_out == 1 { "" } else { "s" },
+            if left_out == 1 { "its" } else { "their" },
+            if left_out == 1 { "s" } else { "" },
+        ));
+    }
+    out
 }
 
 /// `text` broken into lines no wider than `width` at `size`.
@@ -517,6 +650,7 @@ fn lay_out_panel<DB: DrawingBackend>(
     p: &Panel,
     cell: Rect,
     colors: Vec<Color>,
+    markers: Vec<Option<Marker>>,
 ) -> Result<PanelLayout> {
     let sz = Sizes::for_cell(cell.width(), cell.height());
     let (xs, ys) = scales(p);
@@ -631,6 +765,7 @@ fn lay_out_panel<DB: DrawingBackend>(
         labels,
         label_colors,
         colors,
+        markers,
         notes,
         lines,
         sz,
@@ -670,8 +805,13 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         }
     }
 
-    for (s, &c) in p.series.iter().zip(&lay.colors) {
-        draw_series(root, &frame, s, rgb(c), sz)?;
+    // The data first, then fits and guides above their markers.
+    for fits in [false, true] {
+        for (i, ((s, &c), &m)) in p.series.iter().zip(&lay.colors).zip(&lay.markers).enumerate() {
+            if s.fit == fits {
+                draw_series(root, &frame, s, rgb(c), m, i, sz)?;
+            }
+        }
     }
 
     // Their labels where they cover no data, on white, so that no curve hides them.
@@ -707,7 +847,7 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         draw_text(root, line, &note_style, (r.x0, y))?;
     }
     if let (Some(lb), Some(at)) = (&lay.legend_box, lay.legend) {
-        draw_legend(root, p, &lay.colors, lb, (at.x0, at.y0), sz)?;
+        draw_legend(root, p, &lay.colors, &lay.markers, lb, (at.x0, at.y0), sz)?;
     }
     Ok(())
 }
@@ -721,22 +861,94 @@ fn stroke<DB: DrawingBackend>(
     dashed: bool,
     sz: Sizes,
 ) -> Result<()> {
-    if dashed {
-        let w = width as f64;
-        for d in dashes(line, 0.45 * sz.label + 2.0 * w, 0.25 * sz.label + w) {
-            polyline(area, &d, color, width)?;
+    let dash = if dashed { Dash::Dashed } else { Dash::Solid };
+    stroke_over(area, line, color, width, dash, false, sz)
+}
+
+/// The dash and gap lengths of a dashed line `width` pixels wide.
+fn dash_pattern(width: u32, sz: Sizes) -> (f64, f64) {
+    let w = width as f64;
+    (0.45 * sz.label + 2.0 * w, 0.25 * sz.label + w)
+}
+
+/// The dot and gap lengths of a dotted line `width` pixels wide.
+fn dot_pattern(width: u32) -> (f64, f64) {
+    let w = width as f64;
+    (w.max(1.5), 2.0 * w + 2.0)
+}
+
+/// How a series' line is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Dash {
+    Solid,
+    Dashed,
+    Dotted,
+}
+
+impl Dash {
+    pub(super) fn of(s: &Series) -> Dash {
+        match (s.dotted, s.dashed) {
+            (true, _) => Dash::Dotted,
+            (false, true) => Dash::Dashed,
+            _ => Dash::Solid,
         }
-        Ok(())
-    } else {
-        polyline(area, line, color, width)
     }
 }
 
+/// `line` cut into its dashes (or dots), or whole when solid.
+fn pieces(line: &[P], dash: Dash, width: u32, sz: Sizes) -> Vec<Vec<P>> {
+    match dash {
+        Dash::Solid => vec![line.to_vec()],
+        Dash::Dashed => {
+            let (on, off) = dash_pattern(width, sz);
+            dashes(line, on, off)
+        }
+        Dash::Dotted => {
+            let (on, off) = dot_pattern(width);
+            dashes(line, on, off)
+        }
+    }
+}
+
+/// A solid or dashed polyline, with `halo` over a white one a pixel wider
+/// on each side (a fit above the markers it crosses).
+fn stroke_over<DB: DrawingBackend>(
+    area: &Area<DB>,
+    line: &[P],
+    color: RGBColor,
+    width: u32,
+    dash: Dash,
+    halo: bool,
+    sz: Sizes,
+) -> Result<()> {
+    let pieces = pieces(line, dash, width, sz);
+    if halo {
+        for d in &pieces {
+            polyline(area, d, WHITE, width + 2)?;
+        }
+    }
+    for d in &pieces {
+        polyline(area, d, color, width)?;
+    }
+    Ok(())
+}
+
+/// Whether point `i` of `s` is noise on a log y axis: its error exceeds its
+/// value, so the point may as well be zero (drawn open).
+fn noise(s: &Series, i: usize, y_log: bool) -> bool {
+    let e = s.y_err.as_deref().and_then(|e| e.get(i)).copied();
+    y_log && e.is_some_and(|e| e.is_finite() && e > s.y[i].abs())
+}
+
+/// A series: error bars, line (a fit's over a white halo, so that it reads
+/// above the markers it crosses), markers (open where the point is noise).
 fn draw_series<DB: DrawingBackend>(
     area: &Area<DB>,
     f: &Frame,
     s: &Series,
     color: RGBColor,
+    shape: Option<Marker>,
+    phase: usize,
     sz: Sizes,
 ) -> Result<()> {
     let r = f.rect;
@@ -785,13 +997,25 @@ fn draw_series<DB: DrawingBackend>(
     }
     if s.style != Style::Points {
         for piece in clip_polyline(&pts, &r) {
-            stroke(area, &piece, color, sz.line, s.dashed, sz)?;
+            stroke_over(area, &piece, color, sz.line, Dash::of(s), s.fit, sz)?;
         }
     }
-    if s.style != Style::Line {
-        for q in pts.into_iter().flatten().filter(|&q| r.contains(q)) {
-            marker(area, s.marker, q, sz.marker, color)?;
-        }
+    let Some(shape) = shape else { return Ok(()) };
+    let at: Vec<usize> = if s.style == Style::Line {
+        sparse_points(pts.len(), phase).collect()
+    } else {
+        (0..pts.len()).collect()
+    };
+    for i in at {
+        let Some(q) = pts[i].filter(|&q| r.contains(q)) else {
+            continue;
+        };
+        let m = if noise(s, i, f.y.log) {
+            shape.hollow()
+        } else {
+            shape
+        };
+        marker(area, m, q, sz.marker, color)?;
     }
     Ok(())
 }
@@ -831,7 +1055,12 @@ fn marker<DB: DrawingBackend>(
     size: f64,
     color: RGBColor,
 ) -> Result<()> {
-    let fill = ShapeStyle::from(&color).filled();
+    let open = m.open();
+    let fill = if open {
+        WHITE.filled()
+    } else {
+        ShapeStyle::from(&color).filled()
+    };
     let line = ShapeStyle::from(&color).stroke_width(1);
     let s = size.max(2.0);
     let poly = |pts: &[P]| {
@@ -839,29 +1068,40 @@ fn marker<DB: DrawingBackend>(
             .map(|&(dx, dy)| px((x + dx * s, y + dy * s)))
             .collect::<Vec<_>>()
     };
-    match m {
-        Marker::Circle => area.draw(&Circle::new(px((x, y)), s.round() as i32, fill)),
-        Marker::OpenCircle => area
-            .draw(&Circle::new(px((x, y)), s.round() as i32, WHITE.filled()))
-            .and_then(|_| area.draw(&Circle::new(px((x, y)), s.round() as i32, line))),
-        Marker::Square | Marker::OpenSquare => {
-            let c = poly(&[(-0.9, -0.9), (0.9, 0.9)]);
-            let inner = if m == Marker::Square {
-                fill
-            } else {
-                WHITE.filled()
-            };
-            area.draw(&Rectangle::new([c[0], c[1]], inner))
-                .and_then(|_| area.draw(&Rectangle::new([c[0], c[1]], line)))
+    // A filled polygon with its outline (the outline alone stays on white
+    // inside when open).
+    let shape = |pts: Vec<P>| -> Result<()> {
+        let v = poly(&pts);
+        area.draw(&Polygon::new(v.clone(), fill)).map_err(err)?;
+        let mut closed = v;
+        closed.push(closed[0]);
+        area.draw(&PathElement::new(closed, line)).map_err(err)
+    };
+    let regular = |k: usize, r: f64, turn: f64| -> Vec<P> {
+        (0..k)
+            .map(|i| {
+                let a = turn + std::f64::consts::TAU * i as f64 / k as f64;
+                (r * a.sin(), -r * a.cos())
+            })
+            .collect()
+    };
+    match m.filled() {
+        Marker::Circle | Marker::Auto => {
+            let c = px((x, y));
+            let r = s.round() as i32;
+            area.draw(&Circle::new(c, r, fill)).map_err(err)?;
+            area.draw(&Circle::new(c, r, line)).map_err(err)
         }
-        Marker::Triangle => area.draw(&Polygon::new(
-            poly(&[(0.0, -1.2), (1.1, 0.8), (-1.1, 0.8)]),
-            fill,
-        )),
-        Marker::Diamond => area.draw(&Polygon::new(
-            poly(&[(0.0, -1.3), (1.0, 0.0), (0.0, 1.3), (-1.0, 0.0)]),
-            fill,
-        )),
+        Marker::Square => shape(vec![(-0.9, -0.9), (0.9, -0.9), (0.9, 0.9), (-0.9, 0.9)]),
+        Marker::Triangle => shape(vec![(0.0, -1.3), (1.15, 0.7), (-1.15, 0.7)]),
+        Marker::TriangleDown => shape(vec![(0.0, 1.3), (1.15, -0.7), (-1.15, -0.7)]),
+        Marker::Diamond => shape(vec![(0.0, -1.3), (1.0, 0.0), (0.0, 1.3), (-1.0, 0.0)]),
+        Marker::Pentagon => shape(regular(5, 1.15, 0.0)),
+        Marker::Star => {
+            let outer = regular(5, 1.5, 0.0);
+            let inner = regular(5, 0.62, std::f64::consts::PI / 5.0);
+            shape(outer.into_iter().zip(inner).flat_map(|(a, b)| [a, b]).collect())
+        }
         Marker::Cross => area
             .draw(&PathElement::new(
                 poly(&[(-1.0, -1.0), (1.0, 1.0)]),
@@ -872,9 +1112,22 @@ fn marker<DB: DrawingBackend>(
                     poly(&[(-1.0, 1.0), (1.0, -1.0)]),
                     line.stroke_width(2),
                 ))
-            }),
+            })
+            .map_err(err),
+        Marker::Plus => area
+            .draw(&PathElement::new(
+                poly(&[(-1.2, 0.0), (1.2, 0.0)]),
+                line.stroke_width(2),
+            ))
+            .and_then(|_| {
+                area.draw(&PathElement::new(
+                    poly(&[(0.0, -1.2), (0.0, 1.2)]),
+                    line.stroke_width(2),
+                ))
+            })
+            .map_err(err),
+        _ => unreachable!("filled() gives a filled shape"),
     }
-    .map_err(err)
 }
 
 /// Frame, inward ticks on all four sides, tick labels, axis labels, panel title

@@ -27,6 +27,10 @@ pub struct Figure {
     /// colours from the rank of its value among the figure's values.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub colour_ranges: BTreeMap<String, (f64, f64)>,
+    /// The profile the figure is drawn at (`ci`, `small`, `paper`), if any:
+    /// a text naming another profile is a defect ([`crate::plot::defects`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<String>,
 }
 
 fn default_width() -> u32 {
@@ -102,11 +106,21 @@ pub struct Series {
     pub style: Style,
     #[serde(default)]
     pub dashed: bool,
+    /// Dotted instead (e.g. the paper's Stokes-Einstein line).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dotted: bool,
     /// "#rrggbb"; default: the panel palette at this series' index.
     #[serde(default)]
     pub color: Option<Color>,
+    /// Marker shape; `auto` (the default): a group value's shape by its rank
+    /// among the figure's values (one shape per value, as its colour), a
+    /// circle for a series without a group.
     #[serde(default)]
     pub marker: Marker,
+    /// A fit or guide line: drawn above the data's markers, over a thin white
+    /// halo, so no marker hides it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fit: bool,
     /// Per-point radius in data units (style `disks`: disks drawn to scale).
     #[serde(default)]
     pub radius: Option<Vec<f64>>,
@@ -118,8 +132,9 @@ pub struct Series {
     /// value takes one colour, in every panel, markers and lines alike.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub group: Option<Group>,
-    /// The legend sample is drawn in black: the entry names a style (dashed =
-    /// power law) that series of several colours share.
+    /// One legend entry names a style (dashed = power law) that series of
+    /// several colours share: its sample shows the style in each of their
+    /// colours side by side.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub legend_ink: bool,
 }
@@ -149,17 +164,84 @@ pub enum Style {
     Arrows,
 }
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Marker {
+    /// By group value (see [`Series::marker`]).
     #[default]
+    Auto,
     Circle,
     Square,
     Triangle,
     Diamond,
+    TriangleDown,
+    Pentagon,
+    Star,
     Cross,
+    Plus,
     OpenCircle,
     OpenSquare,
+    OpenTriangle,
+    OpenDiamond,
+    OpenTriangleDown,
+    OpenPentagon,
+    OpenStar,
+}
+
+impl Marker {
+    /// The filled shapes given to group values in turn: neighbours in rank
+    /// (neighbours in colour) never share one.
+    pub const CYCLE: [Marker; 7] = [
+        Marker::Circle,
+        Marker::Square,
+        Marker::Triangle,
+        Marker::Diamond,
+        Marker::TriangleDown,
+        Marker::Pentagon,
+        Marker::Star,
+    ];
+
+    /// Drawn as an outline on white.
+    pub fn open(self) -> bool {
+        matches!(
+            self,
+            Marker::OpenCircle
+                | Marker::OpenSquare
+                | Marker::OpenTriangle
+                | Marker::OpenDiamond
+                | Marker::OpenTriangleDown
+                | Marker::OpenPentagon
+                | Marker::OpenStar
+        )
+    }
+
+    /// The same shape, filled.
+    pub fn filled(self) -> Marker {
+        match self {
+            Marker::OpenCircle => Marker::Circle,
+            Marker::OpenSquare => Marker::Square,
+            Marker::OpenTriangle => Marker::Triangle,
+            Marker::OpenDiamond => Marker::Diamond,
+            Marker::OpenTriangleDown => Marker::TriangleDown,
+            Marker::OpenPentagon => Marker::Pentagon,
+            Marker::OpenStar => Marker::Star,
+            m => m,
+        }
+    }
+
+    /// The same shape, open (crosses and pluses are lines already).
+    pub fn hollow(self) -> Marker {
+        match self {
+            Marker::Circle | Marker::Auto => Marker::OpenCircle,
+            Marker::Square => Marker::OpenSquare,
+            Marker::Triangle => Marker::OpenTriangle,
+            Marker::Diamond => Marker::OpenDiamond,
+            Marker::TriangleDown => Marker::OpenTriangleDown,
+            Marker::Pentagon => Marker::OpenPentagon,
+            Marker::Star => Marker::OpenStar,
+            m => m,
+        }
+    }
 }
 
 /// Where the legend goes: a corner inside the axes, outside on the right, or nowhere.

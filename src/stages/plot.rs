@@ -50,9 +50,31 @@ fn value_with_error(v: f64, e: f64) -> String {
     format!("{v:.d$} ± {e:.d$}").replacen('-', "−", 1)
 }
 
+/// A number of the build as a note states it: integers as integers
+/// (N = 1000), others as written.
+fn build_number(v: &Value) -> String {
+    match v.as_f64() {
+        Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => format!("{}", x as i64),
+        Some(x) => format!("{x}"),
+        None => v.to_string(),
+    }
+}
+
+/// `{=profile}`, or `{=EXPERIMENT.PARAM}` of the build info (`n`,
+/// `replicas`, ... of an experiment upstream), if `key` is one.
+fn build_value(key: &str, build: &BuildInfo) -> Option<String> {
+    if key == "profile" {
+        return Some(build.profile.clone());
+    }
+    let (exp, param) = key.split_once('.')?;
+    build.experiments.get(exp)?.get(param).map(build_number)
+}
+
 /// `{=STAGE.QUANTITY}` in a title or legend entry: that fitted value with its
-/// error, read from the quantity table of the gathered stage STAGE.
-fn fill(text: &str, inputs: &[Artifact]) -> Result<String> {
+/// error, read from the quantity table of the gathered stage STAGE; or
+/// `{=profile}` and `{=EXPERIMENT.PARAM}`, the build's profile and an
+/// experiment's parameter at it (`{=eps09.n}`, `{=eps09.replicas}`).
+fn fill(text: &str, inputs: &[Artifact], build: &BuildInfo) -> Result<String> {
     let mut out = String::new();
     let mut rest = text;
     while let Some(i) = rest.find("{=") {
@@ -60,6 +82,12 @@ fn fill(text: &str, inputs: &[Artifact]) -> Result<String> {
             .find('}')
             .with_context(|| format!("plot: `{{=` without `}}` in label \"{text}\""))?;
         let key = &rest[i + 2..i + end];
+        if let Some(v) = build_value(key, build) {
+            out.push_str(&rest[..i]);
+            out.push_str(&v);
+            rest = &rest[i + end + 1..];
+            continue;
+        }
         let (key, raw) = match key.strip_suffix(":value") {
             Some(k) => (k, true),
             None => (key, false),
@@ -113,9 +141,16 @@ pub struct Layer {
     #[serde(default)]
     pub dashed: bool,
     #[serde(default)]
+    pub dotted: bool,
+    #[serde(default)]
     pub color: Option<Color>,
+    /// Marker shape; `auto` (default): one shape per group value.
     #[serde(default)]
     pub marker: Marker,
+    /// A fitted line, drawn above the data over a white halo; default: a
+    /// layer of a fit's `curve.parquet` or `lines.parquet`.
+    #[serde(default)]
+    pub fit: Option<bool>,
     /// Column of disk radii (style `disks`).
     #[serde(default)]
     pub radius: Option<String>,
@@ -142,8 +177,8 @@ pub enum LayerLegend {
     /// One entry per group value: the label followed by the value.
     #[default]
     Each,
-    /// One entry for the whole layer, its label beside a black sample of its
-    /// style (e.g. dashed: the power law of every phi, each in its colour).
+    /// One entry for the whole layer, its label beside a sample of its style
+    /// in each of its colours (e.g. dashed: the power law of every phi).
     Once,
     /// No entry.
     None,
@@ -261,6 +296,8 @@ pub struct GuideCurve {
     #[serde(default)]
     pub dashed: bool,
     #[serde(default)]
+    pub dotted: bool,
+    #[serde(default)]
     pub color: Option<Color>,
 }
 
@@ -268,7 +305,26 @@ impl GuideCurve {
     /// The curve as a series, sampled evenly (in log x on a log axis);
     /// `value` reads a fitted value `{=STAGE.QUANTITY}`.
     fn series(&self, log_x: bool, value: impl Fn(&str) -> Result<f64>) -> Result<Series> {
-        let form = crate::fit::catalogue::find(&self.form).map_err(anyhow::Error::msg)?;
+        // Guides only a plot draws: the logistic master curve of Eq. 8 in
+        // x = beta ln(t/tau0), Q = A / (1 + e^((x - x0)/w)).
+        let logistic = crate::fit::catalogue::Form {
+            name: "logistic",
+            describe: "y = A / (1 + exp((x - x0) / w)) (paper H, Eq. 8 in x = beta ln(t/tau0))",
+            params: &["A", "x0", "w"],
+            log_x: false,
+            fit: |_, _| {
+                Err(crate::fit::FitError::InvalidInput {
+                    form: "logistic".into(),
+                    what: "is a guide of the plot stage, not a fit form".into(),
+                })
+            },
+            model: |p, _, x| p[0] / (1.0 + ((x - p[1]) / p[2]).exp()),
+        };
+        let form = if self.form == "logistic" {
+            &logistic
+        } else {
+            crate::fit::catalogue::find(&self.form).map_err(anyhow::Error::msg)?
+        };
         let p = form
             .params
             .iter()
@@ -298,15 +354,33 @@ impl GuideCurve {
             y: x.iter().map(|&x| (form.model)(&p, &[], x)).collect(),
             x,
             dashed: self.dashed,
+            dotted: self.dotted,
             color: self.color,
+            fit: true,
             ..Default::default()
         })
     }
 }
 
+/// What the planner tells a plot about the build it draws (its parameter
+/// `build`, not written in YAML): the profile, and the number-valued
+/// parameters and replicas of every experiment upstream at that profile.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BuildInfo {
+    #[serde(default)]
+    pub profile: String,
+    #[serde(default)]
+    pub experiments:
+        std::collections::BTreeMap<String, std::collections::BTreeMap<String, Value>>,
+}
+
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlotParams {
+    /// Set by the planner: see [`BuildInfo`].
+    #[serde(default)]
+    pub build: BuildInfo,
     #[serde(default)]
     pub title: String,
     pub panels: Vec<PanelSpec>,
@@ -419,12 +493,11 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     }
     groups.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
-    for (k, (key, mut idx)) in groups.into_iter().enumerate() {
+    for (key, mut idx) in groups {
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match (&layer.group, layer.legend) {
             (_, LayerLegend::None) => String::new(),
             (Some(_), LayerLegend::Each) => format!("{}{}", layer.label, legend_number(key)),
-            (Some(_), LayerLegend::Once) if k > 0 => String::new(),
             _ => layer.label.clone(),
         };
         out.push(Series {
@@ -434,8 +507,12 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             y_err: e.map(|e| idx.iter().map(|&i| e[i]).collect()),
             style: layer.style,
             dashed: layer.dashed,
+            dotted: layer.dotted,
             color: layer.color,
             marker: layer.marker,
+            fit: layer
+                .fit
+                .unwrap_or(matches!(layer.file.as_str(), "curve.parquet" | "lines.parquet")),
             radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
             arrows: arrows.map(|(dx, dy, k)| idx.iter().map(|&i| [k * dx[i], k * dy[i]]).collect()),
             group: layer.group.as_ref().map(|column| Group {
@@ -481,7 +558,7 @@ fn missing(layer: &Layer, heading: &str, drawn: &[Series]) -> Option<String> {
 pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
     let table =
         |layer: &Layer| Columns::read_file(&inputs_of("plot", inputs, &layer.from)?, &layer.file);
-    build(p, table, |text| fill(text, inputs))
+    build(p, table, |text| fill(text, inputs, &p.build))
 }
 
 /// The figure from the parameters, each layer's table and the filling of
@@ -491,6 +568,23 @@ fn build(
     table: impl Fn(&Layer) -> Result<Columns>,
     fill: impl Fn(&str) -> Result<String>,
 ) -> Result<Figure> {
+    // One arrow scale for the whole figure: `auto` fits the longest arrow of
+    // all its `auto` layers into a grid step, so panels compare by length.
+    let mut auto_scales: Vec<f64> = vec![];
+    for layer in p.panels.iter().flat_map(|ps| &ps.layers) {
+        let Some(a) = layer.arrows.as_ref().filter(|a| a.scale == ArrowScale::Named(AutoScale::Auto)) else {
+            continue;
+        };
+        let c = table(layer).with_context(|| format!("plot: layer from '{}'", layer.from))?;
+        if c.rows == 0 {
+            continue;
+        }
+        let rows = c.select(&layer.filter)?;
+        let (x, y) = (c.col(&layer.x)?, c.col(&layer.y)?);
+        let (dx, dy) = (c.col(&a.dx)?, c.col(&a.dy)?);
+        auto_scales.extend(auto_arrow_scale(x, y, dx, dy, &rows));
+    }
+    let shared_scale = auto_scales.into_iter().min_by(f64::total_cmp);
     let mut panels = Vec::new();
     for (k, ps) in p.panels.iter().enumerate() {
         let mut all = Vec::new();
@@ -504,6 +598,11 @@ fn build(
                 .with_context(|| format!("plot: panel {} layer from '{}'", k + 1, layer.from))?;
             let mut layer = layer.clone();
             layer.label = fill(&layer.label)?;
+            if let (Some(a), Some(k)) = (layer.arrows.as_mut(), shared_scale)
+                && a.scale == ArrowScale::Named(AutoScale::Auto)
+            {
+                a.scale = ArrowScale::Fixed(k);
+            }
             let drawn: Vec<Series> = series(&layer, &c)?
                 .into_iter()
                 .filter(|s| !s.x.is_empty())
@@ -541,12 +640,13 @@ fn build(
     let cols = p.columns.unwrap_or(n as usize).max(1) as u32;
     let rows = n.div_ceil(cols);
     let fig = Figure {
-        title: p.title.clone(),
+        title: fill(&p.title)?,
         panels,
         columns: p.columns,
         width: p.width.unwrap_or(560 * cols),
         height: p.height.unwrap_or(440 * rows),
         colour_ranges: p.colour_ranges.clone(),
+        profile: (!p.build.profile.is_empty()).then(|| p.build.profile.clone()),
     };
     fig.validate()?;
     Ok(fig)
@@ -658,6 +758,23 @@ mod tests {
             .collect();
         files.sort();
         let (mut found, mut bad) = (0, vec![]);
+        // Every experiment's profiles.
+        let mut experiments: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+        let exp_dir = dir.parent().unwrap().join("experiments");
+        for e in std::fs::read_dir(&exp_dir).unwrap() {
+            let path = e.unwrap().path();
+            if path.extension().is_none_or(|x| x != "yaml") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            let v: serde_json::Value = crate::pipeline::spec::parse(&path, &text).unwrap();
+            let name = path.file_stem().unwrap().to_string_lossy().to_string();
+            let profiles = v["profiles"]
+                .as_object()
+                .map(|o| o.keys().cloned().collect())
+                .unwrap_or_default();
+            experiments.insert(name, profiles);
+        }
         // The colour range of each paper-wide group column, per paper: one
         // colour per phi (eps, a) in every figure of a paper.
         let mut ranges: std::collections::BTreeMap<(&str, String), (String, (f64, f64))> =
@@ -668,20 +785,50 @@ mod tests {
             let spec: serde_json::Value = crate::pipeline::spec::parse(f, &text).unwrap();
             let stages = spec["stages"].as_array().cloned().unwrap_or_default();
             let plots = stages.iter().filter(|s| s["kind"] == "plot");
-            // The base parameters, and each profile's over them.
+            // The profiles the figure is built at: those of every experiment
+            // it reads.
+            let built: Vec<&str> = ["ci", "small", "paper"]
+                .into_iter()
+                .filter(|prof| {
+                    stages.iter().all(|st| {
+                        let mut src: Vec<&str> = st["gather"]
+                            .as_array()
+                            .into_iter()
+                            .flatten()
+                            .filter_map(|v| v.as_str())
+                            .collect();
+                        src.extend(st["map"].as_str());
+                        src.iter().all(|e| {
+                            experiments
+                                .get(*e)
+                                .is_none_or(|ps: &Vec<String>| ps.iter().any(|q| q == prof))
+                        })
+                    })
+                })
+                .collect();
+            // The base parameters at every profile without its own, and each
+            // profile's over them.
             let variants = plots.flat_map(|st| {
                 let base = st["params"].clone();
-                let mut all = vec![(st["name"].to_string(), base.clone())];
-                for (profile, o) in st["profiles"].as_object().into_iter().flatten() {
+                let own = st["profiles"].as_object().cloned().unwrap_or_default();
+                let mut all = vec![];
+                for prof in built.iter().filter(|q| !own.contains_key(**q)) {
+                    all.push((format!("{} at {prof}", st["name"]), base.clone(), *prof));
+                }
+                for (profile, o) in &own {
                     let mut v = base.clone();
                     for (k, x) in o.as_object().unwrap() {
                         v[k] = x.clone();
                     }
-                    all.push((format!("{} at {profile}", st["name"]), v));
+                    let prof = ["ci", "small", "paper"]
+                        .into_iter()
+                        .find(|q| q == profile)
+                        .unwrap();
+                    all.push((format!("{} at {profile}", st["name"]), v, prof));
                 }
                 all
             });
-            for (stage, params) in variants {
+            for (stage, params, profile) in variants {
                 found += 1;
                 let mut p: super::PlotParams = serde_json::from_value(params)
                     .unwrap_or_else(|e| panic!("{}: {stage}: {e}", f.display()));
@@ -702,8 +849,13 @@ mod tests {
                     let mut out = t.to_string();
                     while let Some(i) = out.find("{=") {
                         let j = i + out[i..].find('}').unwrap();
-                        let text = if out[i..j].ends_with(":value") {
+                        let key = &out[i + 2..j];
+                        let text = if key == "profile" {
+                            profile
+                        } else if key.ends_with(":value") {
                             "0.5"
+                        } else if key.ends_with(".n") || key.ends_with(".replicas") {
+                            "7"
                         } else {
                             "0.50 ± 0.02"
                         };
@@ -711,7 +863,8 @@ mod tests {
                     }
                     Ok(out)
                 };
-                let fig = super::build(&p, table, fill).unwrap();
+                let mut fig = super::build(&p, table, fill).unwrap();
+                fig.profile = Some(profile.to_string());
                 let name = f.file_name().unwrap().to_string_lossy().to_string();
                 let paper = match name.as_str() {
                     n if n.starts_with("intruder-fig") => Some("paper I"),
@@ -795,6 +948,30 @@ panels:
             fig.panels[0].notes,
             ["The paper shows ε = 1.00; its fit is unreliable."]
         );
+        assert!(crate::plot::defects(&fig).unwrap().is_empty());
+    }
+
+    /// `{=profile}` and `{=EXPERIMENT.PARAM}` print the build's own profile,
+    /// N and replicas (the planner's `build` parameter), so that a note is
+    /// true at every profile; the figure knows its profile.
+    #[test]
+    fn notes_state_the_build_they_are_drawn_on() {
+        let yaml = r#"
+build: {profile: small, experiments: {eps09_long: {n: 2000, replicas: 3, origins: 8, eps: 0.9}}}
+panels:
+  - x: {label: "a"}
+    y: {label: "ξ"}
+    notes: ["A small box ({=profile}: N = {=eps09_long.n}, {=eps09_long.replicas} replicas, ε = {=eps09_long.eps})."]
+    layers: []
+"#;
+        let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+        let p: super::PlotParams = serde_json::from_value(v).unwrap();
+        let fig = super::figure(&p, &[]).unwrap();
+        assert_eq!(
+            fig.panels[0].notes,
+            ["A small box (small: N = 2000, 3 replicas, ε = 0.9)."]
+        );
+        assert_eq!(fig.profile.as_deref(), Some("small"));
         assert!(crate::plot::defects(&fig).unwrap().is_empty());
     }
 

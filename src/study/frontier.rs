@@ -401,6 +401,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
         width: 640 * n,
         height: 400,
         colour_ranges: Default::default(),
+        profile: None,
     }
 }
 

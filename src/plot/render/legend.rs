@@ -80,7 +80,22 @@ pub(super) fn measure_legend<DB: DrawingBackend>(
         });
     }
     let row = 1.35 * sz.legend;
-    let sample = 2.2 * sz.legend;
+    // A dashed sample shows its dash at the middle (under a marker) with a
+    // gap and half a dash on either side; a solid one is shorter.
+    let dashed = entries
+        .iter()
+        .flat_map(|e| &e.series)
+        .any(|&i| {
+            (p.series[i].dashed || p.series[i].dotted)
+                && !matches!(p.series[i].style, Style::Points)
+        })
+        || entries.iter().any(|e| e.line.is_some_and(|l| l.1));
+    let (on, off) = dash_pattern(sz.line, sz);
+    let sample = if dashed {
+        (2.0 * on + 2.0 * off).max(2.2 * sz.legend)
+    } else {
+        2.2 * sz.legend
+    };
     let mut text_w: f64 = text_size(area, &p.legend_title, sz.legend)?.0 - sample - 0.4 * sz.legend;
     for e in &entries {
         text_w = text_w.max(text_size(area, &e.label, sz.legend)?.0);
@@ -158,10 +173,27 @@ pub(super) fn free_corner(
         })
 }
 
+/// The distinct colours of an entry's series, in order.
+fn entry_colors(e: &Entry, colors: &[Color]) -> Vec<Color> {
+    let mut out: Vec<Color> = vec![];
+    for &i in &e.series {
+        if !out.contains(&colors[i]) {
+            out.push(colors[i]);
+        }
+    }
+    out
+}
+
+/// Each entry's sample is drawn as its series are: the line of the first
+/// drawn as a line (its dashes), the marker of the first drawn with markers,
+/// in the series' colour; an entry standing for series of several colours
+/// (one style, e.g. the power law of every eps) shows the style in each of
+/// them in turn.
 pub(super) fn draw_legend<DB: DrawingBackend>(
     area: &Area<DB>,
     p: &Panel,
     colors: &[Color],
+    markers: &[Option<Marker>],
     lb: &LegendBox,
     (x, y): P,
     sz: Sizes,
@@ -180,13 +212,6 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         draw_text(area, &p.legend_title, &style, (x_sample, row_y))?;
         row_y += lb.row;
     }
-    let color_of = |i: usize| {
-        if p.series[i].legend_ink {
-            INK
-        } else {
-            rgb(colors[i])
-        }
-    };
     for e in &lb.entries {
         if let Some((c, dashed)) = e.line {
             let color = c.map_or(GREY, rgb);
@@ -196,8 +221,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
             row_y += lb.row;
             continue;
         }
-        // One sample for all the series of the entry: the line of the first
-        // drawn as a line, the marker of the first drawn with markers on it.
+        let shades: Vec<RGBColor> = entry_colors(e, colors).into_iter().map(rgb).collect();
         let line = e.series.iter().find(|&&i| {
             !matches!(
                 p.series[i].style,
@@ -205,14 +229,40 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
             )
         });
         if let Some(&i) = line {
-            stroke(
-                area,
-                &[(x_sample, row_y), (x_sample + lb.sample, row_y)],
-                color_of(i),
-                sz.line,
-                p.series[i].dashed,
-                sz,
-            )?;
+            let s = &p.series[i];
+            let ends = [(x_sample, row_y), (x_sample + lb.sample, row_y)];
+            let pieces = if Dash::of(s) == Dash::Dashed {
+                // Half a dash, a gap, a dash (under the marker), a gap, half
+                // a dash: both gaps show beside the marker.
+                let (on, off) = dash_pattern(sz.line, sz);
+                let at = |d: f64| (x_sample + d.min(lb.sample), row_y);
+                let (a, b) = (0.5 * on, 0.5 * on + off);
+                vec![
+                    vec![at(0.0), at(a)],
+                    vec![at(b), at(b + on)],
+                    vec![at(b + on + off), at(lb.sample)],
+                ]
+            } else if Dash::of(s) == Dash::Dotted {
+                pieces(&ends, Dash::Dotted, sz.line, sz)
+            } else if shades.len() > 1 {
+                let n = shades.len() as f64;
+                (0..shades.len())
+                    .map(|k| {
+                        let at = |f: f64| (x_sample + f * lb.sample, row_y);
+                        vec![at(k as f64 / n), at((k as f64 + 1.0) / n)]
+                    })
+                    .collect()
+            } else {
+                vec![ends.to_vec()]
+            };
+            for (k, d) in pieces.iter().enumerate() {
+                let c = if shades.len() > 1 {
+                    shades[k % shades.len()]
+                } else {
+                    rgb(colors[i])
+                };
+                stroke_over(area, d, c, sz.line, Dash::Solid, s.fit, sz)?;
+            }
         }
         let arrows = e
             .series
@@ -221,13 +271,29 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         let dots = e
             .series
             .iter()
-            .find(|&&i| !matches!(p.series[i].style, Style::Line | Style::Arrows));
+            .find(|&&i| markers[i].is_some() && p.series[i].style != Style::Arrows);
         if let Some(&i) = arrows {
             let to = (x_sample + lb.sample, row_y);
-            arrow(area, (x_sample, row_y), to, color_of(i), sz)?;
+            arrow(area, (x_sample, row_y), to, rgb(colors[i]), sz)?;
         } else if let Some(&i) = dots {
-            let at = (x_sample + lb.sample / 2.0, row_y);
-            marker(area, p.series[i].marker, at, sz.marker, color_of(i))?;
+            let m = markers[i].expect("found with a marker");
+            let dotted: Vec<RGBColor> = e
+                .series
+                .iter()
+                .filter(|&&j| markers[j] == Some(m))
+                .map(|&j| rgb(colors[j]))
+                .fold(vec![], |mut v, c| {
+                    if !v.contains(&c) {
+                        v.push(c);
+                    }
+                    v
+                });
+            let n = dotted.len();
+            for (k, c) in dotted.into_iter().enumerate() {
+                let f = (k as f64 + 0.5) / n as f64;
+                let at = (x_sample + f * lb.sample, row_y);
+                marker(area, m, at, sz.marker, c)?;
+            }
         }
         draw_text(area, &e.label, &style, (x_text, row_y))?;
         row_y += lb.row;
