@@ -23,6 +23,7 @@ pub mod compare;
 pub mod compression;
 pub mod fit;
 pub mod join;
+pub mod joint_fit;
 pub mod plot;
 pub mod run_summary;
 pub mod simulate;
@@ -49,6 +50,7 @@ pub fn register(r: &mut Registry) {
     r.register(fit::Fit);
     r.register(fit::Collapse);
     r.register(join::Join);
+    r.register(joint_fit::JointFit);
     r.register(compare::Compare);
     r.register(plot::Plot);
     r.register(synthetic::SyntheticCoverage);
