@@ -5,7 +5,7 @@
 use super::Engine;
 use crate::sim::events::disk::{Disk, NONE};
 use crate::sim::events::pair_scan::nearest_image;
-use crate::sim::run::resources::big_vec;
+use crate::sim::big_vec::big_vec;
 
 /// The neighbour lists, owned by this module.
 pub(super) struct Lists {
