@@ -7,10 +7,11 @@ use anyhow::{Result, bail};
 use serde_json::Value;
 
 use super::group::fit_group;
-use super::params::{FitForm, FitParams, Refits};
+use super::params::{FitForm, FitParams};
+use crate::fit::uncertainty::replicas::Refits;
 use super::pooling::pool_one_unit_errors;
 use super::quantities::same_columns;
-use super::{ERROR_METHOD, JACKKNIFE_FILE, MODULES};
+use super::{ERROR_METHOD, JACKKNIFE_FILE};
 use crate::fit::catalogue;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
@@ -85,7 +86,7 @@ impl StageKind for Fit {
         s
     }
     fn modules(&self) -> &[&str] {
-        MODULES
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: FitParams = typed("fit", params)?;
