@@ -15,8 +15,12 @@
 //! - [`compression`]: how far the initial compression gets (stability maps).
 //! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
 //!
-//! Each kind names exactly the source modules it depends on, so editing a plot
-//! adapter never reruns a simulation.
+//! Each kind names its own file (`file!()`); its code fingerprint hashes every
+//! module that file reaches through the import graph, and the lock entries of
+//! the crates they use (`pipeline::fingerprint`), so editing a plot adapter
+//! never reruns a simulation and no module a kind runs is left out of its key.
+//! The statistics of the fits live in the library ([`crate::fit::uncertainty`]);
+//! these files read parameters and tables, call it and write tables.
 
 pub mod analyse;
 pub mod compare;
