@@ -499,7 +499,9 @@ fn collect(child: &mut Child) -> std::sync::Arc<Mutex<String>> {
                 if n == 0 {
                     break;
                 }
-                out.lock().unwrap().push_str(&String::from_utf8_lossy(&buf[..n]));
+                out.lock()
+                    .unwrap()
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
             }
         });
     }
@@ -611,7 +613,10 @@ fn a_run_longer_than_the_partition_limit_finishes_through_a_chain() {
         .map(|(p, _)| p)
         .collect();
     assert!(
-        !resumed.is_empty() && resumed.iter().all(|p| *p != &PathBuf::from(format!("{first}.log"))),
+        !resumed.is_empty()
+            && resumed
+                .iter()
+                .all(|p| *p != &PathBuf::from(format!("{first}.log"))),
         "logs resuming: {resumed:?} (the first job: {first}); logs: {:?}",
         logs.keys().collect::<Vec<_>>()
     );

@@ -363,7 +363,13 @@ pub fn run(c: Commands) -> Result<()> {
             let mut without = Vec::new();
             if figures.all {
                 for id in pipeline::Catalogue::load(&ws.root)?.pipelines.keys() {
-                    match pipeline::figure_status(&ws, &reg, std::slice::from_ref(id), &profile, &[]) {
+                    match pipeline::figure_status(
+                        &ws,
+                        &reg,
+                        std::slice::from_ref(id),
+                        &profile,
+                        &[],
+                    ) {
                         Ok(_) => ids.push(id.clone()),
                         Err(e) if format!("{e:#}").contains(&format!("no profile '{profile}'")) => {
                             without.push(format!("{id}: {e:#}"))

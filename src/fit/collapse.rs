@@ -39,13 +39,7 @@ pub type Rescale<'a> = &'a dyn Fn(&[f64], &Curve, f64, f64, f64) -> (f64, f64, f
 /// The curves of a collapse from a table's columns, one per value of `by`
 /// (named `by_name`) with at least two points of
 /// positive x, y and error, in ascending order of that value.
-pub fn curves_by(
-    by_name: &str,
-    x: &[f64],
-    y: &[f64],
-    e: &[f64],
-    by: &[f64],
-) -> Vec<Curve> {
+pub fn curves_by(by_name: &str, x: &[f64], y: &[f64], e: &[f64], by: &[f64]) -> Vec<Curve> {
     let mut m: std::collections::BTreeMap<u64, Curve> = Default::default();
     for i in 0..x.len() {
         let ok = x[i] > 0.0 && y[i] > 0.0 && e[i] > 0.0 && y[i].is_finite() && e[i].is_finite();

@@ -364,7 +364,9 @@ fn resolve(
             abs.push(s.clone());
         }
     }
-    let n = (0..=abs.len()).rev().find(|&n| modules.contains(&abs[..n]))?;
+    let n = (0..=abs.len())
+        .rev()
+        .find(|&n| modules.contains(&abs[..n]))?;
     let (module, rest) = (abs[..n].to_vec(), &abs[n..]);
     if depth < 8
         && let Some(first) = rest.first()
@@ -488,7 +490,8 @@ impl Sources {
         }
         let is_test = |m: &[String]| (1..=m.len()).any(|n| test_only.contains(&m[..n]));
         parsed.retain(|(p, _, _)| !is_test(&p.module));
-        let modules: BTreeSet<Vec<String>> = parsed.iter().map(|(p, _, _)| p.module.clone()).collect();
+        let modules: BTreeSet<Vec<String>> =
+            parsed.iter().map(|(p, _, _)| p.module.clone()).collect();
         // Re-exports first: `pub use` names the file itself does not use.
         let mut reexports: Reexports = BTreeMap::new();
         for (p, _, _) in &parsed {
@@ -514,10 +517,7 @@ impl Sources {
             out.insert(key_of(&p.module), Module { hash, deps, crates });
         }
         let lock = parse_lock(&fs::read_to_string(lock).expect("Cargo.lock readable"));
-        Sources {
-            modules: out,
-            lock,
-        }
+        Sources { modules: out, lock }
     }
 
     /// As text, one record a line (what build.rs writes into the binary).
@@ -682,7 +682,12 @@ impl Sources {
         for (k, m) in &self.modules {
             let Some(from) = group(k) else { continue };
             let e = graph.entry(from.clone()).or_default();
-            e.extend(m.deps.iter().filter_map(|d| group(d)).filter(|d| *d != from));
+            e.extend(
+                m.deps
+                    .iter()
+                    .filter_map(|d| group(d))
+                    .filter(|d| *d != from),
+            );
         }
         find_cycle(&graph)
     }
@@ -731,8 +736,9 @@ mod tests {
         );
         assert_eq!(normalise("a :: { B as C ,\n d }"), "a::{B as C,d}");
         assert_eq!(alias("a::B as C"), ("a::B".to_string(), "C".to_string()));
-        let (code, tests) =
-            non_test_code("use super::g;\n#[cfg(test)]\nmod tests;\n#[cfg(test)]\nmod t {\n    use super::x;\n}\n");
+        let (code, tests) = non_test_code(
+            "use super::g;\n#[cfg(test)]\nmod tests;\n#[cfg(test)]\nmod t {\n    use super::x;\n}\n",
+        );
         assert_eq!(tests, ["tests"]);
         let mut crates = BTreeSet::new();
         let named = paths(&code, &mut crates);
@@ -753,7 +759,10 @@ mod tests {
                 ("crate::x::y".to_string(), true),
             ]
         );
-        assert!(crates.contains("serde") && crates.contains("anyhow"), "{crates:?}");
+        assert!(
+            crates.contains("serde") && crates.contains("anyhow"),
+            "{crates:?}"
+        );
         assert_eq!(module_key("src/stages/fit/mod.rs"), "stages/fit");
         assert_eq!(module_key("stages/simulate"), "stages/simulate");
     }

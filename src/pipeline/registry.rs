@@ -91,7 +91,9 @@ pub fn code_fingerprint(name: &str, modules: &[&str]) -> Result<Fingerprint> {
 
 /// [`code_fingerprint`] over any sources (tests read an edited copy).
 pub fn code_fingerprint_in(sources: &Sources, name: &str, modules: &[&str]) -> Result<Fingerprint> {
-    sources.fingerprint(name, modules).map_err(anyhow::Error::msg)
+    sources
+        .fingerprint(name, modules)
+        .map_err(anyhow::Error::msg)
 }
 
 impl Registry {

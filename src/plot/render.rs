@@ -22,8 +22,8 @@ mod labels;
 mod legend;
 pub(super) use ink::spans;
 use ink::{
-    Area, Frame, GREY, INK, NOTE, Sizes, draw_text, err, marker, polyline, px, rgb, stroke,
-    text_size, text_style, arrow,
+    Area, Frame, GREY, INK, NOTE, Sizes, arrow, draw_text, err, marker, polyline, px, rgb, stroke,
+    text_size, text_style,
 };
 pub(super) use labels::labelled_lines;
 use labels::{fill_rect, marks, ref_labels};

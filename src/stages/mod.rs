@@ -86,7 +86,11 @@ mod tests {
             return src.join("lib.rs");
         }
         let file = src.join(format!("{key}.rs"));
-        if file.exists() { file } else { src.join(key).join("mod.rs") }
+        if file.exists() {
+            file
+        } else {
+            src.join(key).join("mod.rs")
+        }
     }
 
     /// A copy of the sources and the lock in a temporary directory.
@@ -205,10 +209,17 @@ mod tests {
         let edit = |t: &str| format!("{t}\npub fn an_edit() {{}}\n");
         assert_eq!(copy.edited(&palette, edit, &kinds)[0], base[0]);
         let engine = copy.src.join("sim/engine/mod.rs");
-        let import = |t: &str| format!("{t}\n#[allow(unused_imports)]\nuse crate::plot::viridis;\n");
+        let import =
+            |t: &str| format!("{t}\n#[allow(unused_imports)]\nuse crate::plot::viridis;\n");
         assert_ne!(copy.edited(&engine, import, &kinds)[0], base[0]);
         // The fits run rmpfit; the simulator does not.
-        let bump = |t: &str| t.replacen("name = \"rmpfit\"\nversion = \"", "name = \"rmpfit\"\nversion = \"0.", 1);
+        let bump = |t: &str| {
+            t.replacen(
+                "name = \"rmpfit\"\nversion = \"",
+                "name = \"rmpfit\"\nversion = \"0.",
+                1,
+            )
+        };
         let after = copy.edited(&copy.lock, bump, &kinds);
         assert_eq!(after[0], base[0], "simulate moved with rmpfit");
         assert_ne!(after[1], base[1], "fit did not move with rmpfit");

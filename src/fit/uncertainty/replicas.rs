@@ -376,7 +376,10 @@ mod tests {
         assert_eq!(r.refits.as_ref().map(Vec::len), Some(4));
         // Unit 1: means 5.05, 4.95; unit 2: 5.0, 5.1 -> variance 0.0025 + 0.0025.
         assert!((rows[0].2 - 0.005f64.sqrt()).abs() < 1e-12, "{}", rows[0].2);
-        assert!(method.starts_with("delete-one jackknife over replicas"), "{method}");
+        assert!(
+            method.starts_with("delete-one jackknife over replicas"),
+            "{method}"
+        );
         assert!(r.pooled.is_none() && r.samples.is_none());
         // One sample short of two: impossible, the covariance error stays.
         let short: Replicas = (jk.0.clone(), Vec::new(), vec![jk.2[0].clone()]);

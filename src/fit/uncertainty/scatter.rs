@@ -108,7 +108,9 @@ mod tests {
     fn the_relative_scatter_brings_the_reduced_chi2_to_one() {
         let factor = [1.15, 1.0, 0.85];
         let x: Vec<f64> = (1..=15).map(|i| 1.5 * i as f64).collect();
-        let y: Vec<f64> = (0..x.len()).map(|i| 3.0 * x[i].powf(-0.7) * factor[i % 3]).collect();
+        let y: Vec<f64> = (0..x.len())
+            .map(|i| 3.0 * x[i].powf(-0.7) * factor[i % 3])
+            .collect();
         let s: Vec<f64> = y.iter().map(|v| 2e-3 * v).collect();
         let (m, alone) = relative_scatter(&y, &s, |s| power_law(&x, &y, s)).unwrap();
         assert!(alone > 1000.0, "{alone}");
@@ -117,7 +119,12 @@ mod tests {
         assert!((f.reduced_chi2 - 1.0).abs() < 1e-3, "{}", f.reduced_chi2);
         // Errors that describe the scatter already: none added.
         let big: Vec<f64> = y.iter().map(|v| 0.5 * v).collect();
-        assert_eq!(relative_scatter(&y, &big, |s| power_law(&x, &y, s)).unwrap().0, 0.0);
+        assert_eq!(
+            relative_scatter(&y, &big, |s| power_law(&x, &y, s))
+                .unwrap()
+                .0,
+            0.0
+        );
     }
 
     /// Non-finite points go; errors that are missing, non-positive or of

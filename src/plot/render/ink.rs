@@ -93,7 +93,11 @@ pub(in crate::plot) fn spans(text: &str) -> Vec<(&str, i8)> {
 /// Sub- and superscripts are set at this fraction of the text size.
 pub(super) const SCRIPT: f64 = 0.7;
 
-pub(super) fn text_size<DB: DrawingBackend>(area: &Area<DB>, text: &str, size: f64) -> Result<(f64, f64)> {
+pub(super) fn text_size<DB: DrawingBackend>(
+    area: &Area<DB>,
+    text: &str,
+    size: f64,
+) -> Result<(f64, f64)> {
     let (mut w, mut h) = (0.0, 0.0);
     for (piece, level) in spans(text) {
         if piece.is_empty() {

@@ -8,11 +8,11 @@ use serde_json::Value;
 
 use super::group::fit_group;
 use super::params::{FitForm, FitParams};
-use crate::fit::uncertainty::replicas::Refits;
 use super::pooling::pool_one_unit_errors;
 use super::quantities::same_columns;
 use super::{ERROR_METHOD, JACKKNIFE_FILE};
 use crate::fit::catalogue;
+use crate::fit::uncertainty::replicas::Refits;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::stages::tables::{Columns, inputs_of, source_stages};
