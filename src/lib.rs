@@ -17,16 +17,21 @@ pub mod study;
 pub mod table;
 pub mod traj;
 
-/// Blake3 fingerprints of each source module folder, computed at build time.
+/// The sources as build.rs read them ([`pipeline::fingerprint::Sources`]): what
+/// every stage kind's code fingerprint is derived from.
 pub mod fingerprints {
-    include!(concat!(env!("OUT_DIR"), "/fingerprints.rs"));
+    use std::sync::OnceLock;
 
-    /// The fingerprint of one module folder or file under src/ (e.g. "sim",
-    /// "stages/simulate"), if it exists.
-    pub fn of(module: &str) -> Option<&'static str> {
-        FINGERPRINTS
-            .iter()
-            .find(|(m, _)| *m == module)
-            .map(|(_, h)| *h)
+    use crate::pipeline::fingerprint::Sources;
+
+    /// The compiler that built this binary (`rustc --version`).
+    pub const RUSTC_VERSION: &str = env!("REPRO_RUSTC_VERSION");
+
+    /// The sources of this build, parsed once.
+    pub fn sources() -> &'static Sources {
+        static SOURCES: OnceLock<Sources> = OnceLock::new();
+        SOURCES.get_or_init(|| {
+            Sources::from_text(include_str!(concat!(env!("OUT_DIR"), "/sources.txt")))
+        })
     }
 }

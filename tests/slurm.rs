@@ -484,9 +484,72 @@ fn long_trajectory(store: &Path) -> Vec<u8> {
     panic!("no simulate entry in {}", store.display());
 }
 
-/// Two minutes of two CPUs (a run longer than Slurm's shortest time limit,
-/// built twice): run by `make test-slurm`, not by `make test`, whose CI run
-/// must stay under 20 minutes on 2 cores.
+/// The child's stdout and stderr as they come, in one string.
+fn collect(child: &mut Child) -> std::sync::Arc<Mutex<String>> {
+    let out = std::sync::Arc::new(Mutex::new(String::new()));
+    let pipes: Vec<Box<dyn Read + Send>> = vec![
+        Box::new(child.stdout.take().unwrap()),
+        Box::new(child.stderr.take().unwrap()),
+    ];
+    for mut pipe in pipes {
+        let out = out.clone();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = pipe.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                out.lock()
+                    .unwrap()
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        });
+    }
+    out
+}
+
+/// The first job of the chain the submitter announced, once the store holds a
+/// checkpoint of its simulation.
+fn first_job_at_a_checkpoint(root: &Path, out: &Mutex<String>, child: &mut Child) -> String {
+    let t0 = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!(
+                "the submitter ended ({status}) before a checkpoint:\n{}",
+                out.lock().unwrap()
+            );
+        }
+        let text = out.lock().unwrap().clone();
+        let first = text
+            .split("submitted Slurm job chain ")
+            .nth(1)
+            .and_then(|r| r.split_whitespace().next())
+            .map(str::to_string);
+        // checkpoints/KEY/tTIME.ckpt (listed only: the run replaces them).
+        let checkpointed = std::fs::read_dir(root.join(".repro/store/checkpoints"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter_map(|d| std::fs::read_dir(d.path()).ok())
+            .flatten()
+            .flatten()
+            .any(|f| f.path().extension().is_some_and(|x| x == "ckpt"));
+        if let (Some(first), true) = (first, checkpointed) {
+            return first;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(180),
+            "no checkpoint within 180 s:\n{text}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Two minutes of two CPUs (a run planned longer than Slurm's shortest time
+/// limit, built twice): run by `make test-slurm`, not by `make test`, whose CI
+/// run must stay under 20 minutes on 2 cores. The first job is ended at its
+/// first checkpoint by the test, so a later one resumes however fast the
+/// machine is.
 #[test]
 #[ignore = "two minutes: run by `make test-slurm`"]
 fn a_run_longer_than_the_partition_limit_finishes_through_a_chain() {
@@ -519,19 +582,43 @@ fn a_run_longer_than_the_partition_limit_finishes_through_a_chain() {
         let local = local.clone();
         move || run(&mut figure(&local, false))
     });
-    let o = run(&mut figure(&remote, true));
-    let t = text(&o);
-    assert!(o.status.success(), "{t}");
+    let mut child = figure(&remote, true)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = collect(&mut child);
+    // The first job of the chain ends at its first checkpoint whatever the
+    // machine's speed: the test sends it what Slurm sends at a time limit
+    // (SIGTERM, then SIGKILL), so the run cannot finish inside it.
+    let first = first_job_at_a_checkpoint(&remote, &out, &mut child);
+    assert!(
+        Command::new("scancel")
+            .arg(&first)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let status = child.wait().unwrap();
+    let t = out.lock().unwrap().clone();
+    eprintln!("{t}");
+    assert!(status.success(), "{t}");
     assert!(t.contains("submitted Slurm job chain"), "{t}");
     assert!(local_build.join().unwrap().status.success());
-    // A later job of the chain resumed from a checkpoint.
-    let logs: String = files(&remote.join(".repro/store/jobs/log"))
-        .into_values()
-        .map(|b| String::from_utf8_lossy(&b).into_owned())
+    // A later job of the chain resumed from the first job's checkpoint.
+    let logs = files(&remote.join(".repro/store/jobs/log"));
+    let resumed: Vec<&PathBuf> = logs
+        .iter()
+        .filter(|(_, b)| String::from_utf8_lossy(b).contains("resumed from the checkpoint at t = "))
+        .map(|(p, _)| p)
         .collect();
     assert!(
-        logs.contains("resumed from the checkpoint at t = "),
-        "{logs}"
+        !resumed.is_empty()
+            && resumed
+                .iter()
+                .all(|p| *p != &PathBuf::from(format!("{first}.log"))),
+        "logs resuming: {resumed:?} (the first job: {first}); logs: {:?}",
+        logs.keys().collect::<Vec<_>>()
     );
     assert!(
         long_trajectory(&remote.join(".repro/store"))

@@ -1,5 +1,5 @@
 //! The observables a pipeline can ask for, by name: one line each in [`OBSERVABLES`]
-//! (name, what it computes, its source modules, its function). The generic
+//! (name, what it computes, its function). The generic
 //! analysis stage (`stages::analyse`) turns every line into a stage kind, and
 //! [`super::run`] calls the same line on one trajectory: a name means one thing.
 //!
@@ -51,8 +51,6 @@ pub struct Observable {
     pub name: &'static str,
     /// One line: what it computes and its columns.
     pub describe: &'static str,
-    /// Source modules under `src/` computing it (its stage's code fingerprint).
-    pub modules: &'static [&'static str],
     /// Check parameters (typed; unknown keys and wrong types are errors).
     pub validate: fn(&Value) -> Result<()>,
     /// Compute it from the gathered trajectories.
@@ -176,20 +174,6 @@ fn concat_arrays(parts: &[&dyn arrow_array::Array]) -> Result<ArrayRef> {
     )
 }
 
-const OVERLAP: &[&str] = &[
-    "analysis/overlap",
-    "analysis/lags",
-    "analysis/stats",
-    "analysis/subbox",
-];
-const CHI4: &[&str] = &[
-    "analysis/chi4",
-    "analysis/overlap",
-    "analysis/lags",
-    "analysis/stats",
-    "analysis/subbox",
-];
-
 /// Every observable, one line each. A new observable is one function in its module
 /// of `src/analysis` and one line here.
 pub static OBSERVABLES: &[Observable] = &[
@@ -197,7 +181,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "overlap",
         at: lags::AtLag::Interpolate,
         describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
-        modules: OVERLAP,
         validate: |v| typed::<overlap::Params>("overlap", v).map(drop),
         compute: |t, v| {
             let p = overlap_params("overlap", t, v)?;
@@ -215,7 +198,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "tau_alpha",
         at: lags::AtLag::Interpolate,
         describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
-        modules: OVERLAP,
         validate: |v| typed::<overlap::Params>("tau_alpha", v).map(drop),
         compute: |t, v| {
             let p = overlap_params("tau_alpha", t, v)?;
@@ -232,7 +214,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "q_levels",
         at: lags::AtLag::Interpolate,
         describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
-        modules: OVERLAP,
         validate: |v| typed::<overlap::LevelParams>("q_levels", v).map(drop),
         compute: |t, v| {
             let mut p: overlap::LevelParams = typed("q_levels", v)?;
@@ -244,7 +225,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "aging",
         at: lags::AtLag::Interpolate,
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
-        modules: OVERLAP,
         validate: |v| typed::<overlap::Params>("aging", v).map(drop),
         compute: |t, v| {
             let p = overlap_params("aging", t, v)?;
@@ -261,7 +241,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "chi4",
         at: lags::AtLag::Interpolate,
         describe: "chi4(t) (paper H, Eq. 14) per sub-box size N, pooled replicas: N, t, Q, chi4, chi4_err, n_origins",
-        modules: CHI4,
         validate: |v| chi4_params("chi4", v).map(drop),
         compute: |t, v| {
             let p = chi4_pooled("chi4", t, v)?;
@@ -272,7 +251,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "chi4_peaks",
         at: lags::AtLag::Interpolate,
         describe: "chi4 peak per sub-box size with tau_alpha and chi4(tau_alpha): N, tau4, chi4P, tau_alpha, chi4_tau_alpha (+ _err)",
-        modules: CHI4,
         validate: |v| chi4_params("chi4_peaks", v).map(drop),
         compute: |t, v| {
             let p = chi4_pooled("chi4_peaks", t, v)?;
@@ -283,7 +261,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "s4",
         at: lags::AtLag::Interpolate,
         describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
-        modules: &["analysis/s4", "analysis/lags", "analysis/stats"],
         validate: |v| typed::<s4::Params>("s4", v).map(drop),
         compute: |t, v| {
             let p: s4::Params = typed("s4", v)?;
@@ -295,7 +272,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "msd",
         at: lags::AtLag::Interpolate,
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
-        modules: &["analysis/msd", "analysis/lags", "analysis/stats"],
         validate: |v| typed::<msd::Params>("msd", v).map(drop),
         compute: |t, v| {
             let mut p: msd::Params = typed("msd", v)?;
@@ -312,13 +288,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "diffusion",
         at: lags::AtLag::Interpolate,
         describe: "D from the long-time MSD slope over [fit_min_tau, fit_max_tau] x tau_alpha (Fig. 9), one jackknife: D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points",
-        modules: &[
-            "analysis/msd",
-            "analysis/overlap",
-            "analysis/lags",
-            "analysis/stats",
-            "analysis/subbox",
-        ],
         validate: |v| typed::<msd::DiffusionParams>("diffusion", v).map(drop),
         compute: |t, v| {
             let p: msd::DiffusionParams = typed("diffusion", v)?;
@@ -329,7 +298,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "van_hove",
         at: lags::AtLag::Interpolate,
         describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
-        modules: &["analysis/van_hove", "analysis/lags", "analysis/stats"],
         validate: |v| typed::<van_hove::Params>("van_hove", v).map(drop),
         compute: |t, v| per_replica("van_hove", t, v, van_hove::compute),
     },
@@ -337,7 +305,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "gr",
         at: lags::AtLag::Interpolate,
         describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
-        modules: &["analysis/gr", "analysis/neighbours"],
         validate: |v| typed::<gr::Params>("gr", v).map(drop),
         compute: |t, v| per_replica("gr", t, v, gr::compute),
     },
@@ -345,12 +312,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "clusters",
         at: lags::AtLag::Nearest,
         describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
-        modules: &[
-            "analysis/clusters",
-            "analysis/gr",
-            "analysis/neighbours",
-            "analysis/lags",
-        ],
         validate: |v| typed::<clusters::Params>("clusters", v).map(drop),
         compute: |t, v| {
             let b = concat("clusters", t, v, clusters::compute)?;
@@ -363,12 +324,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "cluster_sizes",
         at: lags::AtLag::Nearest,
         describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
-        modules: &[
-            "analysis/clusters",
-            "analysis/gr",
-            "analysis/neighbours",
-            "analysis/lags",
-        ],
         validate: |v| typed::<clusters::Params>("cluster_sizes", v).map(drop),
         compute: |t, v| {
             let p: clusters::Params = typed("cluster_sizes", v)?;
@@ -390,7 +345,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "mobility_snapshot",
         at: lags::AtLag::Nearest,
         describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
-        modules: &["analysis/clusters", "analysis/lags"],
         validate: |v| typed::<clusters::Params>("mobility_snapshot", v).map(drop),
         compute: |t, v| {
             let b = concat("mobility_snapshot", t, v, clusters::compute_snapshot)?;
@@ -401,7 +355,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_velocity",
         at: lags::AtLag::Interpolate,
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
-        modules: &["analysis/intruder", "sim/model/enskog", "sim/model/kicks"],
         validate: |v| typed::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {
             let p: intruder::VelocityParams = typed("intruder_velocity", v)?;
@@ -413,7 +366,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_path",
         at: lags::AtLag::Interpolate,
         describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
-        modules: &["analysis/intruder"],
         validate: |v| typed::<intruder::VelocityParams>("intruder_path", v).map(drop),
         compute: |t, v| {
             let b = concat("intruder_path", t, v, intruder::compute_path)?;
@@ -424,7 +376,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_diffusion",
         at: lags::AtLag::Interpolate,
         describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
-        modules: &["analysis/intruder"],
         validate: |v| typed::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
         compute: |t, v| {
             let p: intruder::DiffusionParams = typed("intruder_diffusion", v)?;
@@ -438,7 +389,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "momentum_profile",
         at: lags::AtLag::Interpolate,
         describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
-        modules: &["analysis/intruder"],
         validate: |v| typed::<intruder::ProfileParams>("momentum_profile", v).map(drop),
         compute: |t, v| per_replica("momentum_profile", t, v, intruder::compute_profile),
     },
@@ -446,7 +396,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "velocity_field",
         at: lags::AtLag::Interpolate,
         describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
-        modules: &["analysis/front"],
         validate: |v| typed::<front::FieldParams>("velocity_field", v).map(drop),
         compute: |t, v| {
             let p: front::FieldParams = typed("velocity_field", v)?;
@@ -463,7 +412,6 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "front",
         at: lags::AtLag::Interpolate,
         describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
-        modules: &["analysis/front", "analysis/intruder"],
         validate: |v| typed::<front::FrontParams>("front", v).map(drop),
         compute: |t, v| {
             let p: front::FrontParams = typed("front", v)?;

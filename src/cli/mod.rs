@@ -62,7 +62,16 @@ fn kinds() {
         for line in details.lines() {
             println!("    {line}");
         }
-        println!("    code: src/{}", k.modules().join(", src/"));
+        println!(
+            "    code: {} (with what it imports: {} modules, {} crates)",
+            k.modules()
+                .iter()
+                .map(|m| format!("src/{}.rs", crate::pipeline::fingerprint::module_key(m)))
+                .collect::<Vec<_>>()
+                .join(", "),
+            reg.modules(&name).len(),
+            reg.crates(&name).len()
+        );
     }
 }
 

@@ -122,6 +122,8 @@ pub enum Commands {
     /// force kicks, frames) and planned CPU time, the total and the longest.
     /// With `--check`, beside each the CPU time its recorded run took (cached
     /// stages only), failing if any is off by more than `--factor` either way.
+    /// `--all` plans every figure whose experiments have the profile and lists
+    /// the others.
     ///
     /// Examples: `repro plan --all --profile small`, `repro plan --all --check`.
     Plan {
@@ -354,14 +356,49 @@ pub fn run(c: Commands) -> Result<()> {
             root,
         } => {
             let ws = root.workspace();
-            let ids = figures.ids(&ws)?;
+            let mut ids = figures.ids(&ws)?;
             let profile = figures.profile;
+            // `--all`: every figure that the profile reaches, the others listed
+            // (a figure whose experiments have no `paper` profile, say).
+            let mut without = Vec::new();
+            if figures.all {
+                for id in pipeline::Catalogue::load(&ws.root)?.pipelines.keys() {
+                    match pipeline::figure_status(
+                        &ws,
+                        &reg,
+                        std::slice::from_ref(id),
+                        &profile,
+                        &[],
+                    ) {
+                        Ok(_) => ids.push(id.clone()),
+                        Err(e) if format!("{e:#}").contains(&format!("no profile '{profile}'")) => {
+                            without.push(format!("{id}: {e:#}"))
+                        }
+                        Err(e) => return Err(e),
+                    }
+                }
+                if ids.is_empty() {
+                    bail!(
+                        "no figure can be planned at profile '{profile}':\n  {}",
+                        without.join("\n  ")
+                    );
+                }
+            }
             let check = check.then_some(crate::study::plan::Check {
                 factor,
                 min_seconds,
             });
             let report = crate::study::plan::plan(&ws, &reg, &ids, &profile, check.as_ref())?;
             print!("{}", report.text);
+            if !without.is_empty() {
+                println!(
+                    "\nnot planned at profile '{profile}' ({} figure(s)):",
+                    without.len()
+                );
+                for w in &without {
+                    println!("  {w}");
+                }
+            }
             if let Some(c) = &check
                 && report.outside > 0
             {

@@ -36,6 +36,32 @@ pub struct Curve {
 /// X and Y must come out > 0 (the comparison is on log-log axes).
 pub type Rescale<'a> = &'a dyn Fn(&[f64], &Curve, f64, f64, f64) -> (f64, f64, f64);
 
+/// The curves of a collapse from a table's columns, one per value of `by`
+/// (named `by_name`) with at least two points of
+/// positive x, y and error, in ascending order of that value.
+pub fn curves_by(by_name: &str, x: &[f64], y: &[f64], e: &[f64], by: &[f64]) -> Vec<Curve> {
+    let mut m: std::collections::BTreeMap<u64, Curve> = Default::default();
+    for i in 0..x.len() {
+        let ok = x[i] > 0.0 && y[i] > 0.0 && e[i] > 0.0 && y[i].is_finite() && e[i].is_finite();
+        if !ok {
+            continue;
+        }
+        let cv = m.entry(by[i].to_bits()).or_insert_with(|| Curve {
+            label: format!("{by_name}={}", by[i]),
+            param: by[i],
+            x: vec![],
+            y: vec![],
+            sigma: vec![],
+        });
+        cv.x.push(x[i]);
+        cv.y.push(y[i]);
+        cv.sigma.push(e[i]);
+    }
+    let mut curves: Vec<Curve> = m.into_values().filter(|c| c.x.len() >= 2).collect();
+    curves.sort_by(|a, b| a.param.total_cmp(&b.param));
+    curves
+}
+
 /// How well the rescaled curves fall on one another.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Quality {

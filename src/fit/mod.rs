@@ -10,6 +10,8 @@
 //! - [`collapse`]: scaling exponents by minimising the spread of rescaled curves.
 //! - [`rescalings`]: the named rescalings of a collapse (Figs. 13, 14 of paper H).
 //! - [`ranges`]: the same fit over several ranges, with the spread of the results.
+//! - [`uncertainty`]: errors beyond the covariance: replica jackknife, model
+//!   scatter, leverage, pooled scales.
 //! - [`stability`]: coverage of every form's errors on synthetic data, and the bias of a
 //!   divergence fitted close to the data.
 //!
@@ -27,6 +29,7 @@ pub mod ranges;
 pub mod rescalings;
 mod result;
 pub mod stability;
+pub mod uncertainty;
 
 pub use error::FitError;
 pub use least_squares::{FitOptions, least_squares};

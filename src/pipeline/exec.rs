@@ -561,13 +561,21 @@ pub fn status(
             Some(last) => {
                 reasons.extend(diff_params(&last.params, &node.params));
                 if last.fingerprint != fp {
-                    let modules = reg
+                    let own = reg
                         .get(&node.kind)
-                        .map(|k| k.modules().join(", "))
+                        .map(|k| {
+                            k.modules()
+                                .iter()
+                                .map(|m| crate::pipeline::fingerprint::module_key(m))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        })
                         .unwrap_or_default();
                     reasons.push(format!(
-                        "code of stage kind '{}' changed (modules: {modules})",
-                        node.kind
+                        "code of stage kind '{}' changed ({own} and the {} modules and {} crates it uses)",
+                        node.kind,
+                        reg.modules(&node.kind).len().saturating_sub(1),
+                        reg.crates(&node.kind).len()
                     ));
                 }
                 if last.inputs.len() != node.inputs.len() {

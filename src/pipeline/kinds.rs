@@ -35,7 +35,7 @@ impl StageKind for Table {
         "concatenate per-point tables, adding the grid and sweep values as columns"
     }
     fn modules(&self) -> &[&str] {
-        &["pipeline", "table"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<TableParams>("table", params).map(|_| ())

@@ -191,10 +191,6 @@ pub fn publish(
             let n = &graph.nodes[i];
             let r = &report.results[&i];
             let e = r.entry.as_ref();
-            let modules = reg
-                .get(&n.kind)
-                .map(|k| k.modules().to_vec())
-                .unwrap_or_default();
             json!({
                 "label": n.label(),
                 "kind": n.kind,
@@ -203,7 +199,8 @@ pub fn publish(
                 "point": n.point,
                 "seed": n.seed,
                 "code_fingerprint": reg.fingerprint(&n.kind),
-                "modules": modules,
+                "modules": reg.modules(&n.kind),
+                "crates": reg.crates(&n.kind),
                 "inputs": n.inputs.iter().map(|&j| graph.nodes[j].label()).collect::<Vec<_>>(),
                 "files": e.map(|e| e.files.clone()),
                 "wall_s": e.map(|e| e.wall_s),
@@ -219,6 +216,7 @@ pub fn publish(
         "profile": graph.profile,
         "repro_version": env!("CARGO_PKG_VERSION"),
         "git_commit": git_commit(root),
+        "rustc": crate::fingerprints::RUSTC_VERSION,
         "published": published,
         "stages": stages,
     });

@@ -12,7 +12,8 @@ use anyhow::{Context, Result, bail};
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 
-use super::canon::{ParamError, hash_fields};
+use super::canon::ParamError;
+use super::fingerprint::{Fingerprint, Sources};
 use super::stage::{Holds, StageKind, Work};
 
 /// Deserialize a kind's parameters into a typed struct (use
@@ -70,7 +71,7 @@ pub fn param_keys(validate: impl Fn(&Value) -> Result<()>) -> Vec<String> {
 
 struct Registered {
     kind: Arc<dyn StageKind>,
-    fingerprint: String,
+    fingerprint: Fingerprint,
 }
 
 /// The stage kinds the planner and executor know, with their code fingerprints.
@@ -79,37 +80,20 @@ pub struct Registry {
     kinds: BTreeMap<String, Registered>,
 }
 
-/// Fingerprint of a kind: hash of its name and its modules' build-time fingerprints.
-/// An unknown module name is an error: a misspelt or renamed module must not
-/// silently key every stage of the kind on a constant.
-pub fn code_fingerprint(name: &str, modules: &[&str]) -> Result<String> {
-    code_fingerprint_in(name, modules, crate::fingerprints::of)
+/// Fingerprint of a kind from the sources of this build: its own files
+/// ([`StageKind::modules`]) closed over the import graph, with the lock entries
+/// of the crates they use ([`Sources::fingerprint`]). A file that is no module
+/// under `src/` is an error: a misspelt or renamed file must not silently key
+/// every stage of the kind on a constant.
+pub fn code_fingerprint(name: &str, modules: &[&str]) -> Result<Fingerprint> {
+    code_fingerprint_in(crate::fingerprints::sources(), name, modules)
 }
 
-/// [`code_fingerprint`] over any table of module fingerprints (tests use one
-/// computed from an edited copy of the sources).
-pub fn code_fingerprint_in<'a>(
-    name: &str,
-    modules: &[&str],
-    of: impl Fn(&str) -> Option<&'a str>,
-) -> Result<String> {
-    if modules.is_empty() {
-        bail!("stage kind '{name}' names no source module");
-    }
-    let mut mods: Vec<&str> = modules.to_vec();
-    mods.sort();
-    let mut fields: Vec<Vec<u8>> = vec![name.as_bytes().to_vec()];
-    for m in mods {
-        let Some(fp) = of(m) else {
-            bail!(
-                "stage kind '{name}' names source module '{m}', which is not a folder or .rs file under src/"
-            );
-        };
-        fields.push(m.as_bytes().to_vec());
-        fields.push(fp.as_bytes().to_vec());
-    }
-    let refs: Vec<&[u8]> = fields.iter().map(|f| f.as_slice()).collect();
-    Ok(hash_fields("repro-code-v1", &refs).to_hex().to_string())
+/// [`code_fingerprint`] over any sources (tests read an edited copy).
+pub fn code_fingerprint_in(sources: &Sources, name: &str, modules: &[&str]) -> Result<Fingerprint> {
+    sources
+        .fingerprint(name, modules)
+        .map_err(anyhow::Error::msg)
 }
 
 impl Registry {
@@ -118,9 +102,10 @@ impl Registry {
         Registry::default()
     }
 
-    /// Add a kind; its fingerprint comes from its modules. Replaces a kind of the
-    /// same name. Panics when the kind names a module that does not exist under
-    /// `src/` (a programming error every test that builds the registry catches).
+    /// Add a kind; its fingerprint comes from its files' import closure. Replaces
+    /// a kind of the same name. Panics when the kind names a file that does not
+    /// exist under `src/` (a programming error every test that builds the
+    /// registry catches).
     pub fn register(&mut self, kind: impl StageKind + 'static) {
         let fingerprint = code_fingerprint(kind.name(), kind.modules()).unwrap_or_else(|e| {
             panic!("{e}");
@@ -138,7 +123,7 @@ impl Registry {
     pub fn set_fingerprint(&mut self, name: &str, fingerprint: &str) -> Result<()> {
         match self.kinds.get_mut(name) {
             Some(r) => {
-                r.fingerprint = fingerprint.to_string();
+                r.fingerprint.hash = fingerprint.to_string();
                 Ok(())
             }
             None => bail!("no stage kind '{name}' to set a fingerprint on"),
@@ -159,8 +144,24 @@ impl Registry {
     pub fn fingerprint(&self, name: &str) -> &str {
         self.kinds
             .get(name)
-            .map(|r| r.fingerprint.as_str())
+            .map(|r| r.fingerprint.hash.as_str())
             .unwrap_or("")
+    }
+
+    /// The source modules kind `name` runs (the closure its fingerprint
+    /// hashes), sorted; empty if unknown.
+    pub fn modules(&self, name: &str) -> &[String] {
+        self.kinds
+            .get(name)
+            .map_or(&[], |r| r.fingerprint.modules.as_slice())
+    }
+
+    /// `name version` of the crates kind `name` runs (the lock entries its
+    /// fingerprint hashes), sorted; empty if unknown.
+    pub fn crates(&self, name: &str) -> &[String] {
+        self.kinds
+            .get(name)
+            .map_or(&[], |r| r.fingerprint.crates.as_slice())
     }
 
     /// What the output of kind `name` holds ([`Holds::Results`] if unknown).
@@ -195,11 +196,13 @@ mod tests {
             "{e}"
         );
         assert!(code_fingerprint("chi4", &[]).is_err());
-        assert!(code_fingerprint("table", &["pipeline", "table"]).is_ok());
+        let f = code_fingerprint("table", &["src/pipeline/kinds.rs"]).unwrap();
+        assert!(f.modules.contains(&"pipeline/kinds".to_string()), "{f:?}");
+        assert!(f.modules.contains(&"pipeline/stage".to_string()), "{f:?}");
     }
 
     #[test]
-    #[should_panic(expected = "names source module 'no_such_module'")]
+    #[should_panic(expected = "'no_such_module' is not a source file")]
     fn registering_a_kind_with_a_misspelt_module_panics() {
         struct Bad;
         impl StageKind for Bad {

@@ -3,9 +3,10 @@
 //! when it is planned, the [`StageCtx`] it runs in, and the [`Work`] a kind plans.
 //!
 //! A kind is a pure function of (its canonical parameters, its input artifacts, the
-//! seed): the cache relies on that. Each kind names the source modules that
-//! implement it; their build-time fingerprints are part of every stage key, so an
-//! edit to the simulator reruns simulations and an edit to a plot reruns only plots.
+//! seed): the cache relies on that. Each kind names its own source file; the
+//! fingerprint of the modules that file reaches is part of every stage key, so
+//! an edit to the simulator reruns simulations and an edit to a plot reruns only
+//! plots.
 //!
 //! This file depends on nothing else of the framework but [`super::canon`] and
 //! [`super::checkpoints`]: the graph and the registry build on it.
@@ -37,7 +38,9 @@ pub trait StageKind: Send + Sync {
     fn details(&self) -> String {
         String::new()
     }
-    /// The source modules implementing this kind (folders or files under `src/`).
+    /// The kind's own source file(s) under `src/` (`&[file!()]`, or module
+    /// paths such as `stages/simulate`): its code fingerprint hashes every module
+    /// they reach through the import graph ([`super::fingerprint`]).
     fn modules(&self) -> &[&str];
     /// Check parameters before anything runs; the error says what is valid.
     fn validate(&self, params: &Value) -> Result<()>;

@@ -75,7 +75,7 @@ impl StageKind for ToySimulate {
         "toy_simulate"
     }
     fn modules(&self) -> &[&str] {
-        &["pipeline"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: SimParams = typed("toy_simulate", params)?;
@@ -127,7 +127,7 @@ impl StageKind for ToyAnalyse {
         "toy_analyse"
     }
     fn modules(&self) -> &[&str] {
-        &["pipeline"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: AnalyseParams = typed("toy_analyse", params)?;
@@ -176,7 +176,7 @@ impl StageKind for ToyFit {
         "toy_fit"
     }
     fn modules(&self) -> &[&str] {
-        &["pipeline"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<FitParams>("toy_fit", params).map(|_| ())
@@ -224,7 +224,7 @@ impl StageKind for ToyPlot {
         "toy_plot"
     }
     fn modules(&self) -> &[&str] {
-        &["pipeline"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<PlotParams>("toy_plot", params).map(|_| ())
@@ -270,7 +270,7 @@ impl StageKind for ToyFail {
         "toy_fail"
     }
     fn modules(&self) -> &[&str] {
-        &["pipeline"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<FailParams>("toy_fail", params).map(|_| ())

@@ -12,9 +12,12 @@
 //!   the partner codes, the pair scan, cache hints.
 //! - [`engine`]: the state and the event loop (collisions, cell and shell
 //!   crossings, kicks, walls, the pulled intruder), each part in a submodule.
+//! - [`big_vec`](mod@big_vec): the large arrays of the engine and the calendar,
+//!   on huge pages where the kernel gives them.
 //! - [`run`](mod@run): one simulation: initial state and compression, relax,
 //!   produce and measure ([`RunSummary`]), progress, CPU time and memory.
 
+pub mod big_vec;
 pub mod engine;
 pub mod events;
 pub mod model;

@@ -283,28 +283,14 @@ fn replica_samples(
     Ok(())
 }
 
-/// What every analysis stage runs besides its observable's own modules.
-const COMMON: &[&str] = &[
-    "analysis/observables",
-    "analysis/pool",
-    "analysis/mod",
-    "traj",
-    "table",
-    "stages/analyse",
-    "stages/tables",
-];
-
 /// One observable as a stage kind.
 pub struct Analyse {
     obs: &'static Observable,
-    modules: Vec<&'static str>,
 }
 
 impl Analyse {
     pub fn new(obs: &'static Observable) -> Self {
-        let mut modules: Vec<&'static str> = obs.modules.to_vec();
-        modules.extend(COMMON.iter().filter(|m| !obs.modules.contains(m)));
-        Analyse { obs, modules }
+        Analyse { obs }
     }
 }
 
@@ -340,7 +326,9 @@ impl StageKind for Analyse {
         )
     }
     fn modules(&self) -> &[&str] {
-        &self.modules
+        // Every observable's code is reached through the catalogue
+        // (`analysis::observables`), which names them all.
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let s = split(self.obs.name, params)?;

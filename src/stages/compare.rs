@@ -77,7 +77,7 @@ impl StageKind for Compare {
         "compare fitted quantities (tables quantity/value/error) with the paper's values"
     }
     fn modules(&self) -> &[&str] {
-        &["table", "stages/compare"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CompareParams = typed("compare", params)?;

@@ -24,7 +24,7 @@ impl StageKind for Compression {
         "  parameters: the SimConfig fields that shape the start (n, phi, compression_rate, radius_ratio, fraction_large, seed, ...)\n  example (experiments/stability_compression.yaml):\n    kind: compression\n    params: {phi: 0.85}\n    profiles: {ci: {grid: {n: [100, 200], compression_rate: [0.1, 0.01]}, replicas: 1}}".into()
     }
     fn modules(&self) -> &[&str] {
-        &["sim", "stages/compression"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<SimConfig>("compression", params)?.validate()

@@ -154,7 +154,7 @@ impl StageKind for Join {
             .into()
     }
     fn modules(&self) -> &[&str] {
-        &["table", "stages/join", "stages/tables"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: JoinParams = typed("join", params)?;

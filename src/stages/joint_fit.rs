@@ -51,7 +51,7 @@ impl StageKind for JointFit {
         "power laws y_k = A_k (phi_c - x)^-gamma_k of several columns fitted together with one phi_c"
     }
     fn modules(&self) -> &[&str] {
-        &["fit", "stages/joint_fit", "stages/tables", "table"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: JointParams = typed("joint_fit", params)?;

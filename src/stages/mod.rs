@@ -15,8 +15,12 @@
 //! - [`compression`]: how far the initial compression gets (stability maps).
 //! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
 //!
-//! Each kind names exactly the source modules it depends on, so editing a plot
-//! adapter never reruns a simulation.
+//! Each kind names its own file (`file!()`); its code fingerprint hashes every
+//! module that file reaches through the import graph, and the lock entries of
+//! the crates they use (`pipeline::fingerprint`), so editing a plot adapter
+//! never reruns a simulation and no module a kind runs is left out of its key.
+//! The statistics of the fits live in the library ([`crate::fit::uncertainty`]);
+//! these files read parameters and tables, call it and write tables.
 
 pub mod analyse;
 pub mod compare;
@@ -64,21 +68,7 @@ mod tests {
     use std::collections::BTreeMap;
     use std::path::{Path, PathBuf};
 
-    use crate::pipeline::fingerprint::module_fingerprints;
-    use crate::pipeline::registry::code_fingerprint_in;
-
-    /// Every `.rs` file under `dir`, as (key relative to `root` without extension, path).
-    fn files(root: &Path, dir: &Path, out: &mut Vec<(String, PathBuf)>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                files(root, &p, out);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                let key = p.strip_prefix(root).unwrap().with_extension("");
-                out.push((key.to_string_lossy().replace('\\', "/"), p));
-            }
-        }
-    }
+    use crate::pipeline::fingerprint::Sources;
 
     fn copy_tree(from: &Path, to: &Path) {
         std::fs::create_dir_all(to).unwrap();
@@ -92,67 +82,148 @@ mod tests {
         }
     }
 
-    fn covers(module: &str, key: &str) -> bool {
-        key == module || key.starts_with(&format!("{module}/"))
+    /// The file of module `key` under `src`.
+    fn file_of(src: &Path, key: &str) -> PathBuf {
+        if key == "lib" {
+            return src.join("lib.rs");
+        }
+        let file = src.join(format!("{key}.rs"));
+        if file.exists() {
+            file
+        } else {
+            src.join(key).join("mod.rs")
+        }
     }
 
-    /// A kind's fingerprint computed as build.rs would from the tree at `src`.
-    fn fingerprint(src: &Path, name: &str, modules: &[&str]) -> String {
-        let table: BTreeMap<String, String> = module_fingerprints(src).into_iter().collect();
-        code_fingerprint_in(name, modules, |m| table.get(m).map(|s| s.as_str())).unwrap()
+    /// A copy of the sources and the lock in a temporary directory.
+    struct Copy {
+        _dir: tempfile::TempDir,
+        src: PathBuf,
+        lock: PathBuf,
     }
 
-    /// Append a comment to `file`, compute, restore.
-    fn edited(src: &Path, file: &Path, name: &str, modules: &[&str]) -> String {
-        let before = std::fs::read(file).unwrap();
-        let mut after = before.clone();
-        after.extend_from_slice(b"\n// an edit\n");
-        std::fs::write(file, &after).unwrap();
-        let fp = fingerprint(src, name, modules);
-        std::fs::write(file, &before).unwrap();
-        fp
+    impl Copy {
+        fn new() -> Copy {
+            let dir = tempfile::tempdir().unwrap();
+            let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+            let src = dir.path().join("src");
+            copy_tree(&root.join("src"), &src);
+            let lock = dir.path().join("Cargo.lock");
+            std::fs::copy(root.join("Cargo.lock"), &lock).unwrap();
+            // What `include_bytes!` of the sources reaches.
+            copy_tree(&root.join("assets"), &dir.path().join("assets"));
+            Copy {
+                _dir: dir,
+                src,
+                lock,
+            }
+        }
+
+        fn sources(&self) -> Sources {
+            Sources::read(&self.src, &self.lock)
+        }
+
+        /// Every kind's fingerprint with `file` edited as `edit` says, then restored.
+        fn edited(
+            &self,
+            file: &Path,
+            edit: impl Fn(&str) -> String,
+            kinds: &[(String, Vec<&str>)],
+        ) -> Vec<String> {
+            let before = std::fs::read_to_string(file).unwrap();
+            std::fs::write(file, edit(&before)).unwrap();
+            let s = self.sources();
+            std::fs::write(file, &before).unwrap();
+            kinds
+                .iter()
+                .map(|(name, roots)| s.fingerprint(name, roots).unwrap().hash)
+                .collect()
+        }
     }
 
-    /// The cache's promise, on a copy of the real sources with the real kinds: an
-    /// edit to any file of a kind's modules reruns that kind, an edit to a file
-    /// outside them does not.
+    /// The cache's promise, on a copy of the real sources with the real kinds
+    /// and the derivation build.rs runs: an edit to any module of a kind's
+    /// import closure reruns that kind, an edit to a module outside it does not.
     #[test]
-    fn each_kind_reruns_on_its_own_sources_only() {
-        let dir = tempfile::tempdir().unwrap();
-        let src = dir.path().join("src");
-        copy_tree(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &src);
-        let mut all = Vec::new();
-        files(&src, &src, &mut all);
-        all.sort();
+    fn each_kind_reruns_on_the_code_it_runs_only() {
+        let copy = Copy::new();
         let reg = super::registry();
-        for name in reg.names() {
-            let kind = reg.get(&name).unwrap();
-            let modules = kind.modules();
-            let base = fingerprint(&src, &name, modules);
-            // The shipped table agrees with build.rs's hashing of the same sources.
-            assert_eq!(base, reg.fingerprint(&name), "{name}");
-            for m in modules {
-                let (_, file) = all
-                    .iter()
-                    .find(|(k, _)| covers(m, k))
-                    .unwrap_or_else(|| panic!("{name}: module {m} has no source file"));
-                assert_ne!(
-                    edited(&src, file, &name, modules),
-                    base,
-                    "{name}: editing {} (module {m}) left the fingerprint unchanged",
-                    file.display()
+        let base_sources = copy.sources();
+        let kinds: Vec<(String, Vec<&str>)> = reg
+            .names()
+            .into_iter()
+            .map(|n| {
+                let roots = reg.get(&n).unwrap().modules().to_vec();
+                (n, roots)
+            })
+            .collect();
+        let mut closures = BTreeMap::new();
+        let mut base = Vec::new();
+        for (name, roots) in &kinds {
+            let f = base_sources.fingerprint(name, roots).unwrap();
+            // The shipped fingerprint is build.rs's derivation of the same sources.
+            assert_eq!(f.hash, reg.fingerprint(name), "{name}");
+            assert_eq!(f.modules, reg.modules(name), "{name}");
+            closures.insert(name.clone(), f.modules.clone());
+            base.push(f.hash);
+        }
+        // What the hand-kept lists missed: the plot kind draws guide curves
+        // of the fit catalogue, the join kind pools replicas.
+        assert!(closures["plot"].contains(&"fit/catalogue".to_string()));
+        assert!(closures["join"].contains(&"analysis/pool".to_string()));
+        assert!(!closures["simulate"].contains(&"plot/palette".to_string()));
+        for key in base_sources.modules.keys() {
+            let file = file_of(&copy.src, key);
+            let after = copy.edited(&file, |t| format!("{t}\n// an edit\n"), &kinds);
+            for (((name, _), b), a) in kinds.iter().zip(&base).zip(&after) {
+                let inside = closures[name].contains(key);
+                assert_eq!(
+                    a != b,
+                    inside,
+                    "{name}: editing {} ({}in its closure) {} its fingerprint",
+                    file.display(),
+                    if inside { "" } else { "not " },
+                    if a != b { "changed" } else { "left" }
                 );
             }
-            let (_, other) = all
-                .iter()
-                .find(|(k, _)| !modules.iter().any(|m| covers(m, k)))
-                .unwrap();
-            assert_eq!(
-                edited(&src, other, &name, modules),
-                base,
-                "{name}: editing unrelated {} changed the fingerprint",
-                other.display()
-            );
         }
+    }
+
+    /// An import is what puts a module into a kind's code: simulate's key does
+    /// not move when the plot palette changes, and moves once the simulator
+    /// imports it. A crate version in `Cargo.lock` moves the kinds that use
+    /// the crate only.
+    #[test]
+    fn imports_and_crate_versions_move_the_kinds_that_use_them() {
+        let copy = Copy::new();
+        let kinds: Vec<(String, Vec<&str>)> = vec![
+            ("simulate".into(), vec!["stages/simulate"]),
+            ("fit".into(), vec!["stages/fit/kind"]),
+        ];
+        let base: Vec<String> = {
+            let s = copy.sources();
+            kinds
+                .iter()
+                .map(|(n, r)| s.fingerprint(n, r).unwrap().hash)
+                .collect()
+        };
+        let palette = copy.src.join("plot/palette.rs");
+        let edit = |t: &str| format!("{t}\npub fn an_edit() {{}}\n");
+        assert_eq!(copy.edited(&palette, edit, &kinds)[0], base[0]);
+        let engine = copy.src.join("sim/engine/mod.rs");
+        let import =
+            |t: &str| format!("{t}\n#[allow(unused_imports)]\nuse crate::plot::viridis;\n");
+        assert_ne!(copy.edited(&engine, import, &kinds)[0], base[0]);
+        // The fits run rmpfit; the simulator does not.
+        let bump = |t: &str| {
+            t.replacen(
+                "name = \"rmpfit\"\nversion = \"",
+                "name = \"rmpfit\"\nversion = \"0.",
+                1,
+            )
+        };
+        let after = copy.edited(&copy.lock, bump, &kinds);
+        assert_eq!(after[0], base[0], "simulate moved with rmpfit");
+        assert_ne!(after[1], base[1], "fit did not move with rmpfit");
     }
 }

@@ -662,7 +662,7 @@ impl StageKind for Plot {
         "draw a figure (SVG and PNG) from the gathered tables, one series per group"
     }
     fn modules(&self) -> &[&str] {
-        &["plot", "table", "stages/plot", "stages/tables"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         typed::<PlotParams>("plot", params).map(|_| ())

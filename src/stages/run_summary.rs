@@ -43,13 +43,7 @@ impl StageKind for RunSummary {
         "  parameters: tolerance (relative, default 0.02)\n  use: map: EXPERIMENT (one row per run), then a `table` gathering it\n  example:\n    - {name: runs, kind: run_summary, map: stability_drive_enskog, params: {tolerance: 0.02}}".into()
     }
     fn modules(&self) -> &[&str] {
-        &[
-            "analysis/run_summary",
-            "sim/model/enskog",
-            "sim/model/config",
-            "stages/run_summary",
-            "stages/simulate",
-        ]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: Params = typed("run_summary", params)?;

@@ -250,7 +250,7 @@ impl StageKind for Simulate {
         "one seeded event-driven simulation: trajectory (Parquet) and run summary (JSON)"
     }
     fn modules(&self) -> &[&str] {
-        &["sim", "traj", "table/trajectory", "stages/simulate"]
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         config(params).map(|_| ())

@@ -18,8 +18,6 @@ use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
 
-const MODULES: &[&str] = &["fit", "table", "stages/synthetic"];
-
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CoverageParams {
@@ -51,7 +49,7 @@ impl StageKind for SyntheticCoverage {
         )
     }
     fn modules(&self) -> &[&str] {
-        MODULES
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CoverageParams = typed("synthetic_coverage", params)?;
@@ -160,7 +158,7 @@ impl StageKind for SyntheticDivergence {
             .into()
     }
     fn modules(&self) -> &[&str] {
-        MODULES
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: DivergenceParams = typed("synthetic_divergence", params)?;

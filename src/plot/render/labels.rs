@@ -2,7 +2,12 @@
 //! curves, bars) and where each label goes, beside its line where it covers no
 //! data, else into the legend.
 
-use super::*;
+use anyhow::Result;
+use plotters::prelude::*;
+
+use super::ink::*;
+use crate::plot::geometry::{P, Rect, clip_polyline};
+use crate::plot::spec::{Panel, Style};
 
 /// Points every two pixels along the polyline.
 fn along(piece: &[P], out: &mut Vec<P>) {

@@ -1,7 +1,15 @@
 //! The legend: its entries and size, where it goes (a free corner inside the
 //! axes, or outside them), and drawing it.
 
-use super::*;
+use anyhow::Result;
+use plotters::prelude::*;
+use plotters::style::Color as _;
+use plotters::style::text_anchor::{HPos, VPos};
+
+use super::ink::*;
+use super::labels::labelled_lines;
+use crate::plot::geometry::{P, Rect};
+use crate::plot::spec::{Color, Legend, Marker, Panel, Style};
 
 /// A legend entry: its text and the series it stands for (series sharing a
 /// label share an entry, e.g. the points and the fitted curve of one phi).

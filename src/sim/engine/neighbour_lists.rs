@@ -3,9 +3,9 @@
 //! sigma_ij + 2 shell of it; leaving the shell rebuilds that one list.
 
 use super::Engine;
+use crate::sim::big_vec::big_vec;
 use crate::sim::events::disk::{Disk, NONE};
 use crate::sim::events::pair_scan::nearest_image;
-use crate::sim::run::resources::big_vec;
 
 /// The neighbour lists, owned by this module.
 pub(super) struct Lists {

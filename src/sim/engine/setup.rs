@@ -8,11 +8,11 @@ use super::{
     Book, Engine, LIST_CAPACITY, PREFETCH_MIN_BYTES, SHELL_FRACTION, Stats, driving, force_kicks,
     neighbour_lists, prefetch_pipeline, pulled_intruder,
 };
+use crate::sim::big_vec::{big_vec, big_vec_from};
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE};
 use crate::sim::model::friction::Clock;
 use crate::sim::model::walls;
-use crate::sim::run::resources::{big_vec, big_vec_from};
 
 /// Everything the engine needs to start: box, species table, particles.
 pub struct Setup {

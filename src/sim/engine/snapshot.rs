@@ -12,10 +12,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Engine, Setup, Stats, driving, force_kicks, pulled_intruder};
+use crate::sim::big_vec::big_vec;
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::NONE;
 use crate::sim::model::friction::Clock;
-use crate::sim::run::resources::big_vec;
 use rand_chacha::ChaCha8Rng;
 
 /// Everything a run needs to go on from a checkpoint.

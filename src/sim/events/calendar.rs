@@ -27,7 +27,7 @@
 //! compression). `dt` only affects speed, never the answers.
 
 use super::cache_hints::{prefetch, prefetch_index};
-use crate::sim::run::resources::big_vec;
+use crate::sim::big_vec::big_vec;
 
 /// No particle (end of a list).
 const NONE: u32 = u32::MAX;

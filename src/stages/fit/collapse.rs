@@ -5,91 +5,21 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
-use serde::Deserialize;
 use serde_json::Value;
 
-use super::jackknife::{HELD, JK_IMPOSSIBLE, XI_REFITTED, jackknife_method, replica_columns};
-use super::params::FromQuantity;
+use super::collapse_output::collapse_output;
+use super::params::CollapseParams;
 use super::rescaled::{run_named, validate_named};
-use super::{ERROR_METHOD, MODULES};
+use super::samples::replica_columns;
 use crate::analysis::pool;
-use crate::fit::collapse::{self, Curve};
+use crate::fit::collapse::{self, Curve, curves_by};
 use crate::fit::rescalings;
+use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, XI_REFITTED, jackknife_method};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
-use crate::stages::tables::{Columns, Where, inputs_of, pick};
-use crate::table::results::quantity_batch;
-use crate::table::{f64_batch, to_parquet_bytes};
-
-/// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
-/// (phi) rescale as X = sqrt(x)/xi, Y = y xi^-g with xi = (phi_c - phi)^-gamma_xi;
-/// g = gamma_chi/gamma_xi and gamma_xi are fitted, phi_c is given or taken from a fit.
-/// With `xi: COLUMN` the measured xi of each curve is used and only g is fitted.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct CollapseParams {
-    pub data: String,
-    pub x: String,
-    pub y: String,
-    pub y_err: String,
-    pub curve_by: String,
-    #[serde(default, rename = "where")]
-    pub filter: Where,
-    #[serde(default)]
-    pub phi_c: Option<f64>,
-    #[serde(default)]
-    pub phi_c_from: Option<FromQuantity>,
-    /// Column of the data holding a measured xi per curve (e.g. the OZ xi joined
-    /// in): then xi is not a power law of phi, and only `g` is fitted.
-    #[serde(default)]
-    pub xi: Option<String>,
-    /// With `xi`: hold g at a number another fit reports (paper H, Fig. 19 and
-    /// 24: the exponents come from the independent fits, and the collapse tests
-    /// them) instead of fitting it; `bounds` then stays empty.
-    #[serde(default)]
-    pub g_from: Option<FromQuantity>,
-    /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`), or of the
-    /// `rescaling`'s fitted parameters.
-    #[serde(default)]
-    pub bounds: BTreeMap<String, (f64, f64)>,
-    /// A named rescaling of [`crate::fit::rescalings`] instead of Fig. 19's
-    /// finite-size scaling (e.g. `cluster_cutoff`, `log_normal`).
-    #[serde(default)]
-    pub rescaling: Option<String>,
-}
+use crate::stages::tables::{Columns, inputs_of, pick};
 
 pub struct Collapse;
-
-/// The curves of a collapse, one per value of `by` with at least two points of
-/// positive x, y and error, in ascending order of that value.
-pub(super) fn collapse_curves(
-    by_name: &str,
-    x: &[f64],
-    y: &[f64],
-    e: &[f64],
-    by: &[f64],
-) -> Vec<Curve> {
-    let mut m: BTreeMap<u64, Curve> = BTreeMap::new();
-    for i in 0..x.len() {
-        let ok = x[i] > 0.0 && y[i] > 0.0 && e[i] > 0.0 && y[i].is_finite() && e[i].is_finite();
-        if !ok {
-            continue;
-        }
-        let cv = m.entry(by[i].to_bits()).or_insert_with(|| Curve {
-            label: format!("{by_name}={}", by[i]),
-            param: by[i],
-            x: vec![],
-            y: vec![],
-            sigma: vec![],
-        });
-        cv.x.push(x[i]);
-        cv.y.push(y[i]);
-        cv.sigma.push(e[i]);
-    }
-    let mut curves: Vec<Curve> = m.into_values().filter(|c| c.x.len() >= 2).collect();
-    curves.sort_by(|a, b| a.param.total_cmp(&b.param));
-    curves
-}
 
 fn xi(phi_c: f64, phi: f64, gamma_xi: f64) -> f64 {
     (phi_c - phi).powf(-gamma_xi)
@@ -103,7 +33,7 @@ impl StageKind for Collapse {
         "finite-size-scaling collapse y xi^-g vs sqrt(x)/xi, xi = (phi_c - phi)^-gamma_xi"
     }
     fn modules(&self) -> &[&str] {
-        MODULES
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: CollapseParams = typed("collapse", params)?;
@@ -188,7 +118,7 @@ impl StageKind for Collapse {
                 .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
         };
         let curves_of = |ys: &[f64]| -> Vec<Curve> {
-            collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all)
+            curves_by(&p.curve_by, &x_all, ys, &e_all, &b_all)
                 .into_iter()
                 .filter(|c| has_xi(c))
                 .collect()
@@ -414,50 +344,11 @@ impl StageKind for Collapse {
     }
 }
 
-/// A collapse's outputs: the quantity table and the curves rescaled at the best
-/// parameters (none when the collapse failed).
-pub(super) fn collapse_output(
-    p: &CollapseParams,
-    curves: &[Curve],
-    best: Option<&[f64]>,
-    rescale: collapse::Rescale<'_>,
-    rows: &[(String, f64, f64)],
-    note: &str,
-    method: &str,
-) -> Result<Output> {
-    let mut cols: [Vec<f64>; 5] = Default::default();
-    if let Some(q) = best {
-        for cv in curves {
-            for k in 0..cv.x.len() {
-                let (x, y, s) = rescale(q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
-                for (col, v) in cols.iter_mut().zip([cv.param, cv.x[k], x, y, s]) {
-                    col.push(v);
-                }
-            }
-        }
-    }
-    let [phi, n, x, y, s] = cols;
-    let resc = f64_batch(&[
-        (p.curve_by.as_str(), phi),
-        (p.x.as_str(), n),
-        ("X", x),
-        ("Y", y),
-        ("Y_err", s),
-    ])?;
-    Ok(Output::single(
-        "parquet",
-        to_parquet_bytes(
-            &[quantity_batch(&[], rows, note, None)?],
-            &[(ERROR_METHOD, method)],
-        )?,
-    )
-    .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::stages::test_support::{artifact, artifact_of, yaml};
+    use crate::table::f64_batch;
 
     /// Fig. 19's collapse with the measured xi: where the data carry xi's
     /// replica samples, the refits rescale with the xi of the same replica left

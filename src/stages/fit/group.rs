@@ -6,16 +6,19 @@ use std::sync::Arc;
 use anyhow::Result;
 use arrow_array::{ArrayRef, Float64Array, RecordBatch};
 
-use super::fitting::{clean, fit_form, relative_scatter, widened};
-use super::jackknife::{
-    Replicas, covariance_method, jackknife_table, pick_rows, replica_columns, replica_errors,
-    unit_columns,
-};
-use super::leverage::{CARRIED, carried_errors, leverages};
-use super::params::{CurveSpec, FitForm, FitParams, Refits, drift_scale};
+use super::fitting::{fit_data, fit_form, reported};
+use super::params::{CurveSpec, FitForm, FitParams, drift_scale};
 use super::ranges::scan_ranges;
+use super::samples::{
+    jackknife_table, jk_samples, object_replicas, pick_rows, replica_columns, unit_columns,
+};
 use crate::fit::Data;
 use crate::fit::catalogue::Form;
+use crate::fit::uncertainty::leverage::{CARRIED, carried_errors, leverages};
+use crate::fit::uncertainty::replicas::{
+    FitPoints, Refits, covariance_method, mean_jackknife, replica_errors,
+};
+use crate::fit::uncertainty::scatter::{clean, relative_scatter, widened};
 use crate::pipeline::StageCtx;
 use crate::stages::tables::{Columns, pick};
 use crate::table::results::quantity_batch;
@@ -31,29 +34,6 @@ pub(super) struct Group {
     /// A fit on one unit's rows with a replica jackknife: per fitted number,
     /// (covariance error, jackknife error), for [`super::pooling::pool_one_unit_errors`].
     pub(super) pooled: Option<Vec<(f64, f64)>>,
-}
-
-/// One group's points as its fit and the fit's refits see them.
-pub(super) struct Points<'a> {
-    pub(super) p: &'a FitParams,
-    pub(super) c: &'a Columns,
-    /// The numbers held fixed, and the refits of those taken from other fits.
-    pub(super) fixed: &'a [(String, f64)],
-    pub(super) shifted: &'a [(String, Refits)],
-    /// The rows of `c` the fit uses (finite x and y).
-    pub(super) used_rows: Vec<usize>,
-    /// The replica jackknife columns of those rows, if y has them.
-    pub(super) jk: Option<Replicas>,
-    /// Their unit and the replica samples of y, when they all come from one unit.
-    pub(super) one_unit: Option<(f64, Vec<Vec<f64>>)>,
-    /// The used points before cleaning: x, y and errors.
-    pub(super) raw: (Vec<f64>, Vec<f64>, Vec<f64>),
-    /// The cleaned points, their errors widened by the model scatter.
-    pub(super) x: Vec<f64>,
-    pub(super) y: Vec<f64>,
-    pub(super) s: Vec<f64>,
-    /// The relative model scatter (0 without one).
-    pub(super) m_scatter: f64,
 }
 
 /// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
@@ -82,20 +62,31 @@ pub(super) fn fit_group(
     let jk = replica_columns(c, &used_rows, &p.x, &p.y);
     let one_unit = unit_columns(c, &used_rows, &p.y);
     let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
-    let (x, y, s) = clean(ctx, x, y, s);
+    let cleaned = clean(&x, &y, &s);
+    if cleaned.dropped > 0 {
+        ctx.log(format!(
+            "dropped {} point(s) with non-finite x or y",
+            cleaned.dropped
+        ));
+    }
+    let (x, y, s) = (cleaned.x, cleaned.y, cleaned.s);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
     // fit, its refits and its range scan then weight by the widened errors.
     let scatter = match &p.scatter {
-        Some(_) => match relative_scatter(p, &x, &y, &s, &fixed_ref) {
-            Ok(m) => Some(m),
-            Err(e) => {
-                ctx.log(format!(
-                    "no relative model scatter: a fit on the way failed: {e:#}"
-                ));
-                None
+        Some(_) => {
+            let fit = |s: &[f64]| fit_data(p, p.form.named(), Data::new(&x, &y, s), &fixed_ref);
+            match relative_scatter(&y, &s, fit) {
+                Ok(m) => Some(m),
+                Err(e) => {
+                    let e = anyhow::Error::from(e);
+                    ctx.log(format!(
+                        "no relative model scatter: a fit on the way failed: {e:#}"
+                    ));
+                    None
+                }
             }
-        },
+        }
         None => None,
     };
     let m_scatter = scatter.map_or(0.0, |(m, _)| m);
@@ -103,29 +94,40 @@ pub(super) fn fit_group(
     if let FitForm::Value = p.form {
         return fit_value(p, group, &y, &s, one_unit.as_ref());
     }
-    let pts = Points {
-        p,
-        c,
+    // Only where every row comes from the one unit: all weights then
+    // change together. Across units the sample's larger errors would
+    // down-weight the unit left out and damp its refit's shift.
+    let s_jk: Vec<Vec<f64>> = match (&p.y_err, &jk) {
+        (Some(e), Some((_, _, y_jk))) if one_unit.is_some() => {
+            let v = jk_samples(c, &used_rows, e);
+            if v.len() == y_jk.len() { v } else { Vec::new() }
+        }
+        _ => Vec::new(),
+    };
+    let taken = p.taken();
+    let pts = FitPoints {
+        raw: (&raw.0, &raw.1, &raw.2),
+        x: &x,
+        y: &y,
+        s: &s,
+        m_scatter,
+        jk: jk.as_ref(),
+        one_unit: one_unit.as_ref(),
+        s_jk: &s_jk,
+        object_replicas: object_replicas(c, &used_rows),
         fixed,
         shifted,
-        used_rows,
-        jk,
-        one_unit,
-        raw,
-        x,
-        y,
-        s,
-        m_scatter,
+        taken: &taken,
     };
-    let mut method = covariance_method(p);
+    let mut method = covariance_method(p.y_err.as_deref());
     let form = p.form.named();
     let mut jackknife = None;
     let mut pooled = None;
-    let (rows, note, curve, samples) = match fit_form(p, &pts.x, &pts.y, &pts.s, &fixed_ref) {
+    let (rows, note, curve, samples) = match fit_form(p, &x, &y, &s, &fixed_ref) {
         Ok(f) => {
             let mut rows: Vec<(String, f64, f64)> = if let FitForm::Drift = p.form {
                 // Relative change of y across the x range, from the slope.
-                let (span, mean) = drift_scale(&pts.x, &pts.y);
+                let (span, mean) = drift_scale(&x, &y);
                 let (b, db) = f.expect("slope");
                 vec![(
                     p.quantity_name("drift"),
@@ -139,20 +141,28 @@ pub(super) fn fit_group(
                     .map(|(n, (v, e))| (p.quantity_name(n), *v, *e))
                     .collect()
             };
-            let replicated = replica_errors(&pts, &mut rows, &mut method);
+            // A replica sample passes the same `where` on x and y as the
+            // pooled data (e.g. P > 0 of a tail: a bin one replica never reached).
+            let passes_on = |col: &str, v: f64| p.filter.get(col).is_none_or(|c| c.accepts(v));
+            let passes = |x: f64, y: f64| passes_on(&p.x, x) && passes_on(&p.y, y);
+            let refit = |x: &[f64], y: &[f64], s: &[f64], fixed: &[(&str, f64)]| {
+                let g = fit_form(p, x, y, s, fixed).ok()?;
+                Some(reported(p, x, y, &g))
+            };
+            let replicated = replica_errors(&pts, &mut rows, &mut method, passes, refit);
             // The largest leverage, and an error at least the point jackknife's
             // when one point carries the fit.
             let mut max_leverage = f64::NAN;
             if let Some(fm) = form {
                 let free: Vec<bool> = f.stderr.iter().map(|e| e.is_finite() && *e > 0.0).collect();
                 let model = |par: &[f64], x: f64| (fm.model)(par, &fixed_ref, x);
-                if let Some(h) = leverages(&pts.x, &pts.s, &f.params, &free, model) {
+                if let Some(h) = leverages(&x, &s, &f.params, &free, model) {
                     max_leverage = h.iter().copied().fold(f64::NAN, f64::max);
                     let refit = |x: &[f64], y: &[f64], s: &[f64]| {
                         fit_form(p, x, y, s, &fixed_ref).ok().map(|f| f.params)
                     };
                     let n_free = free.iter().filter(|b| **b).count();
-                    if let Some(jk) = carried_errors(&pts.x, &pts.y, &pts.s, &h, n_free, refit) {
+                    if let Some(jk) = carried_errors(&x, &y, &s, &h, n_free, refit) {
                         for (row, e) in rows.iter_mut().zip(&jk) {
                             row.2 = crate::analysis::stats::at_least(row.2, *e);
                         }
@@ -173,7 +183,7 @@ pub(super) fn fit_group(
             match scatter {
                 Some((m, alone)) => {
                     rows.push((p.quantity_name("reduced_chi2"), alone, f64::NAN));
-                    rows.push((p.quantity_name("points"), pts.x.len() as f64, 0.0));
+                    rows.push((p.quantity_name("points"), x.len() as f64, 0.0));
                     rows.push((p.leverage_name(), max_leverage, f64::NAN));
                     rows.push((p.quantity_name("scatter"), m, f64::NAN));
                     if m > 0.0 {
@@ -184,7 +194,7 @@ pub(super) fn fit_group(
                 }
                 None => {
                     rows.push((p.quantity_name("reduced_chi2"), f.reduced_chi2, f64::NAN));
-                    rows.push((p.quantity_name("points"), pts.x.len() as f64, 0.0));
+                    rows.push((p.quantity_name("points"), x.len() as f64, 0.0));
                     rows.push((p.leverage_name(), max_leverage, f64::NAN));
                     if p.scatter.is_some() {
                         rows.push((p.quantity_name("scatter"), f64::NAN, f64::NAN));
@@ -197,7 +207,7 @@ pub(super) fn fit_group(
             let curve = p
                 .curve
                 .as_ref()
-                .map(|cs| curve_points(cs, form, &f.params, &fixed_ref, &pts.x));
+                .map(|cs| curve_points(cs, form, &f.params, &fixed_ref, &x));
             (rows, f.warnings.join("; "), curve, samples)
         }
         Err(e) => {
@@ -222,7 +232,7 @@ pub(super) fn fit_group(
         Some(fm) if !p.ranges.is_empty() => scan_ranges(
             p,
             fm,
-            Data::new(&pts.x, &pts.y, &pts.s),
+            Data::new(&x, &y, &s),
             &fixed_ref,
             group,
             &mut rows,
@@ -282,16 +292,7 @@ fn fit_value(
     // of the two is quoted.
     let mut err = err;
     if let Some((_, y_jk)) = &one_unit {
-        let per: Vec<f64> = y_jk
-            .iter()
-            .map(|v| {
-                let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-                f.iter().sum::<f64>() / f.len() as f64
-            })
-            .collect();
-        let r = per.len() as f64;
-        let m = per.iter().sum::<f64>() / r;
-        let jk = ((r - 1.0) / r * per.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt();
+        let jk = mean_jackknife(y_jk);
         if jk.is_finite() && (err.is_nan() || jk > err) {
             err = jk;
             method = format!(

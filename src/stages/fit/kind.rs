@@ -7,11 +7,12 @@ use anyhow::{Context, Result, bail};
 use serde_json::Value;
 
 use super::group::fit_group;
-use super::params::{FitForm, FitParams, Refits};
+use super::params::{FitForm, FitParams};
 use super::pooling::pool_one_unit_errors;
 use super::quantities::same_columns;
-use super::{ERROR_METHOD, JACKKNIFE_FILE, MODULES};
+use super::{ERROR_METHOD, JACKKNIFE_FILE};
 use crate::fit::catalogue;
+use crate::fit::uncertainty::replicas::Refits;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::stages::tables::{Columns, inputs_of, source_stages};
@@ -85,7 +86,7 @@ impl StageKind for Fit {
         s
     }
     fn modules(&self) -> &[&str] {
-        MODULES
+        &[file!()]
     }
     fn validate(&self, params: &Value) -> Result<()> {
         let p: FitParams = typed("fit", params)?;

@@ -1,5 +1,5 @@
-//! What a `fit` stage is told: the typed parameters, the form among a closed
-//! set, and the numbers it takes from other fits.
+//! What `fit` and `collapse` stages are told: the typed parameters, the form
+//! among a closed set, and the numbers they take from other fits.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -9,6 +9,7 @@ use serde::{Deserialize, Deserializer};
 
 use crate::analysis::pool;
 use crate::fit::catalogue::{self, Form};
+use crate::fit::uncertainty::replicas::{Refits, TakenFrom};
 use crate::pipeline::Artifact;
 use crate::stages::tables::{Columns, Where, inputs_of};
 use crate::table::results::{QUANTITY, REPLICA, VALUE};
@@ -46,9 +47,6 @@ impl FromQuantity {
         Ok((!refits.is_empty()).then_some(refits))
     }
 }
-
-/// A number's jackknife refits by (unit bits, replica left out).
-pub(super) type Refits = BTreeMap<(u64, usize), f64>;
 
 /// File of a fit's replica jackknife refits: `jk_unit`, `replica` (the one left
 /// out), `quantity`, `value` (and the group's columns); a fit that takes one of
@@ -134,6 +132,18 @@ impl FitParams {
     /// The quantity name of parameter `n` (`rename`, else its own name).
     pub(super) fn quantity_name(&self, n: &str) -> String {
         self.rename.get(n).cloned().unwrap_or_else(|| n.to_string())
+    }
+
+    /// The numbers taken from other fits, as the account of the error method
+    /// names them.
+    pub(super) fn taken(&self) -> Vec<TakenFrom> {
+        self.fixed_from
+            .iter()
+            .map(|(param, f)| TakenFrom {
+                param: param.clone(),
+                what: format!("{} of {}", f.quantity, f.stage),
+            })
+            .collect()
     }
 
     /// The name of the fit's largest leverage: named as its `points` is
@@ -223,4 +233,41 @@ pub(super) fn drift_scale(x: &[f64], y: &[f64]) -> (f64, f64) {
         - x.iter().cloned().fold(f64::INFINITY, f64::min);
     let mean = y.iter().sum::<f64>() / y.len() as f64;
     (span, mean)
+}
+
+/// `collapse`: finite-size scaling of Fig. 19. Curves y(x) labelled by `curve_by`
+/// (phi) rescale as X = sqrt(x)/xi, Y = y xi^-g with xi = (phi_c - phi)^-gamma_xi;
+/// g = gamma_chi/gamma_xi and gamma_xi are fitted, phi_c is given or taken from a fit.
+/// With `xi: COLUMN` the measured xi of each curve is used and only g is fitted.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CollapseParams {
+    pub data: String,
+    pub x: String,
+    pub y: String,
+    pub y_err: String,
+    pub curve_by: String,
+    #[serde(default, rename = "where")]
+    pub filter: Where,
+    #[serde(default)]
+    pub phi_c: Option<f64>,
+    #[serde(default)]
+    pub phi_c_from: Option<FromQuantity>,
+    /// Column of the data holding a measured xi per curve (e.g. the OZ xi joined
+    /// in): then xi is not a power law of phi, and only `g` is fitted.
+    #[serde(default)]
+    pub xi: Option<String>,
+    /// With `xi`: hold g at a number another fit reports (paper H, Fig. 19 and
+    /// 24: the exponents come from the independent fits, and the collapse tests
+    /// them) instead of fitting it; `bounds` then stays empty.
+    #[serde(default)]
+    pub g_from: Option<FromQuantity>,
+    /// Search ranges of `g` and `gamma_xi` (only `g` with `xi`), or of the
+    /// `rescaling`'s fitted parameters.
+    #[serde(default)]
+    pub bounds: BTreeMap<String, (f64, f64)>,
+    /// A named rescaling of [`crate::fit::rescalings`] instead of Fig. 19's
+    /// finite-size scaling (e.g. `cluster_cutoff`, `log_normal`).
+    #[serde(default)]
+    pub rescaling: Option<String>,
 }

@@ -5,11 +5,13 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 
-use super::collapse::{CollapseParams, collapse_curves, collapse_output};
-use super::jackknife::{HELD, JK_IMPOSSIBLE, also_units, jackknife_method, replica_columns};
+use super::collapse_output::collapse_output;
+use super::params::CollapseParams;
+use super::samples::replica_columns;
 use crate::analysis::pool;
-use crate::fit::collapse::{self, Curve};
+use crate::fit::collapse::{self, Curve, curves_by};
 use crate::fit::rescalings::{self, At, Rescaling};
+use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, also_units, jackknife_method};
 use crate::pipeline::{Artifact, Output, StageCtx};
 use crate::stages::tables::{Columns, inputs_of, pick};
 
@@ -93,7 +95,7 @@ pub(super) fn run_named(
         v.len() == r.per_curve.len() && v.iter().all(|u| u.is_finite() && *u > 0.0)
     };
     let curves_of = |ys: &[f64]| -> Vec<Curve> {
-        collapse_curves(&p.curve_by, &x_all, ys, &e_all, &b_all)
+        curves_by(&p.curve_by, &x_all, ys, &e_all, &b_all)
             .into_iter()
             .filter(|cv| usable(cv))
             .collect()

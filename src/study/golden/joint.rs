@@ -1,7 +1,7 @@
 //! The joint test of the golden gate: the sum of squared z over the checked key
 //! numbers against a threshold for many small shifts (docs/figures.md).
 
-use super::Golden;
+use super::band::Golden;
 
 /// Nominal false-alarm probability of the joint test.
 pub const JOINT_FALSE_ALARM: f64 = 0.001;

@@ -17,14 +17,14 @@
 use crate::fit::linalg::spd_inverse;
 
 /// The leverage above which one point carries a fit.
-pub(super) const CARRIED: f64 = 0.9;
+pub const CARRIED: f64 = 0.9;
 /// Fewest points beyond the free parameters for the delete-one-point jackknife.
 const SPARE_POINTS: usize = 3;
 
 /// Each point's leverage in the weighted fit of `model(params, x)` at the fitted
 /// `params` (only the `free` ones vary), or None when the curvature matrix is
 /// singular.
-pub(super) fn leverages(
+pub fn leverages(
     x: &[f64],
     s: &[f64],
     params: &[f64],
@@ -79,7 +79,7 @@ pub(super) fn leverages(
 /// the points without each one in turn, when the fit is carried (the largest
 /// of `lev` above [`CARRIED`]) and has points to spare; None otherwise or when
 /// a refit fails.
-pub(super) fn carried_errors(
+pub fn carried_errors(
     x: &[f64],
     y: &[f64],
     s: &[f64],

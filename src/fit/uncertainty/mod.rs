@@ -1,0 +1,21 @@
+//! How a fit's errors are estimated beyond its covariance: the statistics the
+//! `fit` and `collapse` stages apply to every fit they make.
+//!
+//! - [`scatter`]: the points cleaned for a fit, and a relative model scatter
+//!   that brings the reduced chi^2 to 1 where the model does not describe the
+//!   points within their errors.
+//! - [`replicas`]: the delete-one jackknife over replicas (independent runs of
+//!   one state point): refits with each replica of each unit left out, numbers
+//!   taken from other fits refitted on the same replicas, objects of several
+//!   replicas, and the account of the method.
+//! - [`pooling`]: fits on one state point each, their jackknife scale pooled.
+//! - [`leverage`]: a fit one point carries, and an error at least the
+//!   delete-one-point jackknife's when it does.
+//!
+//! Everything works on plain numbers and on a `refit` closure; reading and
+//! writing tables is the stages' business.
+
+pub mod leverage;
+pub mod pooling;
+pub mod replicas;
+pub mod scatter;
