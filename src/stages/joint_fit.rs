@@ -24,6 +24,9 @@ use crate::table::to_parquet_bytes;
 pub struct Series {
     pub y: String,
     pub y_err: String,
+    /// Rows kept for this series alone (e.g. xi where its OZ fit is reliable).
+    #[serde(default, rename = "where")]
+    pub filter: Where,
 }
 
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -64,10 +67,12 @@ impl StageKind for JointFit {
         let p: JointParams = typed("joint_fit", params)?;
         let c = Columns::read(&inputs_of("joint_fit", inputs, &p.data)?)?;
         let rows = c.select(&p.filter)?;
-        let x = pick(c.col(&p.x)?, &rows);
         // Per series, the rows where y and its error are usable.
         let mut cols: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = Vec::new();
         for s in &p.series {
+            let own = c.select(&s.filter)?;
+            let rows: Vec<usize> = rows.iter().copied().filter(|r| own.contains(r)).collect();
+            let x = pick(c.col(&p.x)?, &rows);
             let (y, e) = (pick(c.col(&s.y)?, &rows), pick(c.col(&s.y_err)?, &rows));
             let keep: Vec<usize> = (0..x.len())
                 .filter(|&i| y[i].is_finite() && y[i] > 0.0 && e[i].is_finite() && e[i] > 0.0)
