@@ -549,14 +549,11 @@ fn one_long_error_bar_does_not_set_the_axis() {
         );
         assert!(lay[0].marks.iter().all(|&q| lay[0].frame.contains(q)));
         assert!(
-            lay[0]
-                .notes
-                .iter()
-                .any(|n| n.contains(if log {
-                    "Open markers of filled series: points whose error exceeds their value"
-                } else {
-                    "some errors exceed their value"
-                })),
+            lay[0].notes.iter().any(|n| n.contains(if log {
+                "Open markers of filled series: points whose error exceeds their value"
+            } else {
+                "some errors exceed their value"
+            })),
             "{:?}",
             lay[0].notes
         );
@@ -682,7 +679,8 @@ fn crowded_group_values_are_told_apart_by_rank_colour_and_shape() {
     };
     let d = defects(&make(true)).unwrap();
     assert!(
-        d.iter().any(|d| d.contains("\"0.8\" and \"0.805\" differ by CIEDE2000")),
+        d.iter()
+            .any(|d| d.contains("\"0.8\" and \"0.805\" differ by CIEDE2000")),
         "{d:?}"
     );
     let new = make(false);
@@ -692,7 +690,10 @@ fn crowded_group_values_are_told_apart_by_rank_colour_and_shape() {
     for i in 0..13 {
         for j in i + 1..13 {
             let de = repro::plot::delta_e(lay[0].colors[i], lay[0].colors[j]);
-            assert!(de >= 10.0 || lay[0].markers[i] != lay[0].markers[j], "{i} {j} {de}");
+            assert!(
+                de >= 10.0 || lay[0].markers[i] != lay[0].markers[j],
+                "{i} {j} {de}"
+            );
         }
     }
     // Neighbours in rank never share a shape.
@@ -704,13 +705,15 @@ fn crowded_group_values_are_told_apart_by_rank_colour_and_shape() {
 #[test]
 fn a_note_for_another_profile_is_a_defect() {
     let mut f = overlap_figure();
-    f.panels[0].notes = vec!["A small box (ci: N = 1000, 2 replicas); the paper's φ = 0.805.".into()];
+    f.panels[0].notes =
+        vec!["A small box (ci: N = 1000, 2 replicas); the paper's φ = 0.805.".into()];
     f.profile = Some("ci".into());
     assert_eq!(defects(&f).unwrap(), Vec::<String>::new());
     f.profile = Some("small".into());
     let d = defects(&f).unwrap();
     assert!(
-        d.iter().any(|d| d.contains("speaks of the ci profile, drawn at small")),
+        d.iter()
+            .any(|d| d.contains("speaks of the ci profile, drawn at small")),
         "{d:?}"
     );
     f.panels[0].notes = vec!["The θ′ branch (small and paper: 0.78-0.805).".into()];
@@ -730,7 +733,10 @@ fn a_legend_entry_unlike_its_series_is_a_defect() {
     let mut f = overlap_figure();
     f.panels = vec![panel("", axis("x", false), axis("y", false), vec![a, b])];
     let d = defects(&f).unwrap();
-    assert!(d.iter().any(|d| d.contains("several dash patterns")), "{d:?}");
+    assert!(
+        d.iter().any(|d| d.contains("several dash patterns")),
+        "{d:?}"
+    );
 }
 
 /// On a log axis a point whose error exceeds its value is noise: it does not
@@ -754,6 +760,9 @@ fn noise_on_a_log_axis_is_drawn_open_or_left_out() {
     let lay = layout(&f).unwrap();
     assert!(lay[0].y.lo > 1e-12, "{:?}", lay[0].y);
     let notes = lay[0].notes.join(" ");
-    assert!(notes.contains("1 point whose error exceeds its value lies outside the axes"), "{notes}");
+    assert!(
+        notes.contains("1 point whose error exceeds its value lies outside the axes"),
+        "{notes}"
+    );
     assert!(notes.contains("Open markers"), "{notes}");
 }

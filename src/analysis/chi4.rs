@@ -294,16 +294,31 @@ mod tests {
         let per_origin: Vec<f64> = q.iter().flatten().map(|b| var(b)).collect();
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         let close = |a: f64, b: f64| (a - b).abs() < 1e-12 * b.abs().max(1.0);
-        assert!(close(chi4_of(n, Variance::Pooled, &blocks, None), n * var(&all)));
-        assert!(close(chi4_of(n, Variance::PerReplica, &blocks, None), n * mean(&per_rep)));
-        assert!(close(chi4_of(n, Variance::PerOrigin, &blocks, None), n * mean(&per_origin)));
+        assert!(close(
+            chi4_of(n, Variance::Pooled, &blocks, None),
+            n * var(&all)
+        ));
+        assert!(close(
+            chi4_of(n, Variance::PerReplica, &blocks, None),
+            n * mean(&per_rep)
+        ));
+        assert!(close(
+            chi4_of(n, Variance::PerOrigin, &blocks, None),
+            n * mean(&per_origin)
+        ));
         // The replicas' offset (0.5 against 0.7) is in the pooled reading only.
-        assert!(chi4_of(n, Variance::Pooled, &blocks, None) > 2.0 * chi4_of(n, Variance::PerReplica, &blocks, None));
+        assert!(
+            chi4_of(n, Variance::Pooled, &blocks, None)
+                > 2.0 * chi4_of(n, Variance::PerReplica, &blocks, None)
+        );
         // Leaving a block out is leaving its frame out.
         let rest: Vec<f64> = q[0][1].iter().copied().collect();
         let with_r0 = var(&rest);
         let expect = n * (3.0 * with_r0 + 6.0 * per_rep[1]) / 9.0;
-        assert!(close(chi4_of(n, Variance::PerReplica, &blocks, Some(&(0, 0))), expect));
+        assert!(close(
+            chi4_of(n, Variance::PerReplica, &blocks, Some(&(0, 0))),
+            expect
+        ));
     }
 
     use super::*;

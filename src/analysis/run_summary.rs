@@ -118,7 +118,12 @@ fn stationarity(s: &[[f64; 3]], k: usize) -> (f64, f64, f64) {
     let h = prod.len() / 2;
     let drift = (mean(prod[h..].iter().map(|x| x[k])) - mean(prod[..h].iter().map(|x| x[k]))) / m;
     let tail = relax.len() - relax.len() / 10;
-    let end = mean(relax[tail.min(relax.len().saturating_sub(1))..].iter().map(|x| x[k])) / m - 1.0;
+    let end = mean(
+        relax[tail.min(relax.len().saturating_sub(1))..]
+            .iter()
+            .map(|x| x[k]),
+    ) / m
+        - 1.0;
     (m, drift, end)
 }
 

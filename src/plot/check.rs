@@ -133,7 +133,13 @@ fn alike(p: &super::Panel, lay: &PanelLayout) -> Vec<String> {
         if matches!(a.style, Style::Disks | Style::Arrows) || a.x.is_empty() {
             continue;
         }
-        for (j, b) in p.series.iter().enumerate().skip(i + 1).filter(|(_, s)| named(s)) {
+        for (j, b) in p
+            .series
+            .iter()
+            .enumerate()
+            .skip(i + 1)
+            .filter(|(_, s)| named(s))
+        {
             if matches!(b.style, Style::Disks | Style::Arrows) || b.x.is_empty() {
                 continue;
             }
@@ -186,7 +192,12 @@ fn legend_unlike(p: &super::Panel, lay: &PanelLayout) -> Vec<String> {
             .collect();
         let lines: Vec<(bool, bool)> = members
             .iter()
-            .filter(|&&j| !matches!(p.series[j].style, Style::Points | Style::Disks | Style::Arrows))
+            .filter(|&&j| {
+                !matches!(
+                    p.series[j].style,
+                    Style::Points | Style::Disks | Style::Arrows
+                )
+            })
             .map(|&j| (p.series[j].dashed, p.series[j].dotted))
             .collect();
         let marks: Vec<super::Marker> = members.iter().filter_map(|&j| lay.markers[j]).collect();
@@ -245,9 +256,7 @@ pub fn profile_words(text: &str) -> Vec<&'static str> {
                     && bare(words[j]).is_some()
                     && (named[j] || words[j].ends_with(':')))
             };
-            if joined(Some(k + 2), Some(k + 1))
-                || joined(k.checked_sub(2), k.checked_sub(1))
-            {
+            if joined(Some(k + 2), Some(k + 1)) || joined(k.checked_sub(2), k.checked_sub(1)) {
                 named[k] = true;
             }
         }
@@ -370,7 +379,10 @@ mod tests {
         use super::profile_words as w;
         assert_eq!(w("ci: N = 1000, 2 replicas"), ["ci"]);
         assert_eq!(w("the ci box"), ["ci"]);
-        assert_eq!(w("(small and paper: 0.78-0.805; ci stops at 0.78)"), ["small", "paper", "ci"]);
+        assert_eq!(
+            w("(small and paper: 0.78-0.805; ci stops at 0.78)"),
+            ["small", "paper", "ci"]
+        );
         assert_eq!(w("the small profile draws it"), ["small"]);
         assert_eq!(w("the paper profile's N"), ["paper"]);
         assert!(w("the paper's φ = 0.805 panel; a small box (the paper: φ to 0.805)").is_empty());

@@ -197,10 +197,7 @@ fn series_markers(fig: &Figure) -> Vec<Vec<Option<Marker>>> {
 /// colours), which carries its marker on a few of its points so that lines
 /// of neighbouring colours stay apart; fits and guides do not.
 fn family_line(s: &Series) -> bool {
-    s.style == Style::Line
-        && (s.group.is_some() || s.color.is_none())
-        && !s.fit
-        && !s.legend_ink
+    s.style == Style::Line && (s.group.is_some() || s.color.is_none()) && !s.fit && !s.legend_ink
 }
 
 /// The points of a line that carry its markers: about eight, shifted by
@@ -575,7 +572,13 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
 
     // The data first, then fits and guides above their markers.
     for fits in [false, true] {
-        for (i, ((s, &c), &m)) in p.series.iter().zip(&lay.colors).zip(&lay.markers).enumerate() {
+        for (i, ((s, &c), &m)) in p
+            .series
+            .iter()
+            .zip(&lay.colors)
+            .zip(&lay.markers)
+            .enumerate()
+        {
             if s.fit == fits {
                 draw_series(root, &frame, s, rgb(c), m, i, sz)?;
             }

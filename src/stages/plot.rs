@@ -371,8 +371,7 @@ pub struct BuildInfo {
     #[serde(default)]
     pub profile: String,
     #[serde(default)]
-    pub experiments:
-        std::collections::BTreeMap<String, std::collections::BTreeMap<String, Value>>,
+    pub experiments: std::collections::BTreeMap<String, std::collections::BTreeMap<String, Value>>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -510,9 +509,10 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             dotted: layer.dotted,
             color: layer.color,
             marker: layer.marker,
-            fit: layer
-                .fit
-                .unwrap_or(matches!(layer.file.as_str(), "curve.parquet" | "lines.parquet")),
+            fit: layer.fit.unwrap_or(matches!(
+                layer.file.as_str(),
+                "curve.parquet" | "lines.parquet"
+            )),
             radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
             arrows: arrows.map(|(dx, dy, k)| idx.iter().map(|&i| [k * dx[i], k * dy[i]]).collect()),
             group: layer.group.as_ref().map(|column| Group {
@@ -572,7 +572,11 @@ fn build(
     // all its `auto` layers into a grid step, so panels compare by length.
     let mut auto_scales: Vec<f64> = vec![];
     for layer in p.panels.iter().flat_map(|ps| &ps.layers) {
-        let Some(a) = layer.arrows.as_ref().filter(|a| a.scale == ArrowScale::Named(AutoScale::Auto)) else {
+        let Some(a) = layer
+            .arrows
+            .as_ref()
+            .filter(|a| a.scale == ArrowScale::Named(AutoScale::Auto))
+        else {
             continue;
         };
         let c = table(layer).with_context(|| format!("plot: layer from '{}'", layer.from))?;

@@ -165,7 +165,10 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
 pub fn joint_power_law_offset(series: &[Data<'_>]) -> Result<FitResult, FitError> {
     const FORM: &str = "joint_power_law_offset";
     if series.len() < 2 {
-        return Err(FitError::invalid(FORM, "a joint fit needs at least two series"));
+        return Err(FitError::invalid(
+            FORM,
+            "a joint fit needs at least two series",
+        ));
     }
     let mut logs = Vec::new();
     for d in series {
@@ -177,7 +180,10 @@ pub fn joint_power_law_offset(series: &[Data<'_>]) -> Result<FitResult, FitError
     let min = all.iter().copied().fold(f64::INFINITY, f64::min);
     let span = max - min;
     if !positive(span) {
-        return Err(FitError::invalid(FORM, "all phi are equal; need a range of phi"));
+        return Err(FitError::invalid(
+            FORM,
+            "all phi are equal; need a range of phi",
+        ));
     }
     let mut best: Option<(f64, Vec<f64>)> = None;
     for i in 0..=160 {
@@ -185,7 +191,10 @@ pub fn joint_power_law_offset(series: &[Data<'_>]) -> Result<FitResult, FitError
         let mut p = vec![c];
         let mut chi2 = 0.0;
         for (d, (ly, ls)) in series.iter().zip(&logs) {
-            let u: Vec<f64> = d.x.iter().map(|&phi| (POWER_LAW.regressor)(phi, c)).collect();
+            let u: Vec<f64> =
+                d.x.iter()
+                    .map(|&phi| (POWER_LAW.regressor)(phi, c))
+                    .collect();
             let Ok(l) = line(Data::new(&u, ly, ls)) else {
                 chi2 = f64::NAN;
                 break;
@@ -215,7 +224,10 @@ pub fn joint_power_law_offset(series: &[Data<'_>]) -> Result<FitResult, FitError
         .collect();
     let index: Vec<f64> = (0..points.len()).map(|i| i as f64).collect();
     let y: Vec<f64> = series.iter().flat_map(|d| d.y.iter().copied()).collect();
-    let sigma: Vec<f64> = series.iter().flat_map(|d| d.sigma.iter().copied()).collect();
+    let sigma: Vec<f64> = series
+        .iter()
+        .flat_map(|d| d.sigma.iter().copied())
+        .collect();
     let model = |x: f64, p: &[f64]| {
         let (k, phi) = points[x as usize];
         POWER_LAW.model(phi, &[p[1 + 2 * k], p[0], p[2 + 2 * k]])
@@ -228,10 +240,19 @@ pub fn joint_power_law_offset(series: &[Data<'_>]) -> Result<FitResult, FitError
     for _ in series {
         bounds.extend([(0.0, f64::INFINITY), (f64::NEG_INFINITY, f64::INFINITY)]);
     }
-    let mut fit = fit_form(FORM, &names, &model, Data::new(&index, &y, &sigma), p0, bounds, &[])?;
+    let mut fit = fit_form(
+        FORM,
+        &names,
+        &model,
+        Data::new(&index, &y, &sigma),
+        p0,
+        bounds,
+        &[],
+    )?;
     let (c, dc) = fit.get("phi_c").expect("a parameter");
     if let Some(why) = on_last_point(&all, c) {
-        fit.warnings.push(format!("{UNRELIABLE}phi_c = {c:.4}: {why}"));
+        fit.warnings
+            .push(format!("{UNRELIABLE}phi_c = {c:.4}: {why}"));
     } else if c - max < 3.0 * dc {
         fit.warnings.push(format!(
             "phi_c = {c} is within 3 sigma ({dc:.2e}) of max(phi) = {max}: the divergence is not resolved by the data"
@@ -282,14 +303,29 @@ mod tests {
     #[test]
     fn a_joint_fit_recovers_the_shared_divergence() {
         let phi: Vec<f64> = (0..10).map(|i| 0.70 + 0.01 * i as f64).collect();
-        let law = |a: f64, g: f64| -> Vec<f64> { phi.iter().map(|p| a * (0.82 - p).powf(-g)).collect() };
+        let law =
+            |a: f64, g: f64| -> Vec<f64> { phi.iter().map(|p| a * (0.82 - p).powf(-g)).collect() };
         let ys = [law(0.4, 1.5), law(0.01, 2.5), law(0.3, 1.6)];
-        let errs: Vec<Vec<f64>> = ys.iter().map(|y| y.iter().map(|v| 0.02 * v).collect()).collect();
-        let series: Vec<Data> = ys.iter().zip(&errs).map(|(y, e)| Data::new(&phi, y, e)).collect();
+        let errs: Vec<Vec<f64>> = ys
+            .iter()
+            .map(|y| y.iter().map(|v| 0.02 * v).collect())
+            .collect();
+        let series: Vec<Data> = ys
+            .iter()
+            .zip(&errs)
+            .map(|(y, e)| Data::new(&phi, y, e))
+            .collect();
         let f = joint_power_law_offset(&series).unwrap();
-        assert!((f.value("phi_c") - 0.82).abs() < 1e-6, "{}", f.value("phi_c"));
+        assert!(
+            (f.value("phi_c") - 0.82).abs() < 1e-6,
+            "{}",
+            f.value("phi_c")
+        );
         for (k, g) in [1.5, 2.5, 1.6].iter().enumerate() {
-            assert!((f.value(&format!("gamma_{k}")) - g).abs() < 1e-5, "series {k}");
+            assert!(
+                (f.value(&format!("gamma_{k}")) - g).abs() < 1e-5,
+                "series {k}"
+            );
         }
         assert!(f.warnings.is_empty(), "{:?}", f.warnings);
         assert!(joint_power_law_offset(&series[..1]).is_err());

@@ -415,7 +415,13 @@ pub(super) fn marker<DB: DrawingBackend>(
         Marker::Star => {
             let outer = regular(5, 1.5, 0.0);
             let inner = regular(5, 0.62, std::f64::consts::PI / 5.0);
-            shape(outer.into_iter().zip(inner).flat_map(|(a, b)| [a, b]).collect())
+            shape(
+                outer
+                    .into_iter()
+                    .zip(inner)
+                    .flat_map(|(a, b)| [a, b])
+                    .collect(),
+            )
         }
         Marker::Cross => area
             .draw(&PathElement::new(

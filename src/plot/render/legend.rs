@@ -90,14 +90,9 @@ pub(super) fn measure_legend<DB: DrawingBackend>(
     let row = 1.35 * sz.legend;
     // A dashed sample shows its dash at the middle (under a marker) with a
     // gap and half a dash on either side; a solid one is shorter.
-    let dashed = entries
-        .iter()
-        .flat_map(|e| &e.series)
-        .any(|&i| {
-            (p.series[i].dashed || p.series[i].dotted)
-                && !matches!(p.series[i].style, Style::Points)
-        })
-        || entries.iter().any(|e| e.line.is_some_and(|l| l.1));
+    let dashed = entries.iter().flat_map(|e| &e.series).any(|&i| {
+        (p.series[i].dashed || p.series[i].dotted) && !matches!(p.series[i].style, Style::Points)
+    }) || entries.iter().any(|e| e.line.is_some_and(|l| l.1));
     let (on, off) = dash_pattern(sz.line, sz);
     let sample = if dashed {
         (2.0 * on + 2.0 * off).max(2.2 * sz.legend)

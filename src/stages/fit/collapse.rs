@@ -210,7 +210,15 @@ impl StageKind for Collapse {
                 "g held at {}.{} (its fit's error); no fit",
                 from.stage, from.quantity
             );
-            return collapse_output(&p, &curves, best.as_deref(), &rescale, &rows, &note, &method);
+            return collapse_output(
+                &p,
+                &curves,
+                best.as_deref(),
+                &rescale,
+                &rows,
+                &note,
+                &method,
+            );
         }
         let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
             Err(anyhow::anyhow!(
