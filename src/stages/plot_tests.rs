@@ -1,0 +1,373 @@
+//! Tests of the `plot` stage kind (src/stages/plot.rs).
+use super::value_with_error;
+
+/// A table every column of `layer` can be read from: three groups of twelve
+/// points along a rising curve inside the panel's axes, errors of 5% of the
+/// value but one twenty times its value (the bar a referee sees first).
+fn synthetic(
+    layer: &super::Layer,
+    ps: &super::PanelSpec,
+    ranges: &std::collections::BTreeMap<String, (f64, f64)>,
+) -> super::Columns {
+    let along = |axis: &super::Axis, f: f64, lin: (f64, f64), log: (f64, f64)| {
+        let (lo, hi) = axis.range.unwrap_or(if axis.log { log } else { lin });
+        if axis.log {
+            10f64.powf(lo.log10() + f * (hi.log10() - lo.log10()))
+        } else {
+            lo + f * (hi - lo)
+        }
+    };
+    let mut c = super::Columns::default();
+    let mut put = |name: &str, v: f64| c.f64.entry(name.to_string()).or_default().push(v);
+    for j in 0..3 {
+        for k in 0..12 {
+            let u = k as f64 / 11.0;
+            // Coloured by its own x (points of phi in phi's colours): x
+            // runs over the colour range, and is the group column too.
+            let own = layer.group.as_deref() == Some(layer.x.as_str());
+            let x = match ranges.get(&layer.x) {
+                Some(&(lo, hi)) if own => lo + (hi - lo) * (0.05 + 0.9 * u),
+                _ => along(&ps.x, 0.05 + 0.9 * u, (0.0, 1.0), (0.1, 100.0)),
+            };
+            let y = along(
+                &ps.y,
+                0.1 + 0.6 * u + 0.1 * j as f64,
+                (0.0, 10.0),
+                (0.1, 1e3),
+            );
+            let big = j == 0 && k == 11;
+            put(&layer.x, x);
+            put(&layer.y, y);
+            if let Some(e) = &layer.y_err {
+                put(e, if big { 20.0 * y.abs() } else { 0.05 * y.abs() });
+            }
+            if let Some(g) = layer.group.as_ref().filter(|_| !own) {
+                // Inside the column's colour range, where the figure has one.
+                let (lo, hi) = ranges.get(g).copied().unwrap_or((0.6, 0.78));
+                put(g, lo + (hi - lo) * [0.0, 0.5, 1.0][j]);
+            }
+            if let Some(r) = &layer.radius {
+                put(r, 0.01);
+            }
+            if let Some(a) = &layer.arrows {
+                put(&a.dx, 0.01);
+                put(&a.dy, 0.01);
+            }
+        }
+    }
+    c.rows = 36;
+    c
+}
+
+/// Every plot spec in pipelines/ drawn from synthetic tables: no legend over
+/// data, one colour per group value, every label typeset, no y axis set by
+/// one error bar. Data of any figure goes through the same layout, so a
+/// spec whose options (a fixed corner, a range) let the plotter do one of
+/// these fails here.
+#[test]
+fn every_plot_spec_lays_out_without_defects() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
+        .collect();
+    files.sort();
+    let (mut found, mut bad) = (0, vec![]);
+    // Every experiment's profiles.
+    let mut experiments: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+    let exp_dir = dir.parent().unwrap().join("experiments");
+    for e in std::fs::read_dir(&exp_dir).unwrap() {
+        let path = e.unwrap().path();
+        if path.extension().is_none_or(|x| x != "yaml") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let v: serde_json::Value = crate::pipeline::spec::parse(&path, &text).unwrap();
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        let profiles = v["profiles"]
+            .as_object()
+            .map(|o| o.keys().cloned().collect())
+            .unwrap_or_default();
+        experiments.insert(name, profiles);
+    }
+    // The colour range of each paper-wide group column, per paper: one
+    // colour per phi (eps, a) in every figure of a paper.
+    let mut ranges: std::collections::BTreeMap<(&str, String), (String, (f64, f64))> =
+        Default::default();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        // The specs' own parser: YAML 1.2 booleans only, so `y: y` stays a name.
+        let spec: serde_json::Value = crate::pipeline::spec::parse(f, &text).unwrap();
+        let stages = spec["stages"].as_array().cloned().unwrap_or_default();
+        let plots = stages.iter().filter(|s| s["kind"] == "plot");
+        // The profiles the figure is built at: those of every experiment
+        // it reads.
+        let built: Vec<&str> = ["ci", "small", "paper"]
+            .into_iter()
+            .filter(|prof| {
+                stages.iter().all(|st| {
+                    let mut src: Vec<&str> = st["gather"]
+                        .as_array()
+                        .into_iter()
+                        .flatten()
+                        .filter_map(|v| v.as_str())
+                        .collect();
+                    src.extend(st["map"].as_str());
+                    src.iter().all(|e| {
+                        experiments
+                            .get(*e)
+                            .is_none_or(|ps: &Vec<String>| ps.iter().any(|q| q == prof))
+                    })
+                })
+            })
+            .collect();
+        // The base parameters at every profile without its own, and each
+        // profile's over them.
+        let variants = plots.flat_map(|st| {
+            let base = st["params"].clone();
+            let own = st["profiles"].as_object().cloned().unwrap_or_default();
+            let mut all = vec![];
+            for prof in built.iter().filter(|q| !own.contains_key(**q)) {
+                all.push((format!("{} at {prof}", st["name"]), base.clone(), *prof));
+            }
+            for (profile, o) in &own {
+                let mut v = base.clone();
+                for (k, x) in o.as_object().unwrap() {
+                    v[k] = x.clone();
+                }
+                let prof = ["ci", "small", "paper"]
+                    .into_iter()
+                    .find(|q| q == profile)
+                    .unwrap();
+                all.push((format!("{} at {profile}", st["name"]), v, prof));
+            }
+            all
+        });
+        for (stage, params, profile) in variants {
+            found += 1;
+            let mut p: super::PlotParams = serde_json::from_value(params)
+                .unwrap_or_else(|e| panic!("{}: {stage}: {e}", f.display()));
+            for ps in &mut p.panels {
+                for l in &mut ps.layers {
+                    l.filter = Default::default();
+                }
+            }
+            let table = |layer: &super::Layer| {
+                let ps = p
+                    .panels
+                    .iter()
+                    .find(|ps| ps.layers.iter().any(|l| std::ptr::eq(l, layer)))
+                    .unwrap();
+                Ok(synthetic(layer, ps, &p.colour_ranges))
+            };
+            let fill = |t: &str| {
+                let mut out = t.to_string();
+                while let Some(i) = out.find("{=") {
+                    let j = i + out[i..].find('}').unwrap();
+                    let key = &out[i + 2..j];
+                    let text = if key == "profile" {
+                        profile
+                    } else if key.ends_with(":value") {
+                        "0.5"
+                    } else if key.ends_with(".n") || key.ends_with(".replicas") {
+                        "7"
+                    } else {
+                        "0.50 ± 0.02"
+                    };
+                    out.replace_range(i..=j, text);
+                }
+                Ok(out)
+            };
+            let mut fig = super::build(&p, table, fill).unwrap();
+            fig.profile = Some(profile.to_string());
+            let name = f.file_name().unwrap().to_string_lossy().to_string();
+            let paper = match name.as_str() {
+                n if n.starts_with("intruder-fig") => Some("paper I"),
+                n if n.starts_with("fig") => Some("paper H"),
+                _ => None,
+            };
+            let columns = p
+                .panels
+                .iter()
+                .flat_map(|ps| &ps.layers)
+                .filter_map(|l| l.group.clone())
+                .filter(|c| ["phi", "eps", "a"].contains(&c.as_str()));
+            for column in columns.filter(|_| paper.is_some()) {
+                let key = (paper.unwrap(), column.clone());
+                match (p.colour_ranges.get(&column), ranges.get(&key)) {
+                    (None, _) => bad.push(format!(
+                        "{name} {stage}: groups by {column} without its colour range"
+                    )),
+                    (Some(r), Some((other, r0))) if r != r0 => bad.push(format!(
+                        "{name} {stage}: colour range of {column} {r:?}, {other} has {r0:?}"
+                    )),
+                    (Some(&r), _) => {
+                        ranges.entry(key).or_insert((name.clone(), r));
+                    }
+                }
+            }
+            // REPRO_PLOT_SAMPLES=dir: the synthetic figures, for looking at.
+            if let Some(dir) = std::env::var_os("REPRO_PLOT_SAMPLES") {
+                let stem = format!("spec-{}-{}", name.trim_end_matches(".yaml"), found);
+                let dir = std::path::Path::new(&dir);
+                crate::plot::draw(
+                    &fig,
+                    &dir.join(format!("{stem}.svg")),
+                    &dir.join(format!("{stem}.png")),
+                )
+                .unwrap();
+            }
+            for d in crate::plot::defects(&fig).unwrap() {
+                bad.push(format!("{name} {stage}: {d}"));
+            }
+        }
+    }
+    assert!(found >= 30, "only {found} plot stages in {}", dir.display());
+    assert!(bad.is_empty(), "{} defects:\n{}", bad.len(), bad.join("\n"));
+}
+
+/// A layer of one ensemble's table (no eps column) drawn `at` its eps
+/// takes that value's colour beside the other ensembles; an expected value
+/// the layer leaves out is said in a note with the layer's reason.
+#[test]
+fn a_layer_at_one_group_value_and_an_absent_one() {
+    let yaml = r#"
+colour_ranges: {eps: [0.7, 1.0]}
+panels:
+  - x: {label: "size"}
+    y: {label: "χ"}
+    legend_title: "ε"
+    layers:
+      - {from: others, x: size, y: chi, group: eps, expect: [0.7, 0.8, 1.0], absent: "its fit is unreliable."}
+      - {from: own, x: size, y: chi, group: eps, at: 0.9}
+"#;
+    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let table = |layer: &super::Layer| {
+        let mut c = super::Columns::default();
+        let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
+        put("size", vec![1.0, 2.0, 1.0, 2.0]);
+        put("chi", vec![1.0, 2.0, 1.5, 2.5]);
+        if layer.from == "others" {
+            put("eps", vec![0.7, 0.7, 0.8, 0.8]);
+        }
+        c.rows = 4;
+        Ok(c)
+    };
+    let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+    let s = &fig.panels[0].series;
+    assert_eq!(s.len(), 3);
+    assert_eq!(s[2].group.as_ref().unwrap().value, 0.9);
+    assert_eq!(s[2].label, "0.90");
+    assert_eq!(
+        fig.panels[0].notes,
+        ["The paper shows ε = 1.00; its fit is unreliable."]
+    );
+    assert!(crate::plot::defects(&fig).unwrap().is_empty());
+}
+
+/// `{=profile}` and `{=EXPERIMENT.PARAM}` print the build's own profile,
+/// N and replicas (the planner's `build` parameter), so that a note is
+/// true at every profile; the figure knows its profile.
+#[test]
+fn notes_state_the_build_they_are_drawn_on() {
+    let yaml = r#"
+build: {profile: small, experiments: {eps09_long: {n: 2000, replicas: 3, origins: 8, eps: 0.9}}}
+panels:
+  - x: {label: "a"}
+    y: {label: "ξ"}
+    notes: ["A small box ({=profile}: N = {=eps09_long.n}, {=eps09_long.replicas} replicas, ε = {=eps09_long.eps})."]
+    layers: []
+"#;
+    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let fig = super::figure(&p, &[]).unwrap();
+    assert_eq!(
+        fig.panels[0].notes,
+        ["A small box (small: N = 2000, 3 replicas, ε = 0.9)."]
+    );
+    assert_eq!(fig.profile.as_deref(), Some("small"));
+    assert!(crate::plot::defects(&fig).unwrap().is_empty());
+}
+
+#[test]
+fn fitted_values_round_to_their_error() {
+    assert_eq!(value_with_error(0.80342, 0.0123), "0.803 ± 0.012");
+    assert_eq!(value_with_error(0.80342, 0.031), "0.80 ± 0.03");
+    assert_eq!(value_with_error(1.622, 0.35), "1.6 ± 0.3");
+    assert_eq!(value_with_error(241.3, 17.0), "241 ± 17");
+    assert_eq!(value_with_error(241.3, 47.0), "241 ± 47");
+    assert_eq!(value_with_error(0.6, f64::NAN), "0.60");
+    assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
+    assert_eq!(super::legend_number(29.333), "29");
+    assert_eq!(super::legend_number(0.785), "0.785");
+    assert_eq!(super::legend_number(7.333), "7.3");
+    assert_eq!(super::legend_number(1.4), "1.40");
+}
+
+/// `scale: auto` makes the longest arrow 0.9 of the grid step (here the
+/// x step 2 of a 3 x 2 grid with y step 3; the longest vector is 5 long),
+/// and is read from YAML beside a number; `scale: 0` is refused.
+#[test]
+fn a_velocity_field_panel_prints_its_arrow_scale() {
+    let yaml = r#"
+panels:
+  - x: {label: "x"}
+    y: {label: "z"}
+    legend: none
+    layers:
+      - {from: field, x: x, y: "y", style: arrows, arrows: {dx: vx, dy: vy, scale: auto}}
+"#;
+    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let table = |_: &super::Layer| {
+        let mut c = super::Columns::default();
+        let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
+        put("x", vec![0.0, 2.0, 0.0, 2.0]);
+        put("y", vec![0.0, 0.0, 2.0, 2.0]);
+        put("vx", vec![3.0, 0.0, 1.0, 0.0]);
+        put("vy", vec![4.0, 1.0, 0.0, 0.0]);
+        c.rows = 4;
+        Ok(c)
+    };
+    let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+    // The longest vector (5) spans 0.9 of the grid step 2: scale 0.36.
+    assert_eq!(
+        fig.panels[0].notes,
+        ["Arrows: (vx, vy) × 0.360 in units of x; the longest |(vx, vy)| = 5.00."]
+    );
+}
+
+#[test]
+fn auto_arrow_scale_fits_the_longest_arrow_in_a_grid_cell() {
+    use super::{ArrowColumns, ArrowScale, AutoScale, auto_arrow_scale};
+    let x = [0.0, 2.0, 4.0, 0.0, 2.0, 4.0];
+    let y = [1.0, 1.0, 1.0, 4.0, 4.0, 4.0];
+    let dx = [3.0, 0.0, 1.0, -1.0, 0.0, 0.0];
+    let dy = [4.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    let rows: Vec<usize> = (0..6).collect();
+    let k = auto_arrow_scale(&x, &y, &dx, &dy, &rows).unwrap();
+    assert!((k - 0.9 * 2.0 / 5.0).abs() < 1e-12, "{k}");
+    // Without the longest arrow the others grow to fill the cell.
+    let k3 = auto_arrow_scale(&x, &y, &dx, &dy, &rows[1..]).unwrap();
+    assert!((k3 - 0.9 * 2.0 / 1.0).abs() < 1e-12, "{k3}");
+    assert!(auto_arrow_scale(&x, &y, &[0.0; 6], &[0.0; 6], &rows).is_none());
+    // As a stage reads its parameters: YAML, then JSON values.
+    let read = |s: &str| {
+        let v: serde_json::Value = serde_saphyr::from_str(s).unwrap();
+        serde_json::from_value::<ArrowColumns>(v)
+    };
+    let a = read("{dx: vx, dy: vy, scale: auto}").unwrap();
+    assert_eq!(a.scale, ArrowScale::Named(AutoScale::Auto));
+    let a = read("{dx: vx, dy: vy, scale: 2.5}").unwrap();
+    assert_eq!(a.scale, ArrowScale::Fixed(2.5));
+    assert!(read("{dx: vx, dy: vy, scale: big}").is_err());
+    let e = read("{dx: vx, dy: vy, scale: big}")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("arrows.scale must be a number > 0 or `auto`"),
+        "{e}"
+    );
+}
