@@ -35,6 +35,7 @@ fn s4_one_pair_1e6_qmax2(b: divan::Bencher, tolerance: f64) {
     let p = s4::Params {
         a: 0.6,
         lags: vec![1.0],
+        n: None,
         q_max: 2.0,
         dq: None,
         tolerance,

@@ -29,6 +29,7 @@ pub mod synthetic;
 #[cfg(test)]
 pub(crate) mod test_support;
 pub mod van_hove;
+pub mod window;
 
 use anyhow::{Result, bail};
 use arrow_array::RecordBatch;

@@ -482,6 +482,7 @@ mod tests {
             &s4::Params {
                 a: 0.6,
                 lags: vec![1.0],
+                n: None,
                 q_max: 0.1,
                 dq: None,
                 tolerance: 1e-6,

@@ -1,10 +1,17 @@
 //! Four-point structure factor S4(q, t) (paper H, Eq. 15-16), averaged over shells
-//! |q| = q of the reciprocal lattice q = 2 pi (m / Lx, n / Ly) of the periodic box.
+//! |q| = q of the reciprocal lattice q = 2 pi (m / l, n / l) of the region the sums
+//! run over: the sub-boxes B_r of mean particle number N (`n`, Eq. 16 as the paper
+//! writes it, with positions relative to each sub-box), or the whole periodic box
+//! (`n` absent, N the particle number).
 //!
-//! S4(q, t) = (1/N) [<|W(q)|^2> - |<W(q)>|^2], W(q) = sum_i theta_i exp(-i q.r_i(t0)),
-//! theta_i = 1 for slow particles, N the number of particles, <.> over time origins.
-//! The q = 0 point is Eq. 15 itself with W(0) = the number of slow particles, i.e.
-//! chi4 of the whole system (Eq. 14 with one sub-box; paper H, Fig. 16 caption).
+//! S4(q, t) = N [<|W_r(q)|^2> - |<W_r(q)>|^2], W_r(q) = (1/N) sum_{i in B_r} theta_i
+//! exp(-i q.r_i(t0)), theta_i = 1 for slow particles, <.> over sub-boxes and time
+//! origins. At q = 0 the mean is taken per replica as chi4's (paper H has one
+//! simulation per phi), so W_r = Q_r gives chi4 of the same sub-boxes (Eq. 14);
+//! at q != 0 it is pooled ([`Accumulator`]). With sub-boxes the q -> 0
+//! limit of Eq. 17 then holds by definition, and the OZ fit can hold its amplitude
+//! there. With the whole box the q = 0 point is chi4 of the whole system (Fig. 16
+//! caption), but S4(q -> 0) is not that box's chi4 (the paper's remark on fixed N).
 //!
 //! W(q) for all |q| <= q_max comes from a type-1 non-uniform FFT with Gaussian
 //! gridding (Greengard and Lee, SIAM Rev. 46, 443 (2004)): each slow particle is spread
@@ -12,8 +19,11 @@
 //! transformed, and the Gaussian is divided out. The truncation half-width sets the
 //! accuracy (relative to sum |theta_i|) and is chosen from `tolerance`; the cost is
 //! O(N_slow w^2 + G log G) with w = 2 x half-width and G grid points, so 4,000,000
-//! particles are cheap. The direct sum over wavevectors is the test reference.
+//! particles are cheap. On a sub-box the lattice q is periodic in l, so the same
+//! transform of the sub-box's own particles is its Eq. 16. The direct sum over
+//! wavevectors is the test reference.
 
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -23,6 +33,7 @@ use realfft::num_complex::Complex;
 use realfft::{RealFftPlanner, RealToComplex};
 use serde::Deserialize;
 
+use super::subbox::SubBoxes;
 use super::{check_trajectory, default_a, default_rel_tol, ensure_positive, squared_displacements};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
@@ -44,10 +55,14 @@ pub struct Params {
     pub a: f64,
     /// Lags t at which to evaluate S4 (e.g. [tau_alpha]).
     pub lags: Vec<f64>,
+    /// Mean particle number N of the sub-boxes B_r (Eqs. 15-16); the whole periodic
+    /// box if absent.
+    #[serde(default)]
+    pub n: Option<f64>,
     /// Largest |q| (units 1/r1).
     #[serde(default = "default_q_max")]
     pub q_max: f64,
-    /// Shell width in q; 2 pi / min(Lx, Ly) if absent.
+    /// Shell width in q; 2 pi / l if absent (l the short side of the region).
     #[serde(default)]
     pub dq: Option<f64>,
     /// Accuracy of W(q) relative to the number of slow particles (1e-15 .. 1e-2).
@@ -290,13 +305,21 @@ fn shell_index(q: f64, dq: f64) -> usize {
 }
 
 /// Running sums over time origins, so memory stays O(vectors) whatever the number
-/// of origins: sum |W|^2 and sum W per vector, and per-origin shell sums of |W|^2.
+/// of origins: sum |W|^2 and sum W per vector over every sample (a sub-box, or
+/// the whole box, at an origin), and per-origin shell means of |W|^2.
+///
+/// For q != 0 the ensemble mean of W is zero (translation invariance), so the
+/// mean subtracted is the pooled one, which only removes the estimator's own
+/// offset. A mean per replica would also remove slow regions that outlive the
+/// run (one sample per origin on the whole box): measured at ci, it moved
+/// fig18's amplitude by eight seed-to-seed spreads.
 pub struct Accumulator<'a> {
     lat: &'a Lattice,
     shell: Vec<usize>,
     n_shells: usize,
     sum2: Vec<f64>,
     sum1: Vec<Complex<f64>>,
+    samples: f64,
     per_origin: Vec<Vec<f64>>,
 }
 
@@ -310,22 +333,30 @@ impl<'a> Accumulator<'a> {
             n_shells,
             sum2: vec![0.0; lat.q.len()],
             sum1: vec![Complex::new(0.0, 0.0); lat.q.len()],
+            samples: 0.0,
             per_origin: Vec::new(),
         }
     }
 
-    /// Add W of one time origin (one value per lattice vector).
-    pub fn add(&mut self, w: &[Complex<f64>]) {
+    /// Add the W of one time origin: one vector (a value per lattice vector) per
+    /// sub-box, or one for the whole box.
+    pub fn add(&mut self, samples: &[Vec<Complex<f64>>]) {
         let mut shells = vec![0.0; self.n_shells];
-        for (v, wv) in w.iter().enumerate() {
-            self.sum2[v] += wv.norm_sqr();
-            self.sum1[v] += wv;
-            shells[self.shell[v]] += wv.norm_sqr();
+        for w in samples {
+            for (v, wv) in w.iter().enumerate() {
+                self.sum2[v] += wv.norm_sqr();
+                self.sum1[v] += wv;
+                shells[self.shell[v]] += wv.norm_sqr();
+            }
         }
-        self.per_origin.push(shells);
+        self.samples += samples.len() as f64;
+        let k = samples.len().max(1) as f64;
+        self.per_origin
+            .push(shells.into_iter().map(|x| x / k).collect());
     }
 
-    /// S4 = (<|W|^2> - |<W>|^2) / N per vector, averaged in shells.
+    /// S4 = (<|W|^2> - |<W>|^2) / N per vector (W unnormalised, the mean pooled),
+    /// averaged in shells.
     pub fn shells(&self, n_particles: f64) -> Shells {
         let no = self.per_origin.len() as f64;
         let mut sum_q = vec![0.0; self.n_shells];
@@ -334,9 +365,10 @@ impl<'a> Accumulator<'a> {
         let mut count = vec![0usize; self.n_shells];
         for v in 0..self.lat.q.len() {
             let k = self.shell[v];
+            let between = self.sum1[v].norm_sqr() / self.samples;
             sum_q[k] += self.lat.q[v];
             sum_q2[k] += self.lat.q[v] * self.lat.q[v];
-            sum_s[k] += (self.sum2[v] / no - (self.sum1[v] / no).norm_sqr()) / n_particles;
+            sum_s[k] += (self.sum2[v] - between) / self.samples / n_particles;
             count[k] += 1;
         }
         let mut out = Shells {
@@ -390,8 +422,9 @@ pub fn s4_zero(traj: &Trajectory, p: &Params) -> Result<Vec<(f64, Shells)>> {
         .collect())
 }
 
-/// Per lag: (lag, the q = 0 shell, the shells of q > 0), averages over every time
-/// origin of every trajectory (replicas of one state point: one box, one N).
+/// Per lag: (lag, the q = 0 shell, the shells of q > 0), averages over every
+/// sub-box (or the whole box) at every time origin of every trajectory (replicas
+/// of one state point: one box, one N).
 fn s4_with_zero(trajs: &[&Trajectory], p: &Params) -> Result<Vec<(f64, Shells, Shells)>> {
     let Some(&traj) = trajs.first() else {
         bail!("S4 needs at least one trajectory");
@@ -410,29 +443,40 @@ fn s4_with_zero(trajs: &[&Trajectory], p: &Params) -> Result<Vec<(f64, Shells, S
     }
     ensure_positive("a", p.a)?;
     ensure_positive("q_max", p.q_max)?;
-    if traj.periodic != [true, true] {
+    // The region the sums of Eq. 16 run over, and the N of Eq. 15.
+    let boxes = p.n.map(|n| SubBoxes::new(traj, n)).transpose()?;
+    let (region, n_norm, what) = match &boxes {
+        Some(b) => ([b.side, b.side], b.n_mean, "sub-box"),
+        None => (traj.box_size, traj.n() as f64, "box"),
+    };
+    if boxes.is_none() && traj.periodic != [true, true] {
         bail!(
-            "S4 needs a box periodic in x and y (the trajectory has periodic = {:?})",
+            "S4 of the whole box needs a box periodic in x and y (the trajectory has periodic = {:?}); give sub-boxes with `n`",
             traj.periodic
         );
     }
     if p.lags.is_empty() {
         bail!("parameter `lags` is empty: give at least one lag (e.g. tau_alpha)");
     }
-    let dq =
-        p.dq.unwrap_or(2.0 * PI / traj.box_size[0].min(traj.box_size[1]));
+    let dq = p.dq.unwrap_or(2.0 * PI / region[0].min(region[1]));
     ensure_positive("dq", dq)?;
-    let lat = Lattice::new(traj.box_size, p.q_max);
+    let lat = Lattice::new(region, p.q_max);
     if lat.q.is_empty() {
         bail!(
-            "q_max = {} is below the smallest wavevector 2 pi / L = {:.4} of this box",
+            "q_max = {} is below the smallest wavevector 2 pi / l = {:.4} of this {what}",
             p.q_max,
-            2.0 * PI / traj.box_size[0].max(traj.box_size[1])
+            2.0 * PI / region[0].max(region[1])
         );
     }
-    let nufft = Nufft::new(traj.box_size, lat.modes, p.tolerance)?;
+    let nufft = Nufft::new(region, lat.modes, p.tolerance)?;
     let lags = super::lags::select(trajs, Some(&p.lags), p.rel_tol)?;
     let ny = 2 * lat.modes[1] + 1;
+    let pick = |full: Vec<Complex<f64>>| -> Vec<Complex<f64>> {
+        lat.mn
+            .iter()
+            .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
+            .collect()
+    };
     let a2 = p.a * p.a;
     let mut out = Vec::new();
     for lag in lags {
@@ -444,57 +488,85 @@ fn s4_with_zero(trajs: &[&Trajectory], p: &Params) -> Result<Vec<(f64, Shells, S
                 .into_iter()
                 .map(|d2| if d2 < a2 { 1.0 } else { 0.0 })
                 .collect();
-            let full = nufft.transform(&f0.x, &f0.y, &theta);
-            let w: Vec<Complex<f64>> = lat
-                .mn
-                .iter()
-                .map(|&(m, n)| full[m as usize * ny + (n + lat.modes[1] as i64) as usize])
-                .collect();
-            acc.add(&w);
-            slow.push((r, theta.iter().sum::<f64>()));
+            let (counts, ws) = match &boxes {
+                None => (
+                    vec![theta.iter().sum::<f64>()],
+                    vec![pick(nufft.transform(&f0.x, &f0.y, &theta))],
+                ),
+                Some(b) => {
+                    // The slow particles of each sub-box, at their positions in it.
+                    let mut xy = vec![(Vec::new(), Vec::new()); b.len()];
+                    for (k, &th) in theta.iter().enumerate() {
+                        if th > 0.0
+                            && let Some((bi, rel)) = b.locate_within(f0.x[k], f0.y[k])
+                        {
+                            xy[bi].0.push(rel[0]);
+                            xy[bi].1.push(rel[1]);
+                        }
+                    }
+                    let counts = xy.iter().map(|(x, _)| x.len() as f64).collect();
+                    let ws = xy
+                        .iter()
+                        .map(|(x, y)| pick(nufft.transform(x, y, &vec![1.0; x.len()])))
+                        .collect();
+                    (counts, ws)
+                }
+            };
+            acc.add(&ws);
+            slow.push((r, counts));
         }
-        let n = traj.n() as f64;
-        out.push((lag.t, zero_shell(&slow, n), acc.shells(n)));
+        out.push((lag.t, zero_shell(&slow, n_norm), acc.shells(n_norm)));
     }
     Ok(out)
 }
 
-/// S4(q = 0) = var(N_slow) / N over the time origins (W(0) = N_slow), the
-/// variance taken within each replica about its own mean and averaged over
-/// replicas as chi4's (paper H has one simulation per phi; [`super::chi4::Variance`]),
-/// with a delete-one jackknife error (the variance is not a mean over origins).
-/// `slow`: (replica, N_slow) per time origin.
-fn zero_shell(slow: &[(usize, f64)], n: f64) -> Shells {
-    let s4 = |v: &[(usize, f64)]| {
-        let mut per: std::collections::BTreeMap<usize, (f64, f64)> = Default::default();
-        let mut sq = 0.0;
-        for &(r, x) in v {
-            let e = per.entry(r).or_default();
+/// S4(q = 0) = var(N_slow) / N over the samples (W(0) = N_slow of a sub-box, or
+/// of the whole box), the variance taken within each replica about its own mean
+/// and averaged over replicas as chi4's ([`super::chi4::Variance`]): chi4 of the
+/// same sub-boxes. Error: delete-one-origin jackknife (the variance is not a
+/// mean over origins). `origins`: (replica, N_slow per sample) per time origin.
+fn zero_shell(origins: &[(usize, Vec<f64>)], n: f64) -> Shells {
+    // sum N_slow^2 over samples, and per replica (sum N_slow, samples).
+    let mut sq = 0.0;
+    let mut per: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+    for (r, xs) in origins {
+        let e = per.entry(*r).or_default();
+        for x in xs {
+            sq += x * x;
             e.0 += x;
             e.1 += 1.0;
-            sq += x * x;
         }
-        let between: f64 = per.values().map(|(s, k)| s * s / k).sum();
-        (sq - between) / v.len() as f64 / n
+    }
+    let s4 = |sq: f64, per: &BTreeMap<usize, (f64, f64)>| {
+        let (between, samples) = per
+            .values()
+            .filter(|(_, k)| *k > 0.0)
+            .fold((0.0, 0.0), |(b, c), (s, k)| (b + s * s / k, c + k));
+        (sq - between) / samples / n
     };
-    let loo: Vec<f64> = (0..slow.len())
-        .map(|i| {
-            let rest: Vec<(usize, f64)> = [&slow[..i], &slow[i + 1..]].concat();
-            s4(&rest)
+    let loo: Vec<f64> = origins
+        .iter()
+        .map(|(r, xs)| {
+            let mut rest = per.clone();
+            let e = rest.get_mut(r).expect("replica of this origin");
+            e.0 -= xs.iter().sum::<f64>();
+            e.1 -= xs.len() as f64;
+            s4(sq - xs.iter().map(|x| x * x).sum::<f64>(), &rest)
         })
         .collect();
     Shells {
         q: vec![0.0],
         q2: vec![0.0],
-        s4: vec![s4(slow)],
+        s4: vec![s4(sq, &per)],
         s4_err: vec![super::stats::jackknife_err(loo)],
         n_vectors: vec![1],
     }
 }
 
-/// Table `L, t, q, q2, S4, S4_err, n_vectors` (L the short side of the box, q2 the
-/// shell mean of q^2); per lag the first row is q = 0 (chi4 of the whole system),
-/// then the shells of q > 0.
+/// Table `L, t, q, q2, S4, S4_err, n_vectors` (L the short side of the region:
+/// the sub-box or the box; q2 the shell mean of q^2); per lag the first row is
+/// q = 0 (chi4 of the same sub-boxes, or of the whole system), then the shells of
+/// q > 0.
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     compute_pooled(&[traj], p)
 }
@@ -514,8 +586,11 @@ pub fn compute_pooled(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> 
         }
     }
     let [t, q, s, e, n, q2] = cols;
-    // The box side: xi / L says how close the correlation length is to the box.
-    let side = trajs[0].box_size[0].min(trajs[0].box_size[1]);
+    // The region's side: xi / L says how close the correlation length is to it.
+    let side = match p.n {
+        Some(n) => SubBoxes::new(trajs[0], n)?.side,
+        None => trajs[0].box_size[0].min(trajs[0].box_size[1]),
+    };
     f64_batch(&[
         ("L", vec![side; t.len()]),
         ("t", t),
@@ -564,6 +639,7 @@ mod tests {
         Params {
             a: 0.6,
             lags: vec![1.0],
+            n: None,
             q_max,
             dq: None,
             tolerance,
@@ -646,9 +722,13 @@ mod tests {
         }
 
         let s = s4(&traj, &unit_lag(1.0, 1e-6)).unwrap();
-        let sh = &s[0].1;
-        let mut weighted = 0.0;
-        let mut total = 0.0;
+        // ~ 40 origins x 1000 vectors: the overall mean is known to ~0.5 %.
+        assert_shells_equal(&s[0].1, p);
+    }
+
+    /// Every shell within 5 errors of `p`, and their vector-weighted mean within 2%.
+    fn assert_shells_equal(sh: &Shells, p: f64) {
+        let (mut weighted, mut total) = (0.0, 0.0);
         for k in 0..sh.q.len() {
             assert!(
                 (sh.s4[k] - p).abs() < 5.0 * sh.s4_err[k],
@@ -660,12 +740,79 @@ mod tests {
             weighted += sh.s4[k] * sh.n_vectors[k] as f64;
             total += sh.n_vectors[k] as f64;
         }
-        // ~ 40 origins x 1000 vectors: the overall mean is known to ~0.5 %.
         assert!(
             (weighted / total - p).abs() < 0.02 * p,
             "mean S4 = {}",
             weighted / total
         );
+    }
+
+    /// Eqs. 15-16 per sub-box: at q = 0, W_r = Q_r, so S4 is chi4 (Eq. 14) of the
+    /// same sub-boxes with the same per-replica variance, to rounding; on two
+    /// replicas of correlated (OZ) slow particles, several sub-boxes per box.
+    #[test]
+    fn sub_box_q_zero_point_is_chi4_of_the_same_sub_boxes() {
+        let reps = [
+            oz_slow(4000, 60.0, 60, 3.0, 0.5, 0.2, 30, 5),
+            oz_slow(4000, 60.0, 60, 3.0, 0.5, 0.2, 30, 6),
+        ];
+        let trajs: Vec<&Trajectory> = reps.iter().collect();
+        for n_sub in [250.0, 1000.0] {
+            let p = Params {
+                n: Some(n_sub),
+                ..unit_lag(2.0, 1e-6)
+            };
+            let s = compute_pooled(&trajs, &p).unwrap();
+            let (q, s4, side) = (col(&s, "q"), col(&s, "S4"), col(&s, "L"));
+            assert_eq!(q[0], 0.0, "first row is q = 0");
+            // The lattice is the sub-box's: the first shell holds 2 pi / l and
+            // 2 pi sqrt(2) / l.
+            let l = (n_sub / (4000.0 / 3600.0)).sqrt();
+            assert!((side[0] - l).abs() < 1e-9 * l, "L = {} vs l = {l}", side[0]);
+            let q1 = 2.0 * PI / l;
+            assert!(
+                q[1] > q1 && q[1] < q1 * 2f64.sqrt(),
+                "first shell q = {}",
+                q[1]
+            );
+            let c = chi4::compute_pooled(
+                &trajs,
+                &chi4::Params {
+                    a: 0.6,
+                    n: vec![n_sub],
+                    lags: Some(vec![1.0]),
+                    rel_tol: 1e-6,
+                    variance: chi4::Variance::PerReplica,
+                },
+            )
+            .unwrap();
+            let chi = col(&c, "chi4")[0];
+            assert!(
+                (s4[0] - chi).abs() <= 1e-9 * chi && chi > 0.0,
+                "N = {n_sub}: S4(0) = {} vs chi4 = {chi}",
+                s4[0]
+            );
+        }
+    }
+
+    /// Independent slow particles in grand-canonical sub-boxes: S4(q) = p at every
+    /// q of the sub-box lattice, q = 0 included (Poisson counts).
+    #[test]
+    fn independent_particles_give_s4_equal_p_per_sub_box() {
+        let p = 0.3;
+        let traj = independent_slow(20_000, [141.0, 141.0], 40, p, 1.0, 7);
+        let par = Params {
+            n: Some(500.0),
+            ..unit_lag(1.5, 1e-6)
+        };
+        let (_, zero, sh) = s4_with_zero(&[&traj], &par).unwrap().remove(0);
+        assert!(
+            (zero.s4[0] - p).abs() < 4.0 * zero.s4_err[0] && zero.s4_err[0] < 0.05 * p,
+            "S4(0) = {} +- {}",
+            zero.s4[0],
+            zero.s4_err[0]
+        );
+        assert_shells_equal(&sh, p);
     }
 
     #[test]

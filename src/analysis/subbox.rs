@@ -68,8 +68,16 @@ impl SubBoxes {
     /// Index of the sub-box holding (x, y) (unwrapped), or None if it lies between boxes.
     #[inline]
     pub fn locate(&self, x: f64, y: f64) -> Option<usize> {
+        self.locate_within(x, y).map(|(b, _)| b)
+    }
+
+    /// As [`Self::locate`], with the position relative to the sub-box's lower-left
+    /// corner (in [0, l) per axis): the coordinates of Eq. 16 within B_r.
+    #[inline]
+    pub fn locate_within(&self, x: f64, y: f64) -> Option<(usize, [f64; 2])> {
         let half = 0.5 * self.side;
         let mut idx = [0usize; 2];
+        let mut rel = [0.0; 2];
         for (d, v) in [x, y].into_iter().enumerate() {
             let f = fold(v, self.box_size[d], self.periodic[d]);
             let c = ((f / self.pitch[d]).floor().max(0.0) as usize).min(self.count[d] - 1);
@@ -79,8 +87,9 @@ impl SubBoxes {
                 return None;
             }
             idx[d] = c;
+            rel[d] = f - (centre - half);
         }
-        Some(idx[1] * self.count[0] + idx[0])
+        Some((idx[1] * self.count[0] + idx[0], rel))
     }
 
     /// For one frame pair: (sum over sub-boxes of Q_r, of Q_r^2, number of sub-boxes,

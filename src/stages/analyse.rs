@@ -12,6 +12,9 @@
 //! (clusters, a mobility snapshot) at the nearest recorded lag ([`lags::AtLag`]).
 //! The lags and weights are listed in `at.parquet`; a request past the last lag
 //! fails.
+//!
+//! `skip_origins: f` leaves the earliest fraction f of the time origins out of
+//! the analysis (the run's non-stationary start, [`crate::analysis::window`]).
 
 use std::sync::Arc;
 
@@ -50,6 +53,8 @@ struct Split {
     observable: Value,
     unit: Option<TimeUnit>,
     at: Option<Vec<f64>>,
+    /// Fraction of the time origins, earliest first, left out of the analysis.
+    skip_origins: Option<f64>,
 }
 
 fn split(name: &str, params: &Value) -> Result<Split> {
@@ -67,6 +72,18 @@ fn split(name: &str, params: &Value) -> Result<Split> {
         .map(serde_json::from_value)
         .transpose()
         .with_context(|| format!("parameters of analysis `{name}`: `at` wants a list of multiples, e.g. [0.01, 1, 8.5]"))?;
+    let skip_origins: Option<f64> = map
+        .remove("skip_origins")
+        .map(serde_json::from_value)
+        .transpose()
+        .with_context(|| format!("parameters of analysis `{name}`: `skip_origins` wants a fraction in [0, 1), e.g. 0.5"))?;
+    if let Some(f) = skip_origins
+        && !(f.is_finite() && (0.0..1.0).contains(&f))
+    {
+        bail!(
+            "parameters of analysis `{name}`: `skip_origins` is the fraction of time origins left out, in [0, 1); got {f}"
+        );
+    }
     if at.is_some() {
         if unit.is_none() {
             bail!(
@@ -83,6 +100,7 @@ fn split(name: &str, params: &Value) -> Result<Split> {
         observable: obs,
         unit,
         at,
+        skip_origins,
     })
 }
 
@@ -319,7 +337,8 @@ impl StageKind for Analyse {
         format!(
             "parameters: {keys} (docs/analysis.md), and of every analysis\n  \
              time_unit: {{from: STAGE, column: tau_alpha}}  adds t_over_tau_alpha\n  \
-             at: [0.01, 1, 8.5]  read at these multiples of the measured time, interpolated in ln t (at.parquet)\n\
+             at: [0.01, 1, 8.5]  read at these multiples of the measured time, interpolated in ln t (at.parquet)\n  \
+             skip_origins: 0.5  leave out this fraction of the time origins, earliest first (a non-stationary start)\n\
              example: {{name: {n}, kind: {n}, gather: [eps09], by: [phi]}}",
             keys = self.params().join(", "),
             n = self.obs.name
@@ -351,7 +370,14 @@ impl StageKind for Analyse {
     fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let name = self.obs.name;
         let s = split(name, params)?;
-        let trajs = trajectories(name, inputs)?;
+        let mut trajs = trajectories(name, inputs)?;
+        if let Some(f) = s.skip_origins {
+            trajs = trajs
+                .iter()
+                .map(|t| crate::analysis::window::skip_origins(t, f))
+                .collect::<Result<_>>()
+                .with_context(|| format!("{name}: `skip_origins`"))?;
+        }
         let refs: Vec<&Trajectory> = trajs.iter().collect();
         let unit = s
             .unit

@@ -33,7 +33,7 @@ pub fn oz(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
         bounds,
         fixed,
     )?;
-    check_plateau(FORM, data, &mut fit)?;
+    check_plateau(FORM, data, fixed, &mut fit)?;
     Ok(fit)
 }
 
@@ -91,7 +91,7 @@ pub fn oz_quartic(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitErro
         }
         r => r?,
     };
-    check_plateau(FORM, data, &mut fit)?;
+    check_plateau(FORM, data, fixed, &mut fit)?;
     Ok(fit)
 }
 
@@ -152,11 +152,19 @@ pub const MAX_QMIN_XI: f64 = 0.75;
 
 /// The fit is only meaningful if some q resolves the plateau (q xi < 1).
 /// With fewer than 3 such points the fit is kept but carries a warning; from
-/// q_min xi = [`MAX_QMIN_XI`] on it is marked unreliable.
-fn check_plateau(form: &str, data: Data<'_>, fit: &mut FitResult) -> Result<(), FitError> {
+/// q_min xi = [`MAX_QMIN_XI`] on it is marked unreliable. With chi0 held (paper
+/// H's fit with chi0 = chi4, S4 at q = 0) the plateau is given, not fitted: each
+/// q then fixes xi, and only the warning on few points q xi < 1 applies.
+fn check_plateau(
+    form: &str,
+    data: Data<'_>,
+    fixed: Fixed<'_>,
+    fit: &mut FitResult,
+) -> Result<(), FitError> {
     let xi = fit.value("xi");
     let qmin = data.x.iter().copied().fold(f64::INFINITY, f64::min);
-    if qmin * xi >= 1.0 {
+    let plateau_held = fixed.iter().any(|(name, _)| *name == "chi0");
+    if !plateau_held && qmin * xi >= 1.0 {
         return Err(FitError::unreliable(
             form,
             format!(
@@ -168,7 +176,7 @@ fn check_plateau(form: &str, data: Data<'_>, fit: &mut FitResult) -> Result<(), 
             ),
         ));
     }
-    if qmin * xi > MAX_QMIN_XI {
+    if !plateau_held && qmin * xi > MAX_QMIN_XI {
         fit.warnings.push(format!(
             "{UNRELIABLE}q_min xi = {:.2} > {MAX_QMIN_XI} (xi/L ~ {:.3}): xi approaches the box \
              (2 pi / q_min = {:.4}) and is biased low by more than 10% (measured); use a \
@@ -217,5 +225,25 @@ mod tests {
         );
         let e = fit(12.0).unwrap_err().to_string();
         assert!(e.contains("unreliable") && e.contains("plateau"), "{e}");
+    }
+
+    /// With chi0 held at its true value (paper H's fit with chi0 = chi4), xi is
+    /// recovered even where no q reaches the plateau (q_min xi = 1.2, 2): the
+    /// failure above is for a fitted amplitude only.
+    #[test]
+    fn held_amplitude_recovers_xi_beyond_the_plateau() {
+        let q: Vec<f64> = (1..=8).map(|k| 0.1 * k as f64).collect();
+        for xi in [12.0, 20.0] {
+            let s: Vec<f64> = q.iter().map(|q| 2.0 / (1.0 + (q * xi).powi(2))).collect();
+            let e: Vec<f64> = s.iter().map(|s| 1e-3 * s).collect();
+            let fit = oz(Data::new(&q, &s, &e), &[("chi0", 2.0)]).unwrap();
+            assert!(
+                (fit.value("xi") - xi).abs() < 1e-3 * xi,
+                "xi = {}",
+                fit.value("xi")
+            );
+            let w = fit.warnings.join("; ");
+            assert!(!w.contains(UNRELIABLE) && w.contains("few points"), "{w}");
+        }
     }
 }
