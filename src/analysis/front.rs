@@ -6,10 +6,12 @@
 //! The front is read from the bath's momentum profile Px(x) (the intruder left
 //! out; [`super::intruder::compute_profile`]) averaged over replicas, taken as a
 //! distribution of momentum along x: its centre is the first moment and its
-//! width twice the standard deviation (the positive part of Px, so the wall's
-//! backflow does not enter). Speeds are least-squares slopes over a time window
-//! before the front reaches the far wall; every error is a delete-one jackknife
-//! over replicas of the whole chain (profile, moments, slopes).
+//! width its standard deviation (the positive part of Px, so the wall's
+//! backflow does not enter). V_cm is the least-squares slope of the centre over
+//! a time window before the front reaches the far wall, V_br that of the width
+//! through the origin, Delta = V_br t as paper I writes it (`width_growth`);
+//! every error is a delete-one jackknife over replicas of the whole chain
+//! (profile, moments, slopes).
 
 use anyhow::{Result, bail};
 use arrow_array::{Float64Array, RecordBatch};
@@ -179,6 +181,21 @@ pub struct FrontParams {
     /// its front profile leaves it out; default: left out, the bath's front).
     #[serde(default)]
     pub include_intruder: bool,
+    /// How V_br is read from the width over the fit window.
+    #[serde(default)]
+    pub width_growth: WidthGrowth,
+}
+
+/// How the width's growth V_br is read from width(t).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum WidthGrowth {
+    /// Delta = V_br t, paper I's text: least squares through the origin.
+    #[default]
+    ThroughOrigin,
+    /// The slope of a line with its intercept free (the width the front has
+    /// when the fit window opens left out).
+    Slope,
 }
 
 /// One replica's front data at the analysed times: the momentum profile per time
@@ -216,6 +233,12 @@ fn interpolate(xs: &[f64], y: &[f64], x0: f64) -> f64 {
     }
     let a = (x0 - xs[j - 1]) / (xs[j] - xs[j - 1]);
     y[j - 1] + a * (y[j] - y[j - 1])
+}
+
+/// Least-squares slope of y = v x (a line through the origin).
+pub fn proportional(x: &[f64], y: &[f64]) -> f64 {
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| a * b).sum();
+    sxy / x.iter().map(|a| a * a).sum::<f64>()
 }
 
 /// Least-squares slope of y against x.
@@ -308,10 +331,17 @@ fn numbers(reps: &[&Replica], xs: &[f64], times: &[f64], p: &FrontParams) -> Num
     let pick = |v: &[f64]| fit.iter().map(|&k| v[k]).collect::<Vec<f64>>();
     let tf = pick(times);
     let (cf, wf) = (pick(&centre), pick(&width));
-    let (v_cm, v_br) = (slope(&tf, &cf), slope(&tf, &wf));
+    let v_cm = slope(&tf, &cf);
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let t_mean = mean(&tf);
-    let intercepts = [mean(&cf) - v_cm * t_mean, mean(&wf) - v_br * t_mean];
+    let (v_br, width_at_0) = match p.width_growth {
+        WidthGrowth::ThroughOrigin => (proportional(&tf, &wf), 0.0),
+        WidthGrowth::Slope => {
+            let v = slope(&tf, &wf);
+            (v, mean(&wf) - v * t_mean)
+        }
+    };
+    let intercepts = [mean(&cf) - v_cm * t_mean, width_at_0];
     let comp = in_window(p.compact[0], p.compact[1]);
     let eta_wall = comp.iter().map(|&k| eta[k]).sum::<f64>() / comp.len() as f64;
     Numbers {
@@ -585,8 +615,34 @@ mod tests {
         let (v_cm, e) = get("V_cm");
         assert!((v_cm - 10.0).abs() < 0.2, "V_cm = {v_cm}");
         assert_eq!(e, 0.0, "identical replicas: no spread");
+        // Width (10 + 20 t)/sqrt(12): Delta = V_br t through the origin over the
+        // window's times, or the slope 20/sqrt(12) with `width_growth: slope`.
         let (v_br, _) = get("V_br");
-        assert!((v_br - 20.0 / 12f64.sqrt()).abs() < 0.2, "V_br = {v_br}");
+        let tw: Vec<f64> = times
+            .iter()
+            .copied()
+            .filter(|t| (0.5 - 1e-9..=2.5 + 1e-9).contains(t))
+            .collect();
+        let w: Vec<f64> = tw
+            .iter()
+            .map(|t| (10.0 + 20.0 * t) / 12f64.sqrt())
+            .collect();
+        let expect = proportional(&tw, &w);
+        assert!(
+            (v_br - expect).abs() < 0.2,
+            "V_br = {v_br}, expected {expect}"
+        );
+        let slope_params = FrontParams {
+            width_growth: WidthGrowth::Slope,
+            ..params()
+        };
+        let [slope_main, ..] = front(&[&t, &t, &t], &slope_params).unwrap();
+        let i = (0..q.len()).find(|&i| q.value(i) == "V_br").unwrap();
+        let v_slope = col(&slope_main, crate::table::results::VALUE)[i];
+        assert!(
+            (v_slope - 20.0 / 12f64.sqrt()).abs() < 0.2,
+            "V_br (slope) = {v_slope}"
+        );
         assert!((get("V_ratio").0 - v_br / v_cm).abs() < 1e-12);
         // The lattice strip of whole cells: pi r^2 per unit cell.
         let (eta, _) = get("eta_wall");
