@@ -16,7 +16,7 @@ use anyhow::{Result, bail};
 use arrow_array::RecordBatch;
 use serde::Deserialize;
 
-use super::overlap::{Moments, moments};
+use super::overlap::{Displacement, Moments, moments};
 use super::stats::{
     Blocks, Estimate, at_least, interp_log_t, jackknife_err, peak_log_t, peak_resolution,
 };
@@ -108,7 +108,14 @@ fn run(trajs: &[&Trajectory], p: &Params) -> Result<Moments> {
         bail!("parameter `n` (sub-box particle numbers) is empty: give at least one");
     }
     let sizes: Vec<Option<f64>> = p.n.iter().map(|&n| Some(n)).collect();
-    moments(trajs, p.a, &sizes, p.lags.as_deref(), p.rel_tol)
+    moments(
+        trajs,
+        p.a,
+        Displacement::Absolute,
+        &sizes,
+        p.lags.as_deref(),
+        p.rel_tol,
+    )
 }
 
 /// Table `N, t, Q, chi4, chi4_err, n_origins` of one trajectory (errors: jackknife
@@ -225,6 +232,7 @@ pub fn peaks_table(trajs: &[&Trajectory], p: &Params) -> Result<RecordBatch> {
         n: None,
         lags: p.lags.clone(),
         rel_tol: p.rel_tol,
+        ..Default::default()
     };
     let tau = super::overlap::tau_alpha(trajs, &op).ok();
     let ta = tau.map(|x| x.value).unwrap_or(f64::NAN);
@@ -440,6 +448,7 @@ mod tests {
             n: None,
             lags: p.lags.clone(),
             rel_tol: 1e-6,
+            ..Default::default()
         };
         let tau = crate::analysis::overlap::tau_alpha(&[&traj], &op).unwrap();
         assert!(

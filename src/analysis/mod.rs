@@ -10,6 +10,7 @@
 //! and errors use a jackknife over (replica, origin bin) blocks with bins about
 //! tau_alpha long ([`lags::origin_bins`]), since closer origins are correlated.
 
+pub mod cage;
 pub mod chi4;
 pub mod clusters;
 pub mod front;

@@ -196,6 +196,7 @@ pub fn diffusion(trajs: &[&Trajectory], p: &DiffusionParams) -> Result<RecordBat
         n: None,
         lags: lag_list.clone(),
         rel_tol: p.rel_tol,
+        ..Default::default()
     };
     let tau = super::overlap::tau_alpha(trajs, &op)?;
     let lo = p.fit_min_tau * tau.value;

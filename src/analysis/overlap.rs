@@ -32,6 +32,10 @@ pub struct Params {
     /// Relative tolerance matching a lag to frame time differences.
     #[serde(default = "default_rel_tol")]
     pub rel_tol: f64,
+    /// Which displacement is compared with `a` (default: from the fixed origin,
+    /// paper H's).
+    #[serde(default)]
+    pub displacement: Displacement,
 }
 
 impl Default for Params {
@@ -41,8 +45,29 @@ impl Default for Params {
             n: None,
             lags: None,
             rel_tol: default_rel_tol(),
+            displacement: Displacement::default(),
         }
     }
+}
+
+fn default_cage_cutoff() -> f64 {
+    1.4
+}
+
+/// The displacement a disk's mobility is judged by.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Displacement {
+    /// r_i(t0 + t) - r_i(t0), paper H's.
+    #[default]
+    Absolute,
+    /// Relative to the mean displacement of its neighbours at t0, closer than
+    /// `cutoff` contact distances ([`super::cage`]): a diagnostic of
+    /// long-wavelength collective motion, not paper H's method.
+    CageRelative {
+        #[serde(default = "default_cage_cutoff")]
+        cutoff: f64,
+    },
 }
 
 /// Per lag and per sub-box size: blocked sums [sum Q_r, sum Q_r^2, number of boxes].
@@ -57,6 +82,7 @@ pub struct Moments {
 pub fn moments(
     trajs: &[&Trajectory],
     a: f64,
+    displacement: Displacement,
     sizes: &[Option<f64>],
     lags: Option<&[f64]>,
     rel_tol: f64,
@@ -82,10 +108,13 @@ pub fn moments(
         for pair in &lag.pairs {
             let tr = trajs[pair.0];
             let (f0, f1) = (&tr.frames[pair.1], &tr.frames[pair.2]);
-            let slow: Vec<bool> = squared_displacements(f0, f1)
-                .into_iter()
-                .map(|d2| d2 < a2)
-                .collect();
+            let d2 = match displacement {
+                Displacement::Absolute => squared_displacements(f0, f1),
+                Displacement::CageRelative { cutoff } => {
+                    super::cage::squared_displacements(tr, f0, f1, cutoff)?
+                }
+            };
+            let slow: Vec<bool> = d2.into_iter().map(|d2| d2 < a2).collect();
             for (bi, b) in boxes.iter().enumerate() {
                 let m = b.overlap_moments(&f0.x, &f0.y, &slow);
                 blocks[bi][li].add(Lag::block(pair), &m);
@@ -152,10 +181,22 @@ pub(crate) fn q_of(s: &[f64]) -> f64 {
     s[0] / s[2]
 }
 
+/// [`moments`] with the overlap's parameters, one sub-box size.
+fn moments_of(trajs: &[&Trajectory], p: &Params) -> Result<Moments> {
+    moments(
+        trajs,
+        p.a,
+        p.displacement,
+        &[p.n],
+        p.lags.as_deref(),
+        p.rel_tol,
+    )
+}
+
 /// Q(t) with jackknife errors over (replica, origin bin) blocks, pooling replicas,
 /// and the number of time origins at each lag.
 pub fn q_curve(trajs: &[&Trajectory], p: &Params) -> Result<(Vec<f64>, Vec<Estimate>, Vec<usize>)> {
-    let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
+    let m = moments_of(trajs, p)?;
     let t = m.lags.iter().map(|l| l.t).collect();
     let q = m
         .error_blocks(trajs, 0)
@@ -180,7 +221,7 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 /// tau_alpha where Q(tau_alpha) = 1/e (linear interpolation in ln t), with a
 /// jackknife error over (replica, origin bin) blocks. Errors if Q never reaches 1/e.
 pub fn tau_alpha(trajs: &[&Trajectory], p: &Params) -> Result<Estimate> {
-    let m = moments(trajs, p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
+    let m = moments_of(trajs, p)?;
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
     crossing_estimate(&t, &m.error_blocks(trajs, 0))
 }
@@ -247,7 +288,14 @@ pub fn q_levels(trajs: &[&Trajectory], p: &LevelParams) -> Result<RecordBatch> {
     if p.levels.is_empty() {
         bail!("parameter `levels` is empty: give at least one level, e.g. levels: [0.6]");
     }
-    let m = moments(trajs, p.a, &[None], p.lags.as_deref(), p.rel_tol)?;
+    let m = moments(
+        trajs,
+        p.a,
+        Displacement::Absolute,
+        &[None],
+        p.lags.as_deref(),
+        p.rel_tol,
+    )?;
     let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
     let alpha = (-1f64).exp();
     let blocks = &m.error_blocks(trajs, 0);
@@ -308,7 +356,7 @@ pub type OriginCurve = (f64, Vec<f64>, Vec<f64>);
 /// Q(t; t0) for each time origin t0 separately (no origin average), t0 measured
 /// from the first frame: `(t0, lags, Q)` per origin, lags ascending.
 pub fn per_origin(traj: &Trajectory, p: &Params) -> Result<Vec<OriginCurve>> {
-    let m = moments(&[traj], p.a, &[p.n], p.lags.as_deref(), p.rel_tol)?;
+    let m = moments_of(&[traj], p)?;
     let start = traj.frames[0].time;
     let mut by_origin: std::collections::BTreeMap<usize, (Vec<f64>, Vec<f64>)> = Default::default();
     for (lag, b) in m.lags.iter().zip(&m.blocks[0]) {
@@ -471,11 +519,20 @@ mod tests {
             n: None,
             lags: Some(lags),
             rel_tol: 1e-6,
+            ..Default::default()
         };
         let (mut values, mut per_origin, mut binned) = (Vec::new(), Vec::new(), Vec::new());
         for seed in 0..40 {
             let traj = random_walk(300, [40.0, 40.0], &times, d, 100 + seed);
-            let m = moments(&[&traj], a, &[None], p.lags.as_deref(), p.rel_tol).unwrap();
+            let m = moments(
+                &[&traj],
+                a,
+                Displacement::Absolute,
+                &[None],
+                p.lags.as_deref(),
+                p.rel_tol,
+            )
+            .unwrap();
             let t: Vec<f64> = m.lags.iter().map(|l| l.t).collect();
             let old = crossing_estimate(&t, &m.blocks[0]).unwrap();
             let new = tau_alpha(&[&traj], &p).unwrap();
