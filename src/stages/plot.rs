@@ -493,6 +493,11 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
     groups.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
     for (key, mut idx) in groups {
+        // A group without one finite point (a phi whose fit failed) draws
+        // nothing, so it gets no series and no legend entry.
+        if !idx.iter().any(|&i| x[i].is_finite() && y[i].is_finite()) {
+            continue;
+        }
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match (&layer.group, layer.legend) {
             (_, LayerLegend::None) => String::new(),

@@ -371,3 +371,37 @@ fn auto_arrow_scale_fits_the_longest_arrow_in_a_grid_cell() {
         "{e}"
     );
 }
+
+/// A group whose every point is NaN (a phi whose fit failed) draws nothing,
+/// so it has no series and no legend entry.
+#[test]
+fn a_group_without_a_finite_point_has_no_legend_entry() {
+    let yaml = r#"
+panels:
+  - x: {label: "N"}
+    y: {label: "χ"}
+    legend_title: "φ"
+    layers:
+      - {from: t, x: size, y: chi, group: phi}
+"#;
+    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let table = |_: &super::Layer| {
+        let mut c = super::Columns::default();
+        let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
+        put("size", vec![1.0, 2.0, 1.0, 2.0]);
+        put("chi", vec![1.0, 2.0, f64::NAN, f64::NAN]);
+        put("phi", vec![0.80, 0.80, 0.805, 0.805]);
+        c.rows = 4;
+        Ok(c)
+    };
+    let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+    let s = &fig.panels[0].series;
+    assert_eq!(
+        s.len(),
+        1,
+        "{:?}",
+        s.iter().map(|s| &s.label).collect::<Vec<_>>()
+    );
+    assert_eq!(s[0].label, "0.80");
+}
