@@ -242,20 +242,16 @@ panels:
       - {from: others, x: size, y: chi, group: eps, expect: [0.7, 0.8, 1.0], absent: "its fit is unreliable."}
       - {from: own, x: size, y: chi, group: eps, at: 0.9}
 "#;
-    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
-    let p: super::PlotParams = serde_json::from_value(v).unwrap();
-    let table = |layer: &super::Layer| {
-        let mut c = super::Columns::default();
-        let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
-        put("size", vec![1.0, 2.0, 1.0, 2.0]);
-        put("chi", vec![1.0, 2.0, 1.5, 2.5]);
+    let fig = figure_of(yaml, |layer| {
+        let mut c = vec![
+            ("size", vec![1.0, 2.0, 1.0, 2.0]),
+            ("chi", vec![1.0, 2.0, 1.5, 2.5]),
+        ];
         if layer.from == "others" {
-            put("eps", vec![0.7, 0.7, 0.8, 0.8]);
+            c.push(("eps", vec![0.7, 0.7, 0.8, 0.8]));
         }
-        c.rows = 4;
-        Ok(c)
-    };
-    let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+        c
+    });
     let s = &fig.panels[0].series;
     assert_eq!(s.len(), 3);
     assert_eq!(s[2].group.as_ref().unwrap().value, 0.9);
@@ -384,18 +380,13 @@ panels:
     layers:
       - {from: t, x: size, y: chi, group: phi}
 "#;
-    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
-    let p: super::PlotParams = serde_json::from_value(v).unwrap();
-    let table = |_: &super::Layer| {
-        let mut c = super::Columns::default();
-        let mut put = |n: &str, v: Vec<f64>| c.f64.insert(n.to_string(), v);
-        put("size", vec![1.0, 2.0, 1.0, 2.0]);
-        put("chi", vec![1.0, 2.0, f64::NAN, f64::NAN]);
-        put("phi", vec![0.80, 0.80, 0.805, 0.805]);
-        c.rows = 4;
-        Ok(c)
-    };
-    let fig = super::build(&p, table, |t| Ok(t.to_string())).unwrap();
+    let fig = figure_of(yaml, |_| {
+        vec![
+            ("size", vec![1.0, 2.0, 1.0, 2.0]),
+            ("chi", vec![1.0, 2.0, f64::NAN, f64::NAN]),
+            ("phi", vec![0.80, 0.80, 0.805, 0.805]),
+        ]
+    });
     let s = &fig.panels[0].series;
     assert_eq!(
         s.len(),
@@ -404,4 +395,23 @@ panels:
         s.iter().map(|s| &s.label).collect::<Vec<_>>()
     );
     assert_eq!(s[0].label, "0.80");
+}
+
+/// The figure of the plot parameters `yaml` over the tables `columns` gives
+/// per layer: columns by name, all of one length.
+fn figure_of(
+    yaml: &str,
+    columns: impl Fn(&super::Layer) -> Vec<(&'static str, Vec<f64>)>,
+) -> crate::plot::Figure {
+    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let table = |layer: &super::Layer| {
+        let mut c = super::Columns::default();
+        for (name, v) in columns(layer) {
+            c.rows = v.len();
+            c.f64.insert(name.to_string(), v);
+        }
+        Ok(c)
+    };
+    super::build(&p, table, |t| Ok(t.to_string())).unwrap()
 }
