@@ -13,7 +13,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use crate::fit::catalogue::FORMS;
-use crate::fit::stability::{self, EXAMPLES, Setting};
+use crate::fit::stability::{self, EXAMPLES, Errors, Setting};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{f64_batch, to_parquet_bytes};
@@ -30,6 +30,10 @@ pub struct CoverageParams {
     /// Noise realisations per form.
     pub realisations: usize,
     pub seed: u64,
+    /// The quoted error: `covariance` (default) or `{replica_jackknife:
+    /// {replicas: R}}`, the delete-one jackknife over R replicas of the fit.
+    #[serde(default)]
+    pub errors: Errors,
 }
 
 pub struct SyntheticCoverage;
@@ -43,7 +47,7 @@ impl StageKind for SyntheticCoverage {
     }
     fn details(&self) -> String {
         format!(
-            "parameters: level (relative noise), points, rho (lag-one noise correlation, default 0), realisations, seed (given by the experiment)\n\
+            "parameters: level (relative noise), points, rho (lag-one noise correlation, default 0), realisations, seed (given by the experiment), errors (covariance, the default, or {{replica_jackknife: {{replicas: R}}}})\n\
              columns: form_id (index in: {}), param_id (-1: the mean over the form's parameters), fits, failed, coverage, coverage_err, ratio (rms quoted error / spread about the truth), bias (in units of that spread)",
             FORMS.iter().map(|f| f.name).collect::<Vec<_>>().join(", ")
         )
@@ -58,6 +62,13 @@ impl StageKind for SyntheticCoverage {
         }
         if !(0.0..1.0).contains(&p.rho) {
             bail!("synthetic_coverage: rho = {} must be in [0, 1)", p.rho);
+        }
+        if let Errors::ReplicaJackknife { replicas } = p.errors
+            && replicas < 3
+        {
+            bail!(
+                "synthetic_coverage: errors.replica_jackknife.replicas = {replicas} must be >= 3"
+            );
         }
         if p.points < 4 || p.realisations < 10 {
             bail!(
@@ -74,6 +85,7 @@ impl StageKind for SyntheticCoverage {
             level: p.level,
             points: p.points,
             rho: p.rho,
+            errors: p.errors,
         };
         let mut cols: [Vec<f64>; 8] = Default::default();
         for (j, ex) in EXAMPLES.iter().enumerate() {
