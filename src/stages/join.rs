@@ -194,7 +194,8 @@ impl StageKind for Join {
     }
     fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
         let p: JoinParams = typed("join", params)?;
-        let l = Columns::read(&inputs_of("join", inputs, &p.left)?)?;
+        // A fit table on either side is one row per group (a self-join widens one).
+        let l = wide(Columns::read(&inputs_of("join", inputs, &p.left)?)?, &p.on)?;
         let r = wide(Columns::read(&inputs_of("join", inputs, &p.right)?)?, &p.on)?;
         for (side, c) in [(&p.left, &l), (&p.right, &r)] {
             for k in &p.on {
@@ -347,5 +348,47 @@ mod tests {
         .unwrap();
         let e = Join.validate(&bad).unwrap_err().to_string();
         assert!(e.contains("'l'") && e.contains("propagate_errors"), "{e}");
+    }
+
+    /// Two fit tables (one row per quantity and group) join as one row per
+    /// group, the left side widened like the right, so fits per N can be put
+    /// side by side without a row per quantity.
+    #[test]
+    fn a_fit_table_on_the_left_is_one_row_per_group() {
+        use crate::table::results::quantity_batch;
+        let dir = tempfile::tempdir().unwrap();
+        let fit = |amp: &str, rows: &[(f64, &str, f64)]| {
+            let b: Vec<RecordBatch> = rows
+                .iter()
+                .map(|&(n, q, v)| {
+                    let rows = [(q.to_string(), v, 0.1), (amp.to_string(), 2.0, 0.2)];
+                    quantity_batch(&[("n".to_string(), n)], &rows, "", None).unwrap()
+                })
+                .collect();
+            arrow_select::concat::concat_batches(&b[0].schema(), &b).unwrap()
+        };
+        let inputs = [
+            artifact(
+                dir.path(),
+                "d_f",
+                fit("A", &[(1000.0, "d_f", 1.2), (2000.0, "d_f", 1.3)]),
+            ),
+            artifact(
+                dir.path(),
+                "tau4",
+                fit("B", &[(2000.0, "x", 0.9), (1000.0, "x", 0.8)]),
+            ),
+        ];
+        let params: Value =
+            serde_saphyr::from_str("{left: d_f, right: tau4, on: [\"n\"]}").unwrap();
+        let ctx = StageCtx::new(0, "join".into(), None);
+        let out = Join.run(&ctx, &params, &inputs).unwrap();
+        let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(c.rows, 2);
+        assert_eq!(c.col("n").unwrap(), &[1000.0, 2000.0]);
+        assert_eq!(c.col("d_f").unwrap(), &[1.2, 1.3]);
+        assert_eq!(c.col("x").unwrap(), &[0.8, 0.9]);
+        assert_eq!(c.col("d_f_err").unwrap(), &[0.1, 0.1]);
     }
 }
