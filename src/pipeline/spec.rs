@@ -16,8 +16,9 @@ use serde_saphyr::granit_parser::{Event, Parser};
 
 use super::canon::ParamError;
 
-/// The profiles every experiment may define; `small` is the default.
-pub const PROFILES: &[&str] = &["ci", "small", "paper"];
+/// The profiles an experiment may define; `small` is the default, `reach` the
+/// smallest run the convergence sweeps say reaches what the box size can.
+pub const PROFILES: &[&str] = &["ci", "small", "reach", "paper"];
 /// The profile used when none is given.
 pub const DEFAULT_PROFILE: &str = "small";
 

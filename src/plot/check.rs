@@ -17,7 +17,7 @@ use super::spec::{Figure, Group, Series, Style};
 pub const MIN_DELTA_E: f64 = 10.0;
 
 /// The profile names, as the pipelines' profiles.
-const PROFILES: [&str; 3] = ["ci", "small", "paper"];
+const PROFILES: [&str; 4] = ["ci", "small", "reach", "paper"];
 
 /// Every defect of `fig` as laid out, one sentence each; empty when none.
 pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
