@@ -8,7 +8,7 @@ JOBS ?=
 REPRO ?= $(CARGO) run --release --locked --quiet --
 JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity
+.PHONY: convergence build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity
 
 build:
 	$(CARGO) build --release --locked
@@ -44,6 +44,11 @@ sensitivity:
 all-figures:
 	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)
 	$(REPRO) report --profile $(PROFILE) --html
+
+# The sweeps in N of the numbers that disagree at small (docs/figures.md,
+# "Convergence in N"): too slow for CI; 1.21 core-hours of simulation at small.
+convergence:
+	$(REPRO) figure convergence-tau convergence-exponents convergence-cutoff convergence-intruder --profile $(PROFILE) $(JOBS_FLAG)
 
 # The gallery and key-number table of the built figures: results/REPORT.md and
 # results/report/index.html (docs/report-PROFILE.md too with DOCS=1).
