@@ -46,7 +46,7 @@ all-figures:
 	$(REPRO) report --profile $(PROFILE) --html
 
 # The sweeps in N of the numbers that disagree at small (docs/figures.md,
-# "Convergence in N"): too slow for CI; 1.21 core-hours of simulation at small.
+# "Convergence in N"): too slow for CI; 1.77 core-hours of simulation at small.
 convergence:
 	$(REPRO) figure convergence-tau convergence-exponents convergence-cutoff convergence-intruder --profile $(PROFILE) $(JOBS_FLAG)
 
