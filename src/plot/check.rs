@@ -11,13 +11,12 @@ use anyhow::Result;
 
 use super::render::{PanelLayout, spans};
 use super::spec::{Figure, Group, Series, Style};
+// The profile names a note may mention: the specs' own list.
+use crate::pipeline::spec::PROFILES;
 
 /// Two series of one panel closer in colour than this (CIEDE2000) must
 /// differ in marker or dash.
 pub const MIN_DELTA_E: f64 = 10.0;
-
-/// The profile names, as the pipelines' profiles.
-const PROFILES: [&str; 4] = ["ci", "small", "reach", "paper"];
 
 /// Every defect of `fig` as laid out, one sentence each; empty when none.
 pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
