@@ -4,7 +4,8 @@
 # at fresh master seeds (never used for the goldens), checks each build against
 # tests/golden/ci.json with `repro regress`, and prints what fires and the rate.
 #
-#   make sensitivity                          eps 0.88, radius ratio 1.40, none; seeds 48-50
+#   make sensitivity                          eps 0.88, radius ratio 1.40, the power
+#                                             curve (eps 0.8955, 0.891, 0.882), none; seeds 48-50
 #   CHANGES="eps=0.85" SEEDS="901 902" make sensitivity
 #
 # Each build is one `repro regress --profile ci --seed S --set CHANGE` (about
@@ -16,12 +17,13 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 REPRO=${REPRO:-"cargo run --release --locked --quiet --"}
 SEEDS=${SEEDS:-"48 49 50"}
-CHANGES=${CHANGES:-"eps=0.88 radius_ratio=1.40 none"}
+CHANGES=${CHANGES:-"eps=0.88 radius_ratio=1.40 eps=0.8955 eps=0.891 eps=0.882 none"}
 JOBS_FLAG=${JOBS:+--jobs $JOBS}
 out=results/sensitivity
 mkdir -p "$out"
 summary=()
 details=()
+power=()
 for change in $CHANGES; do
     fired=0 runs=0
     for seed in $SEEDS; do
@@ -36,15 +38,19 @@ for change in $CHANGES; do
         if [ $rc -ne 0 ]; then
             fired=$((fired + 1))
             echo "   FIRES:"
-            grep -E "^(regression|.*key number .* has neither)|jointly" "$log" | sed 's/^/     /' | head -20
+            grep -E "^(regression|.*key number .* has neither)|jointly|^  .*, z = " "$log" | sed 's/^/     /' | head -20
             details+=("- $change, master seed $seed:")
-            while IFS= read -r line; do details+=("  - ${line}"); done < <(grep -E "^(regression|.*key number .* has neither)|jointly" "$log" | tr -s ' ' | head -20)
+            while IFS= read -r line; do details+=("  - ${line}"); done < <(grep -E "^(regression|.*key number .* has neither)|jointly|^  .*, z = " "$log" | tr -s ' ' | head -20)
         else
             echo "   quiet"
         fi
         grep -E "^joint:" "$log" | sed 's/^/   /'
     done
     summary+=("$change: CI fails at $fired of $runs fresh seeds")
+    case $change in eps=*)
+        rel=$(awk -v e="${change#eps=}" 'BEGIN { printf "%.1f", 100 * (0.9 - e) / 0.9 }')
+        power+=("| $rel% | ${change#eps=} | $fired of $runs |") ;;
+    esac
 done
 echo
 echo "== sensitivity of the CI regression (seeds: $SEEDS)"
@@ -58,6 +64,16 @@ printf '%s\n' "${summary[@]}" | tee "$out/summary.txt"
     echo
     for line in "${summary[@]}"; do echo "- $line"; done
     echo
+    if [ ${#power[@]} -gt 0 ]; then
+        echo "## Power curve"
+        echo
+        echo "Detection rate against the size of a change of eps (from 0.90), at the same seeds:"
+        echo
+        echo "| \\|delta eps\\| / eps | eps | CI fails at |"
+        echo "|---|---|---|"
+        printf '%s\n' "${power[@]}" | sort -t'|' -k2 -n
+        echo
+    fi
     echo "## What fired"
     echo
     if [ ${#details[@]} -eq 0 ]; then echo "Nothing."; else printf '%s\n' "${details[@]}"; fi

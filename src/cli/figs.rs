@@ -205,6 +205,9 @@ fn coverage(a: CoverageArgs) -> Result<()> {
         .join("golden")
         .join(format!("{}.json", a.profile));
     let mut checks = Vec::new();
+    // Each key number's value and quoted error per seed (NaN written as null),
+    // so a survey can be read again without rebuilding it.
+    let mut per_seed_json = serde_json::Map::new();
     let (rows, gates_from): (Vec<crate::study::coverage::Coverage>, Option<GoldenFile>) =
         if let Some(path) = &a.golden {
             let g = GoldenFile::read(path)?;
@@ -234,6 +237,16 @@ fn coverage(a: CoverageArgs) -> Result<()> {
                 &options(a.variant.jobs),
             )?;
             checks = c;
+            let num = |x: f64| x.is_finite().then_some(x);
+            for ((f, q), v) in &per_seed {
+                per_seed_json.insert(
+                    format!("{f}:{q}"),
+                    serde_json::json!({
+                        "values": v.iter().map(|x| num(x.value)).collect::<Vec<_>>(),
+                        "errors": v.iter().map(|x| num(x.error)).collect::<Vec<_>>(),
+                    }),
+                );
+            }
             (
                 per_seed
                     .iter()
@@ -293,7 +306,12 @@ fn coverage(a: CoverageArgs) -> Result<()> {
         (Some(_), Some(g)) => g.seeds.clone(),
         _ => a.seeds.clone(),
     };
-    let json = serde_json::json!({ "seeds": seeds, "rows": rows, "regress": checks });
+    let json = serde_json::json!({
+        "seeds": seeds,
+        "rows": rows,
+        "regress": checks,
+        "per_seed": per_seed_json,
+    });
     crate::table::write_atomic(&out, serde_json::to_string_pretty(&json)?.as_bytes())?;
     println!("wrote {}", out.display());
     let command = std::env::args()
@@ -391,9 +409,17 @@ fn regress(a: RegressArgs) -> Result<()> {
     }
     println!("{}", verdicts(&g, &results, &a.ids)?);
     if !failures.is_empty() {
+        let jointly = failures.iter().filter(|f| f.contains(" jointly: ")).count();
+        let mut fired = Vec::new();
+        if failures.len() > jointly {
+            fired.push(format!("{} band(s) or check(s)", failures.len() - jointly));
+        }
+        if jointly > 0 {
+            fired.push("the joint test (Hotelling T^2)".to_string());
+        }
         bail!(
-            "{} key number(s) regressed:\n{}",
-            failures.len(),
+            "regress fired: {}\n{}",
+            fired.join(" and "),
             failures.join("\n")
         );
     }

@@ -224,23 +224,20 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
         }
     ));
     let j = joint(&checked);
-    let pass = j.chi2 <= j.threshold;
     lines.push(format!(
-        "joint: sum of z^2 = {:.1} over {} distinct key numbers, threshold {:.1} (false alarm {JOINT_FALSE_ALARM}; {}) {}",
-        j.chi2,
+        "joint: Hotelling T^2 = {:.1} over {} distinct key numbers, threshold {:.1} (false alarm {JOINT_FALSE_ALARM} per run; correlation shrunk {:.2} towards independence; threshold from the {} recorded seeds left out in turn) {}",
+        j.t2,
         j.terms,
         j.threshold,
-        if j.from_seeds {
-            "from the recorded seeds' leave-one-out sums: the numbers are correlated"
-        } else {
-            "as for independent numbers"
-        },
-        if pass { "inside" } else { "OUTSIDE" }
+        j.shrinkage,
+        j.recorded.len(),
+        if j.passes() { "inside" } else { "OUTSIDE" }
     ));
-    if !pass {
+    if !j.passes() {
+        let moved: String = j.movers.iter().map(|m| format!("\n  {m}")).collect();
         failures.push(format!(
-            "regression of the key numbers jointly: sum of z^2 = {:.1} over {} numbers exceeds {:.1}              (z = (value - golden mean) / seed-to-seed std; no single number need leave its band)",
-            j.chi2, j.terms, j.threshold
+            "regression of the key numbers jointly: Hotelling T^2 = {:.1} over {} numbers exceeds {:.1} (z = (value - golden mean) / seed-to-seed std, weighed by how the recorded seeds co-vary; no single number need leave its band); moved most:{moved}",
+            j.t2, j.terms, j.threshold
         ));
     }
     Ok((lines, failures))
