@@ -236,6 +236,20 @@ fn tiny_figure_end_to_end_then_regression_check() {
     assert!(lines[1].starts_with("agreed with the paper"), "{lines:?}");
     assert!(lines[2].starts_with("joint:"), "{lines:?}");
     assert!(failures.is_empty(), "{failures:?}");
+    // At a recorded seed the built number is the recorded one; a golden the
+    // code has moved away from is named stale, with its two values.
+    use repro::study::golden::stale;
+    assert!(stale(&good, &ws.results, &[], 1).unwrap().is_empty());
+    let mut moved = good.clone();
+    moved.quantities[0].values[0] = phi_0 + 0.5;
+    moved.quantities[0].std = 0.1;
+    let s = stale(&moved, &ws.results, &[], 1).unwrap();
+    assert!(
+        s.len() == 1 && s[0].starts_with("stale golden in tinyfig: phi_0") && s[0].contains("-5.0"),
+        "{s:?}"
+    );
+    assert!(stale(&moved, &ws.results, &[], 2).unwrap().is_empty());
+    assert!(stale(&moved, &ws.results, &[], 3).unwrap().is_empty());
     // A key number with neither a band nor a reason fails, named.
     let (first, _) = others.iter().next().unwrap();
     let mut unrecorded = good.clone();

@@ -243,6 +243,50 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
     Ok((lines, failures))
 }
 
+/// At a master seed the goldens were recorded at, a build of the same code
+/// gives the recorded values bit for bit (up to a solver's tolerance): every
+/// number that moved by more than 1% of its seed-to-seed spread is a golden
+/// the code has left behind (a change whose numbers were never re-recorded),
+/// named with its recorded and its present value.
+pub fn stale(g: &GoldenFile, results: &Path, ids: &[String], seed: u64) -> Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut got_by_fig: BTreeMap<&str, BTreeMap<String, crate::study::results::Fitted>> =
+        BTreeMap::new();
+    for q in &g.quantities {
+        if !(ids.is_empty() || ids.contains(&q.figure)) {
+            continue;
+        }
+        let Some(k) = q.seeds.iter().position(|&s| s == seed) else {
+            continue;
+        };
+        if !got_by_fig.contains_key(q.figure.as_str()) {
+            let got = key_numbers_with_errors(&results.join(&q.figure))?;
+            got_by_fig.insert(&q.figure, got);
+        }
+        let now = got_by_fig[q.figure.as_str()]
+            .get(&q.quantity)
+            .map_or(f64::NAN, |f| f.value);
+        let was = q.values[k];
+        let same = (now.is_nan() && was.is_nan()) || (now - was).abs() <= 0.01 * q.std;
+        if !same {
+            out.push(format!(
+                "stale golden in {}: {} = {now:.5} at master seed {seed}, where the golden file recorded {was:.5} ({:+.1} seed-to-seed spreads); re-record it with `repro regress --record --profile {} --seeds {} {}`",
+                q.figure,
+                q.quantity,
+                (now - was) / q.std,
+                g.profile,
+                g.seeds
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect::<Vec<_>>()
+                    .join(","),
+                q.figure
+            ));
+        }
+    }
+    Ok(out)
+}
+
 /// Refuse a CI figure (`ci: true`) whose built results hold key numbers that
 /// the golden file has no band for: a new CI figure is recorded before it is
 /// gated, never silently left unchecked. Figures without key numbers (curves
