@@ -546,7 +546,7 @@ fn rates(text: &str, phrase: &str, tail: &str) -> Vec<(String, String, String)> 
 }
 
 /// The README and docs/accuracy.md quote the CI gate's measured false-alarm
-/// and detection rates as the generated measurements say (docs/coverage-ci-fresh2.md
+/// and detection rates as the generated measurements say (docs/coverage-ci-fresh3.md
 /// from `repro coverage --docs` on seeds the goldens were not recorded at,
 /// docs/sensitivity-ci.md from `make sensitivity`).
 #[test]
@@ -559,10 +559,10 @@ fn the_gate_rates_quoted_are_the_measured_ones() {
             .flat_map(|l| rates(l, "fails at ", "fresh master seeds"))
             .collect()
     };
-    let alarms = alarm_rates(&read("docs/coverage-ci-fresh2.md"));
+    let alarms = alarm_rates(&read("docs/coverage-ci-fresh3.md"));
     let alarm = alarms
         .first()
-        .expect("docs/coverage-ci-fresh2.md states its false alarms");
+        .expect("docs/coverage-ci-fresh3.md states its false alarms");
     let sensitivity = rates(
         &read("docs/sensitivity-ci.md"),
         "CI fails at ",
@@ -583,7 +583,13 @@ fn the_gate_rates_quoted_are_the_measured_ones() {
             assert_eq!((k, n), (&alarm.1, &alarm.2), "{doc}: false alarms");
         }
         let quoted = rates(&text, "CI fails at ", "fresh seeds");
+        // The README quotes the headline changes; docs/accuracy.md every one
+        // (the power curve's too).
+        let headline = ["eps=0.88", "radius_ratio=1.40", "none"];
         for (what, k, n) in &sensitivity {
+            if doc == "README.md" && !headline.contains(&what.as_str()) {
+                continue;
+            }
             assert!(
                 quoted
                     .iter()
