@@ -270,17 +270,11 @@ pub fn stale(g: &GoldenFile, results: &Path, ids: &[String], seed: u64) -> Resul
         let same = (now.is_nan() && was.is_nan()) || (now - was).abs() <= 0.01 * q.std;
         if !same {
             out.push(format!(
-                "stale golden in {}: {} = {now:.5} at master seed {seed}, where the golden file recorded {was:.5} ({:+.1} seed-to-seed spreads); re-record it with `repro regress --record --profile {} --seeds {} {}`",
+                "stale golden in {}: {} = {now:.5} at master seed {seed}, where the golden file recorded {was:.5} ({:+.1} seed-to-seed spreads); re-record it with `{}`",
                 q.figure,
                 q.quantity,
                 (now - was) / q.std,
-                g.profile,
-                g.seeds
-                    .iter()
-                    .map(|s| s.to_string())
-                    .collect::<Vec<_>>()
-                    .join(","),
-                q.figure
+                record_command(g, &q.figure)
             ));
         }
     }
@@ -310,16 +304,23 @@ pub fn all_recorded(g: &GoldenFile, file: &Path, ci: &[String], results: &Path) 
     if missing.is_empty() {
         return Ok(());
     }
-    let seeds: Vec<String> = g.seeds.iter().map(|s| s.to_string()).collect();
     bail!(
-        "{} {} marked `ci: true` and {} key numbers, but {} has no band for them; record them with `repro regress --record --profile {} --seeds {} {}`",
+        "{} {} marked `ci: true` and {} key numbers, but {} has no band for them; record them with `{}`",
         missing.join(", "),
         if missing.len() == 1 { "is" } else { "are" },
         if missing.len() == 1 { "has" } else { "have" },
         file.display(),
+        record_command(g, &missing.join(" "))
+    )
+}
+
+/// The command that records `figures` at the golden file's profile and seeds.
+fn record_command(g: &GoldenFile, figures: &str) -> String {
+    let seeds: Vec<String> = g.seeds.iter().map(|s| s.to_string()).collect();
+    format!(
+        "repro regress --record --profile {} --seeds {} {figures}",
         g.profile,
-        seeds.join(","),
-        missing.join(" ")
+        seeds.join(",")
     )
 }
 

@@ -287,11 +287,10 @@ fn shrunk_correlation(z: &[Vec<f64>]) -> (Vec<Vec<f64>>, f64) {
     (r, lambda)
 }
 
+/// Mean and sample variance, from the project's seed-to-seed statistics.
 fn mean_var(x: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let m = x.iter().sum::<f64>() / n;
-    let v = x.iter().map(|a| (a - m).powi(2)).sum::<f64>() / (n - 1.0);
-    (m, v)
+    let (m, sd) = crate::analysis::stats::mean_std(x);
+    (m, sd * sd)
 }
 
 /// Upper `alpha` quantile of the scaled chi-square c chi2(d) with mean `m` and
