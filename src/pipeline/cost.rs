@@ -1,13 +1,20 @@
 //! What a stage is planned to cost in CPU seconds, from the work it plans
 //! ([`Work`]: collisions, kicks of the drive, force kicks, stored frames) or, for
-//! analyses, fits and plots, from the bytes it reads. One model for the Slurm
+//! analyses, fits and plots, from its parameters and the bytes it reads
+//! ([`super::calibration`]). One model for the Slurm
 //! executor's time limits, the core-hour totals of `--dry-run`, the executors'
 //! estimate of the end, and `repro plan` ([`crate::study::plan`], which
 //! compares it with the CPU time every recorded stage took).
 
+use std::collections::HashMap;
+
+use serde_json::Value;
+
+use super::calibration::Calibration;
 use super::graph::Graph;
 use super::registry::Registry;
 use super::stage::Work;
+use super::store::Store;
 
 /// Measured driven collisions per CPU second at phi = 0.78 (docs/measurements.md,
 /// `repro bench` at 10^4 disks and more, 2026-11-22 and 11-23, the lower end of
@@ -98,20 +105,29 @@ pub fn simulation_seconds(w: &Work) -> f64 {
         + n * w.frames as f64 * SECONDS_PER_FRAME_DISK
 }
 
-/// Analyses, fits and plots: time from the bytes they read (their work is not
-/// modelled per kind). Measured on the ci profile (2026-11-24,
-/// docs/measurements.md): the slowest per input byte was `chi4_peaks` at 4.4 MB/s
-/// (tau_alpha 23-69 MB/s); half that speed, plus 0.2 s (the median stage of a
-/// ci build).
+/// Stages of a kind never recorded ([`Calibration`] has none): time from the
+/// bytes they read. Measured on the ci profile (2026-11-24,
+/// docs/measurements.md): the slowest per input byte was `chi4_peaks` at 4.4
+/// MB/s (tau_alpha 23-69 MB/s); half that speed, plus 0.2 s (the median stage
+/// of a ci build).
 pub const ANALYSIS_BYTES_PER_SECOND: f64 = 2e6;
 pub const ANALYSIS_SECONDS: f64 = 0.2;
 
-/// Planned CPU seconds of a stage: a simulation from its work, anything else from
-/// the bytes it reads.
-pub fn seconds(work: Option<&Work>, input_bytes: u64) -> f64 {
+/// Planned CPU seconds of a stage: a simulation from its work, any other stage
+/// of `kind` from its parameters and the bytes it reads from its `inputs`
+/// inputs, calibrated on recorded stages ([`Calibration::shipped`]).
+pub fn seconds(
+    work: Option<&Work>,
+    kind: &str,
+    params: &Value,
+    input_bytes: u64,
+    inputs: usize,
+) -> f64 {
     match work {
         Some(w) => simulation_seconds(w),
-        None => ANALYSIS_SECONDS + input_bytes as f64 / ANALYSIS_BYTES_PER_SECOND,
+        None => Calibration::shipped()
+            .seconds(kind, params, input_bytes, inputs)
+            .unwrap_or(ANALYSIS_SECONDS + input_bytes as f64 / ANALYSIS_BYTES_PER_SECOND),
     }
 }
 
@@ -121,10 +137,12 @@ pub fn trajectory_bytes(w: &Work) -> u64 {
     w.n * w.frames * 16
 }
 
-/// Planned CPU seconds of every node of `graph`, an input not built yet counted
-/// at its planned trajectory size: what the progress line's estimate of the end
+/// Planned CPU seconds of every node of `graph`, reading its inputs' sizes
+/// from `built` (node -> bytes of its output, for the nodes in the store), an
+/// input not built yet counted at its planned trajectory size (a simulation)
+/// or as small (anything else): what the progress line's estimate of the end
 /// starts from.
-pub fn node_seconds(graph: &Graph, reg: &Registry) -> Vec<f64> {
+pub fn node_seconds(graph: &Graph, reg: &Registry, built: &HashMap<usize, u64>) -> Vec<f64> {
     let work: Vec<Option<Work>> = graph
         .nodes
         .iter()
@@ -138,10 +156,25 @@ pub fn node_seconds(graph: &Graph, reg: &Registry) -> Vec<f64> {
             let bytes = n
                 .inputs
                 .iter()
-                .filter_map(|&j| work[j].as_ref().map(trajectory_bytes))
+                .map(|&j| match built.get(&j) {
+                    Some(&b) => b,
+                    None => work[j].as_ref().map_or(0, trajectory_bytes),
+                })
                 .sum();
-            seconds(work[i].as_ref(), bytes)
+            seconds(work[i].as_ref(), &n.kind, &n.params, bytes, n.inputs.len())
         })
+        .collect()
+}
+
+/// Bytes of the output of every (node, key) of `cached` found in `store`:
+/// what [`node_seconds`] reads the sizes of built inputs from.
+pub fn built_bytes<'a>(
+    store: &Store,
+    cached: impl IntoIterator<Item = (usize, &'a str)>,
+) -> HashMap<usize, u64> {
+    cached
+        .into_iter()
+        .filter_map(|(i, key)| Some((i, store.entry_bytes(&store.lookup(key)?))))
         .collect()
 }
 
@@ -181,7 +214,10 @@ mod tests {
         let extra =
             1e6 * (SECONDS_PER_DRIVE_KICK + SECONDS_PER_FORCE_KICK) + 1e7 * SECONDS_PER_FRAME_DISK;
         assert!((simulation_seconds(&more) - 3600.0 - extra).abs() < 1e-6);
-        assert_eq!(seconds(None, 2_000_000), 1.2);
+        assert_eq!(
+            seconds(None, "never recorded", &Value::Null, 2_000_000, 1),
+            1.2
+        );
         // Near jamming and in a dilute fluid a collision costs more.
         let dense = Work { phi: 0.84, ..w };
         let f = simulation_seconds(&dense) / 3600.0;

@@ -218,13 +218,24 @@ pub fn execute(
     // Only the stages that will run count toward the estimate of the end (a
     // stale one may still be cut off early when its output comes out unchanged).
     if opts.progress {
-        let stale: Vec<usize> = status(graph, nodes, reg, store, &opts.force)
-            .into_iter()
+        let st = status(graph, nodes, reg, store, &opts.force);
+        let built = super::cost::built_bytes(
+            store,
+            st.iter().filter_map(|(i, s)| match s {
+                State::Cached { key } => Some((*i, key.as_str())),
+                _ => None,
+            }),
+        );
+        let stale: Vec<usize> = st
+            .iter()
             .filter(|(_, s)| !matches!(s, State::Cached { .. }))
-            .map(|(i, _)| i)
+            .map(|(i, _)| *i)
             .collect();
-        sh.progress
-            .plan(&stale, &super::cost::node_seconds(graph, reg), opts.jobs);
+        sh.progress.plan(
+            &stale,
+            &super::cost::node_seconds(graph, reg, &built),
+            opts.jobs,
+        );
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))

@@ -17,6 +17,7 @@
 //!
 //! The functions here are what the CLI and the tests call.
 
+pub mod calibration;
 pub mod canon;
 pub mod checkpoints;
 pub mod cost;

@@ -61,11 +61,17 @@ pub struct Progress {
     estimated: Mutex<Instant>,
 }
 
-/// The planned CPU seconds of the stages still to finish, and how many run at once.
+/// The planned CPU seconds of the stages still to finish, of all of them, and
+/// how many run at once.
 struct Plan {
     left: BTreeMap<usize, f64>,
+    total: f64,
     workers: usize,
 }
+
+/// The share of the planned work after which the estimate of the end follows
+/// the pace measured so far rather than the plan alone.
+const PACE_AFTER: f64 = 0.05;
 
 impl Progress {
     /// `show`: tell the user (bars on a terminal, else plain lines). `log`: the
@@ -101,8 +107,9 @@ impl Progress {
     /// `i` of `nodes`) and how many run at once: from here on the lines carry
     /// an estimate of the end. A stage found cached drops its share unspent.
     pub fn plan(&self, nodes: &[usize], seconds: &[f64], workers: usize) {
-        let left = nodes.iter().map(|&i| (i, seconds[i])).collect();
+        let left: BTreeMap<usize, f64> = nodes.iter().map(|&i| (i, seconds[i])).collect();
         *self.plan.lock().unwrap() = Some(Plan {
+            total: left.values().sum(),
             left,
             workers: workers.max(1),
         });
@@ -111,7 +118,12 @@ impl Progress {
     /// `elapsed 12 min, planned 1.52 CPU h left, ends ~16:40 UTC`, or nothing
     /// without a plan. A running stage counts the share it has not done (from
     /// its last report); the end is the later of the work left spread over the
-    /// workers and the longest single stage left.
+    /// workers and the longest single stage left. Once [`PACE_AFTER`] of the
+    /// planned work is done, the planned work left is converted to wall time at
+    /// the pace measured so far (wall seconds per planned CPU second done),
+    /// which absorbs a machine slower or busier than the plan's and stages that
+    /// could not run in parallel; before that, at the plan's (one CPU second
+    /// per worker).
     fn estimate(&self) -> String {
         let plan = self.plan.lock().unwrap();
         let Some(p) = &*plan else {
@@ -128,13 +140,14 @@ impl Progress {
             total += s;
             longest = longest.max(s);
         }
-        let wall = (total / p.workers as f64).max(longest);
+        let elapsed = self.t0.elapsed().as_secs_f64();
+        let wall = wall_left(total, longest, p.total, elapsed, p.workers);
         let now = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64());
         format!(
             "elapsed {}, planned {} CPU left, ends ~{} UTC",
-            span(self.t0.elapsed().as_secs_f64()),
+            span(elapsed),
             span(total),
             clock(now + wall)
         )
@@ -207,8 +220,12 @@ impl Progress {
         {
             b.finish_and_clear();
         }
-        if let Some(p) = &mut *self.plan.lock().unwrap() {
-            p.left.remove(&node);
+        if let Some(p) = &mut *self.plan.lock().unwrap()
+            && let Some(s) = p.left.remove(&node)
+            && what != "executed"
+        {
+            // No work was spent on it: not part of the pace either.
+            p.total -= s;
         }
         let k = {
             let mut f = self.finished.lock().unwrap();
@@ -342,10 +359,24 @@ fn open_run_log(last: &std::path::Path) -> Option<File> {
     Some(file)
 }
 
-/// Unix seconds as the UTC time of day, `HH:MM`.
+/// Unix seconds as the UTC time of day, `HH:MM:SS` (a ci build lasts
+/// minutes: the seconds let its log be checked against the actual end).
 fn clock(unix: f64) -> String {
-    let m = (unix.max(0.0) as u64 / 60) % 1440;
-    format!("{:02}:{:02}", m / 60, m % 60)
+    let s = unix.max(0.0) as u64 % 86_400;
+    format!("{:02}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// Wall seconds left of a run whose stages left are planned at `left` CPU s
+/// (the longest `longest`) of `total`, `elapsed` wall s in, on `workers`: see
+/// [`Progress::estimate`].
+fn wall_left(left: f64, longest: f64, total: f64, elapsed: f64, workers: usize) -> f64 {
+    let done = total - left;
+    let per_cpu_s = if done > 0.0 && done >= PACE_AFTER * total {
+        elapsed / done
+    } else {
+        1.0 / workers as f64
+    };
+    (left * per_cpu_s).max(longest * per_cpu_s * workers as f64)
 }
 
 fn fraction(done: f64, total: f64) -> f64 {
@@ -353,5 +384,24 @@ fn fraction(done: f64, total: f64) -> f64 {
         (done / total).clamp(0.0, 1.0)
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_end_follows_the_plan_first_then_the_measured_pace() {
+        // Nothing done: 100 CPU s on 2 workers take 50 s, unless one stage is longer.
+        assert_eq!(wall_left(100.0, 10.0, 100.0, 0.0, 2), 50.0);
+        assert_eq!(wall_left(100.0, 80.0, 100.0, 0.0, 2), 80.0);
+        // Below the threshold of work done, still the plan.
+        assert_eq!(wall_left(97.0, 10.0, 100.0, 30.0, 2), 48.5);
+        // A machine at half the plan's speed: 20 planned CPU s done in 20 s
+        // of wall on 2 workers, so the 80 left take 80 s, not 40.
+        assert_eq!(wall_left(80.0, 10.0, 100.0, 20.0, 2), 80.0);
+        // On a machine faster than planned the end comes sooner.
+        assert_eq!(wall_left(50.0, 5.0, 100.0, 10.0, 2), 10.0);
     }
 }

@@ -434,6 +434,15 @@ impl Store {
         Ok(f)
     }
 
+    /// Bytes of the files of `e` as stored (a file gone counts nothing).
+    pub fn entry_bytes(&self, e: &Entry) -> u64 {
+        e.files
+            .values()
+            .filter_map(|h| std::fs::metadata(self.object_path(h)).ok())
+            .map(|m| m.len())
+            .sum()
+    }
+
     /// Every entry in the store.
     pub fn entries(&self) -> Vec<Entry> {
         walk_files(&self.dir.join("entries"))

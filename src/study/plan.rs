@@ -2,9 +2,12 @@
 //! the cost model ([`crate::pipeline::cost`]), and with `--check` beside the CPU
 //! time its built replicas took in the store.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
-use crate::pipeline::cost::simulation_seconds;
+use std::collections::BTreeMap;
+
+use crate::pipeline::calibration::{Calibration, samples};
+use crate::pipeline::cost::{built_bytes, node_seconds, simulation_seconds};
 use crate::pipeline::stage::Work;
 use crate::pipeline::{Registry, State, Store, Workspace, figure_status};
 
@@ -33,6 +36,15 @@ struct Row {
     planned: f64,
     replicas: usize,
     measured: Vec<f64>,
+}
+
+/// The stages of one kind that is not a simulation: how many, their planned
+/// CPU s, and (planned, measured) of those built.
+#[derive(Default)]
+struct KindRow {
+    stages: usize,
+    planned: f64,
+    built: Vec<(f64, f64)>,
 }
 
 /// A simulation's label without its replica (`eps09[phi=0.6,replica=2]` ->
@@ -70,17 +82,33 @@ pub fn plan(
 ) -> Result<PlanReport> {
     let (graph, st) = figure_status(ws, reg, ids, profile, &[])?;
     let store = Store::open(&ws.store)?;
+    let cached = |s: &State| match s {
+        State::Cached { key } => Some(key.clone()),
+        _ => None,
+    };
+    let built = built_bytes(
+        &store,
+        st.iter().filter_map(|(i, s)| match s {
+            State::Cached { key } => Some((*i, key.as_str())),
+            _ => None,
+        }),
+    );
+    let planned = node_seconds(&graph, reg, &built);
     let mut rows: Vec<Row> = Vec::new();
+    let mut others: BTreeMap<String, KindRow> = BTreeMap::new();
     let mut at = std::collections::HashMap::new();
     for (i, s) in &st {
         let node = &graph.nodes[*i];
         let Some(work) = reg.work(&node.kind, &node.params) else {
+            let k = others.entry(node.kind.clone()).or_default();
+            k.stages += 1;
+            k.planned += planned[*i];
+            if let Some(cpu) = cached(s).and_then(|key| store.lookup(&key)?.cpu_s) {
+                k.built.push((planned[*i], cpu));
+            }
             continue;
         };
-        let measured = match s {
-            State::Cached { key } => store.lookup(key).and_then(|e| e.cpu_s),
-            _ => None,
-        };
+        let measured = cached(s).and_then(|key| store.lookup(&key)?.cpu_s);
         let label = configuration(node.label());
         let k = *at.entry(label.clone()).or_insert_with(|| {
             rows.push(Row {
@@ -172,8 +200,128 @@ pub fn plan(
             worst.map_or(String::new(), |(w, l)| format!("; the worst {w:.2}x ({l})"))
         );
     }
+    // Analyses, fits, plots and tables, per kind: judged stage by stage, as
+    // simulations are (their Slurm time limits come from the same plan).
+    out += &format!(
+        "\n{:<24} {:>6} {:>10}{}\n",
+        "other stages (per kind)",
+        "stages",
+        "planned s",
+        if check.is_some() {
+            "  built  measured s  planned s (built)  judged  outside"
+        } else {
+            ""
+        }
+    );
+    let (mut other_planned, mut other_stages) = (0.0, 0);
+    let mut kinds: Vec<(&String, &KindRow)> = others.iter().collect();
+    kinds.sort_by(|a, b| b.1.planned.total_cmp(&a.1.planned));
+    for (kind, k) in kinds {
+        other_planned += k.planned;
+        other_stages += k.stages;
+        let mut line = format!("{kind:<24} {:>6} {:>10.1}", k.stages, k.planned);
+        if let Some(c) = check {
+            let (mut judged, mut outside) = (0, 0);
+            for &(p, m) in &k.built {
+                if p.max(m) >= c.min_seconds {
+                    judged += 1;
+                    let ratio = m.max(1e-3) / p.max(1e-3);
+                    outside += usize::from(ratio.max(1.0 / ratio) > c.factor);
+                }
+            }
+            r.judged += judged;
+            r.outside += outside;
+            // (0.0 + : an empty sum of f64 is -0.0.)
+            let measured: f64 = 0.0 + k.built.iter().map(|b| b.1).sum::<f64>();
+            let planned_built: f64 = 0.0 + k.built.iter().map(|b| b.0).sum::<f64>();
+            line += &format!(
+                "  {:>5} {measured:>10.1} {planned_built:>18.1} {judged:>7} {outside:>8}",
+                k.built.len()
+            );
+        }
+        out += &line;
+        out += "\n";
+    }
+    out += &format!(
+        "{other_stages} other stage(s): {:.2} core-hours planned; the build {:.2} core-hours in all\n",
+        other_planned / 3600.0,
+        (planned_all + other_planned) / 3600.0
+    );
+    if let Some(c) = check {
+        out += &format!(
+            "judged in all (simulation configurations and other stages >= {} CPU s): {}, outside a factor {}: {} ({:.1}% inside)\n",
+            c.min_seconds,
+            r.judged,
+            c.factor,
+            r.outside,
+            100.0 * (r.judged - r.outside) as f64 / r.judged.max(1) as f64
+        );
+    }
     r.text = out;
     Ok(r)
+}
+
+/// Fit the cost of every kind that is not a simulation to the stages recorded
+/// in the store of `ws` ([`Calibration::fit`]) and write it to `path` as JSON;
+/// returns a summary per kind: stages, alpha, and how many of the stages of at
+/// least `min_seconds` the fit puts within `factor` of their recorded time.
+pub fn calibrate(
+    ws: &Workspace,
+    reg: &Registry,
+    path: &std::path::Path,
+    factor: f64,
+    min_seconds: f64,
+) -> Result<String> {
+    let store = Store::open(&ws.store)?;
+    let samples = samples(&store, |kind, params| reg.work(kind, params).is_some());
+    if samples.is_empty() {
+        anyhow::bail!(
+            "no recorded stage to calibrate on in {} (build some figures first)",
+            ws.store.display()
+        );
+    }
+    let cal = Calibration::fit(
+        &samples,
+        format!(
+            "{} recorded stages of {}, `repro calibrate` on {}",
+            samples.len(),
+            ws.store.display(),
+            super::report::utc(std::time::SystemTime::now())
+        ),
+    );
+    let text = serde_json::to_string_pretty(&cal)? + "\n";
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    let mut out = format!(
+        "{:<24} {:>7} {:>6} {:>6} {:>8} {:>8} {:>11} {:>11}\n",
+        "kind", "stages", "alpha", "beta", "judged", "inside", "measured s", "planned s"
+    );
+    let (mut judged_all, mut inside_all) = (0, 0);
+    for (kind, k) in &cal.kinds {
+        let (mut judged, mut inside, mut m, mut p) = (0, 0, 0.0, 0.0);
+        for s in samples.iter().filter(|s| &s.kind == kind) {
+            let plan = k.seconds(&s.signature, s.input_bytes, s.inputs);
+            m += s.cpu_s;
+            p += plan;
+            if plan.max(s.cpu_s) >= min_seconds {
+                judged += 1;
+                let ratio = s.cpu_s.max(1e-3) / plan;
+                inside += usize::from(ratio.max(1.0 / ratio) <= factor);
+            }
+        }
+        judged_all += judged;
+        inside_all += inside;
+        out += &format!(
+            "{kind:<24} {:>7} {:>6.2} {:>6.2} {judged:>8} {inside:>8} {m:>11.1} {p:>11.1}\n",
+            k.stages, k.alpha, k.beta
+        );
+    }
+    out += &format!(
+        "{} stage(s) of {} kind(s) fitted; of the {judged_all} of >= {min_seconds} CPU s, {inside_all} within a factor {factor}; written to {}\n",
+        samples.len(),
+        cal.kinds.len(),
+        path.display()
+    );
+    Ok(out)
 }
 
 #[cfg(test)]

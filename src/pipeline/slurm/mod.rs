@@ -155,7 +155,11 @@ impl Driver<'_> {
             .map(|d| d.join("log").join("LAST-RUN.log"));
         let progress = Progress::new(self.opts.progress, nodes.len(), log.as_deref());
         // Slurm runs every ready stage at once: the end is the longest chain's.
-        progress.plan(nodes, &cost::node_seconds(g, self.reg), nodes.len());
+        progress.plan(
+            nodes,
+            &cost::node_seconds(g, self.reg, &Default::default()),
+            nodes.len(),
+        );
         let mut results: Vec<Option<StageResult>> = vec![None; n];
         let mut watching: BTreeMap<usize, JobRecord> = BTreeMap::new();
         // Stages resubmitted once after their time limit, with the factor on it.
@@ -370,10 +374,12 @@ impl Driver<'_> {
                 .map(|&k| {
                     let (i, _, inputs) = &ready[k];
                     plan::resources(
+                        &g.nodes[*i].kind,
+                        &g.nodes[*i].params,
                         self.reg
                             .work(&g.nodes[*i].kind, &g.nodes[*i].params)
                             .as_ref(),
-                        input_bytes(self.store, inputs),
+                        (input_bytes(self.store, inputs), inputs.len()),
                         settings,
                     )
                 })
@@ -497,12 +503,7 @@ fn shell_quote(s: &str) -> String {
 
 /// Bytes of the files of `inputs` in the store.
 fn input_bytes(store: &Store, inputs: &[Entry]) -> u64 {
-    inputs
-        .iter()
-        .flat_map(|e| e.files.values())
-        .filter_map(|h| std::fs::metadata(store.object_path(h)).ok())
-        .map(|m| m.len())
-        .sum()
+    inputs.iter().map(|e| store.entry_bytes(e)).sum()
 }
 
 /// `repro worker`: compute the stage recorded under `key` in the store's job
@@ -669,12 +670,18 @@ pub fn dry_run(
                     _ => None,
                 };
                 match d {
-                    Some(e) => input_bytes(&store, std::slice::from_ref(&e)),
+                    Some(e) => store.entry_bytes(&e),
                     None => work(&graph.nodes[j]).map_or(0, |w| cost::trajectory_bytes(&w)),
                 }
             })
             .sum();
-        let r = plan::resources(work(node).as_ref(), bytes, &settings[*i]);
+        let r = plan::resources(
+            &node.kind,
+            &node.params,
+            work(node).as_ref(),
+            (bytes, node.inputs.len()),
+            &settings[*i],
+        );
         let s = serde_json::to_string(&settings[*i].sbatch_args())?;
         groups.entry((key, s)).or_default().push((*i, r));
     }

@@ -156,15 +156,22 @@ pub const ANALYSIS_MEM_PER_INPUT_BYTE: f64 = 6.0;
 /// Start-up of a job that runs an analysis, seconds (on a busy node).
 pub const JOB_START_S: f64 = 10.0;
 
-/// Resources of a stage with planned `work` (simulations) or reading
-/// `input_bytes` (everything else).
-pub fn resources(work: Option<&Work>, input_bytes: u64, s: &Settings) -> Resources {
+/// Resources of a stage with planned `work` (simulations) or of `kind` with
+/// `params` reading `input_bytes` from `inputs` inputs (everything else).
+pub fn resources(
+    kind: &str,
+    params: &serde_json::Value,
+    work: Option<&Work>,
+    (input_bytes, inputs): (u64, usize),
+    s: &Settings,
+) -> Resources {
     let mem_bytes = match work {
         Some(w) => w.n as f64 * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK),
         None => input_bytes as f64 * ANALYSIS_MEM_PER_INPUT_BYTE,
     };
     // A job of an analysis also loads the binary and the store on its node.
-    let secs = cost::seconds(work, input_bytes) + if work.is_none() { JOB_START_S } else { 0.0 };
+    let secs = cost::seconds(work, kind, params, input_bytes, inputs)
+        + if work.is_none() { JOB_START_S } else { 0.0 };
     let mem_mib = (BASE_MIB + mem_bytes / (1024.0 * 1024.0)) * s.mem_margin;
     // Slurm counts time limits in minutes; two at least, for start-up on a busy node.
     let time_min = ((secs * s.time_margin) / 60.0).ceil().max(2.0);
@@ -308,7 +315,7 @@ mod tests {
             force_kicks: 0.0,
             frames: 0,
         };
-        let r = resources(Some(&w), 0, &s);
+        let r = resources("simulate", &serde_json::Value::Null, Some(&w), (0, 0), &s);
         // One hour of work at 0.46e6 collisions/s, times the margin 3.
         assert!((r.expected_s - 3600.0).abs() < 1e-6);
         assert_eq!(r.time_min, 180);
@@ -320,7 +327,13 @@ mod tests {
             time_margin: 1.0,
             ..s
         };
-        let r1 = resources(Some(&w), 0, &tight);
+        let r1 = resources(
+            "simulate",
+            &serde_json::Value::Null,
+            Some(&w),
+            (0, 0),
+            &tight,
+        );
         assert_eq!(r1.time_min, 60);
         assert!(r1.mem_mib < r.mem_mib);
         assert_eq!(time_limit(60 * 24 + 61), "1-01:01:00");
