@@ -164,8 +164,11 @@ fn a_ci_figure_built_through_slurm_equals_the_local_build() {
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
     assert!(t.contains("submitted Slurm job"), "{t}");
-    // The 16 simulations of the sweep (8 phi, 2 replicas) went out as one array.
-    assert!(t.contains(": 16 simulate stage(s)"), "{t}");
+    // The 16 simulations of the sweep (8 phi, 2 replicas) went out as one
+    // job, packed into fewer tasks (each a few CPU seconds at ci), as did the
+    // analyses: each task ran its stages one after the other.
+    assert!(t.contains(": 16 simulate stage(s) in "), "{t}");
+    assert!(t.contains("tau_alpha stage(s) in "), "{t}");
     // Every stage's output: the same objects under the same keys, byte for byte.
     let a = files(&local.join(".repro/store/objects"));
     let b = files(&store.join("objects"));
@@ -305,7 +308,9 @@ fn wait_running(root: &Path, n: usize, child: &mut Child) -> Vec<(String, String
 /// A submitter of the slow figure (sleeping `sleep_ms` per simulation), once both
 /// simulations run on Slurm; with the (job id, key) of each.
 fn start_slow(root: &Path, sleep_ms: u64) -> (Child, Vec<(String, String)>) {
-    slow_catalogue(root, sleep_ms, "");
+    // One stage per job (short stages are otherwise packed into one task),
+    // so that one of the two can be cancelled alone.
+    slow_catalogue(root, sleep_ms, "    slurm: {pack_seconds: 0}\n");
     let mut child = slurm_figure(root)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

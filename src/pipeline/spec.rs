@@ -130,6 +130,12 @@ pub struct SlurmSpec {
     /// longer runs as a chain of jobs, each resuming from the last checkpoint.
     #[serde(default)]
     pub max_time: Option<Spanned<String>>,
+    /// Planned CPU seconds a job's task is filled up to with short stages of
+    /// one kind, run one after the other (default: what fits under Slurm's
+    /// two-minute floor at the time margin, 30 s at the margin 3; 0: one
+    /// stage per task).
+    #[serde(default)]
+    pub pack_seconds: Option<Spanned<f64>>,
 }
 
 /// `pipelines/ID.yaml`: one figure.

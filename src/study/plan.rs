@@ -283,9 +283,8 @@ pub fn calibrate(
     let cal = Calibration::fit(
         &samples,
         format!(
-            "{} recorded stages of {}, `repro calibrate` on {}",
+            "{} recorded stages, `repro calibrate` on {}",
             samples.len(),
-            ws.store.display(),
             super::report::utc(std::time::SystemTime::now())
         ),
     );

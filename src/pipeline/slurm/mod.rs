@@ -385,23 +385,36 @@ impl Driver<'_> {
                 })
                 .collect();
             let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
-            let time = members
-                .iter()
-                .zip(&res)
-                .map(|(&k, r)| {
-                    let f = longer.get(&ready[k].0).copied().unwrap_or(1.0);
-                    (r.time_min as f64 * f).ceil() as u64
-                })
-                .max()
-                .unwrap_or(2);
             // Only simulations (kinds that plan work) checkpoint.
             let resumable = self
                 .reg
                 .work(&kind, &g.nodes[ready[members[0]].0].params)
                 .is_some();
+            // Short stages share a task (one after the other); a stage that
+            // ran out of time once goes alone (its plan was short).
+            let (again, first): (Vec<usize>, Vec<usize>) =
+                (0..members.len()).partition(|&m| longer.contains_key(&ready[members[m]].0));
+            let expected: Vec<f64> = first.iter().map(|&m| res[m].expected_s).collect();
+            let mut tasks: Vec<Vec<usize>> = plan::pack(&expected, settings.pack_seconds())
+                .into_iter()
+                .map(|t| t.into_iter().map(|j| first[j]).collect())
+                .collect();
+            tasks.extend(again.into_iter().map(|m| vec![m]));
+            let time = tasks
+                .iter()
+                .map(|t| {
+                    let rs: Vec<&Resources> = t.iter().map(|&m| &res[m]).collect();
+                    let f = t
+                        .iter()
+                        .map(|&m| longer.get(&ready[members[m]].0).copied().unwrap_or(1.0))
+                        .fold(1.0, f64::max);
+                    (plan::task_minutes(&rs, resumable, settings) as f64 * f).ceil() as u64
+                })
+                .max()
+                .unwrap_or(2);
             let (time, links) = plan::chain(time, state::max_minutes(settings), resumable);
             let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
-            let array = keys.len() > 1;
+            let array = tasks.len() > 1;
             let mut args = vec![
                 format!("--job-name=repro-{kind}"),
                 "--cpus-per-task=1".to_string(),
@@ -415,7 +428,7 @@ impl Driver<'_> {
                 ),
             ];
             if array {
-                args.push(format!("--array=0-{}", keys.len() - 1));
+                args.push(format!("--array=0-{}", tasks.len() - 1));
             }
             args.extend(settings.sbatch_args());
             if members.iter().any(|&k| longer.contains_key(&ready[k].0)) {
@@ -423,13 +436,34 @@ impl Driver<'_> {
                 // limit the job hit.
                 args.push(format!("--time={}", plan::time_limit(time)));
             }
-            let script = format!(
-                "#!/bin/bash\n# repro: {} stage(s) of kind {kind}\nKEYS=({})\nexec {} worker --store {} --key \"${{KEYS[${{SLURM_ARRAY_TASK_ID:-0}}]}}\"\n",
-                keys.len(),
-                keys.join(" "),
+            let worker = format!(
+                "{} worker --store {}",
                 shell_quote(&self.opts.binary.display().to_string()),
                 shell_quote(&self.store.dir.display().to_string()),
             );
+            let script = if tasks.iter().all(|t| t.len() == 1) {
+                format!(
+                    "#!/bin/bash\n# repro: {} stage(s) of kind {kind}\nKEYS=({})\nexec {worker} --key \"${{KEYS[${{SLURM_ARRAY_TASK_ID:-0}}]}}\"\n",
+                    keys.len(),
+                    keys.join(" "),
+                )
+            } else {
+                // A task's stages one after the other; the task fails if one
+                // does (the others still run: each is its own stage).
+                let list: Vec<String> = tasks
+                    .iter()
+                    .map(|t| {
+                        let k: Vec<&str> = t.iter().map(|&m| keys[m]).collect();
+                        format!("\"{}\"", k.join(" "))
+                    })
+                    .collect();
+                format!(
+                    "#!/bin/bash\n# repro: {} stage(s) of kind {kind} in {} task(s)\nTASKS=({})\nstatus=0\nfor KEY in ${{TASKS[${{SLURM_ARRAY_TASK_ID:-0}}]}}; do\n  {worker} --key \"$KEY\" || status=$?\ndone\nexit $status\n",
+                    keys.len(),
+                    tasks.len(),
+                    list.join(" "),
+                )
+            };
             // Records first (without a job id), so a worker always finds its record.
             let mut recs: Vec<JobRecord> = members
                 .iter()
@@ -469,7 +503,7 @@ impl Driver<'_> {
                 chain.push(id.clone());
             }
             eprintln!(
-                "submitted Slurm job {}: {} {kind} stage(s), {mem} MiB and {} each",
+                "submitted Slurm job {}: {} {kind} stage(s){}, {mem} MiB and {} each",
                 if links > 1 {
                     format!(
                         "chain {} (each resumes from the last checkpoint)",
@@ -479,9 +513,20 @@ impl Driver<'_> {
                     id.clone()
                 },
                 keys.len(),
+                if tasks.len() < keys.len() {
+                    format!(" in {} task(s)", tasks.len())
+                } else {
+                    String::new()
+                },
                 plan::time_limit(time)
             );
-            for (t, r) in recs.iter_mut().enumerate() {
+            let task_of: BTreeMap<usize, usize> = tasks
+                .iter()
+                .enumerate()
+                .flat_map(|(t, members)| members.iter().map(move |&m| (m, t)))
+                .collect();
+            for (m, r) in recs.iter_mut().enumerate() {
+                let t = task_of[&m];
                 if array {
                     r.job_id = format!("{id}_{t}");
                     r.log = logs.join(format!("{id}_{t}.log"));
@@ -686,20 +731,46 @@ pub fn dry_run(
         groups.entry((key, s)).or_default().push((*i, r));
     }
     let mut out = String::new();
-    let (mut expected, mut limit, mut longest) = (0.0, 0.0, 0.0f64);
+    let (mut expected, mut limit, mut longest) = (0.0f64, 0.0, 0.0f64);
+    let mut task_count = 0;
     for ((kind, sargs), members) in &groups {
         let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
-        let time = members.iter().map(|(_, r)| r.time_min).max().unwrap_or(0);
         let first = members[0].0;
-        let (time, links) = plan::chain(
-            time,
-            state::max_minutes(&settings[first]),
-            work(&graph.nodes[first]).is_some(),
-        );
+        let resumable = work(&graph.nodes[first]).is_some();
+        // As submitted: short stages share a task.
+        let planned: Vec<f64> = members.iter().map(|(_, r)| r.expected_s).collect();
+        let tasks = plan::pack(&planned, settings[first].pack_seconds());
+        let time = tasks
+            .iter()
+            .map(|t| {
+                let rs: Vec<&Resources> = t.iter().map(|&m| &members[m].1).collect();
+                plan::task_minutes(&rs, resumable, &settings[first])
+            })
+            .max()
+            .unwrap_or(2);
+        let (time, links) = plan::chain(time, state::max_minutes(&settings[first]), resumable);
+        task_count += tasks.len();
+        // Each task starts once (analyses load the binary and the store).
+        expected += tasks
+            .iter()
+            .map(|t| {
+                let rs: Vec<&Resources> = t.iter().map(|&m| &members[m].1).collect();
+                plan::task_seconds(&rs, resumable) - rs.iter().map(|r| r.expected_s).sum::<f64>()
+            })
+            .sum::<f64>()
+            / 3600.0;
+        // Slurm holds each task of an array to the array's limit.
+        limit += (tasks.len() * links as usize) as f64 * time as f64 / 60.0;
+        let task_of: BTreeMap<usize, usize> = tasks
+            .iter()
+            .enumerate()
+            .flat_map(|(t, ms)| ms.iter().map(move |&m| (m, t)))
+            .collect();
         out += &format!(
-            "job {kind}: {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
+            "job {kind}: {} stage(s) in {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
             members.len(),
-            if members.len() > 1 { " (array)" } else { "" },
+            tasks.len(),
+            if tasks.len() > 1 { " (array)" } else { "" },
             plan::time_limit(time),
             sargs,
             if links > 1 {
@@ -710,7 +781,7 @@ pub fn dry_run(
                 String::new()
             }
         );
-        for (i, r) in members {
+        for (m, (i, r)) in members.iter().enumerate() {
             let w = work(&graph.nodes[*i]);
             let work = w.map_or(String::new(), |w| {
                 format!("N = {}, {:.3e} collisions, ", w.n, w.collisions)
@@ -721,21 +792,21 @@ pub fn dry_run(
                 format!("{:.2} core-h", r.expected_s / 3600.0)
             };
             out += &format!(
-                "    {}  ({work}expected {cpu}, asks {} MiB, {})\n",
+                "    {}  ({work}expected {cpu}, asks {} MiB, task {})\n",
                 graph.nodes[*i].label(),
                 r.mem_mib,
-                plan::time_limit(r.time_min)
+                task_of[&m]
             );
             expected += r.expected_s / 3600.0 * r.cpus as f64;
-            limit += r.time_min as f64 / 60.0 * r.cpus as f64;
             longest = longest.max(r.expected_s / 3600.0);
         }
     }
     let jobs: usize = groups.values().map(|m| m.len()).sum();
     out += &format!(
-        "{jobs} stage(s) to run in {} job(s) (waves: stages are submitted when their inputs are done), {cached} cached\n\
-         total: {expected:.2} core-hours expected, {limit:.2} core-hours requested (time limits); longest stage {longest:.2} h\n",
-        groups.len()
+        "{jobs} stage(s) to run in {} job(s) of {task_count} task(s) (waves: stages are submitted when their inputs are done), {cached} cached\n\
+         total: {expected:.2} core-hours expected, {limit:.2} core-hours requested (time limits, {:.1}x); longest stage {longest:.2} h\n",
+        groups.len(),
+        limit / expected.max(1e-9)
     );
     Ok(out)
 }

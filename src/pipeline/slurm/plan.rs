@@ -32,6 +32,9 @@ pub struct Settings {
     pub time_margin: f64,
     /// The longest time limit a job may ask, minutes (`None`: the partition's).
     pub max_time_min: Option<u64>,
+    /// Planned CPU seconds a task is filled up to with short stages
+    /// (`None`: [`Settings::pack_seconds`]'s default).
+    pub pack_s: Option<f64>,
 }
 
 pub const DEFAULT_MEM_MARGIN: f64 = 1.5;
@@ -47,11 +50,20 @@ impl Default for Settings {
             mem_margin: DEFAULT_MEM_MARGIN,
             time_margin: DEFAULT_TIME_MARGIN,
             max_time_min: None,
+            pack_s: None,
         }
     }
 }
 
 impl Settings {
+    /// Planned CPU seconds a task of a job is filled up to with short stages:
+    /// by default what fits under Slurm's two-minute floor at the time margin
+    /// after the start-up ([`JOB_START_S`]), 30 s at the margin 3.
+    pub fn pack_seconds(&self) -> f64 {
+        self.pack_s
+            .unwrap_or(((2.0 * 60.0) / self.time_margin - JOB_START_S).max(0.0))
+    }
+
     /// The settings of a `slurm:` block; a margin below 1 (or not finite) is an
     /// error at its line in `file`.
     pub fn from_spec(file: &Path, s: &SlurmSpec) -> Result<Settings, SpecError> {
@@ -74,6 +86,20 @@ impl Settings {
             extra: s.extra.clone(),
             mem_margin: margin(&s.mem_margin, "mem_margin", DEFAULT_MEM_MARGIN)?,
             time_margin: margin(&s.time_margin, "time_margin", DEFAULT_TIME_MARGIN)?,
+            pack_s: match &s.pack_seconds {
+                None => None,
+                Some(v) if v.value.is_finite() && v.value >= 0.0 => Some(v.value),
+                Some(v) => {
+                    return Err(SpecError::at(
+                        file,
+                        v,
+                        format!(
+                            "slurm.pack_seconds = {} must be a number >= 0 (planned CPU seconds a task is filled up to; 0: one stage per task)",
+                            v.value
+                        ),
+                    ));
+                }
+            },
             max_time_min: match &s.max_time {
                 None => None,
                 Some(v) => match minutes(&v.value) {
@@ -169,18 +195,70 @@ pub fn resources(
         Some(w) => w.n as f64 * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK),
         None => input_bytes as f64 * ANALYSIS_MEM_PER_INPUT_BYTE,
     };
-    // A job of an analysis also loads the binary and the store on its node.
-    let secs = cost::seconds(work, kind, params, input_bytes, inputs)
-        + if work.is_none() { JOB_START_S } else { 0.0 };
+    let secs = cost::seconds(work, kind, params, input_bytes, inputs);
     let mem_mib = (BASE_MIB + mem_bytes / (1024.0 * 1024.0)) * s.mem_margin;
-    // Slurm counts time limits in minutes; two at least, for start-up on a busy node.
-    let time_min = ((secs * s.time_margin) / 60.0).ceil().max(2.0);
-    Resources {
+    let mut r = Resources {
         cpus: 1,
         mem_mib: mem_mib.ceil() as u64,
-        time_min: time_min as u64,
+        time_min: 0,
         expected_s: secs,
+    };
+    r.time_min = task_minutes(&[&r], work.is_some(), s);
+    r
+}
+
+/// Stages of one job (their planned CPU seconds `expected`) packed into
+/// tasks, each run by one array task one stage after the other: first fit in
+/// decreasing order into tasks of `fill_s` planned seconds, or of the longest
+/// stage if that is longer (a task never asks more than the longest stage
+/// alone would). Slurm's time limits count whole minutes, two at least, so
+/// one stage of a few seconds per task would ask tens of times its plan.
+/// Returns the tasks as indices into `expected`, each in increasing order,
+/// the tasks ordered by their first stage.
+pub fn pack(expected: &[f64], fill_s: f64) -> Vec<Vec<usize>> {
+    let longest = expected.iter().copied().fold(0.0, f64::max);
+    let cap = fill_s.max(longest);
+    let mut order: Vec<usize> = (0..expected.len()).collect();
+    order.sort_by(|&a, &b| expected[b].total_cmp(&expected[a]).then(a.cmp(&b)));
+    let mut tasks: Vec<(f64, Vec<usize>)> = Vec::new();
+    for i in order {
+        match tasks
+            .iter_mut()
+            .find(|(sum, t)| fill_s > 0.0 && !t.is_empty() && sum + expected[i] <= cap)
+        {
+            Some((sum, t)) => {
+                *sum += expected[i];
+                t.push(i);
+            }
+            None => tasks.push((expected[i], vec![i])),
+        }
     }
+    let mut out: Vec<Vec<usize>> = tasks
+        .into_iter()
+        .map(|(_, mut t)| {
+            t.sort_unstable();
+            t
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// The time limit of a task running stages of `resources` one after the
+/// other, minutes: their planned CPU seconds, plus one start-up for a task of
+/// analyses (it loads the binary and the store on its node), times the
+/// margin; two at least (Slurm counts minutes; start-up on a busy node).
+pub fn task_minutes(resources: &[&Resources], simulations: bool, s: &Settings) -> u64 {
+    (task_seconds(resources, simulations) * s.time_margin / 60.0)
+        .ceil()
+        .max(2.0) as u64
+}
+
+/// Planned seconds of a task running stages of `resources` one after the
+/// other, with its start-up if they are analyses.
+pub fn task_seconds(resources: &[&Resources], simulations: bool) -> f64 {
+    let sum: f64 = resources.iter().map(|r| r.expected_s).sum();
+    sum + if simulations { 0.0 } else { JOB_START_S }
 }
 
 /// A Slurm time limit in minutes (seconds rounded up): `MM`, `MM:SS`,
@@ -337,5 +415,46 @@ mod tests {
         assert_eq!(r1.time_min, 60);
         assert!(r1.mem_mib < r.mem_mib);
         assert_eq!(time_limit(60 * 24 + 61), "1-01:01:00");
+    }
+
+    #[test]
+    fn short_stages_share_a_task_and_long_ones_run_alone() {
+        // 30 s tasks: the 25 s stage alone, the 20 s with the 10 s, the rest together.
+        let e = [2.0, 25.0, 10.0, 20.0, 3.0, 4.0];
+        assert_eq!(pack(&e, 30.0), vec![vec![0, 4, 5], vec![1], vec![2, 3]]);
+        // A stage longer than the fill sets the size: nothing asks more than it.
+        assert_eq!(
+            pack(&[100.0, 30.0, 40.0, 20.0], 30.0),
+            vec![vec![0], vec![1, 2, 3]]
+        );
+        // 0: one stage per task.
+        assert_eq!(pack(&[1.0, 2.0], 0.0), vec![vec![0], vec![1]]);
+        // Every stage lands in exactly one task.
+        let many: Vec<f64> = (0..200).map(|i| (i % 17) as f64 * 0.7).collect();
+        let mut seen: Vec<usize> = pack(&many, 30.0).concat();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..200).collect::<Vec<_>>());
+        // The default fill: two minutes at the margin, less the start-up.
+        assert_eq!(Settings::default().pack_seconds(), 30.0);
+    }
+
+    #[test]
+    fn a_task_of_analyses_counts_one_start_up() {
+        let s = Settings::default();
+        let r = Resources {
+            cpus: 1,
+            mem_mib: 100,
+            time_min: 2,
+            expected_s: 5.0,
+        };
+        // Forty stages of 5 s and one start-up of 10 s: 210 s x 3 = 10.5 min.
+        assert_eq!(task_seconds(&vec![&r; 40], false), 210.0);
+        assert_eq!(task_minutes(&vec![&r; 40], false, &s), 11);
+        // Simulations start nothing beyond their own work.
+        assert_eq!(task_seconds(&vec![&r; 40], true), 200.0);
+        // One short stage: Slurm's two minutes.
+        assert_eq!(task_minutes(&[&r], false, &s), 2);
+        let a = resources("aging", &serde_json::Value::Null, None, (0, 0), &s);
+        assert_eq!(a.time_min, task_minutes(&[&a], false, &s));
     }
 }
