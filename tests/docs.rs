@@ -546,7 +546,7 @@ fn rates(text: &str, phrase: &str, tail: &str) -> Vec<(String, String, String)> 
 }
 
 /// The README and docs/accuracy.md quote the CI gate's measured false-alarm
-/// and detection rates as the generated measurements say (docs/coverage-ci-fresh3.md
+/// and detection rates as the generated measurements say (docs/coverage-ci-fresh20.md
 /// from `repro coverage --docs` on seeds the goldens were not recorded at,
 /// docs/sensitivity-ci.md from `make sensitivity`).
 #[test]
@@ -559,10 +559,10 @@ fn the_gate_rates_quoted_are_the_measured_ones() {
             .flat_map(|l| rates(l, "fails at ", "fresh master seeds"))
             .collect()
     };
-    let alarms = alarm_rates(&read("docs/coverage-ci-fresh3.md"));
+    let alarms = alarm_rates(&read("docs/coverage-ci-fresh20.md"));
     let alarm = alarms
         .first()
-        .expect("docs/coverage-ci-fresh3.md states its false alarms");
+        .expect("docs/coverage-ci-fresh20.md states its false alarms");
     let sensitivity = rates(
         &read("docs/sensitivity-ci.md"),
         "CI fails at ",
