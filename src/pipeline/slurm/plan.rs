@@ -419,9 +419,10 @@ mod tests {
 
     #[test]
     fn short_stages_share_a_task_and_long_ones_run_alone() {
-        // 30 s tasks: the 25 s stage alone, the 20 s with the 10 s, the rest together.
+        // 30 s tasks, longest first: the 25 s stage takes the 4 s, the 20 s
+        // the 10 s, and the 3 s and 2 s fit in neither (31, 32 s).
         let e = [2.0, 25.0, 10.0, 20.0, 3.0, 4.0];
-        assert_eq!(pack(&e, 30.0), vec![vec![0, 4, 5], vec![1], vec![2, 3]]);
+        assert_eq!(pack(&e, 30.0), vec![vec![0, 4], vec![1, 5], vec![2, 3]]);
         // A stage longer than the fill sets the size: nothing asks more than it.
         assert_eq!(
             pack(&[100.0, 30.0, 40.0, 20.0], 30.0),
