@@ -219,18 +219,24 @@ pub fn execute(
     // stale one may still be cut off early when its output comes out unchanged).
     if opts.progress {
         let st = status(graph, nodes, reg, store, &opts.force);
-        let built = super::cost::built_bytes(
-            store,
-            st.iter().filter_map(|(i, s)| match s {
-                State::Cached { key } => Some((*i, key.as_str())),
-                _ => None,
-            }),
-        );
         let stale: Vec<usize> = st
             .iter()
             .filter(|(_, s)| !matches!(s, State::Cached { .. }))
             .map(|(i, _)| *i)
             .collect();
+        // Sizes of the built inputs of the stages to run only (a build with
+        // nothing to run reads no entry).
+        let wanted: std::collections::HashSet<usize> = stale
+            .iter()
+            .flat_map(|&i| graph.nodes[i].inputs.iter().copied())
+            .collect();
+        let built = super::cost::built_bytes(
+            store,
+            st.iter().filter_map(|(i, s)| match s {
+                State::Cached { key } if wanted.contains(i) => Some((*i, key.as_str())),
+                _ => None,
+            }),
+        );
         sh.progress.plan(
             &stale,
             &super::cost::node_seconds(graph, reg, &built),

@@ -391,27 +391,16 @@ impl Driver<'_> {
                 .work(&kind, &g.nodes[ready[members[0]].0].params)
                 .is_some();
             // Short stages share a task (one after the other); a stage that
-            // ran out of time once goes alone (its plan was short).
-            let (again, first): (Vec<usize>, Vec<usize>) =
-                (0..members.len()).partition(|&m| longer.contains_key(&ready[members[m]].0));
-            let expected: Vec<f64> = first.iter().map(|&m| res[m].expected_s).collect();
-            let mut tasks: Vec<Vec<usize>> = plan::pack(&expected, settings.pack_seconds())
-                .into_iter()
-                .map(|t| t.into_iter().map(|j| first[j]).collect())
-                .collect();
-            tasks.extend(again.into_iter().map(|m| vec![m]));
-            let time = tasks
+            // ran out of time once goes alone.
+            let factor: Vec<f64> = members
                 .iter()
-                .map(|t| {
-                    let rs: Vec<&Resources> = t.iter().map(|&m| &res[m]).collect();
-                    let f = t
-                        .iter()
-                        .map(|&m| longer.get(&ready[members[m]].0).copied().unwrap_or(1.0))
-                        .fold(1.0, f64::max);
-                    (plan::task_minutes(&rs, resumable, settings) as f64 * f).ceil() as u64
-                })
-                .max()
-                .unwrap_or(2);
+                .map(|&k| longer.get(&ready[k].0).copied().unwrap_or(1.0))
+                .collect();
+            let plan::JobTasks {
+                tasks,
+                task_of,
+                time_min: time,
+            } = plan::job_tasks(&res, &factor, resumable, settings);
             let (time, links) = plan::chain(time, state::max_minutes(settings), resumable);
             let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
             let array = tasks.len() > 1;
@@ -520,13 +509,8 @@ impl Driver<'_> {
                 },
                 plan::time_limit(time)
             );
-            let task_of: BTreeMap<usize, usize> = tasks
-                .iter()
-                .enumerate()
-                .flat_map(|(t, members)| members.iter().map(move |&m| (m, t)))
-                .collect();
             for (m, r) in recs.iter_mut().enumerate() {
-                let t = task_of[&m];
+                let t = task_of[m];
                 if array {
                     r.job_id = format!("{id}_{t}");
                     r.log = logs.join(format!("{id}_{t}.log"));
@@ -738,34 +722,20 @@ pub fn dry_run(
         let first = members[0].0;
         let resumable = work(&graph.nodes[first]).is_some();
         // As submitted: short stages share a task.
-        let planned: Vec<f64> = members.iter().map(|(_, r)| r.expected_s).collect();
-        let tasks = plan::pack(&planned, settings[first].pack_seconds());
-        let time = tasks
-            .iter()
-            .map(|t| {
-                let rs: Vec<&Resources> = t.iter().map(|&m| &members[m].1).collect();
-                plan::task_minutes(&rs, resumable, &settings[first])
-            })
-            .max()
-            .unwrap_or(2);
+        let res: Vec<Resources> = members.iter().map(|(_, r)| r.clone()).collect();
+        let plan::JobTasks {
+            tasks,
+            task_of,
+            time_min: time,
+        } = plan::job_tasks(&res, &vec![1.0; res.len()], resumable, &settings[first]);
         let (time, links) = plan::chain(time, state::max_minutes(&settings[first]), resumable);
         task_count += tasks.len();
-        // Each task starts once (analyses load the binary and the store).
-        expected += tasks
-            .iter()
-            .map(|t| {
-                let rs: Vec<&Resources> = t.iter().map(|&m| &members[m].1).collect();
-                plan::task_seconds(&rs, resumable) - rs.iter().map(|r| r.expected_s).sum::<f64>()
-            })
-            .sum::<f64>()
-            / 3600.0;
+        // Each task of analyses starts once (it loads the binary and the store).
+        if !resumable {
+            expected += tasks.len() as f64 * plan::JOB_START_S / 3600.0;
+        }
         // Slurm holds each task of an array to the array's limit.
         limit += (tasks.len() * links as usize) as f64 * time as f64 / 60.0;
-        let task_of: BTreeMap<usize, usize> = tasks
-            .iter()
-            .enumerate()
-            .flat_map(|(t, ms)| ms.iter().map(move |&m| (m, t)))
-            .collect();
         out += &format!(
             "job {kind}: {} stage(s) in {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
             members.len(),
@@ -795,7 +765,7 @@ pub fn dry_run(
                 "    {}  ({work}expected {cpu}, asks {} MiB, task {})\n",
                 graph.nodes[*i].label(),
                 r.mem_mib,
-                task_of[&m]
+                task_of[m]
             );
             expected += r.expected_s / 3600.0 * r.cpus as f64;
             longest = longest.max(r.expected_s / 3600.0);

@@ -254,6 +254,53 @@ pub fn task_minutes(resources: &[&Resources], simulations: bool, s: &Settings) -
         .max(2.0) as u64
 }
 
+/// The tasks of one job of stages with `resources` and the time limit the job
+/// asks, minutes: the stages packed ([`pack`]), except those with a `factor`
+/// above 1 on their limit (they ran out of time once: their plan was short),
+/// each of which goes alone; the limit is the longest task's, times the
+/// largest factor in it. Also where each stage went (its task, by stage).
+pub struct JobTasks {
+    pub tasks: Vec<Vec<usize>>,
+    pub task_of: Vec<usize>,
+    pub time_min: u64,
+}
+
+pub fn job_tasks(
+    resources: &[Resources],
+    factor: &[f64],
+    simulations: bool,
+    s: &Settings,
+) -> JobTasks {
+    let (again, first): (Vec<usize>, Vec<usize>) =
+        (0..resources.len()).partition(|&m| factor[m] > 1.0);
+    let expected: Vec<f64> = first.iter().map(|&m| resources[m].expected_s).collect();
+    let mut tasks: Vec<Vec<usize>> = pack(&expected, s.pack_seconds())
+        .into_iter()
+        .map(|t| t.into_iter().map(|j| first[j]).collect())
+        .collect();
+    tasks.extend(again.into_iter().map(|m| vec![m]));
+    let time_min = tasks
+        .iter()
+        .map(|t| {
+            let rs: Vec<&Resources> = t.iter().map(|&m| &resources[m]).collect();
+            let f = t.iter().map(|&m| factor[m]).fold(1.0, f64::max);
+            (task_minutes(&rs, simulations, s) as f64 * f).ceil() as u64
+        })
+        .max()
+        .unwrap_or(2);
+    let mut task_of = vec![0; resources.len()];
+    for (t, members) in tasks.iter().enumerate() {
+        for &m in members {
+            task_of[m] = t;
+        }
+    }
+    JobTasks {
+        tasks,
+        task_of,
+        time_min,
+    }
+}
+
 /// Planned seconds of a task running stages of `resources` one after the
 /// other, with its start-up if they are analyses.
 pub fn task_seconds(resources: &[&Resources], simulations: bool) -> f64 {
