@@ -392,6 +392,11 @@ pub fn run(c: Commands) -> Result<()> {
             root,
         } => {
             let ws = root.workspace();
+            if !(share > 0.0 && share <= 1.0) {
+                bail!(
+                    "--share {share}: the share of judged stages that must lie within the factor is a number in (0, 1]"
+                );
+            }
             let mut ids = figures.ids(&ws)?;
             let profile = figures.profile;
             // `--all`: every figure that the profile reaches, the others listed
