@@ -234,6 +234,112 @@ fn early_cutoff_stops_reruns_when_outputs_are_byte_identical() {
     assert!(ex.iter().all(|l| l.starts_with("toy_sweep[")), "{ex:?}");
 }
 
+/// A kind that counts how often the planner parses its parameters and how
+/// often it runs, around `toy_analyse`.
+struct Counting {
+    inner: toy::ToyAnalyse,
+    parses: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    runs: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl repro::pipeline::StageKind for Counting {
+    type Params = <toy::ToyAnalyse as repro::pipeline::StageKind>::Params;
+    fn name(&self) -> &str {
+        "toy_analyse"
+    }
+    fn modules(&self) -> &[&str] {
+        repro::pipeline::StageKind::modules(&self.inner)
+    }
+    fn parse(&self, params: &serde_json::Value) -> anyhow::Result<Self::Params> {
+        self.parses
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        repro::pipeline::StageKind::parse(&self.inner, params)
+    }
+    fn run(
+        &self,
+        ctx: &repro::pipeline::StageCtx,
+        p: &Self::Params,
+        inputs: &[repro::pipeline::Artifact],
+    ) -> anyhow::Result<repro::pipeline::Output> {
+        self.runs.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        repro::pipeline::StageKind::run(&self.inner, ctx, p, inputs)
+    }
+}
+
+#[test]
+fn each_stage_s_parameters_are_parsed_once_and_the_typed_value_reaches_its_run() {
+    use std::sync::atomic::Ordering::SeqCst;
+    let d = fixture();
+    let (parses, runs) = (Default::default(), Default::default());
+    let mut r = reg();
+    r.register(Counting {
+        inner: toy::ToyAnalyse,
+        parses: std::sync::Arc::clone(&parses),
+        runs: std::sync::Arc::clone(&runs),
+    });
+    // figtoy's analysis: 2 phi x 2 replicas x 2 cutoffs = 8 stages, with two
+    // distinct parameter sets (a = 0.5 and a = 1.0).
+    let ex = run_with(d.path(), &r, &["figtoy"], &opts(2));
+    let analyses = ex
+        .iter()
+        .filter(|l| l.starts_with("figtoy/overlap["))
+        .count();
+    assert_eq!(analyses, 8, "{ex:?}");
+    assert_eq!(runs.load(SeqCst), 8);
+    assert_eq!(
+        parses.load(SeqCst),
+        2,
+        "one parse per parameter set, none at run time"
+    );
+}
+
+#[test]
+fn a_table_takes_a_setting_from_its_runs_and_reruns_when_it_changes() {
+    let d = fixture();
+    edit(
+        d.path(),
+        "pipelines/figtoy.yaml",
+        "    gather: [overlap]\n",
+        "    gather: [overlap]\n    params: {from_runs: [eps]}\n",
+    );
+    let eps_column = |root: &Path| -> Vec<f64> {
+        let bytes = std::fs::read(root.join("results/figtoy/overlap_table.parquet")).unwrap();
+        let (batches, _) = repro::table::read_parquet_bytes(bytes).unwrap();
+        batches
+            .iter()
+            .flat_map(|b| {
+                b.column_by_name("eps")
+                    .expect("an eps column from the runs")
+                    .as_any()
+                    .downcast_ref::<arrow_array::Float64Array>()
+                    .unwrap()
+                    .values()
+                    .to_vec()
+            })
+            .collect()
+    };
+    run(d.path(), &["figtoy"]);
+    let eps = eps_column(d.path());
+    assert!(!eps.is_empty() && eps.iter().all(|&e| e == 0.9), "{eps:?}");
+    // toy_simulate's numbers do not depend on eps: the simulations rerun to the
+    // same bytes and the analyses are cut off, but the table reads eps from
+    // the runs, so its key moves and it reruns with the new value.
+    edit(
+        d.path(),
+        "experiments/toy_sweep.yaml",
+        "eps: 0.9",
+        "eps: 0.8",
+    );
+    let ex = run(d.path(), &["figtoy"]);
+    assert!(
+        !ex.iter().any(|l| l.starts_with("figtoy/overlap[")),
+        "{ex:?}"
+    );
+    assert!(ex.iter().any(|l| l == "figtoy/overlap_table"), "{ex:?}");
+    let eps = eps_column(d.path());
+    assert!(eps.iter().all(|&e| e == 0.8), "{eps:?}");
+}
+
 #[test]
 fn a_code_fingerprint_change_invalidates_that_kind_and_waits_its_dependents() {
     let d = fixture();

@@ -146,7 +146,7 @@ fn planned(profile: &str, want: &str) -> f64 {
         .iter()
         .find(|n| configuration(n.label()) == want)
         .unwrap_or_else(|| panic!("{want} is not a simulation of the {profile} profile"));
-    reg.work(&node.kind, &node.params).unwrap().collisions
+    reg.work(&node.kind, &node.parsed).unwrap().collisions
 }
 
 #[test]

@@ -146,7 +146,7 @@ pub fn node_seconds(graph: &Graph, reg: &Registry, built: &HashMap<usize, u64>) 
     let work: Vec<Option<Work>> = graph
         .nodes
         .iter()
-        .map(|n| reg.work(&n.kind, &n.params))
+        .map(|n| reg.work(&n.kind, &n.parsed))
         .collect();
     graph
         .nodes

@@ -7,6 +7,7 @@
 //! (early cut-off). Keys are therefore known only once the inputs are: nodes are
 //! scheduled as soon as their inputs finish.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::sync::Mutex;
@@ -14,6 +15,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use anyhow::Result;
+use serde_json::Value;
 
 use super::canon::{canonical, diff_params, hash_fields};
 use super::checkpoints::Status;
@@ -132,6 +134,37 @@ impl RunReport {
         }
         s
     }
+}
+
+/// The parameters a stage's key hashes: its own and, when its kind reads
+/// settings of the upstream runs ([`StageKind::reads_run`](super::StageKind::reads_run)),
+/// those settings of each input, so that an edit of one reruns it however
+/// its inputs' files came out.
+pub fn keyed_params<'a>(graph: &Graph, reg: &Registry, node: &'a Node) -> Cow<'a, Value> {
+    let keys = reg
+        .get(&node.kind)
+        .map(|k| k.reads_run(&node.parsed))
+        .unwrap_or_default();
+    if keys.is_empty() {
+        return Cow::Borrowed(&node.params);
+    }
+    let runs: Vec<Value> = node
+        .inputs
+        .iter()
+        .map(|&j| {
+            let run = &graph.nodes[j].run;
+            Value::Object(
+                keys.iter()
+                    .filter_map(|k| run.get(k).map(|v| (k.clone(), v.clone())))
+                    .collect(),
+            )
+        })
+        .collect();
+    let mut p = node.params.clone();
+    if let Value::Object(m) = &mut p {
+        m.insert("(runs read)".into(), Value::Array(runs));
+    }
+    Cow::Owned(p)
 }
 
 /// The cache key of a stage.
@@ -329,6 +362,7 @@ pub(crate) fn artifact(
         kind: node.source_kind(reg),
         point: node.point.clone(),
         params: node.params.clone(),
+        run: node.run.clone(),
         digest: e.digest.clone(),
         files: e
             .files
@@ -357,7 +391,12 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
     }
     let fingerprint = sh.reg.fingerprint(&node.kind);
     let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
-    let key = stage_key(&node.kind, &node.params, &digests, fingerprint);
+    let key = stage_key(
+        &node.kind,
+        &keyed_params(sh.graph, sh.reg, node),
+        &digests,
+        fingerprint,
+    );
     let forced = sh.opts.force.contains(&node.kind);
     let hit = |e: Entry| {
         for l in &node.labels {
@@ -428,7 +467,7 @@ pub(crate) fn compute(
         .with_checkpoints(checkpoints.clone());
     let t0 = Instant::now();
     let cpu0 = thread_cpu_seconds();
-    let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.params, inputs)));
+    let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.parsed, inputs)));
     let wall_s = t0.elapsed().as_secs_f64();
     let cpu_s = match (cpu0, thread_cpu_seconds()) {
         (Some(a), Some(b)) => Some(b - a),
@@ -554,7 +593,7 @@ pub fn status(
             .collect();
         let forced = force.contains(&node.kind);
         if let Some(d) = &known {
-            let key = stage_key(&node.kind, &node.params, d, fp);
+            let key = stage_key(&node.kind, &keyed_params(graph, reg, node), d, fp);
             match store.find(&key) {
                 Found::Hit(e) if !forced => {
                     digest.insert(i, e.digest.clone());
@@ -650,7 +689,12 @@ pub fn stale_keys(
         if let Some(d) = known {
             out.push((
                 *i,
-                stage_key(&node.kind, &node.params, &d, reg.fingerprint(&node.kind)),
+                stage_key(
+                    &node.kind,
+                    &keyed_params(graph, reg, node),
+                    &d,
+                    reg.fingerprint(&node.kind),
+                ),
             ));
         }
     }

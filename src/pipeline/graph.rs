@@ -9,9 +9,10 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::Result;
-use serde_json::Value;
+use serde_json::{Map, Value};
 use serde_saphyr::Spanned;
 
 use super::canon::{Point, canonical, derive_seed, hash_fields};
@@ -19,7 +20,7 @@ use super::registry::Registry;
 use super::spec;
 use super::spec::{Catalogue, ExperimentSpec, PROFILES, PipelineSpec, SpecError, StageSpec};
 pub use super::stage::StageId;
-use super::stage::{PlannedInput, SourceKind};
+use super::stage::{Parsed, PlannedInput, SourceKind};
 
 /// One stage instance.
 #[derive(Debug, Clone)]
@@ -32,6 +33,11 @@ pub struct Node {
     pub labels: Vec<String>,
     /// Canonical parameters (a JSON object with sorted keys).
     pub params: Value,
+    /// The same parameters as its kind parsed them, once, when planned.
+    pub parsed: Parsed,
+    /// The resolved configuration of the runs it comes from
+    /// ([`Artifact::run`](super::stage::Artifact::run)).
+    pub run: Arc<Map<String, Value>>,
     /// Grid and sweep values of this instance.
     pub point: Point,
     /// Input nodes, in a fixed order.
@@ -55,6 +61,8 @@ impl Node {
             kind: self.source_kind(reg),
             ids: &self.ids,
             params: &self.params,
+            parsed: &self.parsed,
+            run: &self.run,
             file: &self.origin.0,
         }
     }
@@ -95,7 +103,7 @@ struct Planner<'a> {
     reg: &'a Registry,
     graph: Graph,
     experiments: HashMap<String, Vec<usize>>,
-    validated: HashMap<(String, String), ()>,
+    parsed: HashMap<(String, String), Parsed>,
 }
 
 /// Plan figures `ids` (all figures if empty) at `profile`.
@@ -116,7 +124,7 @@ pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> R
             ..Graph::default()
         },
         experiments: HashMap::new(),
-        validated: HashMap::new(),
+        parsed: HashMap::new(),
     };
     for id in &ids {
         let (file, spec) = cat.pipeline(id).map_err(anyhow::Error::msg)?;
@@ -135,6 +143,21 @@ fn mark<T>(span: &Spanned<T>) -> spec::Mark {
         line: span.referenced.line(),
         column: span.referenced.column(),
     }
+}
+
+/// The settings every run of `runs` shares (same key, same value): what a
+/// stage downstream of several simulations knows of them.
+fn shared_run<'a>(
+    mut runs: impl Iterator<Item = &'a Map<String, Value>>,
+) -> Arc<Map<String, Value>> {
+    let Some(first) = runs.next() else {
+        return Arc::default();
+    };
+    let mut shared = first.clone();
+    for r in runs {
+        shared.retain(|k, v| r.get(k) == Some(v));
+    }
+    Arc::new(shared)
 }
 
 /// Every combination of the listed values, keys in sorted order, last key fastest.
@@ -163,6 +186,7 @@ impl Planner<'_> {
         kind: &str,
         id: StageId,
         params: serde_json::Map<String, Value>,
+        parsed: Parsed,
         point: Point,
         inputs: Vec<usize>,
         seed: Option<u64>,
@@ -189,11 +213,17 @@ impl Planner<'_> {
         }
         let seed =
             seed.unwrap_or_else(|| u64::from_le_bytes(recipe.as_bytes()[..8].try_into().unwrap()));
+        let run = match self.reg.get(kind).ok().and_then(|k| k.resolved(&parsed)) {
+            Some(own) => Arc::new(own),
+            None => shared_run(inputs.iter().map(|&i| &*self.graph.nodes[i].run)),
+        };
         self.graph.nodes.push(Node {
             kind: kind.to_string(),
             ids: vec![id],
             labels: vec![label],
             params,
+            parsed,
+            run,
             point,
             inputs,
             recipe: recipe_hex.clone(),
@@ -205,18 +235,15 @@ impl Planner<'_> {
         i
     }
 
-    fn validate(&mut self, kind: &str, params: &serde_json::Map<String, Value>) -> Result<()> {
+    /// Parse a stage's parameters with its kind, once per (kind, parameters).
+    fn parse(&mut self, kind: &str, params: &serde_json::Map<String, Value>) -> Result<Parsed> {
         let canon = canonical(&Value::Object(params.clone()));
-        if self
-            .validated
-            .contains_key(&(kind.to_string(), canon.clone()))
-        {
-            return Ok(());
+        if let Some(p) = self.parsed.get(&(kind.to_string(), canon.clone())) {
+            return Ok(p.clone());
         }
-        let k = self.reg.get(kind)?;
-        k.validate(&Value::Object(params.clone()))?;
-        self.validated.insert((kind.to_string(), canon), ());
-        Ok(())
+        let p = self.reg.get(kind)?.parse(&Value::Object(params.clone()))?;
+        self.parsed.insert((kind.to_string(), canon), p.clone());
+        Ok(p)
     }
 
     /// What a plot's notes may state about the build it draws: the profile,
@@ -297,7 +324,7 @@ impl Planner<'_> {
                 let mut params = base.clone();
                 params.extend(point.clone());
                 params.insert("seed".into(), Value::from(seed));
-                self.validate(&kind, &params).map_err(|e| {
+                let parsed = self.parse(&kind, &params).map_err(|e| {
                     let at = |p: &[&str]| p.iter().map(|s| s.to_string()).collect::<Vec<_>>();
                     spec::param_error(
                         file,
@@ -322,6 +349,7 @@ impl Planner<'_> {
                     &kind,
                     id,
                     params,
+                    parsed,
                     pt,
                     vec![],
                     Some(seed),
@@ -523,7 +551,7 @@ impl Planner<'_> {
                             &e,
                         )
                     };
-                    self.validate(&st.kind, &p).map_err(locate)?;
+                    let parsed = self.parse(&st.kind, &p).map_err(locate)?;
                     // What the stage asks of its planned inputs (lags long enough, ...).
                     let upstream: Vec<PlannedInput> = inputs
                         .iter()
@@ -531,7 +559,7 @@ impl Planner<'_> {
                         .collect();
                     self.reg
                         .get(&st.kind)?
-                        .check_inputs(&Value::Object(p.clone()), &upstream)
+                        .check_inputs(&parsed, &upstream)
                         .map_err(locate)?;
                     let sid = StageId {
                         figure: Some(id.to_string()),
@@ -539,7 +567,16 @@ impl Planner<'_> {
                         point: point.clone(),
                     };
                     let origin = (file.to_path_buf(), s.referenced.line());
-                    mine.push(self.add(&st.kind, sid, p, point, inputs.clone(), None, origin));
+                    mine.push(self.add(
+                        &st.kind,
+                        sid,
+                        p,
+                        parsed,
+                        point,
+                        inputs.clone(),
+                        None,
+                        origin,
+                    ));
                 }
             }
             let single = mine.len() == 1;

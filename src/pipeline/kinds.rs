@@ -19,15 +19,17 @@ pub struct Table;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct TableParams {
-    /// Point values for the inputs whose point lacks the key: a parameter of one
-    /// ensemble that is a grid key of the others (eps = 0.9 of eps09, which is
-    /// not a grid key there, beside eps10, eps08, eps07), so one table holds all.
+pub struct TableParams {
+    /// Settings of the runs each input comes from ([`Artifact::run`]) to add
+    /// as columns where its point lacks them: a parameter of one ensemble that
+    /// is a grid key of the others (eps = 0.9 of eps09, which is not a grid key
+    /// there, beside eps10, eps08, eps07), so one table holds all.
     #[serde(default)]
-    defaults: std::collections::BTreeMap<String, f64>,
+    from_runs: Vec<String>,
 }
 
 impl StageKind for Table {
+    type Params = TableParams;
     fn name(&self) -> &str {
         "table"
     }
@@ -37,27 +39,47 @@ impl StageKind for Table {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        typed::<TableParams>("table", params).map(|_| ())
+    fn parse(&self, params: &Value) -> Result<TableParams> {
+        typed("table", params)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: TableParams = typed("table", params)?;
-        let point_of = |a: &Artifact| {
+    fn reads_run(&self, p: &TableParams) -> Vec<String> {
+        p.from_runs.clone()
+    }
+    fn run(&self, _ctx: &StageCtx, p: &TableParams, inputs: &[Artifact]) -> Result<Output> {
+        let point_of = |a: &Artifact| -> Result<_> {
             let mut pt = a.point.clone();
-            for (k, v) in &p.defaults {
-                pt.entry(k.clone()).or_insert_with(|| Value::from(*v));
+            for k in &p.from_runs {
+                let v = a.run.get(k).with_context(|| {
+                    format!(
+                        "table: `from_runs` names '{k}', which the runs of input {} do not share (they share: {})",
+                        a.label,
+                        a.run.keys().cloned().collect::<Vec<_>>().join(", ")
+                    )
+                })?;
+                match pt.get(k) {
+                    Some(own) if own.as_f64() != v.as_f64() || own.is_string() != v.is_string() => {
+                        bail!(
+                            "table: input {} has {k} = {own} in its point but {v} in its runs",
+                            a.label
+                        )
+                    }
+                    Some(_) => {}
+                    None => {
+                        pt.insert(k.clone(), v.clone());
+                    }
+                }
             }
-            pt
+            Ok(pt)
         };
-        let first = point_of(inputs.first().context("table: no input")?);
+        let first = point_of(inputs.first().context("table: no input")?)?;
         let keys: BTreeSet<&String> = first.keys().collect();
         let mut out: Vec<(String, RecordBatch)> = Vec::new();
         for a in inputs {
-            let point = point_of(a);
+            let point = point_of(a)?;
             let k: BTreeSet<&String> = point.keys().collect();
             if k != keys {
                 bail!(
-                    "table: input {} has point keys {k:?} but the first input has {keys:?}; gather sources with the same grid, or give the missing keys with `defaults: {{KEY: VALUE}}`",
+                    "table: input {} has point keys {k:?} but the first input has {keys:?}; gather sources with the same grid, or take the missing keys from the runs with `from_runs: [KEY]`",
                     a.label
                 );
             }

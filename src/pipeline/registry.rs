@@ -14,7 +14,7 @@ use serde_json::Value;
 
 use super::canon::ParamError;
 use super::fingerprint::{Fingerprint, Sources};
-use super::stage::{Holds, StageKind, Work};
+use super::stage::{Holds, Kind, Parsed, StageKind, Work};
 
 /// Deserialize a kind's parameters into a typed struct (use
 /// `#[serde(deny_unknown_fields)]` on it). The error is a [`ParamError`] naming the
@@ -70,7 +70,7 @@ pub fn param_keys(validate: impl Fn(&Value) -> Result<()>) -> Vec<String> {
 }
 
 struct Registered {
-    kind: Arc<dyn StageKind>,
+    kind: Arc<dyn Kind>,
     fingerprint: Fingerprint,
 }
 
@@ -106,12 +106,13 @@ impl Registry {
     /// a kind of the same name. Panics when the kind names a file that does not
     /// exist under `src/` (a programming error every test that builds the
     /// registry catches).
-    pub fn register(&mut self, kind: impl StageKind + 'static) {
-        let fingerprint = code_fingerprint(kind.name(), kind.modules()).unwrap_or_else(|e| {
-            panic!("{e}");
-        });
+    pub fn register(&mut self, kind: impl StageKind) {
+        let fingerprint = code_fingerprint(StageKind::name(&kind), StageKind::modules(&kind))
+            .unwrap_or_else(|e| {
+                panic!("{e}");
+            });
         self.kinds.insert(
-            kind.name().to_string(),
+            StageKind::name(&kind).to_string(),
             Registered {
                 kind: Arc::new(kind),
                 fingerprint,
@@ -131,7 +132,7 @@ impl Registry {
     }
 
     /// The kind called `name`, or an error listing the known kinds.
-    pub fn get(&self, name: &str) -> Result<&Arc<dyn StageKind>> {
+    pub fn get(&self, name: &str) -> Result<&Arc<dyn Kind>> {
         self.kinds.get(name).map(|r| &r.kind).with_context(|| {
             format!(
                 "unknown stage kind '{name}'; known kinds: {}",
@@ -171,10 +172,17 @@ impl Registry {
             .map_or(Holds::default(), |r| r.kind.holds())
     }
 
-    /// What a stage of kind `name` with parameters `params` is planned to do
-    /// (`None` if the kind plans nothing or is unknown).
-    pub fn work(&self, name: &str, params: &Value) -> Option<Work> {
+    /// What a stage of kind `name` with parameters `params` (parsed by that
+    /// kind) is planned to do (`None` if the kind plans nothing or is unknown).
+    pub fn work(&self, name: &str, params: &Parsed) -> Option<Work> {
         self.kinds.get(name)?.kind.plan(params)
+    }
+
+    /// [`Registry::work`] of parameters not yet parsed (a recorded stage's);
+    /// `None` also when they no longer parse.
+    pub fn work_of_raw(&self, name: &str, params: &Value) -> Option<Work> {
+        let k = &self.kinds.get(name)?.kind;
+        k.plan(&k.parse(params).ok()?)
     }
 
     /// Names of all registered kinds.
@@ -206,16 +214,17 @@ mod tests {
     fn registering_a_kind_with_a_misspelt_module_panics() {
         struct Bad;
         impl StageKind for Bad {
+            type Params = ();
             fn name(&self) -> &str {
                 "bad"
             }
             fn modules(&self) -> &[&str] {
                 &["no_such_module"]
             }
-            fn validate(&self, _: &Value) -> Result<()> {
+            fn parse(&self, _: &Value) -> Result<()> {
                 Ok(())
             }
-            fn run(&self, _: &StageCtx, _: &Value, _: &[Artifact]) -> Result<Output> {
+            fn run(&self, _: &StageCtx, _: &(), _: &[Artifact]) -> Result<Output> {
                 Ok(Output::default())
             }
         }

@@ -11,18 +11,24 @@
 //! This file depends on nothing else of the framework but [`super::canon`] and
 //! [`super::checkpoints`]: the graph and the registry build on it.
 
+use std::any::Any;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use anyhow::{Context, Result};
-use serde_json::Value;
+use serde_json::{Map, Value};
 
 use super::canon::{Point, point_label};
 use super::checkpoints::Checkpoints;
 
-/// One kind of stage (simulate, chi4, table, fit, plot, ...).
-pub trait StageKind: Send + Sync {
+/// One kind of stage (simulate, chi4, table, fit, plot, ...), with its
+/// parameters as a type of its own: the planner parses each stage's parameters
+/// once ([`StageKind::parse`]) and hands the typed value to the plan-time check,
+/// the plan and the run. The registry holds kinds as [`Kind`].
+pub trait StageKind: Send + Sync + 'static {
+    /// The kind's parameters, parsed and checked.
+    type Params: Send + Sync + 'static;
     /// Name used in specs (`kind: chi4`).
     fn name(&self) -> &str;
     /// One line for `--help`-like listings.
@@ -42,26 +48,129 @@ pub trait StageKind: Send + Sync {
     /// paths such as `stages/simulate`): its code fingerprint hashes every module
     /// they reach through the import graph ([`super::fingerprint`]).
     fn modules(&self) -> &[&str];
-    /// Check parameters before anything runs; the error says what is valid.
-    fn validate(&self, params: &Value) -> Result<()>;
+    /// Parse and check parameters before anything runs; the error says what is
+    /// valid (a [`ParamError`](super::canon::ParamError) is located at its key).
+    fn parse(&self, params: &Value) -> Result<Self::Params>;
     /// Check at plan time what these parameters ask of the planned inputs (their
     /// kinds and parameters), e.g. that an experiment's lags reach a requested
     /// time; before anything runs, so `--dry-run` reports it too. A
     /// [`ParamError`](super::canon::ParamError) is located at its key in the stage's YAML.
-    fn check_inputs(&self, _params: &Value, _inputs: &[PlannedInput]) -> Result<()> {
+    fn check_inputs(&self, _params: &Self::Params, _inputs: &[PlannedInput]) -> Result<()> {
         Ok(())
     }
     /// What this kind's output holds, for consumers that need a kind of content.
     fn holds(&self) -> Holds {
         Holds::Results
     }
-    /// What one stage with these (valid) parameters is planned to do, for the
+    /// What one stage with these parameters is planned to do, for the
     /// executors' resource requests; `None` for a stage too small to plan.
-    fn plan(&self, _params: &Value) -> Option<Work> {
+    fn plan(&self, _params: &Self::Params) -> Option<Work> {
         None
     }
+    /// The configuration a run resolves from its parameters (a simulation's
+    /// every setting, defaults and run-length rule applied), which travels to
+    /// the stages downstream ([`Artifact::run`]); `None` for a kind that is no run.
+    fn resolved(&self, _params: &Self::Params) -> Option<Map<String, Value>> {
+        None
+    }
+    /// The keys of the upstream runs' resolved configuration ([`Artifact::run`])
+    /// that these parameters read: their values become part of the stage's key.
+    fn reads_run(&self, _params: &Self::Params) -> Vec<String> {
+        Vec::new()
+    }
     /// Produce this stage's files from its parameters and inputs.
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output>;
+    fn run(&self, ctx: &StageCtx, params: &Self::Params, inputs: &[Artifact]) -> Result<Output>;
+}
+
+/// A stage's parameters as its kind parsed them ([`StageKind::parse`]), held by
+/// the planned node and handed to its kind.
+#[derive(Clone)]
+pub struct Parsed(Arc<dyn Any + Send + Sync>);
+
+impl Parsed {
+    /// The typed parameters; an error if they were parsed by another kind.
+    pub fn get<T: 'static>(&self) -> Result<&T> {
+        self.0.downcast_ref::<T>().with_context(|| {
+            format!(
+                "internal: parameters handed to a kind that did not parse them (expected {})",
+                std::any::type_name::<T>()
+            )
+        })
+    }
+}
+
+impl std::fmt::Debug for Parsed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Parsed(..)")
+    }
+}
+
+/// A [`StageKind`] whose parameter type is erased, as the registry, the
+/// planner and the executors hold it. Implemented for every `StageKind`.
+pub trait Kind: Send + Sync {
+    fn name(&self) -> &str;
+    fn describe(&self) -> &str;
+    fn explain(&self, params: &Value) -> String;
+    fn details(&self) -> String;
+    fn modules(&self) -> &[&str];
+    fn holds(&self) -> Holds;
+    /// [`StageKind::parse`], the value kept for the other calls.
+    fn parse(&self, params: &Value) -> Result<Parsed>;
+    /// Parse and drop (listings probe the accepted keys this way).
+    fn validate(&self, params: &Value) -> Result<()> {
+        self.parse(params).map(drop)
+    }
+    fn check_inputs(&self, params: &Parsed, inputs: &[PlannedInput]) -> Result<()>;
+    fn plan(&self, params: &Parsed) -> Option<Work>;
+    fn resolved(&self, params: &Parsed) -> Option<Map<String, Value>>;
+    fn reads_run(&self, params: &Parsed) -> Vec<String>;
+    fn run(&self, ctx: &StageCtx, params: &Parsed, inputs: &[Artifact]) -> Result<Output>;
+    /// Parse and run (tests and tools that run a kind outside a planned graph).
+    fn run_params(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+        self.run(ctx, &self.parse(params)?, inputs)
+    }
+}
+
+impl<K: StageKind> Kind for K {
+    fn name(&self) -> &str {
+        StageKind::name(self)
+    }
+    fn describe(&self) -> &str {
+        StageKind::describe(self)
+    }
+    fn explain(&self, params: &Value) -> String {
+        StageKind::explain(self, params)
+    }
+    fn details(&self) -> String {
+        StageKind::details(self)
+    }
+    fn modules(&self) -> &[&str] {
+        StageKind::modules(self)
+    }
+    fn holds(&self) -> Holds {
+        StageKind::holds(self)
+    }
+    fn parse(&self, params: &Value) -> Result<Parsed> {
+        Ok(Parsed(Arc::new(StageKind::parse(self, params)?)))
+    }
+    fn check_inputs(&self, params: &Parsed, inputs: &[PlannedInput]) -> Result<()> {
+        StageKind::check_inputs(self, params.get::<K::Params>()?, inputs)
+    }
+    fn plan(&self, params: &Parsed) -> Option<Work> {
+        StageKind::plan(self, params.get::<K::Params>().ok()?)
+    }
+    fn resolved(&self, params: &Parsed) -> Option<Map<String, Value>> {
+        StageKind::resolved(self, params.get::<K::Params>().ok()?)
+    }
+    fn reads_run(&self, params: &Parsed) -> Vec<String> {
+        params
+            .get::<K::Params>()
+            .map(|p| StageKind::reads_run(self, p))
+            .unwrap_or_default()
+    }
+    fn run(&self, ctx: &StageCtx, params: &Parsed, inputs: &[Artifact]) -> Result<Output> {
+        StageKind::run(self, ctx, params.get::<K::Params>()?, inputs)
+    }
 }
 
 /// What a kind's output holds, declared by the kind ([`StageKind::holds`]) so that
@@ -157,6 +266,10 @@ pub struct PlannedInput<'a> {
     pub ids: &'a [StageId],
     /// Its canonical parameters.
     pub params: &'a Value,
+    /// Its parameters as its kind parsed them.
+    pub parsed: &'a Parsed,
+    /// The resolved configuration of the runs it comes from ([`Artifact::run`]).
+    pub run: &'a Map<String, Value>,
     /// The spec file that declares it.
     pub file: &'a Path,
 }
@@ -200,6 +313,10 @@ pub struct Artifact {
     pub point: Point,
     /// Canonical parameters of the producing stage.
     pub params: Value,
+    /// The resolved configuration of the runs it comes from: a simulation's
+    /// every setting ([`StageKind::resolved`]), and for any other stage the
+    /// settings its upstream runs share (`eps` and `n` of a sweep over `phi`).
+    pub run: Arc<Map<String, Value>>,
     /// Hash of all its files (what the downstream key depends on).
     pub digest: String,
     /// Its files: extension -> (blake3 hex, path in the store).

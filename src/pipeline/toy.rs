@@ -51,9 +51,9 @@ fn gather_column(inputs: &[Artifact], name: &str) -> Result<Vec<f64>> {
 /// `sleep_ms` makes it slow for kill tests.
 pub struct ToySimulate;
 
-#[derive(Deserialize)]
+#[derive(Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
-struct SimParams {
+pub struct SimParams {
     n: usize,
     seed: u64,
     #[serde(default = "one")]
@@ -71,21 +71,27 @@ fn one() -> f64 {
 }
 
 impl StageKind for ToySimulate {
+    type Params = SimParams;
     fn name(&self) -> &str {
         "toy_simulate"
     }
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<SimParams> {
         let p: SimParams = typed("toy_simulate", params)?;
         if p.n == 0 {
             return Err(param_error(&["n"], "toy_simulate: n must be at least 1"));
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
-        let p: SimParams = typed("toy_simulate", params)?;
+    fn resolved(&self, p: &SimParams) -> Option<serde_json::Map<String, Value>> {
+        match serde_json::to_value(p) {
+            Ok(Value::Object(m)) => Some(m),
+            _ => None,
+        }
+    }
+    fn run(&self, ctx: &StageCtx, p: &SimParams, _inputs: &[Artifact]) -> Result<Output> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(p.seed);
         let draws = 1 + p.work;
         let mut x = Vec::with_capacity(p.n);
@@ -116,20 +122,21 @@ pub struct ToyAnalyse;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct AnalyseParams {
+pub struct AnalyseParams {
     a: f64,
     #[serde(default)]
     n_sub: Option<usize>,
 }
 
 impl StageKind for ToyAnalyse {
+    type Params = AnalyseParams;
     fn name(&self) -> &str {
         "toy_analyse"
     }
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<AnalyseParams> {
         let p: AnalyseParams = typed("toy_analyse", params)?;
         if p.a.is_nan() || p.a <= 0.0 {
             return Err(param_error(
@@ -137,10 +144,9 @@ impl StageKind for ToyAnalyse {
                 format!("toy_analyse: cutoff a must be > 0, got {}", p.a),
             ));
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: AnalyseParams = typed("toy_analyse", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &AnalyseParams, inputs: &[Artifact]) -> Result<Output> {
         let mut x = gather_column(inputs, "x")?;
         if let Some(n) = p.n_sub {
             x.truncate(n);
@@ -167,22 +173,22 @@ pub struct ToyFit;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct FitParams {
+pub struct FitParams {
     column: String,
 }
 
 impl StageKind for ToyFit {
+    type Params = FitParams;
     fn name(&self) -> &str {
         "toy_fit"
     }
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        typed::<FitParams>("toy_fit", params).map(|_| ())
+    fn parse(&self, params: &Value) -> Result<FitParams> {
+        typed("toy_fit", params)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: FitParams = typed("toy_fit", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &FitParams, inputs: &[Artifact]) -> Result<Output> {
         let v = gather_column(inputs, &p.column)?;
         if v.len() < 2 {
             bail!(
@@ -214,23 +220,23 @@ pub struct ToyPlot;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct PlotParams {
+pub struct PlotParams {
     x: String,
     y: String,
 }
 
 impl StageKind for ToyPlot {
+    type Params = PlotParams;
     fn name(&self) -> &str {
         "toy_plot"
     }
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        typed::<PlotParams>("toy_plot", params).map(|_| ())
+    fn parse(&self, params: &Value) -> Result<PlotParams> {
+        typed("toy_plot", params)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: PlotParams = typed("toy_plot", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &PlotParams, inputs: &[Artifact]) -> Result<Output> {
         let (x, y) = (gather_column(inputs, &p.x)?, gather_column(inputs, &p.y)?);
         let span = |v: &[f64]| {
             let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -261,22 +267,22 @@ pub struct ToyFail;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct FailParams {
+pub struct FailParams {
     fail: bool,
 }
 
 impl StageKind for ToyFail {
+    type Params = FailParams;
     fn name(&self) -> &str {
         "toy_fail"
     }
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        typed::<FailParams>("toy_fail", params).map(|_| ())
+    fn parse(&self, params: &Value) -> Result<FailParams> {
+        typed("toy_fail", params)
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: FailParams = typed("toy_fail", params)?;
+    fn run(&self, ctx: &StageCtx, p: &FailParams, inputs: &[Artifact]) -> Result<Output> {
         ctx.log(format!("read {} inputs", inputs.len()));
         if p.fail {
             bail!("toy_fail was asked to fail");

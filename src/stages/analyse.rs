@@ -49,7 +49,7 @@ fn tau_alpha() -> String {
 }
 
 /// The stage's own parameters, split from the observable's.
-struct Split {
+pub struct Split {
     observable: Value,
     unit: Option<TimeUnit>,
     at: Option<Vec<f64>>,
@@ -199,7 +199,7 @@ fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[PlannedInput]) -> R
         .iter()
         .filter(|n| n.kind.holds == Holds::Trajectory && n.params.get("lag_max_tau").is_some());
     for n in ruled {
-        let (rule, cfg) = super::simulate::config(&n.params)?;
+        let super::simulate::Run { rule, config: cfg } = n.parsed.get()?;
         let reach = cfg.schedule.lags.last().copied().unwrap_or(0.0) / rule.tau_guess.at(cfg.phi);
         if want > reach * (1.0 + 1e-9) {
             let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());
@@ -327,6 +327,7 @@ pub fn register(r: &mut Registry) {
 }
 
 impl StageKind for Analyse {
+    type Params = Split;
     fn name(&self) -> &str {
         self.obs.name
     }
@@ -349,27 +350,27 @@ impl StageKind for Analyse {
         // (`analysis::observables`), which names them all.
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<Split> {
         let s = split(self.obs.name, params)?;
-        let mut obs = s.observable;
+        let mut obs = s.observable.clone();
         if s.at.is_some() {
             // The lags come from `at`; check the rest with a placeholder.
             obs["lags"] = Value::from(vec![1.0]);
-            return (self.obs.validate)(&obs)
-                .with_context(|| format!("`at` sets the lags of analysis `{}`", self.obs.name));
+            (self.obs.validate)(&obs)
+                .with_context(|| format!("`at` sets the lags of analysis `{}`", self.obs.name))?;
+        } else {
+            (self.obs.validate)(&obs)?;
         }
-        (self.obs.validate)(&obs)
+        Ok(s)
     }
-    fn check_inputs(&self, params: &Value, inputs: &[PlannedInput]) -> Result<()> {
-        let s = split(self.obs.name, params)?;
+    fn check_inputs(&self, s: &Split, inputs: &[PlannedInput]) -> Result<()> {
         let (Some(at), Some(u)) = (&s.at, &s.unit) else {
             return Ok(());
         };
         covered_by_run_length(at, u, inputs)
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
+    fn run(&self, ctx: &StageCtx, s: &Split, inputs: &[Artifact]) -> Result<Output> {
         let name = self.obs.name;
-        let s = split(name, params)?;
         let mut trajs = trajectories(name, inputs)?;
         if let Some(f) = s.skip_origins {
             trajs = trajs
@@ -384,7 +385,7 @@ impl StageKind for Analyse {
             .as_ref()
             .map(|u| measured(name, u, inputs).map(|v| (v, u)))
             .transpose()?;
-        let mut obs = s.observable;
+        let mut obs = s.observable.clone();
         let mut at_table = None;
         let jk_unit = replica_unit(inputs);
         let mut sample_obs = Vec::new();

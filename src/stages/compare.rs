@@ -41,7 +41,7 @@ enum Claim {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct CompareParams {
+pub struct CompareParams {
     paper: Vec<PaperValue>,
     /// Why this profile cannot reach a paper value (quantity -> explanation), set
     /// per profile in the spec. A disagreeing quantity listed here gets the verdict
@@ -70,6 +70,7 @@ fn str_col<'a>(b: &'a RecordBatch, name: &str, label: &str) -> Result<&'a String
 }
 
 impl StageKind for Compare {
+    type Params = CompareParams;
     fn name(&self) -> &str {
         "compare"
     }
@@ -79,7 +80,7 @@ impl StageKind for Compare {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<CompareParams> {
         let p: CompareParams = typed("compare", params)?;
         for (field, q) in p
             .out_of_reach
@@ -106,10 +107,9 @@ impl StageKind for Compare {
                 );
             }
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: CompareParams = typed("compare", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &CompareParams, inputs: &[Artifact]) -> Result<Output> {
         // (quantity, value, error, note); a note saying `unreliable` (a fit that
         // ran but whose numbers its data cannot support) makes the verdict.
         let mut ours: Vec<(String, f64, f64, String)> = Vec::new();
@@ -254,7 +254,7 @@ pub(super) fn digits(v: f64, n: i32) -> String {
 #[cfg(test)]
 mod tests {
     use super::{Compare, digits, significant};
-    use crate::pipeline::{StageCtx, StageKind};
+    use crate::pipeline::{Kind, StageCtx};
     use crate::stages::tables::Columns;
     use crate::stages::test_support::{artifact, yaml};
     use crate::table::read_parquet_bytes;
@@ -291,7 +291,7 @@ mod tests {
         let e = Compare.validate(&bad).unwrap_err().to_string();
         assert!(e.contains("caveats names 'e'"), "{e}");
         let ctx = StageCtx::new(0, "compare".into(), None);
-        let out = Compare.run(&ctx, &params, &[fit]).unwrap();
+        let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
         let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
         let c = Columns::from_batch(&b[0]).unwrap();
         assert_eq!(

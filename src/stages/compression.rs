@@ -14,6 +14,7 @@ use crate::table::{f64_batch, to_parquet_bytes};
 pub struct Compression;
 
 impl StageKind for Compression {
+    type Params = SimConfig;
     fn name(&self) -> &str {
         "compression"
     }
@@ -26,12 +27,16 @@ impl StageKind for Compression {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        typed::<SimConfig>("compression", params)?.validate()
-    }
-    fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
+    fn parse(&self, params: &Value) -> Result<SimConfig> {
         let cfg: SimConfig = typed("compression", params)?;
-        let c = initial_state::compression_limit(&cfg, &|p: crate::sim::Progress| {
+        cfg.validate()?;
+        Ok(cfg)
+    }
+    fn resolved(&self, cfg: &SimConfig) -> Option<serde_json::Map<String, Value>> {
+        super::simulate::resolved(cfg).ok()
+    }
+    fn run(&self, ctx: &StageCtx, cfg: &SimConfig, _inputs: &[Artifact]) -> Result<Output> {
+        let c = initial_state::compression_limit(cfg, &|p: crate::sim::Progress| {
             ctx.progress(p.time, p.end, "compressing")
         })?;
         ctx.log(format!(

@@ -142,6 +142,7 @@ fn same(a: f64, b: f64) -> bool {
 }
 
 impl StageKind for Join {
+    type Params = JoinParams;
     fn name(&self) -> &str {
         "join"
     }
@@ -156,7 +157,7 @@ impl StageKind for Join {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<JoinParams> {
         let p: JoinParams = typed("join", params)?;
         if p.on.is_empty() {
             bail!("join: `on` is empty; give the key columns, e.g. on: [phi]");
@@ -190,10 +191,9 @@ impl StageKind for Join {
                 );
             }
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: JoinParams = typed("join", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &JoinParams, inputs: &[Artifact]) -> Result<Output> {
         // A fit table on either side is one row per group (a self-join widens one).
         let l = wide(Columns::read(&inputs_of("join", inputs, &p.left)?)?, &p.on)?;
         let r = wide(Columns::read(&inputs_of("join", inputs, &p.right)?)?, &p.on)?;
@@ -293,6 +293,7 @@ impl StageKind for Join {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::Kind;
     use crate::stages::test_support::artifact;
     use crate::table::f64_batch;
 
@@ -329,7 +330,7 @@ mod tests {
         .unwrap();
         Join.validate(&params).unwrap();
         let ctx = StageCtx::new(0, "join".into(), None);
-        let out = Join.run(&ctx, &params, &inputs).unwrap();
+        let out = Join.run_params(&ctx, &params, &inputs).unwrap();
         let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
         let c = Columns::from_batch(&b[0]).unwrap();
         let col = |n: &str| c.col(n).unwrap().to_vec();
@@ -382,7 +383,7 @@ mod tests {
         let params: Value =
             serde_saphyr::from_str("{left: d_f, right: tau4, on: [\"n\"]}").unwrap();
         let ctx = StageCtx::new(0, "join".into(), None);
-        let out = Join.run(&ctx, &params, &inputs).unwrap();
+        let out = Join.run_params(&ctx, &params, &inputs).unwrap();
         let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
         let c = Columns::from_batch(&b[0]).unwrap();
         assert_eq!(c.rows, 2);

@@ -47,6 +47,7 @@ pub struct JointParams {
 pub struct JointFit;
 
 impl StageKind for JointFit {
+    type Params = JointParams;
     fn name(&self) -> &str {
         "joint_fit"
     }
@@ -56,15 +57,14 @@ impl StageKind for JointFit {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<JointParams> {
         let p: JointParams = typed("joint_fit", params)?;
         if p.series.len() < 2 {
             bail!("joint_fit: `series` needs at least two columns, each {{y, y_err}}");
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: JointParams = typed("joint_fit", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &JointParams, inputs: &[Artifact]) -> Result<Output> {
         let c = Columns::read(&inputs_of("joint_fit", inputs, &p.data)?)?;
         let rows = c.select(&p.filter)?;
         // Per series, the rows where y and its error are usable.

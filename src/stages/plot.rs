@@ -664,6 +664,7 @@ fn build(
 pub struct Plot;
 
 impl StageKind for Plot {
+    type Params = PlotParams;
     fn name(&self) -> &str {
         "plot"
     }
@@ -673,11 +674,10 @@ impl StageKind for Plot {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        typed::<PlotParams>("plot", params).map(|_| ())
+    fn parse(&self, params: &Value) -> Result<PlotParams> {
+        typed("plot", params)
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: PlotParams = typed("plot", params)?;
+    fn run(&self, ctx: &StageCtx, p: &PlotParams, inputs: &[Artifact]) -> Result<Output> {
         let fig = figure(&p, inputs)?;
         // What the layout check sees in the real data (the spec test sees
         // synthetic data only), shown with the build's output.

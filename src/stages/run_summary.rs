@@ -33,6 +33,7 @@ fn default_tolerance() -> f64 {
 pub struct RunSummary;
 
 impl StageKind for RunSummary {
+    type Params = Params;
     fn name(&self) -> &str {
         "run_summary"
     }
@@ -45,7 +46,7 @@ impl StageKind for RunSummary {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<Params> {
         let p: Params = typed("run_summary", params)?;
         if !(p.tolerance.is_finite() && p.tolerance > 0.0) {
             bail!(
@@ -53,10 +54,9 @@ impl StageKind for RunSummary {
                 p.tolerance
             );
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: Params = typed("run_summary", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &Params, inputs: &[Artifact]) -> Result<Output> {
         let sims: Vec<&Artifact> = inputs
             .iter()
             .filter(|a| a.kind.holds == Holds::Trajectory)
@@ -69,7 +69,7 @@ impl StageKind for RunSummary {
         };
         let summary: Value = serde_json::from_slice(&sim.read("json")?)
             .with_context(|| format!("run_summary: the summary of {}", sim.label))?;
-        let (_, cfg) = simulate::config(&sim.params)?;
+        let cfg = simulate::run_config(sim)?;
         let traj = trajectories("run_summary", std::slice::from_ref(*sim))?;
         let cols: Vec<(&str, Vec<f64>)> = if p.series {
             run_summary::series(&summary)?

@@ -174,6 +174,16 @@ fn force_into_intruder(mut rest: Map<String, Value>) -> Result<Map<String, Value
     Ok(rest)
 }
 
+/// A simulation stage's parameters, parsed: its run-length rule and the
+/// configuration the rule resolves to (relaxation and schedule set).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    pub rule: RunLength,
+    pub config: SimConfig,
+}
+
+/// Parse a simulation stage's parameters: the run-length rule, and every other
+/// key a [`SimConfig`] field, resolved by the rule and checked.
 pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
     let obj = params
         .as_object()
@@ -232,6 +242,25 @@ pub fn config(params: &Value) -> Result<(RunLength, SimConfig)> {
     Ok((rule, cfg))
 }
 
+/// A run's every setting as a map: what [`Artifact::run`] carries to every
+/// stage downstream of the run. It is resolved from the parameters when the
+/// stage is planned, by the function the run itself uses ([`config`]), and is
+/// kept out of the output files so that their digests, and the replica
+/// identities derived from them (`jk_unit`), do not depend on it.
+pub fn resolved(cfg: &SimConfig) -> Result<Map<String, Value>> {
+    match serde_json::to_value(cfg)? {
+        Value::Object(m) => Ok(m),
+        other => bail!("internal: a SimConfig serialised to {other}"),
+    }
+}
+
+/// The configuration of the run a simulation artifact comes from, as it
+/// travelled with its output.
+pub fn run_config(sim: &Artifact) -> Result<SimConfig> {
+    serde_json::from_value(Value::Object((*sim.run).clone()))
+        .with_context(|| format!("the resolved configuration of {}", sim.label))
+}
+
 /// Summary fields that measure the machine rather than the physics.
 const MEASURED: &[&str] = &[
     "cpu_seconds",
@@ -243,6 +272,7 @@ const MEASURED: &[&str] = &[
 pub struct Simulate;
 
 impl StageKind for Simulate {
+    type Params = Run;
     fn name(&self) -> &str {
         "simulate"
     }
@@ -252,17 +282,21 @@ impl StageKind for Simulate {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
-        config(params).map(|_| ())
+    fn parse(&self, params: &Value) -> Result<Run> {
+        let (rule, config) = config(params)?;
+        Ok(Run { rule, config })
     }
     fn holds(&self) -> Holds {
         Holds::Trajectory
     }
-    fn plan(&self, params: &Value) -> Option<Work> {
-        config(params).ok().map(|(_, cfg)| planned_work(&cfg))
+    fn plan(&self, run: &Run) -> Option<Work> {
+        Some(planned_work(&run.config))
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
-        let (_, cfg) = config(params)?;
+    fn resolved(&self, run: &Run) -> Option<Map<String, Value>> {
+        resolved(&run.config).ok()
+    }
+    fn run(&self, ctx: &StageCtx, run: &Run, _inputs: &[Artifact]) -> Result<Output> {
+        let cfg = &run.config;
         let track = Track::default();
         let report = |p: sim::Progress| {
             ctx.progress(
@@ -283,7 +317,7 @@ impl StageKind for Simulate {
             track: &track,
         });
         let (traj, summary) = sim::run::simulation::run_kept(
-            &cfg,
+            cfg,
             &report,
             keeper.as_mut().map(|k| k as &mut dyn Keeper),
         )?;
@@ -453,6 +487,36 @@ mod tests {
         assert_eq!(o.schedule.origins, 9);
         assert!((o.schedule.end() - cfg.schedule.end()).abs() < 1e-9 * last);
         assert_eq!(o.relax_time, cfg.relax_time);
+    }
+
+    #[test]
+    fn the_resolved_configuration_travels_and_reads_back_as_the_run_s() {
+        let p = params();
+        let run = Simulate.parse(&p).unwrap();
+        let (_, cfg) = config(&p).unwrap();
+        assert_eq!(run.config, cfg);
+        // Defaults and the rule's relaxation and schedule are in it, not only
+        // the keys the spec gave.
+        let map = Simulate.resolved(&run).unwrap();
+        for key in [
+            "eps",
+            "phi",
+            "seed",
+            "relax_time",
+            "schedule",
+            "gamma",
+            "drive",
+        ] {
+            assert!(map.contains_key(key), "{key} missing from {map:?}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mut a = crate::stages::test_support::artifact(
+            dir.path(),
+            "sim",
+            crate::table::f64_batch(&[("x", vec![0.0])]).unwrap(),
+        );
+        a.run = std::sync::Arc::new(map);
+        assert_eq!(run_config(&a).unwrap(), cfg);
     }
 
     #[test]

@@ -39,6 +39,7 @@ pub struct CoverageParams {
 pub struct SyntheticCoverage;
 
 impl StageKind for SyntheticCoverage {
+    type Params = CoverageParams;
     fn name(&self) -> &str {
         "synthetic_coverage"
     }
@@ -55,7 +56,7 @@ impl StageKind for SyntheticCoverage {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<CoverageParams> {
         let p: CoverageParams = typed("synthetic_coverage", params)?;
         if !(p.level > 0.0 && p.level.is_finite()) {
             bail!("synthetic_coverage: level = {} must be > 0", p.level);
@@ -77,10 +78,9 @@ impl StageKind for SyntheticCoverage {
                 p.realisations
             );
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
-        let p: CoverageParams = typed("synthetic_coverage", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &CoverageParams, _inputs: &[Artifact]) -> Result<Output> {
         let setting = Setting {
             level: p.level,
             points: p.points,
@@ -158,6 +158,7 @@ pub struct DivergenceParams {
 pub struct SyntheticDivergence;
 
 impl StageKind for SyntheticDivergence {
+    type Params = DivergenceParams;
     fn name(&self) -> &str {
         "synthetic_divergence"
     }
@@ -172,7 +173,7 @@ impl StageKind for SyntheticDivergence {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<DivergenceParams> {
         let p: DivergenceParams = typed("synthetic_divergence", params)?;
         if !(p.d > 0.0 && p.step > 0.0 && p.level > 0.0) {
             bail!(
@@ -189,10 +190,9 @@ impl StageKind for SyntheticDivergence {
                 p.realisations
             );
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, _ctx: &StageCtx, params: &Value, _inputs: &[Artifact]) -> Result<Output> {
-        let p: DivergenceParams = typed("synthetic_divergence", params)?;
+    fn run(&self, _ctx: &StageCtx, p: &DivergenceParams, _inputs: &[Artifact]) -> Result<Output> {
         let r =
             stability::divergence_bias(&[p.d], p.step, p.points, p.level, p.realisations, p.seed)
                 .remove(0);

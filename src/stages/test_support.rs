@@ -27,6 +27,7 @@ pub(crate) fn artifact(dir: &Path, stage: &str, b: RecordBatch) -> Artifact {
         kind: "table".into(),
         point: Default::default(),
         params: Value::Null,
+        run: Default::default(),
         digest: String::new(),
         files: [("parquet".to_string(), (String::new(), path))].into(),
     }

@@ -99,7 +99,7 @@ pub fn plan(
     let mut at = std::collections::HashMap::new();
     for (i, s) in &st {
         let node = &graph.nodes[*i];
-        let Some(work) = reg.work(&node.kind, &node.params) else {
+        let Some(work) = reg.work(&node.kind, &node.parsed) else {
             let k = others.entry(node.kind.clone()).or_default();
             k.stages += 1;
             k.planned += planned[*i];
@@ -273,7 +273,9 @@ pub fn calibrate(
     min_seconds: f64,
 ) -> Result<String> {
     let store = Store::open(&ws.store)?;
-    let samples = samples(&store, |kind, params| reg.work(kind, params).is_some());
+    let samples = samples(&store, |kind, params| {
+        reg.work_of_raw(kind, params).is_some()
+    });
     if samples.is_empty() {
         anyhow::bail!(
             "no recorded stage to calibrate on in {} (build some figures first)",

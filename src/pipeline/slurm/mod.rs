@@ -197,7 +197,7 @@ impl Driver<'_> {
                             "{}: Slurm job {} hit its time limit ({w}); resubmitting once with {f}x the limit{}",
                             rec.label,
                             rec.job_id,
-                            if self.reg.work(&rec.kind, &g.nodes[i].params).is_some() {
+                            if self.reg.work(&rec.kind, &g.nodes[i].parsed).is_some() {
                                 ", resuming from its last checkpoint"
                             } else {
                                 ""
@@ -269,7 +269,7 @@ impl Driver<'_> {
                 let digests: Vec<&str> = inputs.iter().map(|e| e.digest.as_str()).collect();
                 let key = stage_key(
                     &node.kind,
-                    &node.params,
+                    &exec::keyed_params(g, self.reg, node),
                     &digests,
                     self.reg.fingerprint(&node.kind),
                 );
@@ -377,7 +377,7 @@ impl Driver<'_> {
                         &g.nodes[*i].kind,
                         &g.nodes[*i].params,
                         self.reg
-                            .work(&g.nodes[*i].kind, &g.nodes[*i].params)
+                            .work(&g.nodes[*i].kind, &g.nodes[*i].parsed)
                             .as_ref(),
                         (input_bytes(self.store, inputs), inputs.len()),
                         settings,
@@ -388,7 +388,7 @@ impl Driver<'_> {
             // Only simulations (kinds that plan work) checkpoint.
             let resumable = self
                 .reg
-                .work(&kind, &g.nodes[ready[members[0]].0].params)
+                .work(&kind, &g.nodes[ready[members[0]].0].parsed)
                 .is_some();
             // Short stages share a task (one after the other); a stage that
             // ran out of time once goes alone.
@@ -583,7 +583,7 @@ pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
     let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
     let mine = stage_key(
         &node.kind,
-        &node.params,
+        &exec::keyed_params(&graph, reg, node),
         &digests,
         reg.fingerprint(&node.kind),
     );
@@ -678,7 +678,7 @@ pub fn dry_run(
     let store = Store::open(&ws.store)?;
     let mut groups: BTreeMap<(String, String), Vec<(usize, Resources)>> = BTreeMap::new();
     let mut cached = 0;
-    let work = |n: &Node| reg.work(&n.kind, &n.params);
+    let work = |n: &Node| reg.work(&n.kind, &n.parsed);
     for (i, s) in &st {
         let node = &graph.nodes[*i];
         let key = match s {

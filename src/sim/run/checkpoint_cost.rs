@@ -9,11 +9,9 @@ use anyhow::Result;
 use serde::Serialize;
 
 use super::checkpoint;
-use super::initial_state;
 use super::resources::thread_cpu_seconds;
 use crate::sim::engine::Engine;
 use crate::sim::model::config::SimConfig;
-use crate::sim::model::enskog;
 
 /// The measured cost of checkpoints at one N.
 #[derive(Debug, Serialize)]
@@ -40,19 +38,9 @@ pub struct CheckpointCost {
     pub overhead_at_default_interval: f64,
 }
 
-/// A driven engine of `cfg` after `relax` time units.
+/// The engine of a run of `cfg` ([`Engine::for_run`]) after `relax` time units.
 fn driven(cfg: &SimConfig, relax: f64) -> Result<Engine> {
-    let mut e = initial_state::prepare(cfg, &|_| {})?;
-    (e.eps, e.tc) = (cfg.eps, cfg.collapse_tc);
-    let omega = enskog::collision_frequency(
-        cfg.phi,
-        &cfg.radii()[..2],
-        &cfg.species_masses()[..2],
-        &[1.0 - cfg.fraction_large, cfg.fraction_large],
-        cfg.temperature,
-    );
-    let (kicks, rate, p_dr) = super::drive(cfg, omega);
-    e.set_kicks(kicks, rate, p_dr);
+    let (mut e, _) = Engine::for_run(cfg, &|_| {})?;
     e.run_until(e.time() + relax, u64::MAX);
     Ok(e)
 }

@@ -1,6 +1,8 @@
 //! One simulation from config to results:
 //!
-//! - [`initial_state`]: random start and Lubachevsky-Stillinger compression.
+//! - [`initial_state`]: random start and Lubachevsky-Stillinger compression;
+//!   [`engine_for_run`]: the engine of a run from its configuration
+//!   (`Engine::for_run`), the one place a run's engine is set up.
 //! - [`simulation`]: relax under driving, record frames, measure
 //!   ([`RunSummary`](simulation::RunSummary)).
 //! - [`checkpoint`]: when a run checkpoints, where it keeps them, their format;
@@ -10,6 +12,7 @@
 
 pub mod checkpoint;
 pub mod checkpoint_cost;
+pub mod engine_for_run;
 pub mod initial_state;
 pub mod progress;
 pub mod resources;

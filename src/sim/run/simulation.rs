@@ -2,12 +2,11 @@
 //! then record frames and measure temperature, pressure and rates.
 
 use super::checkpoint::{self, Keeper};
-use super::initial_state;
+use super::engine_for_run::bath_collision_rate;
 use super::progress::{Progress, Stage};
 use super::resources;
 use crate::sim::engine::{Engine, Kicks, Stats};
 use crate::sim::model::config::{Drive, ForceMode, KickRate, SimConfig};
-use crate::sim::model::enskog;
 use crate::sim::model::kicks;
 use crate::traj::{Frame, Trajectory};
 use anyhow::Result;
@@ -449,15 +448,9 @@ pub fn run_kept(
     cfg.validate()?;
     let cpu = Cpu::reading(0.0);
     let n_bath = cfg.n as f64;
-    let fractions = [
-        1.0 - cfg.n_large() as f64 / n_bath,
-        cfg.n_large() as f64 / n_bath,
-    ];
     let radii = cfg.radii();
     let masses = cfg.species_masses();
-    // The bath's Enskog rate (the intruder, species 2, is left out).
-    let enskog_rate =
-        |t: f64| enskog::collision_frequency(cfg.phi, &radii[..2], &masses[..2], &fractions, t);
+    let enskog_rate = |t: f64| bath_collision_rate(cfg, t);
     let (kicks, rate0, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
     // The force kicks' interval: kick_rate_factor times the bath's collision rate.
     let force_dt = cfg.intruder.as_ref().map_or(0.0, |i| {
@@ -473,24 +466,7 @@ pub fn run_kept(
             (e, st, cpu)
         }
         None => {
-            let mut e = initial_state::prepare(cfg, progress)?;
-            let compress_time = e.time();
-            e.eps = cfg.eps;
-            e.tc = cfg.collapse_tc;
-            if cfg.temperature != 1.0 {
-                initial_state::set_temperature(&mut e, cfg.temperature);
-            }
-            if cfg.gamma > 0.0 {
-                e.set_friction(cfg.gamma);
-            }
-            e.set_kicks(kicks, rate0, p_dr);
-            if let Some(intr) = &cfg.intruder {
-                // The force is on from here: the relaxation holds the intruder's transient.
-                match intr.force_mode {
-                    ForceMode::Exact => e.set_force(intr.force)?,
-                    ForceMode::Kicks => e.set_force_kicks(intr.force, force_dt)?,
-                }
-            }
+            let (e, compress_time) = Engine::for_run(cfg, progress)?;
             let t_relax0 = e.time();
             let dt = (cfg.relax_time + cfg.schedule.end()) / cfg.samples as f64;
             let sampler = Sampler {

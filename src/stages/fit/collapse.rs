@@ -26,6 +26,7 @@ fn xi(phi_c: f64, phi: f64, gamma_xi: f64) -> f64 {
 }
 
 impl StageKind for Collapse {
+    type Params = CollapseParams;
     fn name(&self) -> &str {
         "collapse"
     }
@@ -35,10 +36,11 @@ impl StageKind for Collapse {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<CollapseParams> {
         let p: CollapseParams = typed("collapse", params)?;
         if let Some(name) = &p.rescaling {
-            return validate_named(&p, name);
+            validate_named(&p, name)?;
+            return Ok(p);
         }
         if p.g_from.is_some() && p.xi.is_none() {
             bail!("collapse: `g_from` needs a measured `xi` column (g is then the only parameter)");
@@ -74,10 +76,9 @@ impl StageKind for Collapse {
                 keys.join(" and ")
             );
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: CollapseParams = typed("collapse", params)?;
+    fn run(&self, ctx: &StageCtx, p: &CollapseParams, inputs: &[Artifact]) -> Result<Output> {
         if let Some(name) = &p.rescaling {
             let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
             return run_named(ctx, &p, r, inputs);
@@ -355,6 +356,7 @@ impl StageKind for Collapse {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::Kind;
     use crate::stages::test_support::{artifact, artifact_of, yaml};
     use crate::table::f64_batch;
 
@@ -399,7 +401,7 @@ mod tests {
             let params = yaml(
                 "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi,                  bounds: {g: [0.2, 4.0]}}",
             );
-            let out = Collapse.run(&ctx, &params, &[data]).unwrap();
+            let out = Collapse.run_params(&ctx, &params, &[data]).unwrap();
             let a = artifact_of(dir.path(), &out);
             let (_, meta) =
                 crate::table::read_parquet_bytes(std::fs::read(&a.files["parquet"].1).unwrap())

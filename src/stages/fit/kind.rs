@@ -21,6 +21,7 @@ use crate::table::to_parquet_bytes;
 pub struct Fit;
 
 impl StageKind for Fit {
+    type Params = FitParams;
     fn name(&self) -> &str {
         "fit"
     }
@@ -88,7 +89,7 @@ impl StageKind for Fit {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
-    fn validate(&self, params: &Value) -> Result<()> {
+    fn parse(&self, params: &Value) -> Result<FitParams> {
         let p: FitParams = typed("fit", params)?;
         let form = p.form.named();
         if !p.ranges.is_empty() && form.is_none() {
@@ -111,10 +112,9 @@ impl StageKind for Fit {
                 );
             }
         }
-        Ok(())
+        Ok(p)
     }
-    fn run(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
-        let p: FitParams = typed("fit", params)?;
+    fn run(&self, ctx: &StageCtx, p: &FitParams, inputs: &[Artifact]) -> Result<Output> {
         let c = Columns::read_file(&data_inputs(&p, inputs)?, &p.file)?;
         let rows = c.select(&p.filter)?;
         let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();

@@ -227,7 +227,7 @@ pub(super) fn run_named(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pipeline::StageKind;
+    use crate::pipeline::Kind;
     use crate::stages::fit::{Collapse, ERROR_METHOD, Fit, JACKKNIFE_FILE};
     use crate::stages::test_support::{artifact, artifact_of, fitted, output_artifact, yaml};
     use crate::table::f64_batch;
@@ -265,7 +265,7 @@ mod tests {
         let tau_fit =
             yaml("{form: power_law_offset, data: tau, x: phi, y: tau_alpha, y_err: tau_alpha_err}");
         let out = Fit
-            .run(&ctx, &tau_fit, &[artifact(dir.path(), "tau", tau_table)])
+            .run_params(&ctx, &tau_fit, &[artifact(dir.path(), "tau", tau_table)])
             .unwrap();
         let fitted_phi_c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet")
             .unwrap()
@@ -297,7 +297,7 @@ mod tests {
         let rho_of = |skip: &str| {
             let source = output_artifact(dir.path(), "power_law", &out, skip);
             let o = Collapse
-                .run(&ctx, &collapse, &[sizes.clone(), source])
+                .run_params(&ctx, &collapse, &[sizes.clone(), source])
                 .unwrap();
             let (_, meta) = crate::table::read_parquet_bytes(o.files["parquet"].clone()).unwrap();
             let method = meta

@@ -4,7 +4,7 @@ use arrow_array::RecordBatch;
 
 use super::{Fit, JACKKNIFE_FILE};
 use crate::analysis::pool;
-use crate::pipeline::{Output, StageCtx, StageKind};
+use crate::pipeline::{Kind, Output, StageCtx};
 use crate::stages::tables::Columns;
 use crate::stages::test_support::{
     artifact, artifact_of, fitted, output_artifact, quantities, yaml,
@@ -41,7 +41,7 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
              rename: {{exponent: slope}}, ranges: [[1, 10], [10, 100], [1, 100], [50, 50.5]]}}"
         ));
         Fit.validate(&params).unwrap();
-        Fit.run(&ctx, &params, &inputs).unwrap()
+        Fit.run_params(&ctx, &params, &inputs).unwrap()
     };
     let std_of = |out: &Output| {
         let (q, _) = quantities(&out.files["parquet"]);
@@ -84,14 +84,14 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
         "{form: power_law, data: data, x: x, y: exact, y_err: exact_err, \
          rename: {exponent: slope}, ranges: [[1, 10], [50, 50.5]]}",
     );
-    let one = Fit.run(&ctx, &params, &inputs).unwrap();
+    let one = Fit.run_params(&ctx, &params, &inputs).unwrap();
     assert!(std_of(&one).is_nan(), "{}", std_of(&one));
     // Two windows around the same points are one window.
     let params = yaml(
         "{form: power_law, data: data, x: x, y: cross, y_err: cross_err, \
          rename: {exponent: slope}, ranges: [[0.99, 10.5], [0.999, 10.6]]}",
     );
-    let same = Fit.run(&ctx, &params, &inputs).unwrap();
+    let same = Fit.run_params(&ctx, &params, &inputs).unwrap();
     assert!(std_of(&same).is_nan(), "{}", std_of(&same));
     let (_, notes) = quantities(&one.files["parquet"]);
     assert!(
@@ -185,12 +185,14 @@ fn a_number_taken_from_another_fit_is_refitted_on_the_same_replicas() {
         let tau = table("tau_alpha", &|p| 0.05 * (phi_c - p).powf(-1.5));
         let chi = table("chi4", &|p| 2.0 * (phi_c - p).powf(-0.8));
         let tau = artifact(dir.path(), "tau", tau);
-        let out = Fit.run(&ctx, &tau_fit, &[tau]).unwrap();
+        let out = Fit.run_params(&ctx, &tau_fit, &[tau]).unwrap();
         assert!(out.files.contains_key(JACKKNIFE_FILE));
         let peaks = artifact(dir.path(), "peaks", chi);
         let gamma = |skip: &str| {
             let source = output_artifact(dir.path(), "power_law", &out, skip);
-            let o = Fit.run(&ctx, &chi_fit, &[peaks.clone(), source]).unwrap();
+            let o = Fit
+                .run_params(&ctx, &chi_fit, &[peaks.clone(), source])
+                .unwrap();
             let c = Columns::read_file(&[&artifact_of(dir.path(), &o)], "parquet").unwrap();
             c.quantity("gamma_chi").unwrap()
         };
@@ -235,7 +237,7 @@ fn a_relative_model_scatter_brings_the_reduced_chi2_to_one() {
     };
     let with = fitted(
         dir.path(),
-        &Fit.run(
+        &Fit.run_params(
             &ctx,
             &yaml("{form: power_law, x: F, y: v, y_err: v_err, scatter: relative}"),
             &[data(e.clone())],
@@ -248,7 +250,7 @@ fn a_relative_model_scatter_brings_the_reduced_chi2_to_one() {
     let widened: Vec<f64> = e.iter().zip(&y).map(|(e, v)| e.hypot(m * v)).collect();
     let direct = fitted(
         dir.path(),
-        &Fit.run(
+        &Fit.run_params(
             &ctx,
             &yaml("{form: power_law, x: F, y: v, y_err: v_err}"),
             &[data(widened)],
@@ -330,13 +332,13 @@ fn a_fit_on_one_state_point_takes_its_error_from_the_replicas() {
         let c: Vec<(&str, Vec<f64>)> = cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
         let with = f64_batch(&c).unwrap();
         let o = Fit
-            .run(&ctx, &fit, &[artifact(dir.path(), "c", with)])
+            .run_params(&ctx, &fit, &[artifact(dir.path(), "c", with)])
             .unwrap();
         let (v, e) = fitted(dir.path(), &o).quantity("slope").unwrap();
         values.push(v);
         jk.push(e);
         let o = Fit
-            .run(&ctx, &fit, &[artifact(dir.path(), "c", plain)])
+            .run_params(&ctx, &fit, &[artifact(dir.path(), "c", plain)])
             .unwrap();
         cov.push(fitted(dir.path(), &o).quantity("slope").unwrap().1);
     }
@@ -382,7 +384,7 @@ fn one_state_point_fits_pool_their_jackknife_scale() {
     .unwrap();
     let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
     let out = Fit
-        .run(&ctx, &fit, &[artifact(dir.path(), "s4", t)])
+        .run_params(&ctx, &fit, &[artifact(dir.path(), "s4", t)])
         .unwrap();
     let c = fitted(dir.path(), &out);
     let want = ((0.1f64.powi(2) + 0.3f64.powi(2)) / 2.0).sqrt();
@@ -438,7 +440,7 @@ fn replica_samples_are_refitted_with_their_own_errors_and_the_fits_where() {
         "{form: exponential_tail, data: vh, x: dx, y: P, y_err: P_err, where: {P: {min: 1.0e-10}}}",
     );
     let out = Fit
-        .run(&ctx, &fit, &[artifact(dir.path(), "vh", t)])
+        .run_params(&ctx, &fit, &[artifact(dir.path(), "vh", t)])
         .unwrap();
     let c = fitted(dir.path(), &out);
     let i = (0..c.rows).find(|&i| c.str["quantity"][i] == "x0").unwrap();
@@ -492,7 +494,7 @@ fn a_fit_per_state_point_carries_its_replica_refits_through_the_join() {
     .unwrap();
     let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
     let out = Fit
-        .run(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
+        .run_params(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
         .unwrap();
     let fitted = output_artifact(dir.path(), "oz", &out, JACKKNIFE_FILE);
     let tau = f64_batch(&[
@@ -503,7 +505,7 @@ fn a_fit_per_state_point_carries_its_replica_refits_through_the_join() {
     .unwrap();
     let join = yaml("{left: tau, right: oz, on: [phi]}");
     let joined = crate::stages::join::Join
-        .run(&ctx, &join, &[artifact(dir.path(), "tau", tau), fitted])
+        .run_params(&ctx, &join, &[artifact(dir.path(), "tau", tau), fitted])
         .unwrap();
     let c = Columns::read_file(&[&artifact_of(dir.path(), &joined)], "parquet").unwrap();
     let near = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-9);
@@ -517,7 +519,7 @@ fn a_fit_per_state_point_carries_its_replica_refits_through_the_join() {
     // +-(phi - mean phi) / Sxx, zero for the middle state.
     let across = yaml("{form: line, data: xi_table, x: phi, y: slope, y_err: slope_err}");
     let xi_table = output_artifact(dir.path(), "xi_table", &joined, "");
-    let o = Fit.run(&ctx, &across, &[xi_table]).unwrap();
+    let o = Fit.run_params(&ctx, &across, &[xi_table]).unwrap();
     let c = Columns::read_file(&[&artifact_of(dir.path(), &o)], "parquet").unwrap();
     let (b, db) = c.quantity("slope").unwrap();
     assert!((b - 1.0 / 0.03).abs() < 1e-6, "slope {b}");
@@ -549,7 +551,7 @@ fn groups_with_and_without_replica_samples_make_one_table() {
     .unwrap();
     let fit = yaml("{form: line, data: s4, x: q, y: S4, y_err: S4_err, group_by: [phi]}");
     let out = Fit
-        .run(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
+        .run_params(&ctx, &fit, &[artifact(dir.path(), "s4", s4)])
         .unwrap();
     let c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet").unwrap();
     let (phi, q, jk0) = (
@@ -583,7 +585,7 @@ fn the_gaussian_draws_its_fitted_curve() {
     let ctx = StageCtx::new(0, "gauss".into(), None);
     let params =
         yaml("{form: gaussian, data: vh, x: dx, y: P, group_by: [t], curve: {points: 11}}");
-    let out = Fit.run(&ctx, &params, &inputs).unwrap();
+    let out = Fit.run_params(&ctx, &params, &inputs).unwrap();
     let (c, _) = crate::table::read_parquet_bytes(out.files["curve.parquet"].clone()).unwrap();
     let c = Columns::from_batch(&c[0]).unwrap();
     let (t, dx, p) = (
@@ -617,7 +619,7 @@ fn a_value_without_errors_quotes_none() {
     let inputs = [artifact(dir.path(), "d", b)];
     let ctx = StageCtx::new(0, "value".into(), None);
     let error = |params: &str| {
-        let out = Fit.run(&ctx, &yaml(params), &inputs).unwrap();
+        let out = Fit.run_params(&ctx, &yaml(params), &inputs).unwrap();
         let c = fitted(dir.path(), &out);
         let i = (0..c.rows)
             .find(|&i| c.str["quantity"][i] == "value")
@@ -659,7 +661,7 @@ fn an_error_of_rounding_size_does_not_steer_the_fit() {
     let inputs = [artifact(dir.path(), "vh", b)];
     let ctx = StageCtx::new(0, "gauss".into(), None);
     let params = yaml("{form: gaussian, data: vh, x: dx, y: P, y_err: P_err, group_by: [t]}");
-    let out = Fit.run(&ctx, &params, &inputs).unwrap();
+    let out = Fit.run_params(&ctx, &params, &inputs).unwrap();
     let c = fitted(dir.path(), &out);
     let i = (0..c.rows).find(|&i| c.str["quantity"][i] == "D").unwrap();
     let fit = c.col("value").unwrap()[i];
