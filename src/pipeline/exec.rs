@@ -250,6 +250,7 @@ pub fn execute(
     };
     // Only the stages that will run count toward the estimate of the end (a
     // stale one may still be cut off early when its output comes out unchanged).
+    let mut planned: Option<Vec<f64>> = None;
     if opts.progress {
         let st = status(graph, nodes, reg, store, &opts.force);
         let stale: Vec<usize> = st
@@ -270,11 +271,9 @@ pub fn execute(
                 _ => None,
             }),
         );
-        sh.progress.plan(
-            &stale,
-            &super::cost::node_seconds(graph, reg, &built),
-            opts.jobs,
-        );
+        let seconds = super::cost::node_seconds(graph, reg, &built);
+        sh.progress.plan(&stale, &seconds, opts.jobs);
+        planned = Some(seconds);
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))
@@ -284,6 +283,9 @@ pub fn execute(
         .copied()
         .filter(|&i| graph.nodes[i].inputs.is_empty())
         .collect();
+    let planned =
+        planned.unwrap_or_else(|| super::cost::node_seconds(graph, reg, &Default::default()));
+    let roots = longest_first(roots, &planned);
     let shr = &sh;
     let (stop, stopped) = std::sync::mpsc::channel::<()>();
     std::thread::scope(|t| {
@@ -295,9 +297,11 @@ pub fn execute(
                 shr.progress.beat(every);
             }
         });
-        pool.scope(|s| {
+        // First in, first out: the roots start in the order given, and a
+        // stage whose inputs are done queues behind those already waiting.
+        pool.scope_fifo(|s| {
             for i in roots {
-                s.spawn(move |s| process(s, shr, i));
+                s.spawn_fifo(move |s| process(s, shr, i));
             }
         });
         let _ = stop.send(());
@@ -314,7 +318,23 @@ pub fn execute(
     })
 }
 
-fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
+/// `roots` in decreasing planned seconds (ties in node order): the pool takes
+/// them in the order they are spawned, so the longest simulations start first
+/// and a build does not end on one long run with the other workers idle.
+/// The order changes no result: every stage is a function of its inputs.
+fn longest_first(mut roots: Vec<usize>, planned: &[f64]) -> Vec<usize> {
+    let at = |i: usize| {
+        planned
+            .get(i)
+            .copied()
+            .filter(|s| s.is_finite())
+            .unwrap_or(0.0)
+    };
+    roots.sort_by(|&a, &b| at(b).total_cmp(&at(a)).then(a.cmp(&b)));
+    roots
+}
+
+fn process<'s>(s: &rayon::ScopeFifo<'s>, sh: &'s Shared<'s>, i: usize) {
     let r = run_node(sh, i);
     let node = &sh.graph.nodes[i];
     let what = match &r.outcome {
@@ -327,7 +347,7 @@ fn process<'s>(s: &rayon::Scope<'s>, sh: &'s Shared<'s>, i: usize) {
     *sh.results[i].lock().unwrap() = Some(r);
     for &d in &sh.dependents[i] {
         if sh.remaining[d].fetch_sub(1, Ordering::AcqRel) == 1 {
-            s.spawn(move |s| process(s, sh, d));
+            s.spawn_fifo(move |s| process(s, sh, d));
         }
     }
 }
@@ -766,4 +786,20 @@ pub fn reachable_keys(
         possible.insert(i, digests);
     }
     keep
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_longest_planned_roots_start_first() {
+        // Node 3 is the longest, 1 and 4 tie (node order), an unplanned NaN last.
+        let planned = [5.0, 2.0, f64::NAN, 90.0, 2.0];
+        assert_eq!(
+            longest_first(vec![0, 1, 2, 3, 4], &planned),
+            vec![3, 0, 1, 4, 2]
+        );
+        assert_eq!(longest_first(vec![4, 2], &planned), vec![4, 2]);
+    }
 }

@@ -55,3 +55,60 @@ impl Engine {
         Ok((e, compress_time))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::config::Intruder;
+    use crate::sim::{Drive, KickRate};
+    use crate::traj::Schedule;
+
+    /// Paper I's bath with its intruder, at a temperature, restitution and
+    /// collapse guard of its own, so that each setting is seen to arrive.
+    fn cfg(gamma: f64) -> SimConfig {
+        SimConfig {
+            n: 300,
+            phi: 0.6,
+            eps: 0.85,
+            collapse_tc: 1e-5,
+            temperature: 0.5,
+            radius_ratio: 1.25,
+            gamma,
+            drive: if gamma > 0.0 {
+                Drive::Single
+            } else {
+                Drive::NeighbourPairs
+            },
+            kick_rate: KickRate::Enskog { prefactor: 1.0 },
+            intruder: Some(Intruder::paper(3.0)),
+            relax_time: 2.0,
+            samples: 20,
+            schedule: Schedule {
+                start: 8.0,
+                origins: 0,
+                origin_spacing: 0.0,
+                lags: vec![],
+            },
+            ..SimConfig::default()
+        }
+    }
+
+    #[test]
+    fn the_engine_of_a_run_carries_every_setting_of_its_configuration() {
+        for gamma in [0.0, 0.2] {
+            let c = cfg(gamma);
+            let (e, compress_time) = Engine::for_run(&c, &|_| {}).unwrap();
+            assert!(compress_time > 0.0 && e.time() == compress_time);
+            assert_eq!((e.eps, e.tc), (0.85, 1e-5));
+            assert_eq!(e.force(), 3.0);
+            let t = e.kinetic_energy() / e.n() as f64;
+            assert!((t - 0.5).abs() < 1e-9, "T = {t}");
+            // The drive's rate from the bath's Enskog frequency at T = 0.5
+            // (single disks with friction, pairs without).
+            let (_, rate, _) = crate::sim::run::drive(&c, bath_collision_rate(&c, 0.5));
+            assert_eq!(e.kick_rate(), rate);
+            let per_kick = if gamma > 0.0 { 1.0 } else { 2.0 };
+            assert!((rate - bath_collision_rate(&c, 0.5) * 300.0 / per_kick).abs() < 1e-9 * rate);
+        }
+    }
+}
