@@ -8,9 +8,9 @@ use anyhow::Result;
 
 use super::initial_state;
 use super::progress::Progress;
-use crate::sim::engine::Engine;
-use crate::sim::model::config::{ForceMode, SimConfig};
-use crate::sim::model::enskog;
+use crate::sim::engine::{Engine, Kicks};
+use crate::sim::model::config::{Drive, ForceMode, KickRate, SimConfig};
+use crate::sim::model::{enskog, kicks};
 
 /// The bath's Enskog collision frequency per disk at temperature `t` (the
 /// intruder, species 2, left out): what the drive and the force kicks are
@@ -24,6 +24,39 @@ pub fn bath_collision_rate(cfg: &SimConfig, t: f64) -> f64 {
     let radii = cfg.radii();
     let masses = cfg.species_masses();
     enskog::collision_frequency(cfg.phi, &radii[..2], &masses[..2], &fractions, t)
+}
+
+/// The driving of `cfg`: which particles, how many kicks per unit time in the
+/// whole system (starting value for the balanced rule), and the amplitude p_dr
+/// of Eq. (7) of paper I (paper H's sqrt((1 - eps^2) m1 m2 / (m1 + m2)) at
+/// gamma = 0, T = 1). `enskog` is the Enskog collision frequency per particle
+/// at `cfg.temperature`. No kicks when the amplitude is 0 (eps = 1 without friction).
+pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
+    let masses = cfg.species_masses();
+    let nf = cfg.n as f64;
+    let p_dr = kicks::amplitude(
+        cfg.eps,
+        cfg.gamma,
+        cfg.temperature,
+        enskog,
+        masses[0],
+        masses[1],
+    );
+    let kicks = match cfg.drive {
+        _ if p_dr == 0.0 => Kicks::Off,
+        Drive::None => Kicks::Off,
+        Drive::NeighbourPairs => Kicks::NeighbourPairs,
+        Drive::RandomPairs => Kicks::RandomPairs,
+        Drive::Single => Kicks::Single,
+    };
+    // Each pair kick (like each collision) involves two particles.
+    let per_kick = if kicks == Kicks::Single { 1.0 } else { 2.0 };
+    let rate = match cfg.kick_rate {
+        KickRate::Balanced => enskog * nf / per_kick,
+        KickRate::Enskog { prefactor } => prefactor * enskog * nf / per_kick,
+        KickRate::PerParticle(r) => r * nf / per_kick,
+    };
+    (kicks, rate, p_dr)
 }
 
 impl Engine {
@@ -41,7 +74,7 @@ impl Engine {
             e.set_friction(cfg.gamma);
         }
         let rate = bath_collision_rate(cfg, cfg.temperature);
-        let (kicks, kick_rate, p_dr) = super::drive(cfg, rate);
+        let (kicks, kick_rate, p_dr) = drive(cfg, rate);
         e.set_kicks(kicks, kick_rate, p_dr);
         if let Some(intr) = &cfg.intruder {
             // The force is on from here: the relaxation holds the intruder's transient.
@@ -105,7 +138,7 @@ mod tests {
             assert!((t - 0.5).abs() < 1e-9, "T = {t}");
             // The drive's rate from the bath's Enskog frequency at T = 0.5
             // (single disks with friction, pairs without).
-            let (_, rate, _) = crate::sim::run::drive(&c, bath_collision_rate(&c, 0.5));
+            let (_, rate, _) = drive(&c, bath_collision_rate(&c, 0.5));
             assert_eq!(e.kick_rate(), rate);
             let per_kick = if gamma > 0.0 { 1.0 } else { 2.0 };
             assert!((rate - bath_collision_rate(&c, 0.5) * 300.0 / per_kick).abs() < 1e-9 * rate);

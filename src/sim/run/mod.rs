@@ -18,4 +18,4 @@ pub mod progress;
 pub mod resources;
 pub mod simulation;
 
-pub use simulation::drive;
+pub use engine_for_run::drive;

@@ -2,12 +2,11 @@
 //! then record frames and measure temperature, pressure and rates.
 
 use super::checkpoint::{self, Keeper};
-use super::engine_for_run::bath_collision_rate;
+use super::engine_for_run::{bath_collision_rate, drive};
 use super::progress::{Progress, Stage};
 use super::resources;
 use crate::sim::engine::{Engine, Kicks, Stats};
-use crate::sim::model::config::{Drive, ForceMode, KickRate, SimConfig};
-use crate::sim::model::kicks;
+use crate::sim::model::config::{ForceMode, KickRate, SimConfig};
 use crate::traj::{Frame, Trajectory};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
@@ -197,39 +196,6 @@ impl Sampler {
         self.last_virial = e.stats.virial;
         self.last_t = t;
     }
-}
-
-/// The driving of `cfg`: which particles, how many kicks per unit time in the
-/// whole system (starting value for the balanced rule), and the amplitude p_dr
-/// of Eq. (7) of paper I (paper H's sqrt((1 - eps^2) m1 m2 / (m1 + m2)) at
-/// gamma = 0, T = 1). `enskog` is the Enskog collision frequency per particle
-/// at `cfg.temperature`. No kicks when the amplitude is 0 (eps = 1 without friction).
-pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
-    let masses = cfg.species_masses();
-    let nf = cfg.n as f64;
-    let p_dr = kicks::amplitude(
-        cfg.eps,
-        cfg.gamma,
-        cfg.temperature,
-        enskog,
-        masses[0],
-        masses[1],
-    );
-    let kicks = match cfg.drive {
-        _ if p_dr == 0.0 => Kicks::Off,
-        Drive::None => Kicks::Off,
-        Drive::NeighbourPairs => Kicks::NeighbourPairs,
-        Drive::RandomPairs => Kicks::RandomPairs,
-        Drive::Single => Kicks::Single,
-    };
-    // Each pair kick (like each collision) involves two particles.
-    let per_kick = if kicks == Kicks::Single { 1.0 } else { 2.0 };
-    let rate = match cfg.kick_rate {
-        KickRate::Balanced => enskog * nf / per_kick,
-        KickRate::Enskog { prefactor } => prefactor * enskog * nf / per_kick,
-        KickRate::PerParticle(r) => r * nf / per_kick,
-    };
-    (kicks, rate, p_dr)
 }
 
 /// Sub-windows of each balancing window of the relaxation.
