@@ -941,7 +941,7 @@ mod unit {
         };
         let run = |min_bytes: usize| {
             let mut e = crate::sim::initial_state::prepare(&c, &|_| {}).unwrap();
-            let (kicks, rate, p_dr) = crate::sim::run::simulation::drive(&c, 15.0);
+            let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 15.0);
             (e.eps, e.tc) = (c.eps, c.collapse_tc);
             e.set_kicks(kicks, rate, p_dr);
             e.pipeline.min_bytes = min_bytes;

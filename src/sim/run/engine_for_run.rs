@@ -92,37 +92,15 @@ impl Engine {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::config::Intruder;
-    use crate::sim::{Drive, KickRate};
-    use crate::traj::Schedule;
 
     /// Paper I's bath with its intruder, at a temperature, restitution and
     /// collapse guard of its own, so that each setting is seen to arrive.
     fn cfg(gamma: f64) -> SimConfig {
         SimConfig {
-            n: 300,
-            phi: 0.6,
             eps: 0.85,
             collapse_tc: 1e-5,
             temperature: 0.5,
-            radius_ratio: 1.25,
-            gamma,
-            drive: if gamma > 0.0 {
-                Drive::Single
-            } else {
-                Drive::NeighbourPairs
-            },
-            kick_rate: KickRate::Enskog { prefactor: 1.0 },
-            intruder: Some(Intruder::paper(3.0)),
-            relax_time: 2.0,
-            samples: 20,
-            schedule: Schedule {
-                start: 8.0,
-                origins: 0,
-                origin_spacing: 0.0,
-                lags: vec![],
-            },
-            ..SimConfig::default()
+            ..crate::sim::tests::intruder::bath(300, 0.6, gamma, 3.0)
         }
     }
 

@@ -12,7 +12,7 @@ pub(super) fn quiet(_: crate::sim::Progress) {}
 
 /// Paper I's bath (radius ratio 1.25, m_b = 25/16, eps = 0.9) with paper I's
 /// intruder pulled by `force`.
-pub(super) fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
+pub(crate) fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
     SimConfig {
         n,
         phi,

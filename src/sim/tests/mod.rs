@@ -13,7 +13,7 @@
 mod checkpoint;
 mod force_kicks;
 mod friction;
-mod intruder;
+pub(crate) mod intruder;
 mod intruder_contact;
 mod intruder_walls;
 mod paper_h;
