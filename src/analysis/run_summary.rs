@@ -21,6 +21,33 @@ pub fn paper_collision_rate(phi: f64, t: f64) -> f64 {
     2.59 / std::f64::consts::PI.sqrt() * phi * g * t.sqrt()
 }
 
+/// Enskog's compressibility factor of an inelastic disk mixture, Z_E = P A / (N T)
+/// = 1 + (1 + eps)/2 (pi/2) n sum_ij x_i x_j sigma_ij^2 g_ij, with sigma_ij =
+/// r_i + r_j, n the number density and g_ij the contact values of
+/// [`enskog::contact_value`] (Jenkins-Mancini; Henderson's for one species,
+/// where Z_E = 1 + (1 + eps) phi g(sigma)). The collisional virial of a pair at
+/// contact carries (1 + eps)/2 of the elastic momentum transfer.
+pub fn enskog_compressibility(phi: f64, eps: f64, radii: &[f64], fractions: &[f64]) -> f64 {
+    let area: f64 = fractions
+        .iter()
+        .zip(radii)
+        .map(|(x, r)| x * std::f64::consts::PI * r * r)
+        .sum();
+    let n = phi / area;
+    let mut sum = 0.0;
+    for i in 0..radii.len() {
+        for j in 0..radii.len() {
+            let sig = radii[i] + radii[j];
+            sum += fractions[i]
+                * fractions[j]
+                * sig
+                * sig
+                * enskog::contact_value(phi, radii, fractions, i, j);
+        }
+    }
+    1.0 + 0.5 * (1.0 + eps) * std::f64::consts::FRAC_PI_2 * n * sum
+}
+
 /// The closest approach of two disks in any frame, r_ij - sigma_ij (units of
 /// the small radius; negative: the largest overlap), from a cell list of width
 /// the largest contact distance.
@@ -210,7 +237,19 @@ pub fn row(
             "kick_over_enskog_target",
             number(summary, "kick_rate")? / enskog_at(target),
         ),
+        // Collisions per particle per unit time at unit temperature (they scale
+        // as sqrt(T)): with Z, the equation of state of the driven fluid.
+        ("rate_reduced", rate / t.sqrt()),
         ("z", number(summary, "z")?),
+        (
+            "z_enskog",
+            enskog_compressibility(cfg.phi, cfg.eps, &radii[..2], &fractions),
+        ),
+        (
+            "z_over_enskog",
+            number(summary, "z")?
+                / enskog_compressibility(cfg.phi, cfg.eps, &radii[..2], &fractions),
+        ),
         ("collisions", collisions),
         ("guard_activations", guard),
         ("guard_fraction", guard_fraction),
@@ -246,6 +285,20 @@ mod tests {
             }],
             schedule: None,
         }
+    }
+
+    /// One species: Z_E = 1 + (1 + eps) phi g(sigma) with Henderson's contact
+    /// value; elastic and dilute: the ideal gas.
+    #[test]
+    fn enskog_compressibility_is_hendersons_for_one_species() {
+        let (phi, eps): (f64, f64) = (0.5, 0.9);
+        let g = (1.0 - 7.0 * phi / 16.0) / (1.0 - phi).powi(2);
+        let z = enskog_compressibility(phi, eps, &[1.0], &[1.0]);
+        assert!((z - (1.0 + (1.0 + eps) * phi * g)).abs() < 1e-12, "{z}");
+        assert!((enskog_compressibility(1e-9, 1.0, &[1.0, 1.4], &[0.5, 0.5]) - 1.0).abs() < 1e-8);
+        // Two species of one size are one species.
+        let two = enskog_compressibility(phi, eps, &[1.0, 1.0], &[0.3, 0.7]);
+        assert!((two - z).abs() < 1e-12, "{two} {z}");
     }
 
     /// Production from t = 0 with P rising linearly from 1 to 1.2 (relative

@@ -59,6 +59,13 @@ pub struct CoverageArgs {
     /// (`repro regress --record`) instead of building the seeds.
     #[arg(long)]
     pub golden: Option<PathBuf>,
+    /// Read the per-seed values of earlier surveys instead of building:
+    /// results/coverage-PROFILE-LABEL.json of each label (separated by commas,
+    /// all of the same seeds; a number in several is taken from the last), and
+    /// check each seed against the golden file as it is now (after a
+    /// re-recording, or with the numbers of several figures' surveys together).
+    #[arg(long, value_delimiter = ',', conflicts_with = "golden")]
+    pub stored: Vec<String>,
     /// Write the Markdown table to docs/coverage-PROFILE[-LABEL].md instead of
     /// results/.
     #[arg(long)]
@@ -210,10 +217,39 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     // Each key number's value and quoted error per seed (NaN written as null),
     // so a survey can be read again without rebuilding it.
     let mut per_seed_json = serde_json::Map::new();
+    let mut stored_seeds: Option<Vec<u64>> = None;
     let (rows, gates_from): (Vec<crate::study::coverage::Coverage>, Option<GoldenFile>) =
         if let Some(path) = &a.golden {
             let g = GoldenFile::read(path)?;
             (crate::study::coverage::from_golden(&g, &a.ids), Some(g))
+        } else if !a.stored.is_empty() {
+            let results = Workspace::new(&a.variant.root).results;
+            let files: Vec<PathBuf> = a
+                .stored
+                .iter()
+                .map(|l| results.join(format!("coverage-{}-{l}.json", a.profile)))
+                .collect();
+            let (seeds, per_seed) = crate::study::coverage::read_stored(&files)?;
+            let g = golden_path
+                .exists()
+                .then(|| GoldenFile::read(&golden_path))
+                .transpose()?;
+            if let Some(g) = g
+                .as_ref()
+                .filter(|g| !seeds.iter().any(|s| g.seeds.contains(s)))
+            {
+                checks = crate::study::coverage::check_stored(g, &seeds, &per_seed, &a.ids);
+            }
+            stored_seeds = Some(seeds);
+            per_seed_json = crate::study::coverage::per_seed_json(&per_seed);
+            (
+                per_seed
+                    .iter()
+                    .filter(|((f, _), _)| a.ids.is_empty() || a.ids.contains(f))
+                    .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
+                    .collect(),
+                g,
+            )
         } else {
             let ids = or_ci_figures(&a.variant.root, &a.ids)?;
             // Each seed's build checked against the goldens as CI would, when
@@ -239,16 +275,7 @@ fn coverage(a: CoverageArgs) -> Result<()> {
                 &options(a.variant.jobs),
             )?;
             checks = c;
-            let num = |x: f64| x.is_finite().then_some(x);
-            for ((f, q), v) in &per_seed {
-                per_seed_json.insert(
-                    format!("{f}:{q}"),
-                    serde_json::json!({
-                        "values": v.iter().map(|x| num(x.value)).collect::<Vec<_>>(),
-                        "errors": v.iter().map(|x| num(x.error)).collect::<Vec<_>>(),
-                    }),
-                );
-            }
+            per_seed_json = crate::study::coverage::per_seed_json(&per_seed);
             (
                 per_seed
                     .iter()
@@ -304,8 +331,9 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     let out = results.join(format!("{stem}.json"));
     std::fs::create_dir_all(&results)?;
     // With --golden the seeds are the ones the file was recorded at.
-    let seeds = match (&a.golden, &gates_from) {
-        (Some(_), Some(g)) => g.seeds.clone(),
+    let seeds = match (&a.golden, &gates_from, stored_seeds) {
+        (Some(_), Some(g), _) => g.seeds.clone(),
+        (_, _, Some(s)) => s,
         _ => a.seeds.clone(),
     };
     let json = serde_json::json!({

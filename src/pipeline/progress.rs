@@ -327,7 +327,9 @@ const KEPT_RUN_LOGS: usize = 20;
 /// This run's own log file, `run-UNIXSECONDS-PID.log` beside `last`, with
 /// `last` (LAST-RUN.log) made a symlink to it: two runs at once in one project
 /// each keep a whole log (one shared file had both truncating and writing it).
-/// The oldest logs beyond [`KEPT_RUN_LOGS`] are removed.
+/// The oldest logs beyond [`KEPT_RUN_LOGS`] are removed, but never the log of
+/// a run still going (a survey starts a run per seed, and a long build beside
+/// it would otherwise lose its log while writing it).
 fn open_run_log(last: &std::path::Path) -> Option<File> {
     let dir = last.parent()?;
     std::fs::create_dir_all(dir).ok()?;
@@ -347,7 +349,9 @@ fn open_run_log(last: &std::path::Path) -> Option<File> {
         .collect();
     old.sort();
     for p in old.iter().take(old.len().saturating_sub(KEPT_RUN_LOGS)) {
-        let _ = std::fs::remove_file(p);
+        if !log_of_a_running_process(p) {
+            let _ = std::fs::remove_file(p);
+        }
     }
     // Replace LAST-RUN.log (a file from older versions, or the previous link)
     // atomically by a link to this run's log.
@@ -357,6 +361,18 @@ fn open_run_log(last: &std::path::Path) -> Option<File> {
         let _ = std::fs::rename(&tmp, last);
     }
     Some(file)
+}
+
+/// Whether the process named by a run log (`run-SECONDS-PID.log`) is running:
+/// read from /proc where there is one (Linux); elsewhere no log counts as
+/// running.
+fn log_of_a_running_process(log: &std::path::Path) -> bool {
+    let pid = log
+        .file_stem()
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.rsplit('-').next())
+        .and_then(|p| p.parse::<u32>().ok());
+    pid.is_some_and(|pid| std::path::Path::new("/proc").join(pid.to_string()).is_dir())
 }
 
 /// Unix seconds as the UTC time of day, `HH:MM:SS` (a ci build lasts
@@ -390,6 +406,35 @@ fn fraction(done: f64, total: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Old logs are trimmed to the newest KEPT_RUN_LOGS, except the log of a
+    /// run still going (here this test's own process, the oldest of all).
+    #[test]
+    fn old_run_logs_are_removed_but_not_a_running_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let running = dir
+            .path()
+            .join(format!("run-{:011}-{}.log", 1, std::process::id()));
+        std::fs::write(&running, "still writing").unwrap();
+        // PIDs far above any kernel's limit: no such process.
+        for k in 0..KEPT_RUN_LOGS + 5 {
+            let name = format!("run-{:011}-{}.log", 10 + k, 4_000_000_000u32 + k as u32);
+            std::fs::write(dir.path().join(name), "").unwrap();
+        }
+        open_run_log(&dir.path().join("LAST-RUN.log")).unwrap();
+        let logs: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|n| n.starts_with("run-"))
+            .collect();
+        assert!(running.exists(), "{logs:?}");
+        // The running one, the newest KEPT_RUN_LOGS - 1 of the others and the new one.
+        assert_eq!(logs.len(), KEPT_RUN_LOGS + 1, "{logs:?}");
+        assert!(
+            !logs.iter().any(|n| n.contains("-00000000010-")),
+            "{logs:?}"
+        );
+    }
 
     #[test]
     fn the_end_follows_the_plan_first_then_the_measured_pace() {

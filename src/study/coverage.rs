@@ -8,9 +8,14 @@ use serde::{Deserialize, Serialize};
 
 use std::collections::BTreeMap;
 
-use super::golden::{GoldenFile, SeedCheck};
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+
+use super::golden::{GoldenFile, SeedCheck, SeedNumbers, check_numbers};
 use super::report::number;
 use super::results::Fitted;
+use super::results::Verdict;
 use crate::analysis::stats::mean_std;
 
 /// Coverage of one key number over the seeds.
@@ -89,6 +94,129 @@ fn median(sorted: &[f64]) -> f64 {
     } else {
         0.5 * (sorted[m / 2 - 1] + sorted[m / 2])
     }
+}
+
+/// Each key number's value, quoted error and paper verdict per seed, as a
+/// survey stores them (NaN as null), so that it can be read again without
+/// rebuilding ([`read_stored`]).
+pub fn per_seed_json(per_seed: &SeedNumbers) -> serde_json::Map<String, serde_json::Value> {
+    let num = |x: f64| x.is_finite().then_some(x);
+    per_seed
+        .iter()
+        .map(|((f, q), v)| {
+            (
+                format!("{f}:{q}"),
+                serde_json::json!({
+                    "values": v.iter().map(|x| num(x.value)).collect::<Vec<_>>(),
+                    "errors": v.iter().map(|x| num(x.error)).collect::<Vec<_>>(),
+                    "verdicts": v.iter().map(|x| x.verdict.map(|d| d.as_str())).collect::<Vec<_>>(),
+                }),
+            )
+        })
+        .collect()
+}
+
+/// The seeds and per-seed numbers of stored surveys (results/coverage-*.json),
+/// merged: every file must be of the same seeds, and a number in several is
+/// taken from the last. Surveys written before verdicts were stored have none.
+pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers)> {
+    #[derive(Deserialize)]
+    struct Stored {
+        seeds: Vec<u64>,
+        per_seed: BTreeMap<String, PerSeed>,
+    }
+    #[derive(Deserialize)]
+    struct PerSeed {
+        values: Vec<Option<f64>>,
+        errors: Vec<Option<f64>>,
+        #[serde(default)]
+        verdicts: Vec<Option<String>>,
+    }
+    let mut seeds: Option<Vec<u64>> = None;
+    let mut out: SeedNumbers = BTreeMap::new();
+    for f in files {
+        let text = std::fs::read_to_string(f).with_context(|| {
+            format!(
+                "reading the stored survey {} (made by `repro coverage --label LABEL`)",
+                f.display()
+            )
+        })?;
+        let s: Stored = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a survey of `repro coverage`", f.display()))?;
+        match &seeds {
+            Some(first) if *first != s.seeds => bail!(
+                "{} is of the master seeds {:?}, the first survey of {first:?}: merge surveys of the same seeds",
+                f.display(),
+                s.seeds
+            ),
+            _ => seeds = Some(s.seeds.clone()),
+        }
+        for (key, v) in s.per_seed {
+            let Some((fig, q)) = key.split_once(':') else {
+                bail!("{}: key number '{key}' is not FIGURE:QUANTITY", f.display());
+            };
+            if v.values.len() != s.seeds.len() || v.errors.len() != s.seeds.len() {
+                bail!(
+                    "{}: {key} has {} values and {} errors for {} seeds",
+                    f.display(),
+                    v.values.len(),
+                    v.errors.len(),
+                    s.seeds.len()
+                );
+            }
+            let fitted = (0..s.seeds.len())
+                .map(|k| Fitted {
+                    value: v.values[k].unwrap_or(f64::NAN),
+                    error: v.errors[k].unwrap_or(f64::NAN),
+                    verdict: v
+                        .verdicts
+                        .get(k)
+                        .cloned()
+                        .flatten()
+                        .and_then(|d| Verdict::parse(&d)),
+                    margin: f64::NAN,
+                })
+                .collect();
+            out.insert((fig.to_string(), q.to_string()), fitted);
+        }
+    }
+    Ok((seeds.unwrap_or_default(), out))
+}
+
+/// Each stored seed checked against `g` as `repro regress` would check its
+/// build: the figures of `ids` (every figure the survey holds if empty) that
+/// the golden file has numbers of.
+pub fn check_stored(
+    g: &GoldenFile,
+    seeds: &[u64],
+    per_seed: &SeedNumbers,
+    ids: &[String],
+) -> Vec<SeedCheck> {
+    let figures: Vec<String> = per_seed
+        .keys()
+        .map(|(f, _)| f.clone())
+        .filter(|f| ids.is_empty() || ids.contains(f))
+        .filter(|f| g.quantities.iter().any(|q| &q.figure == f))
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    seeds
+        .iter()
+        .enumerate()
+        .map(|(k, &seed)| {
+            let mut numbers: BTreeMap<String, BTreeMap<String, Fitted>> = BTreeMap::new();
+            for ((f, q), v) in per_seed {
+                if figures.contains(f) && v[k].value.is_finite() {
+                    numbers
+                        .entry(f.clone())
+                        .or_default()
+                        .insert(q.clone(), v[k]);
+                }
+            }
+            let (_, failures) = check_numbers(g, &numbers, &figures);
+            SeedCheck { seed, failures }
+        })
+        .collect()
 }
 
 /// Coverage of every key number a golden file recorded with per-seed quoted
@@ -254,6 +382,70 @@ mod tests {
         let held = 0.82 + 1e-16;
         let h = coverage("f", "q", &[f(0.82, 1e-17), f(held, 1e-17), f(0.82, 1e-17)]).unwrap();
         assert_eq!(flag(&h), "constant");
+    }
+
+    #[test]
+    fn a_stored_survey_reads_back_and_is_checked_as_its_builds_would_be() {
+        use crate::study::golden::golden;
+        let recorded: Vec<f64> = (0..8).map(|k| 10.0 + 0.1 * (k as f64 - 3.5)).collect();
+        let g = GoldenFile {
+            profile: "ci".into(),
+            how: String::new(),
+            sigmas: 6.0,
+            relative_floor: 0.0,
+            seeds: (1..=8).collect(),
+            ungated: Default::default(),
+            quantities: vec![golden(
+                "fig_a",
+                "x",
+                &(1..=8).collect::<Vec<_>>(),
+                &recorded,
+                6.0,
+                0.0,
+            )],
+        };
+        let fitted = |value: f64| Fitted {
+            value,
+            error: 0.1,
+            verdict: Some(Verdict::Agree),
+            margin: f64::NAN,
+        };
+        // Seed 21 within the band, seed 22 far outside it (10 spreads).
+        let mut per_seed = SeedNumbers::new();
+        per_seed.insert(
+            ("fig_a".into(), "x".into()),
+            vec![fitted(10.05), fitted(12.5)],
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("coverage-ci-a.json");
+        let json = serde_json::json!({"seeds": [21, 22], "per_seed": per_seed_json(&per_seed)});
+        std::fs::write(&file, json.to_string()).unwrap();
+        let (seeds, back) = read_stored(std::slice::from_ref(&file)).unwrap();
+        assert_eq!(seeds, vec![21, 22]);
+        assert_eq!(back[&("fig_a".to_string(), "x".to_string())][1].value, 12.5);
+        assert_eq!(
+            back[&("fig_a".to_string(), "x".to_string())][0].verdict,
+            Some(Verdict::Agree)
+        );
+        let checks = check_stored(&g, &seeds, &back, &[]);
+        assert!(checks[0].failures.is_empty(), "{:?}", checks[0]);
+        assert!(
+            checks[1]
+                .failures
+                .iter()
+                .any(|f| f.contains("regression in fig_a: x")),
+            "{:?}",
+            checks[1]
+        );
+        // Surveys of other seeds do not merge.
+        let other = dir.path().join("coverage-ci-b.json");
+        std::fs::write(
+            &other,
+            serde_json::json!({"seeds": [23, 24], "per_seed": {}}).to_string(),
+        )
+        .unwrap();
+        let e = read_stored(&[file, other]).unwrap_err();
+        assert!(format!("{e:#}").contains("same seeds"), "{e:#}");
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! is not gated, with its reason in the file. A number the paper agreed with at
 //! every recorded seed fails when it turns `disagree`.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
@@ -129,21 +129,8 @@ pub fn ungated_reason(quantity: &str, values: &[f64]) -> Option<String> {
 /// `results` against `g`: one line per quantity, and one line per quantity
 /// outside its band (figure, quantity, value, band).
 pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<String>, Vec<String>)> {
-    let mut lines = Vec::new();
-    let mut failures = Vec::new();
-    let mut by_fig: BTreeMap<&str, Vec<&Golden>> = BTreeMap::new();
-    for q in &g.quantities {
-        if ids.is_empty() || ids.contains(&q.figure) {
-            by_fig.entry(&q.figure).or_default().push(q);
-        }
-    }
-    for id in ids {
-        if !by_fig.contains_key(id.as_str()) {
-            bail!("the golden file has no quantity of figure '{id}'");
-        }
-    }
-    let mut checked: Vec<(&Golden, f64)> = Vec::new();
-    for (fig, qs) in by_fig {
+    let mut numbers = BTreeMap::new();
+    for fig in gated_figures(g, ids)? {
         let dir = results.join(fig);
         let prov = provenance(&dir).with_context(|| {
             format!(
@@ -161,7 +148,47 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
                 g.profile
             );
         }
-        let got = key_numbers_with_errors(&dir)?;
+        numbers.insert(fig.to_string(), key_numbers_with_errors(&dir)?);
+    }
+    Ok(check_numbers(g, &numbers, ids))
+}
+
+/// The figures of `ids` (every figure of the golden file if empty) that the
+/// golden file has numbers of; an error names one it has none of.
+fn gated_figures<'a>(g: &'a GoldenFile, ids: &[String]) -> Result<BTreeSet<&'a str>> {
+    let figs: BTreeSet<&str> = g
+        .quantities
+        .iter()
+        .filter(|q| ids.is_empty() || ids.contains(&q.figure))
+        .map(|q| q.figure.as_str())
+        .collect();
+    for id in ids {
+        if !figs.contains(id.as_str()) {
+            bail!("the golden file has no quantity of figure '{id}'");
+        }
+    }
+    Ok(figs)
+}
+
+/// [`check`] on key numbers already read: figure -> quantity -> value (a
+/// figure of `ids` missing from `numbers` has every number missing).
+pub fn check_numbers(
+    g: &GoldenFile,
+    numbers: &BTreeMap<String, BTreeMap<String, Fitted>>,
+    ids: &[String],
+) -> (Vec<String>, Vec<String>) {
+    let mut lines = Vec::new();
+    let mut failures = Vec::new();
+    let mut by_fig: BTreeMap<&str, Vec<&Golden>> = BTreeMap::new();
+    for q in &g.quantities {
+        if ids.is_empty() || ids.contains(&q.figure) {
+            by_fig.entry(&q.figure).or_default().push(q);
+        }
+    }
+    let empty = BTreeMap::new();
+    let mut checked: Vec<(&Golden, f64)> = Vec::new();
+    for (fig, qs) in by_fig {
+        let got = numbers.get(fig).unwrap_or(&empty);
         for q in &qs {
             let now = got.get(&q.quantity);
             let v = now.map_or(f64::NAN, |f| f.value);
@@ -240,7 +267,7 @@ pub fn check(g: &GoldenFile, results: &Path, ids: &[String]) -> Result<(Vec<Stri
             j.t2, j.terms, j.threshold
         ));
     }
-    Ok((lines, failures))
+    (lines, failures)
 }
 
 /// At a master seed the goldens were recorded at, a build of the same code

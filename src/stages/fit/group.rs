@@ -267,10 +267,13 @@ fn fit_value(
     let k = y.len() as f64;
     // Without y_err the points carry unit stand-in errors (for the fits'
     // weights): combining them would quote 1/sqrt(k), a number about nothing.
+    // As for the other forms, the error is then scaled to the points' scatter:
+    // the standard error of their mean (independent runs: one row per replica).
     let (mean, err) = if y.is_empty() {
         (f64::NAN, f64::NAN)
     } else if p.y_err.is_none() {
-        (y.iter().sum::<f64>() / k, f64::NAN)
+        let sd = crate::analysis::stats::mean_std(y).1;
+        (y.iter().sum::<f64>() / k, sd / k.sqrt())
     } else {
         (
             y.iter().sum::<f64>() / k,
@@ -284,7 +287,11 @@ fn fit_value(
     };
     let mut method = match &p.y_err {
         Some(e) => format!("the per-point errors {e}, combined"),
-        None => "none (no y_err)".to_string(),
+        None if y.len() >= 2 => format!(
+            "the scatter of the {} points: standard error of their mean (the points taken as independent runs)",
+            y.len()
+        ),
+        None => "none (no y_err, one point)".to_string(),
     };
     // Rows of one unit with replica samples: the replica jackknife of the
     // value counts what per-point errors miss (the lag of `at` moving with

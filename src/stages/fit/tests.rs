@@ -605,10 +605,11 @@ fn the_gaussian_draws_its_fitted_curve() {
     }
 }
 
-/// `value` quotes the combined per-point errors when it has them, and no
-/// error without them (not the 1/sqrt(k) of the unit stand-ins).
+/// `value` quotes the combined per-point errors when it has them; without
+/// them the standard error of the mean from the points' scatter (not the
+/// 1/sqrt(k) of the unit stand-ins), and none for one point.
 #[test]
-fn a_value_without_errors_quotes_none() {
+fn a_value_without_errors_quotes_the_scatter_of_its_points() {
     let dir = tempfile::tempdir().unwrap();
     let b = f64_batch(&[
         ("t", vec![1.0, 2.0, 3.0, 4.0]),
@@ -632,7 +633,14 @@ fn a_value_without_errors_quotes_none() {
         "{v} {e}"
     );
     let (v, e) = error("{form: value, data: d, x: t, y: Q}");
-    assert!((v - 3.0).abs() < 1e-12 && e.is_nan(), "{v} {e}");
+    // Sample standard deviation of 1, 2, 3, 6 is sqrt(14/3); over sqrt(4).
+    let sem = (14.0f64 / 3.0).sqrt() / 2.0;
+    assert!(
+        (v - 3.0).abs() < 1e-12 && (e - sem).abs() < 1e-12,
+        "{v} {e}"
+    );
+    let (v, e) = error("{form: value, data: d, x: t, y: Q, where: {t: 4}}");
+    assert!((v - 6.0).abs() < 1e-12 && e.is_nan(), "{v} {e}");
 }
 
 /// A point whose error is rounding (replicas that agree exactly) does not

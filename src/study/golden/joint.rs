@@ -79,18 +79,33 @@ impl Joint {
     }
 }
 
-/// The numbers of `checked` that count: one of several identical at every
-/// seed (phi_c of the one tau_alpha fit, published by three figures), no
+/// The numbers of `checked` that count: one of several that are the same
+/// number at every seed, up to units (phi_c of the one tau_alpha fit,
+/// published by three figures; Z and Z over a constant reference), no
 /// goodness-of-fit number, none with no spread or fewer than 6 seeds.
 fn counted<'a>(checked: &[(&'a Golden, f64)]) -> Vec<(&'a Golden, f64)> {
+    // Standardised per-seed values: equal for numbers that are one another
+    // times a constant plus a constant.
+    let z = |q: &Golden| -> Vec<f64> {
+        q.values
+            .iter()
+            .map(|v| {
+                if q.std > 0.0 {
+                    (v - q.mean) / q.std
+                } else {
+                    *v
+                }
+            })
+            .collect()
+    };
     let mut out: Vec<(&Golden, f64)> = Vec::new();
     for &(q, v) in checked {
+        let zq = z(q);
         let dup = out.iter().any(|(s, _)| {
             s.values.len() == q.values.len()
-                && s.values
-                    .iter()
-                    .zip(&q.values)
-                    .all(|(a, b)| a.to_bits() == b.to_bits())
+                && z(s).iter().zip(&zq).all(|(a, b)| {
+                    a.to_bits() == b.to_bits() || (a - b).abs() <= 1e-9 * (1.0 + a.abs())
+                })
         });
         if dup || goodness_of_fit(&q.quantity) || !(q.std.is_finite() && q.std > 0.0) {
             continue;
@@ -487,7 +502,14 @@ mod tests {
         assert!((one_far.t2 - capped.t2).abs() < 1e-9 && one_far.t2 > quiet.t2);
         let twice: Vec<(&Golden, f64)> = vec![(&gs[0], gs[0].mean), (&gs[0], gs[0].mean)];
         assert_eq!(joint(&twice).terms, 1);
+        // The same number in other units (Z and Z over a constant) counts once.
         let seeds: Vec<u64> = (1..=20).collect();
+        let scaled: Vec<f64> = gs[1].values.iter().map(|v| 3.0 * v + 1.0).collect();
+        let other_units = golden("f", "scaled", &seeds, &scaled, 6.0, 0.01);
+        let pair = vec![(&gs[1], gs[1].mean), (&other_units, other_units.mean)];
+        assert_eq!(joint(&pair).terms, 1);
+        let pair = vec![(&gs[1], gs[1].mean), (&gs[2], gs[2].mean)];
+        assert_eq!(joint(&pair).terms, 2);
         let mut v = vec![f64::NAN; 20];
         v[..3].copy_from_slice(&[1.0, 2.0, 3.0]);
         let sparse = golden("f", "sparse", &seeds, &v, 4.0, 0.01);
