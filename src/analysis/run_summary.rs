@@ -210,6 +210,8 @@ pub fn row(
     let s = run_samples(summary)?;
     let (_, _, t_end) = stationarity(&s, 1);
     let (p_mean, p_drift, p_end) = stationarity(&s, 2);
+    let z = number(summary, "z")?;
+    let z_enskog = enskog_compressibility(cfg.phi, cfg.eps, &radii[..2], &fractions);
     Ok(vec![
         ("T", t),
         // The sampled T fluctuates; its spread over the samples is an upper bound
@@ -240,16 +242,9 @@ pub fn row(
         // Collisions per particle per unit time at unit temperature (they scale
         // as sqrt(T)): with Z, the equation of state of the driven fluid.
         ("rate_reduced", rate / t.sqrt()),
-        ("z", number(summary, "z")?),
-        (
-            "z_enskog",
-            enskog_compressibility(cfg.phi, cfg.eps, &radii[..2], &fractions),
-        ),
-        (
-            "z_over_enskog",
-            number(summary, "z")?
-                / enskog_compressibility(cfg.phi, cfg.eps, &radii[..2], &fractions),
-        ),
+        ("z", z),
+        ("z_enskog", z_enskog),
+        ("z_over_enskog", z / z_enskog),
         ("collisions", collisions),
         ("guard_activations", guard),
         ("guard_fraction", guard_fraction),
