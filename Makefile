@@ -8,7 +8,7 @@ JOBS ?=
 REPRO ?= $(CARGO) run --release --locked --quiet --
 JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: convergence build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity
+.PHONY: convergence build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity coverage-small
 
 build:
 	$(CARGO) build --release --locked
@@ -40,6 +40,13 @@ bench:
 # about an hour on 2 cores, so not part of `make test`.
 sensitivity:
 	REPRO="$(REPRO)" JOBS="$(JOBS)" scripts/sensitivity.sh
+
+# Do the default profile's quoted errors cover their spread? The eps = 0.9
+# sweep's headline figures and intruder-fig5 at four fresh master seeds
+# (docs/coverage-small.md); `repro plan fig2 fig4 fig15 fig19 intruder-fig5`
+# plans 1.62 core-hours a seed, so about 6.5 in all: not part of `make test`.
+coverage-small:
+	$(REPRO) coverage --profile small --seeds 101,102,103,104 --docs $(JOBS_FLAG) fig2 fig4 fig15 fig19 intruder-fig5
 
 all-figures:
 	$(REPRO) figure --all --profile $(PROFILE) $(JOBS_FLAG)

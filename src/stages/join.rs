@@ -137,6 +137,98 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
     Ok(out)
 }
 
+/// A derived column's value from its two inputs (`b` unused by `reciprocal`).
+fn apply(d: &Derived, a: f64, b: f64) -> f64 {
+    match d.op.as_str() {
+        "divide" => a / b,
+        "multiply" => a * b,
+        "ln_times" => b * a.ln(),
+        "reciprocal" => 1.0 / a,
+        _ => a.sqrt() / b,
+    }
+}
+
+/// The side of the join each column comes from, and the replica unit of each
+/// output row on either side.
+struct Origin {
+    left: std::collections::BTreeSet<String>,
+    right: std::collections::BTreeSet<String>,
+    left_unit: Option<Vec<f64>>,
+    right_unit: Option<Vec<f64>>,
+}
+
+/// The replica jackknife samples (`NAME_jkK`) of a derived column: its op
+/// applied to the samples of `a` and `b`, a column without samples (a key
+/// such as q or phi) counting as exact. So a fit to a ratio or a rescaled
+/// axis (S4/chi4 against q xi) refits with the replica left out of both
+/// factors and its error counts the normaliser's fluctuation. Empty where
+/// neither input has samples, or where an input's samples come from other
+/// runs than the row's `jk_unit` (tables of different experiments: their
+/// replicas do not pair).
+fn derived_samples(
+    f64s: &std::collections::BTreeMap<String, Vec<f64>>,
+    origin: &Origin,
+    d: &Derived,
+) -> Vec<Vec<f64>> {
+    let Some(unit) = f64s.get(pool::JK_UNIT) else {
+        return Vec::new();
+    };
+    let inputs: Vec<&str> = if d.op == "reciprocal" {
+        vec![d.a.as_str()]
+    } else {
+        vec![d.a.as_str(), d.b.as_str()]
+    };
+    let count = |n: &str| {
+        (0..pool::MAX_JK_REPLICAS)
+            .take_while(|&k| f64s.contains_key(&pool::jk_column(n, k)))
+            .count()
+    };
+    let counts: Vec<usize> = inputs.iter().map(|n| count(n)).collect();
+    let r = counts.iter().copied().max().unwrap_or(0);
+    if r < 2 || counts.iter().any(|&c| c != 0 && c != r) {
+        return Vec::new();
+    }
+    // Samples pair only where the input's side has the row's unit.
+    let paired = |n: &str| {
+        let side = if origin.left.contains(n) {
+            Some(&origin.left_unit)
+        } else if origin.right.contains(n) {
+            Some(&origin.right_unit)
+        } else {
+            None
+        };
+        match side {
+            Some(Some(u)) => u.iter().zip(unit).all(|(a, b)| a.to_bits() == b.to_bits()),
+            Some(None) => false,
+            // A column derived earlier in this join: paired by construction.
+            None => true,
+        }
+    };
+    if inputs
+        .iter()
+        .zip(&counts)
+        .any(|(n, &c)| c > 0 && !paired(n))
+    {
+        return Vec::new();
+    }
+    let column = |n: &str, k: usize| -> Option<&Vec<f64>> {
+        f64s.get(&pool::jk_column(n, k)).or_else(|| f64s.get(n))
+    };
+    (0..r)
+        .map(|k| {
+            let a = column(inputs[0], k);
+            let b = inputs.get(1).and_then(|n| column(n, k));
+            (0..unit.len())
+                .map(|i| {
+                    let a = a.map_or(f64::NAN, |v| v[i]);
+                    let b = b.map_or(f64::NAN, |v| v[i]);
+                    apply(d, a, b)
+                })
+                .collect()
+        })
+        .collect()
+}
+
 fn same(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-300)
 }
@@ -234,7 +326,21 @@ impl StageKind for Join {
                 f64s.insert(k.clone(), matched.iter().map(|&j| v[j]).collect());
             }
         }
+        // Which side each column came from, for pairing replica samples.
+        let origin = Origin {
+            left: l.f64.keys().cloned().collect(),
+            right: r.f64.keys().cloned().collect(),
+            left_unit: l.f64.get(pool::JK_UNIT).cloned(),
+            right_unit: r
+                .f64
+                .get(pool::JK_UNIT)
+                .map(|u| matched.iter().map(|&j| u[j]).collect()),
+        };
         for d in &p.derive {
+            let samples = derived_samples(&f64s, &origin, d);
+            for (k, v) in samples.into_iter().enumerate() {
+                f64s.insert(pool::jk_column(&d.name, k), v);
+            }
             let get = |n: &str| {
                 f64s.get(n).cloned().ok_or_else(|| {
                     anyhow::anyhow!(
@@ -254,16 +360,7 @@ impl StageKind for Join {
                 continue;
             }
             let (a, b) = (get(&d.a)?, get(&d.b)?);
-            let v: Vec<f64> = a
-                .iter()
-                .zip(&b)
-                .map(|(x, y)| match d.op.as_str() {
-                    "divide" => x / y,
-                    "multiply" => x * y,
-                    "ln_times" => y * x.ln(),
-                    _ => x.sqrt() / y,
-                })
-                .collect();
+            let v: Vec<f64> = a.iter().zip(&b).map(|(x, y)| apply(d, *x, *y)).collect();
             if d.propagate_errors {
                 let rel = |col: &str, vals: &[f64]| -> Vec<f64> {
                     match f64s.get(&format!("{col}_err")) {
@@ -349,6 +446,68 @@ mod tests {
         .unwrap();
         let e = Join.validate(&bad).unwrap_err().to_string();
         assert!(e.contains("'l'") && e.contains("propagate_errors"), "{e}");
+    }
+
+    /// A derived column carries replica samples where its inputs do: the op on
+    /// the samples of both factors (a key such as q counting as exact), so a
+    /// fit to S4/chi4 against q xi refits with the replica left out of the
+    /// normaliser too; none where the right table's replicas are other runs.
+    #[test]
+    fn derived_columns_carry_the_replica_samples_of_their_inputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let left = f64_batch(&[
+            ("phi", vec![0.6, 0.7]),
+            ("q", vec![0.5, 0.25]),
+            ("S4", vec![4.0, 9.0]),
+            ("S4_jk0", vec![3.0, 8.0]),
+            ("S4_jk1", vec![5.0, 10.0]),
+            ("jk_unit", vec![1.0, 2.0]),
+        ])
+        .unwrap();
+        let right = |unit: f64| {
+            f64_batch(&[
+                ("phi", vec![0.7, 0.6]),
+                ("chi4", vec![3.0, 2.0]),
+                ("chi4_jk0", vec![2.0, 1.0]),
+                ("chi4_jk1", vec![4.0, 4.0]),
+                ("xi", vec![8.0, 4.0]),
+                ("xi_jk0", vec![6.0, 2.0]),
+                ("xi_jk1", vec![10.0, 6.0]),
+                ("jk_unit", vec![unit + 1.0, unit]),
+            ])
+            .unwrap()
+        };
+        let params: Value = serde_saphyr::from_str(
+            "{left: s4, right: peaks, on: [phi], derive: [\
+             {name: ratio, op: divide, a: S4, b: chi4}, \
+             {name: q_xi, op: multiply, a: q, b: xi}, \
+             {name: inverse, op: reciprocal, a: ratio}]}",
+        )
+        .unwrap();
+        let ctx = StageCtx::new(0, "join".into(), None);
+        let joined = |unit: f64| {
+            let inputs = [
+                artifact(dir.path(), "s4", left.clone()),
+                artifact(dir.path(), "peaks", right(unit)),
+            ];
+            let out = Join.run_params(&ctx, &params, &inputs).unwrap();
+            let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+            Columns::from_batch(&b[0]).unwrap()
+        };
+        let c = joined(1.0);
+        let col = |n: &str| c.col(n).unwrap().to_vec();
+        assert_eq!(col("ratio"), vec![2.0, 3.0]);
+        assert_eq!(col("ratio_jk0"), vec![3.0, 4.0]);
+        assert_eq!(col("ratio_jk1"), vec![1.25, 2.5]);
+        assert_eq!(col("q_xi_jk0"), vec![1.0, 1.5]);
+        assert_eq!(col("q_xi_jk1"), vec![3.0, 2.5]);
+        // A column derived in the same join pairs with its own samples.
+        assert_eq!(col("inverse_jk0"), vec![1.0 / 3.0, 0.25]);
+        assert!(!c.f64.contains_key("ratio_jk2"));
+        // Other runs on the right: their replicas do not pair with the left's.
+        let c = joined(5.0);
+        assert_eq!(c.col("ratio").unwrap(), &[2.0, 3.0]);
+        assert!(!c.f64.contains_key("ratio_jk0") && !c.f64.contains_key("q_xi_jk0"));
     }
 
     /// Two fit tables (one row per quantity and group) join as one row per

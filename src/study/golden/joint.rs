@@ -323,11 +323,19 @@ fn scaled_chi2_quantile(m: f64, v: f64, alpha: f64) -> f64 {
 
 /// Goodness-of-fit numbers (reduced chi-square, collapse quality, point and
 /// curve counts) keep their bands but stay out of the joint test: their seed
-/// to seed distribution has tails far heavier than Gaussian.
+/// to seed distribution has tails far heavier than Gaussian. So do the OZ
+/// amplitude and scale of fig17's collapsed S4/chi4 (`collapse_chi0`,
+/// `collapse_xi`): 1 by Eq. 17 and by construction whatever the physics, they
+/// say how well the curves collapse, not where the fluid is; on twenty fresh
+/// ci seeds they scatter 2.4x wider than over the recorded twenty, three
+/// seeds beyond 4 spreads (docs/coverage-ci-fresh20.md).
 fn goodness_of_fit(quantity: &str) -> bool {
     quantity.starts_with("reduced_chi2")
         || quantity.starts_with("points")
-        || matches!(quantity, "curves" | "collapse_S")
+        || matches!(
+            quantity,
+            "curves" | "collapse_S" | "collapse_chi0" | "collapse_xi"
+        )
 }
 
 /// z with P(Z > z) = alpha for a standard normal (Acklam's rational
@@ -518,5 +526,11 @@ mod tests {
         let js = joint(&with);
         assert_eq!(js.terms, 20);
         assert!(js.threshold.is_finite() && js.passes(), "{js:?}");
+        // A collapse's quality keeps its band but stays out of the joint test.
+        let cubed: Vec<f64> = gs[3].values.iter().map(|v| v.powi(3)).collect();
+        let quality = golden("f", "collapse_chi0", &seeds, &cubed, 6.0, 0.01);
+        let mut with: Vec<(&Golden, f64)> = gs.iter().map(|g| (g, g.mean)).collect();
+        with.push((&quality, quality.mean + 10.0 * quality.std));
+        assert_eq!(joint(&with).terms, 20);
     }
 }
