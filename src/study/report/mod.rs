@@ -390,6 +390,13 @@ pub fn number(v: f64, err: f64) -> String {
     if !has_err && v.fract() == 0.0 {
         return format!("{:.0}", v + 0.0);
     }
+    // A small number measured to better than itself (an energy drift of
+    // 3e-14 +- 1e-15) in the error's precision, but as a power of ten: fixed
+    // point would print it as zeros.
+    if has_err && a != 0.0 && (a < 1e-3 || err < 1e-8) && err < a {
+        let mantissa = a.log10().floor() as i32 - err.log10().floor() as i32 + 1;
+        return format!("{v:.*e}", mantissa.clamp(0, 8) as usize);
+    }
     let digits = if has_err {
         1 - err.log10().floor() as i32
     } else if a == 0.0 {
@@ -429,7 +436,9 @@ pub fn plain(v: f64) -> String {
 }
 
 pub(crate) fn error(err: f64) -> String {
-    if err.is_finite() && err > 0.0 {
+    if err.is_finite() && err > 0.0 && err < 1e-4 {
+        format!("{err:.1e}")
+    } else if err.is_finite() && err > 0.0 {
         number(err, err)
     } else {
         "—".into()
@@ -701,6 +710,15 @@ mod tests {
         assert_eq!(number(-0.00001, 0.001), "0.0000", "no negative zero");
         assert_eq!(number(-0.0, f64::NAN), "0");
         assert_eq!(number(-0.012, 0.001), "-0.0120");
+        assert_eq!(number(7.0613e-6, 5.9e-6), "7.1e-6");
+        assert_eq!(error(5.9e-6), "5.9e-6");
+        assert_eq!(error(0.00052), "0.00052");
+        assert_eq!(number(3.4933e-14, 2.1e-15), "3.49e-14");
+        assert_eq!(
+            number(1.5e-4, 3e-4),
+            "0.00015",
+            "an error above the value: fixed point"
+        );
         assert_eq!(plain(0.83), "0.83");
         assert_eq!(plain(0.1 + 0.2), "0.3");
         assert_eq!(plain(-0.0), "0");
