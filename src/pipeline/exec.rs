@@ -272,7 +272,12 @@ pub fn execute(
             }),
         );
         let seconds = super::cost::node_seconds(graph, reg, &built);
-        sh.progress.plan(&stale, &seconds, opts.jobs);
+        let classes: Vec<String> = graph
+            .nodes
+            .iter()
+            .map(|n| progress::class_name(&n.kind, n.label()))
+            .collect();
+        sh.progress.plan(&stale, &seconds, &classes, opts.jobs);
         planned = Some(seconds);
     }
     let pool = rayon::ThreadPoolBuilder::new()

@@ -148,11 +148,12 @@ impl StageKind for Compare {
                 Some(&(_, v, e, _)) => {
                     let d = (v - pval.value).abs();
                     if let Some(c) = pval.claim {
+                        let other = pval
+                            .than
+                            .as_ref()
+                            .and_then(|q| ours.iter().find(|o| &o.0 == q));
                         let (bound, name) = match &pval.than {
-                            Some(q) => (
-                                ours.iter().find(|o| &o.0 == q).map_or(f64::NAN, |o| o.1),
-                                q.clone(),
-                            ),
+                            Some(q) => (other.map_or(f64::NAN, |o| o.1), q.clone()),
                             None => (pval.value, significant(pval.value)),
                         };
                         let (ok, op) = match c {
@@ -165,7 +166,18 @@ impl StageKind for Compare {
                             significant(v),
                             significant(bound)
                         );
+                        // A claim against a number its data cannot support (a
+                        // phi_c on the last point) cannot be judged either.
+                        let bound_note = other
+                            .map(|o| o.3.as_str())
+                            .filter(|n| n.contains("unreliable"));
                         match (ok, p.out_of_reach.get(&pval.quantity)) {
+                            _ if bound_note.is_some() => (
+                                v,
+                                e,
+                                "unreliable",
+                                format!("{name} is {}; {why}", bound_note.unwrap_or_default()),
+                            ),
                             (true, _) => (v, e, "agree", why),
                             (false, Some(r)) => (v, e, "out_of_reach", format!("{r}; {why}")),
                             (false, None) => (v, e, "disagree", why),
@@ -310,6 +322,49 @@ mod tests {
             reason[2]
         );
         assert!(reason[3].contains("no input reports 'd'"), "{}", reason[3]);
+    }
+
+    /// A claim against a bound that is itself unreliable (phi_c_08 > phi_c_09
+    /// while phi_c_09 falls on the last point) is unreliable, whichever way
+    /// the numbers lie; against a reliable bound it is judged.
+    #[test]
+    fn a_claim_against_an_unreliable_bound_is_unreliable() {
+        let dir = tempfile::tempdir().unwrap();
+        let on_last = "unreliable: phi_c = 0.783: it falls on the last point";
+        let weak = artifact(
+            dir.path(),
+            "weak",
+            quantity_batch(&[], &[("c10".to_string(), 0.783, 0.001)], on_last, None).unwrap(),
+        );
+        let firm = artifact(
+            dir.path(),
+            "firm",
+            quantity_batch(
+                &[],
+                &[
+                    ("c09".to_string(), 0.80, 0.002),
+                    ("c08".to_string(), 0.81, 0.002),
+                ],
+                "",
+                None,
+            )
+            .unwrap(),
+        );
+        let params = yaml(
+            "paper:\n\
+             - {quantity: c09, claim: above, than: c10, value: 0, tolerance: 0}\n\
+             - {quantity: c08, claim: above, than: c09, value: 0, tolerance: 0}\n",
+        );
+        let ctx = StageCtx::new(0, "compare".into(), None);
+        let out = Compare.run_params(&ctx, &params, &[weak, firm]).unwrap();
+        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(c.str[VERDICT], ["unreliable", "agree"]);
+        assert!(
+            c.str[REASON][0].starts_with("c10 is unreliable: phi_c = 0.783"),
+            "{}",
+            c.str[REASON][0]
+        );
     }
 
     #[test]

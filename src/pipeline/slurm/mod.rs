@@ -27,7 +27,7 @@ use anyhow::{Context, Result, bail, ensure};
 use super::cost;
 use super::exec::{self, Outcome, RunReport, StageResult, State, stage_key};
 use super::graph::{Graph, Node};
-use super::progress::Progress;
+use super::progress::{self, Progress};
 use super::registry::Registry;
 use super::spec::Catalogue;
 use super::store::{Entry, Found, Store};
@@ -155,9 +155,15 @@ impl Driver<'_> {
             .map(|d| d.join("log").join("LAST-RUN.log"));
         let progress = Progress::new(self.opts.progress, nodes.len(), log.as_deref());
         // Slurm runs every ready stage at once: the end is the longest chain's.
+        let classes: Vec<String> = g
+            .nodes
+            .iter()
+            .map(|n| progress::class_name(&n.kind, n.label()))
+            .collect();
         progress.plan(
             nodes,
             &cost::node_seconds(g, self.reg, &Default::default()),
+            &classes,
             nodes.len(),
         );
         let mut results: Vec<Option<StageResult>> = vec![None; n];
