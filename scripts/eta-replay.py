@@ -43,8 +43,13 @@ def read_plan(path):
 
 
 def main(log, plan):
-    start = int(re.match(r"run-0*(\d+)-\d+\.log$", os.path.basename(os.path.realpath(log)))[1])
+    name = re.match(r"run-0*(\d+)-\d+\.log$", os.path.basename(os.path.realpath(log)))
+    if not name:
+        sys.exit(f"eta-replay: {log} is not a run log (run-UNIXSECONDS-PID.log)")
+    start = int(name[1])
     sims, kinds = read_plan(plan)
+    if not sims:
+        sys.exit(f"eta-replay: {plan} has no simulation table (the output of `repro plan`)")
 
     def planned(label, kind):
         if kind == "simulate":
@@ -63,6 +68,8 @@ def main(log, plan):
         m = re.match(r"\[\s*([\d.]+) s\] .*ends ~(\d+):(\d+):(\d+)", line)
         if m:
             ev.append(("eta", float(m[1]), int(m[2]) * 3600 + int(m[3]) * 60 + int(m[4]) - start % 86400))
+    if not any(e[0] == "fin" for e in ev):
+        sys.exit(f"eta-replay: {log} has no finished stage")
     end = max(e[1] for e in ev)
     stages = {e[2]: (e[3], planned(e[2], e[3]), e[1] - e[4], e[1]) for e in ev if e[0] == "fin"}
 
