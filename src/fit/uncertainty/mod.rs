@@ -9,12 +9,15 @@
 //!   taken from other fits refitted on the same replicas, objects of several
 //!   replicas, and the account of the method.
 //! - [`pooling`]: fits on one state point each, their jackknife scale pooled.
+//! - [`held`]: the share of a number held at another fit's value, from
+//!   refits at that value plus and minus its error.
 //! - [`leverage`]: a fit one point carries, and an error at least the
 //!   delete-one-point jackknife's when it does.
 //!
 //! Everything works on plain numbers and on a `refit` closure; reading and
 //! writing tables is the stages' business.
 
+pub mod held;
 pub mod leverage;
 pub mod pooling;
 pub mod replicas;

@@ -85,7 +85,7 @@ impl StageKind for Collapse {
         }
         let phi_c = match (&p.phi_c, &p.phi_c_from) {
             (Some(v), _) => *v,
-            (None, Some(f)) => f.get("collapse", inputs)?,
+            (None, Some(f)) => f.get("collapse", inputs)?.0,
             _ => f64::NAN, // validated: a measured xi column instead
         };
         let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;

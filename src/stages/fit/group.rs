@@ -14,6 +14,7 @@ use super::samples::{
 };
 use crate::fit::Data;
 use crate::fit::catalogue::Form;
+use crate::fit::uncertainty::held::{add_in_quadrature, held_shifts};
 use crate::fit::uncertainty::leverage::{CARRIED, carried_errors, leverages};
 use crate::fit::uncertainty::replicas::{
     FitPoints, Refits, covariance_method, mean_jackknife, replica_errors,
@@ -38,6 +39,16 @@ pub(super) struct Group {
 
 /// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
 /// the fitted columns, with the group's values) and its range scan, if asked for.
+/// The numbers a fit takes from other fits (`fixed_from`): the replica refits
+/// of those whose fit has them (its jackknife refits them with the same replica
+/// left out), and the value and quoted error of those whose fit has none (held,
+/// their error passed on by [`held_shifts`]).
+#[derive(Default)]
+pub(super) struct TakenNumbers {
+    pub refits: Vec<(String, Refits)>,
+    pub held: Vec<(String, f64, f64)>,
+}
+
 pub(super) fn fit_group(
     ctx: &StageCtx,
     p: &FitParams,
@@ -45,8 +56,9 @@ pub(super) fn fit_group(
     rows: &[usize],
     group: &[(String, f64)],
     fixed: &[(String, f64)],
-    shifted: &[(String, Refits)],
+    from_other: &TakenNumbers,
 ) -> Result<Group> {
+    let shifted = &from_other.refits;
     let x = pick(c.col(&p.x)?, rows);
     let y = pick(c.col(&p.y)?, rows);
     let s = match &p.y_err {
@@ -173,6 +185,29 @@ pub(super) fn fit_group(
                             "fit carried by one point (leverage {max_leverage:.3}): errors at least the delete-one-point jackknife's"
                         ));
                     }
+                }
+            }
+            // A number held at another fit's value, that fit without replica
+            // refits: its error passed on by refits at its value +- that error.
+            let center = reported(p, &x, &y, &f);
+            for (name, value, err) in &from_other.held {
+                let refit_at = |v: f64| {
+                    let at: Vec<(&str, f64)> = fixed_ref
+                        .iter()
+                        .map(|&(k, w)| (k, if k == name { v } else { w }))
+                        .collect();
+                    let g = fit_form(p, &x, &y, &s, &at).ok()?;
+                    Some(reported(p, &x, &y, &g))
+                };
+                if let Some(d) = held_shifts(&center, *value, *err, refit_at) {
+                    let mut e: Vec<f64> = rows.iter().map(|r| r.2).collect();
+                    add_in_quadrature(&mut e, &d);
+                    for (row, e) in rows.iter_mut().zip(e) {
+                        row.2 = e;
+                    }
+                    method.push_str(&format!(
+                        "; {name} held at {value:.6} +- {err:.2e} (from another fit without replica refits): each error adds in quadrature half the change between the refits at {name} +- {err:.2e}"
+                    ));
                 }
             }
             if let Some(r) = &replicated.refits {

@@ -6,13 +6,12 @@ use std::collections::BTreeMap;
 use anyhow::{Context, Result, bail};
 use serde_json::Value;
 
-use super::group::fit_group;
+use super::group::{TakenNumbers, fit_group};
 use super::params::{FitForm, FitParams};
 use super::pooling::pool_one_unit_errors;
 use super::quantities::same_columns;
 use super::{ERROR_METHOD, JACKKNIFE_FILE};
 use crate::fit::catalogue;
-use crate::fit::uncertainty::replicas::Refits;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::stages::tables::{Columns, inputs_of, source_stages};
@@ -118,11 +117,13 @@ impl StageKind for Fit {
         let c = Columns::read_file(&data_inputs(&p, inputs)?, &p.file)?;
         let rows = c.select(&p.filter)?;
         let mut fixed: Vec<(String, f64)> = p.fixed.iter().map(|(k, v)| (k.clone(), *v)).collect();
-        let mut shifted: Vec<(String, Refits)> = Vec::new();
+        let mut taken = TakenNumbers::default();
         for (name, from) in &p.fixed_from {
-            fixed.push((name.clone(), from.get("fit", inputs)?));
-            if let Some(r) = from.jackknife("fit", inputs)? {
-                shifted.push((name.clone(), r));
+            let (value, err) = from.get("fit", inputs)?;
+            fixed.push((name.clone(), value));
+            match from.jackknife("fit", inputs)? {
+                Some(r) => taken.refits.push((name.clone(), r)),
+                None => taken.held.push((name.clone(), value, err)),
             }
         }
         // Rows per group, groups in ascending order of their values.
@@ -148,7 +149,7 @@ impl StageKind for Fit {
             for (name, x0) in &p.fixed_at_x {
                 fixed.push((name.clone(), value_at_x(&p, &c, &keys, &key, *x0)?));
             }
-            fitted.push(fit_group(ctx, &p, &c, &rows, &group, &fixed, &shifted)?);
+            fitted.push(fit_group(ctx, &p, &c, &rows, &group, &fixed, &taken)?);
         }
         let pooled = pool_one_unit_errors(&mut fitted)?;
         let (mut tables, mut curves, mut scans, mut methods, mut jackknives) =

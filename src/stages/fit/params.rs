@@ -23,9 +23,10 @@ pub struct FromQuantity {
 }
 
 impl FromQuantity {
-    pub(super) fn get(&self, kind: &str, inputs: &[Artifact]) -> Result<f64> {
+    /// The number's value and quoted error.
+    pub(super) fn get(&self, kind: &str, inputs: &[Artifact]) -> Result<(f64, f64)> {
         let c = Columns::read(&inputs_of(kind, inputs, &self.stage)?)?;
-        Ok(c.quantity(&self.quantity)?.0)
+        c.quantity(&self.quantity)
     }
 
     /// The number's replica jackknife refits (`jackknife.parquet` of its fit), if

@@ -57,7 +57,7 @@ pub(super) fn run_named(
 ) -> Result<Output> {
     let phi_c = match (&p.phi_c, &p.phi_c_from) {
         (Some(v), _) => *v,
-        (None, Some(f)) => f.get("collapse", inputs)?,
+        (None, Some(f)) => f.get("collapse", inputs)?.0,
         _ => f64::NAN,
     };
     let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;

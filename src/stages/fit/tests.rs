@@ -128,9 +128,11 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
 
 /// chi4(tau_alpha) = A (phi_c - phi)^-gamma_chi with phi_c from the
 /// tau_alpha fit of the same replicas (Fig. 15): synthetic replicas with known
-/// truth, many realisations. Holding phi_c at its value in the refits quotes
-/// less than half the true spread of gamma_chi; refitting it with the same
-/// replica left out (the tau fit's `jackknife.parquet`) quotes the spread.
+/// truth, many realisations. Refitting phi_c with the same replica left out
+/// (the tau fit's `jackknife.parquet`) quotes the spread of gamma_chi. Without
+/// those refits phi_c is held in the jackknife, which alone quoted 0.40 of the
+/// spread; its quoted error passed on by refits at phi_c +- it covers, on the
+/// safe side (1.4 of the spread here).
 #[test]
 fn a_number_taken_from_another_fit_is_refitted_on_the_same_replicas() {
     use rand::SeedableRng;
@@ -209,7 +211,10 @@ fn a_number_taken_from_another_fit_is_refitted_on_the_same_replicas() {
         (0.75..1.35).contains(&with),
         "quoted/spread {with} (held: {held})"
     );
-    assert!(held < 0.6, "quoted/spread with phi_c held {held}");
+    assert!(
+        (0.75..2.0).contains(&held),
+        "quoted/spread with phi_c held and its error passed on {held}"
+    );
 }
 
 /// `scatter: relative` on points that scatter 20% about a power law with
