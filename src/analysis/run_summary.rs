@@ -211,12 +211,12 @@ pub fn row(
     let z_enskog = enskog_compressibility(cfg.phi, cfg.eps, &radii[..2], &fractions);
     Ok(vec![
         ("T", t),
-        // The error of this run's mean T over its production samples, which
-        // are spaced so far apart that they are independent (their blocking
-        // error is flat and their lag-1 correlation about 0 at phi = 0.78).
+        // The error of this run's mean T over its production samples, taken
+        // as independent: once each run's kick rate is accounted for, runs
+        // scatter as these errors say (stability-collapse's fit t_kick).
         // Runs of one state point differ by more: the balanced rule fixes each
         // run's kick rate from a short window of the relaxation, and T follows
-        // it (docs/measurements.md), so a comparison across runs needs replicas.
+        // it, so a comparison across runs needs replicas.
         (
             "T_err",
             number(summary, "temperature_std")? / production.sqrt(),
