@@ -53,9 +53,10 @@ all-figures:
 	$(REPRO) report --profile $(PROFILE) --html
 
 # The sweeps in N of the numbers that disagree at small (docs/figures.md,
-# "Convergence in N"): too slow for CI; 1.77 core-hours of simulation at small.
+# "Convergence in N"): too slow for CI; 2.74 core-hours of simulation planned at
+# small (`repro plan convergence-tau ... convergence-eps --profile small`).
 convergence:
-	$(REPRO) figure convergence-tau convergence-exponents convergence-cutoff convergence-intruder --profile $(PROFILE) $(JOBS_FLAG)
+	$(REPRO) figure convergence-tau convergence-exponents convergence-cutoff convergence-intruder convergence-collapse convergence-eps --profile $(PROFILE) $(JOBS_FLAG)
 
 # The gallery and key-number table of the built figures: results/REPORT.md and
 # results/report/index.html (docs/report-PROFILE.md too with DOCS=1).

@@ -348,6 +348,7 @@ mod tests {
                     label: "paper".into(),
                     dashed: true,
                     color: None,
+                    band: None,
                 }],
                 ..Default::default()
             }],

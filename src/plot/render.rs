@@ -554,6 +554,49 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
     };
     let r = frame.rect;
 
+    // Bands about reference lines (a paper's tolerance) under everything, pale
+    // tints of the line's colour; on a log axis the lower edge may leave it.
+    let tint = |c: Option<Color>| {
+        let RGBColor(r, g, b) = c.map_or(GREY, rgb);
+        let pale = |v: u8| 255 - ((255 - v as u16) * 3 / 20) as u8;
+        RGBColor(pale(r), pale(g), pale(b))
+    };
+    for l in &p.hlines {
+        if let Some(w) = l.band {
+            let at = |v: f64| {
+                let f = if ys.log && v <= 0.0 {
+                    -1.0
+                } else {
+                    ys.fraction(v)
+                };
+                (r.y1 - f.clamp(0.0, 1.0) * r.height()).clamp(r.y0, r.y1)
+            };
+            let (y0, y1) = (at(l.at + w), at(l.at - w));
+            if y1 > y0 {
+                let c = [px((r.x0, y0)), px((r.x1, y1))];
+                root.draw(&Rectangle::new(c, tint(l.color).filled()))
+                    .map_err(err)?;
+            }
+        }
+    }
+    for l in &p.vlines {
+        if let Some(w) = l.band {
+            let at = |v: f64| {
+                let f = if xs.log && v <= 0.0 {
+                    0.0
+                } else {
+                    xs.fraction(v)
+                };
+                (r.x0 + f.clamp(0.0, 1.0) * r.width()).clamp(r.x0, r.x1)
+            };
+            let (x0, x1) = (at(l.at - w), at(l.at + w));
+            if x1 > x0 {
+                let c = [px((x0, r.y0)), px((x1, r.y1))];
+                root.draw(&Rectangle::new(c, tint(l.color).filled()))
+                    .map_err(err)?;
+            }
+        }
+    }
     // Reference lines under the data.
     for l in &p.hlines {
         let y = r.y1 - ys.fraction(l.at) * r.height();

@@ -282,6 +282,10 @@ pub struct RefLine {
     /// Default: grey.
     #[serde(default)]
     pub color: Option<Color>,
+    /// Half-width of a pale band about the line (a paper's value and its
+    /// tolerance), in the axis' units; none by default.
+    #[serde(default)]
+    pub band: Option<f64>,
 }
 
 fn yes() -> bool {
@@ -359,6 +363,13 @@ impl Figure {
             }
             for (kind, lines, axis) in [("hline", &p.hlines, &p.y), ("vline", &p.vlines, &p.x)] {
                 for l in lines {
+                    if let Some(b) = l.band {
+                        ensure!(
+                            b.is_finite() && b > 0.0,
+                            "{name}: the band of the {kind} at {} must be a positive half-width, not {b}",
+                            l.at
+                        );
+                    }
                     if !l.at.is_finite() || (axis.log && l.at <= 0.0) {
                         bail!(
                             "{name}: {kind} at {} cannot be drawn on a {} axis",

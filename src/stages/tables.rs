@@ -176,19 +176,38 @@ impl Columns {
 
     /// Value of a `quantity` row of a fit table (columns quantity, value, error).
     pub fn quantity(&self, name: &str) -> Result<(f64, f64)> {
+        self.quantity_in(name, &[])
+    }
+
+    /// Value of a `quantity` row of a fit table in the row group `group` (a
+    /// `group_by` fit's): the first row named `name` whose group columns the
+    /// table has equal the group's values; columns it lacks are ignored.
+    pub fn quantity_in(&self, name: &str, group: &[(String, f64)]) -> Result<(f64, f64)> {
         let q = self.str.get(QUANTITY).with_context(|| {
             format!(
                 "table from {} has no 'quantity' column (not a fit table)",
                 self.source
             )
         })?;
-        let i = q.iter().position(|s| s == name).with_context(|| {
-            format!(
-                "fit table from {} reports no quantity '{name}'; it has: {}",
-                self.source,
-                q.join(", ")
-            )
-        })?;
+        let in_group = |i: usize| {
+            group
+                .iter()
+                .all(|(k, v)| self.col(k).map_or(true, |c| c[i] == *v))
+        };
+        let i = (0..q.len())
+            .position(|i| q[i] == name && in_group(i))
+            .with_context(|| {
+                format!(
+                    "fit table from {} reports no quantity '{name}'{}; it has: {}",
+                    self.source,
+                    if group.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" in the group {group:?}")
+                    },
+                    q.join(", ")
+                )
+            })?;
         Ok((self.col(VALUE)?[i], self.col(ERROR)?[i]))
     }
 }

@@ -364,26 +364,13 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
                 series,
                 // The paper's value and its tolerance band: the distance to
                 // the paper reads off against the band, the spread as error bars.
-                hlines: vec![
-                    RefLine {
-                        at: paper,
-                        label: "paper".into(),
-                        dashed: true,
-                        color: Some(crate::plot::Color([0, 0, 0])),
-                    },
-                    RefLine {
-                        at: paper - tol,
-                        label: "paper ± tolerance".into(),
-                        dashed: true,
-                        color: None,
-                    },
-                    RefLine {
-                        at: paper + tol,
-                        label: String::new(),
-                        dashed: true,
-                        color: None,
-                    },
-                ],
+                hlines: vec![RefLine {
+                    at: paper,
+                    label: "paper ± tolerance".into(),
+                    dashed: true,
+                    color: Some(crate::plot::Color([0, 0, 0])),
+                    band: (tol > 0.0).then_some(tol),
+                }],
                 vlines: vec![],
                 legend: Legend::Auto,
                 legend_title: String::new(),

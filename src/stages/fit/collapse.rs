@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use anyhow::{Result, bail};
 use serde_json::Value;
 
-use super::collapse_output::collapse_output;
+use super::collapse_output::{CollapseParts, collapse_files, collapse_output};
 use super::params::CollapseParams;
 use super::rescaled::{run_named, validate_named};
 use super::samples::replica_columns;
@@ -17,7 +17,7 @@ use crate::fit::rescalings;
 use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, XI_REFITTED, jackknife_method};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
-use crate::stages::tables::{Columns, inputs_of, pick};
+use crate::stages::tables::{Columns, Cond, inputs_of, pick};
 
 pub struct Collapse;
 
@@ -38,6 +38,16 @@ impl StageKind for Collapse {
     }
     fn parse(&self, params: &Value) -> Result<CollapseParams> {
         let p: CollapseParams = typed("collapse", params)?;
+        for k in &p.group_by {
+            if *k == p.curve_by || *k == p.x {
+                bail!("collapse: `group_by` column '{k}' is also `curve_by` or `x`");
+            }
+            if p.filter.contains_key(k) {
+                bail!(
+                    "collapse: `group_by` column '{k}' is also in `where`; each group takes one value"
+                );
+            }
+        }
         if let Some(name) = &p.rescaling {
             validate_named(&p, name)?;
             return Ok(p);
@@ -79,269 +89,181 @@ impl StageKind for Collapse {
         Ok(p)
     }
     fn run(&self, ctx: &StageCtx, p: &CollapseParams, inputs: &[Artifact]) -> Result<Output> {
-        if let Some(name) = &p.rescaling {
-            let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
-            return run_named(ctx, &p, r, inputs);
+        if p.group_by.is_empty() {
+            return collapse_files(vec![collapse_group(ctx, p, inputs, &[])?]);
         }
-        let phi_c = match (&p.phi_c, &p.phi_c_from) {
-            (Some(v), _) => *v,
-            (None, Some(f)) => f.get("collapse", inputs)?.0,
-            _ => f64::NAN, // validated: a measured xi column instead
-        };
+        // One collapse per group: its rows are the group's rows of `where`.
         let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
-        // A measured xi per curve (its first row), when given.
-        let measured: Option<BTreeMap<u64, f64>> = match &p.xi {
-            Some(col) => {
-                let (v, b) = (c.col(col)?, c.col(&p.curve_by)?);
-                let mut m = BTreeMap::new();
-                for i in 0..c.rows {
-                    m.entry(b[i].to_bits()).or_insert(v[i]);
-                }
-                Some(m)
+        let keys: Vec<&[f64]> = p.group_by.iter().map(|k| c.col(k)).collect::<Result<_>>()?;
+        let mut groups: Vec<Vec<f64>> = Vec::new();
+        for i in c.select(&p.filter)? {
+            let g: Vec<f64> = keys.iter().map(|k| k[i]).collect();
+            if !groups.contains(&g) {
+                groups.push(g);
             }
-            None => None,
-        };
-        let rows = c.select(&p.filter)?;
-        let rows_in = rows.clone();
-        let (xc, yc, ec, bc) = (
-            c.col(&p.x)?,
-            c.col(&p.y)?,
-            c.col(&p.y_err)?,
-            c.col(&p.curve_by)?,
-        );
-        let x_all = pick(xc, &rows);
-        let y_all = pick(yc, &rows);
-        let (e_all, b_all) = (pick(ec, &rows), pick(bc, &rows));
-        // Curves without a usable measured xi are left out.
-        let has_xi = |c: &Curve| {
-            measured
-                .as_ref()
-                .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
-        };
-        let curves_of = |ys: &[f64]| -> Vec<Curve> {
-            curves_by(&p.curve_by, &x_all, ys, &e_all, &b_all)
-                .into_iter()
-                .filter(|c| has_xi(c))
-                .collect()
-        };
-        let curves = curves_of(&y_all);
-        let fitted: &[&str] = if measured.is_some() {
-            &["g"]
-        } else {
-            &["g", "gamma_xi"]
-        };
-        // With `g_from` nothing is fitted and `bounds` is empty (validated).
-        let bounds: Vec<(f64, f64)> = fitted
+        }
+        groups.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+        if groups.is_empty() {
+            bail!("collapse: no rows of '{}' pass `where`", p.data);
+        }
+        let parts = groups
             .iter()
-            .map(|k| p.bounds.get(*k).copied().unwrap_or((f64::NAN, f64::NAN)))
-            .collect();
-        // The measured xi of each curve with one replica of one unit left out
-        // (`XI_jkK` with `jk_unit`, from a fit per state point that carries
-        // them): the refits rescale with it, so that xi's share of the variance
-        // is counted rather than held at its value.
-        let measured_jk: Option<BTreeMap<(u64, usize), (u64, f64)>> = match &p.xi {
-            Some(col) => {
-                let b = c.col(&p.curve_by)?;
-                let units = c.col(pool::JK_UNIT).ok();
-                let samples: Vec<&[f64]> = (0..pool::MAX_JK_REPLICAS)
-                    .map_while(|k| c.col(&pool::jk_column(col, k)).ok())
-                    .collect();
-                units.filter(|_| samples.len() >= 2).map(|u| {
-                    let mut m = BTreeMap::new();
-                    for i in 0..c.rows {
-                        for (k, v) in samples.iter().enumerate() {
-                            m.entry((u[i].to_bits(), k))
-                                .or_insert((b[i].to_bits(), v[i]));
-                        }
-                    }
-                    m
-                })
-            }
-            None => None,
-        };
-        let rescale_with = |by_xi: Option<BTreeMap<u64, f64>>| {
-            move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
-                let l = match &by_xi {
-                    Some(m) => m[&cv.param.to_bits()],
-                    None => xi(phi_c, cv.param, q[1]),
-                };
-                let f = l.powf(-q[0]);
-                (x.sqrt() / l, y * f, s * f)
-            }
-        };
-        let rescale = rescale_with(measured.clone());
-        // The measured xi with replica `left` of its unit left out.
-        let xi_left_out = |left: pool::LeftOut| -> Option<BTreeMap<u64, f64>> {
-            let mut m = measured.clone()?;
-            if let Some((curve, v)) = measured_jk
-                .as_ref()
-                .and_then(|j| j.get(&(left.unit.to_bits(), left.replica)))
-                && v.is_finite()
-                && *v > 0.0
-            {
-                m.insert(*curve, *v);
+            .map(|g| {
+                let group: Vec<(String, f64)> =
+                    p.group_by.iter().cloned().zip(g.iter().copied()).collect();
+                let mut one = p.clone();
+                one.group_by.clear();
+                for (k, v) in &group {
+                    one.filter.insert(k.clone(), Cond::Equal(*v));
+                }
+                collapse_group(ctx, &one, inputs, &group)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        collapse_files(parts)
+    }
+}
+
+/// The collapse of the rows of `p.filter` (one group's, with `group` its
+/// `group_by` values).
+fn collapse_group(
+    ctx: &StageCtx,
+    p: &CollapseParams,
+    inputs: &[Artifact],
+    group: &[(String, f64)],
+) -> Result<CollapseParts> {
+    if let Some(name) = &p.rescaling {
+        let r = rescalings::find(name).map_err(|e| anyhow::anyhow!("collapse: {e}"))?;
+        return run_named(ctx, p, r, inputs, group);
+    }
+    let phi_c = match (&p.phi_c, &p.phi_c_from) {
+        (Some(v), _) => *v,
+        (None, Some(f)) => f.get("collapse", inputs)?.0,
+        _ => f64::NAN, // validated: a measured xi column instead
+    };
+    let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+    let rows = c.select(&p.filter)?;
+    let rows_in = rows.clone();
+    // A measured xi per curve (its first row of `where`), when given.
+    let measured: Option<BTreeMap<u64, f64>> = match &p.xi {
+        Some(col) => {
+            let (v, b) = (c.col(col)?, c.col(&p.curve_by)?);
+            let mut m = BTreeMap::new();
+            for &i in &rows {
+                m.entry(b[i].to_bits()).or_insert(v[i]);
             }
             Some(m)
-        };
-        if let Some(from) = &p.g_from {
-            // g held: the collapse is a test of the independent exponents, its
-            // quality S the verdict; g's error is the source fit's.
-            let (g, dg) = Columns::read(&inputs_of("collapse", inputs, &from.stage)?)?
-                .quantity(&from.quantity)?;
-            let (rows, note, best) = match collapse::quality(&curves, &rescale, &[g]) {
-                Ok(q) => (
-                    vec![
-                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                        ("collapse_S".to_string(), q.s, f64::NAN),
-                        ("curves".to_string(), curves.len() as f64, 0.0),
-                    ],
-                    String::new(),
-                    Some(vec![g, f64::NAN]),
-                ),
-                Err(e) => (
-                    vec![
-                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                        ("collapse_S".to_string(), f64::NAN, f64::NAN),
-                    ],
-                    format!("collapse quality failed: {e:#}"),
-                    None,
-                ),
-            };
-            let method = format!(
-                "g held at {}.{} (its fit's error); no fit",
-                from.stage, from.quantity
-            );
-            return collapse_output(
-                &p,
-                &curves,
-                best.as_deref(),
-                &rescale,
-                &rows,
-                &note,
-                &method,
-            );
         }
-        let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
-            Err(anyhow::anyhow!(
-                "phi_c = {phi_c} is not above every {} of the data",
-                p.curve_by
-            ))
-        } else {
-            collapse::collapse(&curves, fitted, &bounds, &rescale).map_err(anyhow::Error::from)
-        };
-        let mut method = "fit covariance of the collapse".to_string();
-        let (rows, note, best) = match result {
-            Ok(r) if measured.is_some() => {
-                let (g, mut dg) = r.get("g").expect("named");
-                // Errors from refits with one replica of one phi left out, in
-                // chi4P and, where the data carry its replica samples, in the
-                // measured xi of that phi (else xi is held at its value).
-                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
-                    let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                        let curves = curves_of(ys);
-                        let rescale = rescale_with(xi_left_out(left));
-                        collapse::best(&curves, fitted, &bounds, &rescale)
-                            .map_err(|e| {
-                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
-                            })
-                            .ok()
-                            .map(|b| vec![b[0]])
-                    };
-                    match pool::replica_jackknife_with(
-                        &units,
-                        &x_all,
-                        &y_all,
-                        &[],
-                        &y_jk,
-                        &[],
-                        refit,
-                    ) {
-                        Some(j) => {
-                            dg = j.errors[0];
-                            let note = if measured_jk.is_some() {
-                                XI_REFITTED
-                            } else {
-                                HELD
-                            };
-                            method = jackknife_method(j.refits.len(), note);
-                        }
-                        None => method.push_str(JK_IMPOSSIBLE),
+        None => None,
+    };
+    let (xc, yc, ec, bc) = (
+        c.col(&p.x)?,
+        c.col(&p.y)?,
+        c.col(&p.y_err)?,
+        c.col(&p.curve_by)?,
+    );
+    let x_all = pick(xc, &rows);
+    let y_all = pick(yc, &rows);
+    let (e_all, b_all) = (pick(ec, &rows), pick(bc, &rows));
+    // Curves without a usable measured xi are left out.
+    let has_xi = |c: &Curve| {
+        measured
+            .as_ref()
+            .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
+    };
+    let curves_of = |ys: &[f64]| -> Vec<Curve> {
+        curves_by(&p.curve_by, &x_all, ys, &e_all, &b_all)
+            .into_iter()
+            .filter(|c| has_xi(c))
+            .collect()
+    };
+    let curves = curves_of(&y_all);
+    let fitted: &[&str] = if measured.is_some() {
+        &["g"]
+    } else {
+        &["g", "gamma_xi"]
+    };
+    // With `g_from` nothing is fitted and `bounds` is empty (validated).
+    let bounds: Vec<(f64, f64)> = fitted
+        .iter()
+        .map(|k| p.bounds.get(*k).copied().unwrap_or((f64::NAN, f64::NAN)))
+        .collect();
+    // The measured xi of each curve with one replica of one unit left out
+    // (`XI_jkK` with `jk_unit`, from a fit per state point that carries
+    // them): the refits rescale with it, so that xi's share of the variance
+    // is counted rather than held at its value.
+    let measured_jk: Option<BTreeMap<(u64, usize), (u64, f64)>> = match &p.xi {
+        Some(col) => {
+            let b = c.col(&p.curve_by)?;
+            let units = c.col(pool::JK_UNIT).ok();
+            let samples: Vec<&[f64]> = (0..pool::MAX_JK_REPLICAS)
+                .map_while(|k| c.col(&pool::jk_column(col, k)).ok())
+                .collect();
+            units.filter(|_| samples.len() >= 2).map(|u| {
+                let mut m = BTreeMap::new();
+                for &i in &rows_in {
+                    for (k, v) in samples.iter().enumerate() {
+                        m.entry((u[i].to_bits(), k))
+                            .or_insert((b[i].to_bits(), v[i]));
                     }
                 }
-                (
-                    vec![
-                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                        ("collapse_S".to_string(), r.quality.s, f64::NAN),
-                        ("curves".to_string(), curves.len() as f64, 0.0),
-                    ],
-                    String::new(),
-                    Some([g, f64::NAN]),
-                )
-            }
-            Ok(r) => {
-                let (g, mut dg) = r.get("g").expect("named");
-                let (gx, mut dgx) = r.get("gamma_xi").expect("named");
-                let cov = r.covariance[0][1];
-                let mut dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
-                    .max(0.0)
-                    .sqrt();
-                // The sub-box sizes of one phi come from the same runs: errors
-                // from refits with one replica of one phi left out.
-                if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
-                    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                        let b = collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
-                            .map_err(|e| {
-                                ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
-                            })
-                            .ok()?;
-                        let (g, gx) = (b[0], b[1]);
-                        Some(vec![g, gx, g * gx])
-                    };
-                    match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
-                        Some((e, refits)) => {
-                            (dg, dgx, dgc) = (e[0], e[1], e[2]);
-                            method = jackknife_method(refits, HELD);
-                        }
-                        None => method.push_str(JK_IMPOSSIBLE),
-                    }
-                }
-                (
-                    vec![
-                        ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                        ("gamma_xi".to_string(), gx, dgx),
-                        ("gamma_chi".to_string(), g * gx, dgc),
-                        ("collapse_S".to_string(), r.quality.s, f64::NAN),
-                        ("phi_c_used".to_string(), phi_c, 0.0),
-                        ("curves".to_string(), curves.len() as f64, 0.0),
-                    ],
-                    String::new(),
-                    Some([g, gx]),
-                )
-            }
-            Err(e) => {
-                let msg = format!("collapse failed: {e:#}");
-                ctx.log(msg.clone());
-                let names = [
-                    "gamma_chi_over_gamma_xi",
-                    "gamma_xi",
-                    "gamma_chi",
-                    "collapse_S",
-                ];
-                let mut rows: Vec<(String, f64, f64)> = names
-                    .iter()
-                    .filter(|n| {
-                        measured.is_none() || !n.starts_with("gamma_x") && **n != "gamma_chi"
-                    })
-                    .map(|n| (n.to_string(), f64::NAN, f64::NAN))
-                    .collect();
-                if measured.is_none() {
-                    rows.push(("phi_c_used".to_string(), phi_c, 0.0));
-                }
-                (rows, msg, None)
-            }
+                m
+            })
+        }
+        None => None,
+    };
+    let rescale_with = |by_xi: Option<BTreeMap<u64, f64>>| {
+        move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
+            let l = match &by_xi {
+                Some(m) => m[&cv.param.to_bits()],
+                None => xi(phi_c, cv.param, q[1]),
+            };
+            let f = l.powf(-q[0]);
+            (x.sqrt() / l, y * f, s * f)
+        }
+    };
+    let rescale = rescale_with(measured.clone());
+    // The measured xi with replica `left` of its unit left out.
+    let xi_left_out = |left: pool::LeftOut| -> Option<BTreeMap<u64, f64>> {
+        let mut m = measured.clone()?;
+        if let Some((curve, v)) = measured_jk
+            .as_ref()
+            .and_then(|j| j.get(&(left.unit.to_bits(), left.replica)))
+            && v.is_finite()
+            && *v > 0.0
+        {
+            m.insert(*curve, *v);
+        }
+        Some(m)
+    };
+    if let Some(from) = &p.g_from {
+        // g held: the collapse is a test of the independent exponents, its
+        // quality S the verdict; g's error is the source fit's.
+        let (g, dg) = Columns::read(&inputs_of("collapse", inputs, &from.stage)?)?
+            .quantity_in(&from.quantity, group)?;
+        let (rows, note, best) = match collapse::quality(&curves, &rescale, &[g]) {
+            Ok(q) => (
+                vec![
+                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                    ("collapse_S".to_string(), q.s, f64::NAN),
+                    ("curves".to_string(), curves.len() as f64, 0.0),
+                ],
+                String::new(),
+                Some(vec![g, f64::NAN]),
+            ),
+            Err(e) => (
+                vec![
+                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                    ("collapse_S".to_string(), f64::NAN, f64::NAN),
+                ],
+                format!("collapse quality failed: {e:#}"),
+                None,
+            ),
         };
-        let best = best.map(|q| q.to_vec());
-        collapse_output(
+        let method = format!(
+            "g held at {}.{} (its fit's error); no fit",
+            from.stage, from.quantity
+        );
+        return collapse_output(
             &p,
             &curves,
             best.as_deref(),
@@ -349,15 +271,136 @@ impl StageKind for Collapse {
             &rows,
             &note,
             &method,
-        )
+            group,
+        );
     }
+    let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
+        Err(anyhow::anyhow!(
+            "phi_c = {phi_c} is not above every {} of the data",
+            p.curve_by
+        ))
+    } else {
+        collapse::collapse(&curves, fitted, &bounds, &rescale).map_err(anyhow::Error::from)
+    };
+    let mut method = "fit covariance of the collapse".to_string();
+    let (rows, note, best) = match result {
+        Ok(r) if measured.is_some() => {
+            let (g, mut dg) = r.get("g").expect("named");
+            // Errors from refits with one replica of one phi left out, in
+            // chi4P and, where the data carry its replica samples, in the
+            // measured xi of that phi (else xi is held at its value).
+            if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+                let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    let curves = curves_of(ys);
+                    let rescale = rescale_with(xi_left_out(left));
+                    collapse::best(&curves, fitted, &bounds, &rescale)
+                        .map_err(|e| {
+                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                        })
+                        .ok()
+                        .map(|b| vec![b[0]])
+                };
+                match pool::replica_jackknife_with(&units, &x_all, &y_all, &[], &y_jk, &[], refit) {
+                    Some(j) => {
+                        dg = j.errors[0];
+                        let note = if measured_jk.is_some() {
+                            XI_REFITTED
+                        } else {
+                            HELD
+                        };
+                        method = jackknife_method(j.refits.len(), note);
+                    }
+                    None => method.push_str(JK_IMPOSSIBLE),
+                }
+            }
+            (
+                vec![
+                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                    ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                    ("curves".to_string(), curves.len() as f64, 0.0),
+                ],
+                String::new(),
+                Some([g, f64::NAN]),
+            )
+        }
+        Ok(r) => {
+            let (g, mut dg) = r.get("g").expect("named");
+            let (gx, mut dgx) = r.get("gamma_xi").expect("named");
+            let cov = r.covariance[0][1];
+            let mut dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
+                .max(0.0)
+                .sqrt();
+            // The sub-box sizes of one phi come from the same runs: errors
+            // from refits with one replica of one phi left out.
+            if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
+                let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                    let b = collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
+                        .map_err(|e| {
+                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
+                        })
+                        .ok()?;
+                    let (g, gx) = (b[0], b[1]);
+                    Some(vec![g, gx, g * gx])
+                };
+                match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
+                    Some((e, refits)) => {
+                        (dg, dgx, dgc) = (e[0], e[1], e[2]);
+                        method = jackknife_method(refits, HELD);
+                    }
+                    None => method.push_str(JK_IMPOSSIBLE),
+                }
+            }
+            (
+                vec![
+                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                    ("gamma_xi".to_string(), gx, dgx),
+                    ("gamma_chi".to_string(), g * gx, dgc),
+                    ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                    ("phi_c_used".to_string(), phi_c, 0.0),
+                    ("curves".to_string(), curves.len() as f64, 0.0),
+                ],
+                String::new(),
+                Some([g, gx]),
+            )
+        }
+        Err(e) => {
+            let msg = format!("collapse failed: {e:#}");
+            ctx.log(msg.clone());
+            let names = [
+                "gamma_chi_over_gamma_xi",
+                "gamma_xi",
+                "gamma_chi",
+                "collapse_S",
+            ];
+            let mut rows: Vec<(String, f64, f64)> = names
+                .iter()
+                .filter(|n| measured.is_none() || !n.starts_with("gamma_x") && **n != "gamma_chi")
+                .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+                .collect();
+            if measured.is_none() {
+                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+            }
+            (rows, msg, None)
+        }
+    };
+    let best = best.map(|q| q.to_vec());
+    collapse_output(
+        &p,
+        &curves,
+        best.as_deref(),
+        &rescale,
+        &rows,
+        &note,
+        &method,
+        group,
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::pipeline::Kind;
-    use crate::stages::test_support::{artifact, artifact_of, yaml};
+    use crate::stages::test_support::{artifact, artifact_of, output_artifact, yaml};
     use crate::table::f64_batch;
 
     /// Fig. 19's collapse with the measured xi: where the data carry xi's
@@ -417,5 +460,105 @@ mod tests {
         let (v_held, e_held, _) = run(&["xi_jk0", "xi_jk1"]);
         assert_eq!(v_held, v);
         assert!(e_held < 1e-6, "error of g {e_held} with xi held");
+    }
+
+    /// A convergence sweep: one collapse per total N (`group_by: [n]`), each
+    /// recovering its own g, and with `g_from` each group holding the g of its
+    /// own row of a grouped source fit (the rescaled points then carry it).
+    #[test]
+    fn a_grouped_collapse_is_one_collapse_per_group() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "grouped".into(), None);
+        let sizes = [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0];
+        let groups = [(1000.0, 1.2), (4000.0, 1.9)];
+        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for &(total, g) in &groups {
+            for &(phi, xi) in &[(0.70, 2.0), (0.74, 3.0), (0.78, 4.5)] {
+                for &n in &sizes {
+                    let u: f64 = f64::sqrt(n) / xi;
+                    let chi = xi.powf(g) * u.powf(1.2) / (1.0 + u.powf(1.2));
+                    for (k, v) in [
+                        ("n", total),
+                        ("phi", phi),
+                        ("N", n),
+                        ("chi4P", chi),
+                        ("chi4P_err", 0.02 * chi),
+                        ("xi", xi),
+                    ] {
+                        cols.entry(k).or_default().push(v);
+                    }
+                }
+            }
+        }
+        let b: Vec<(&str, Vec<f64>)> = cols.iter().map(|(k, v)| (*k, v.clone())).collect();
+        let data = artifact(dir.path(), "peaks_xi", f64_batch(&b).unwrap());
+        let read = |out: &Output| {
+            let c = Columns::read_file(&[&artifact_of(dir.path(), out)], "parquet").unwrap();
+            let r = output_artifact(dir.path(), "r", out, "parquet");
+            let resc = Columns::read_file(&[&r], "rescaled.parquet").unwrap();
+            (c, resc)
+        };
+        let fitted = yaml(
+            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi, bounds: {g: [0.2, 4.0]}, group_by: ['n']}",
+        );
+        let (c, resc) = read(&Collapse.run_params(&ctx, &fitted, &[data.clone()]).unwrap());
+        for &(total, g) in &groups {
+            let group = [("n".to_string(), total)];
+            let (v, _) = c.quantity_in("gamma_chi_over_gamma_xi", &group).unwrap();
+            assert!((v - g).abs() < 0.02, "N = {total}: g = {v}, want {g}");
+            let (s, _) = c.quantity_in("collapse_S", &group).unwrap();
+            assert!(s < 0.05, "N = {total}: S = {s}");
+        }
+        // Pooled, the two groups' curves do not collapse with any one g.
+        let pooled = yaml(
+            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi, bounds: {g: [0.2, 4.0]}}",
+        );
+        let (c1, _) = read(&Collapse.run_params(&ctx, &pooled, &[data.clone()]).unwrap());
+        let s1 = c1.quantity("collapse_S").unwrap().0;
+        assert!(s1 > 1.0, "pooled S = {s1}");
+        assert_eq!(resc.col("n").unwrap().len(), 2 * 3 * sizes.len());
+        // g held per group from a grouped source: the right g collapses each.
+        let source = crate::table::results::quantity_batch(
+            &[("n".to_string(), 1000.0)],
+            &[("d_f".to_string(), 1.2, 0.01)],
+            "",
+            None,
+        )
+        .unwrap();
+        let source2 = crate::table::results::quantity_batch(
+            &[("n".to_string(), 4000.0)],
+            &[("d_f".to_string(), 1.9, 0.01)],
+            "",
+            None,
+        )
+        .unwrap();
+        let src = artifact(
+            dir.path(),
+            "df",
+            arrow_select::concat::concat_batches(&source.schema(), &[source.clone(), source2])
+                .unwrap(),
+        );
+        let held = yaml(
+            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi, g_from: {stage: df, quantity: d_f}, group_by: ['n']}",
+        );
+        let (c, _) = read(
+            &Collapse
+                .run_params(&ctx, &held, &[data.clone(), src])
+                .unwrap(),
+        );
+        for &(total, g) in &groups {
+            let group = [("n".to_string(), total)];
+            assert_eq!(
+                c.quantity_in("gamma_chi_over_gamma_xi", &group).unwrap().0,
+                g
+            );
+            assert!(c.quantity_in("collapse_S", &group).unwrap().0 < 0.05);
+        }
+        // A group_by column may not also be filtered.
+        let bad = yaml(
+            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi, bounds: {g: [0.2, 4.0]}, group_by: ['n'], where: {'n': 1000}}",
+        );
+        let e = Collapse.run_params(&ctx, &bad, &[data]).unwrap_err();
+        assert!(format!("{e:#}").contains("group_by"), "{e:#}");
     }
 }

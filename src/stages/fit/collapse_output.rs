@@ -1,7 +1,11 @@
 //! What a collapse writes: its quantity table and the curves rescaled at the
-//! best parameters.
+//! best parameters, one block of rows per group of `group_by`.
+
+use std::sync::Arc;
 
 use anyhow::Result;
+use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+use arrow_schema::{DataType, Field, Schema};
 
 use super::ERROR_METHOD;
 use super::params::CollapseParams;
@@ -10,8 +14,18 @@ use crate::pipeline::Output;
 use crate::table::results::quantity_batch;
 use crate::table::{f64_batch, to_parquet_bytes};
 
-/// A collapse's outputs: the quantity table and the curves rescaled at the best
-/// parameters (none when the collapse failed).
+/// One group's collapse: its quantity rows, its rescaled curves and how its
+/// errors were taken.
+pub(super) struct CollapseParts {
+    quantities: RecordBatch,
+    rescaled: RecordBatch,
+    method: String,
+}
+
+/// A group's outputs: the quantity table and the curves rescaled at the best
+/// parameters (none when the collapse failed), each led by the group's
+/// `group_by` columns.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn collapse_output(
     p: &CollapseParams,
     curves: &[Curve],
@@ -20,7 +34,8 @@ pub(super) fn collapse_output(
     rows: &[(String, f64, f64)],
     note: &str,
     method: &str,
-) -> Result<Output> {
+    group: &[(String, f64)],
+) -> Result<CollapseParts> {
     let mut cols: [Vec<f64>; 5] = Default::default();
     if let Some(q) = best {
         for cv in curves {
@@ -40,12 +55,43 @@ pub(super) fn collapse_output(
         ("Y", y),
         ("Y_err", s),
     ])?;
-    Ok(Output::single(
-        "parquet",
-        to_parquet_bytes(
-            &[quantity_batch(&[], rows, note, None)?],
-            &[(ERROR_METHOD, method)],
-        )?,
+    Ok(CollapseParts {
+        quantities: quantity_batch(group, rows, note, None)?,
+        rescaled: led_by(group, &resc)?,
+        method: method.to_string(),
+    })
+}
+
+/// `b` with the group's columns in front.
+fn led_by(group: &[(String, f64)], b: &RecordBatch) -> Result<RecordBatch> {
+    let rows = b.num_rows();
+    let mut fields: Vec<Field> = group
+        .iter()
+        .map(|(k, _)| Field::new(k, DataType::Float64, false))
+        .collect();
+    let mut arrays: Vec<ArrayRef> = group
+        .iter()
+        .map(|(_, v)| Arc::new(Float64Array::from(vec![*v; rows])) as ArrayRef)
+        .collect();
+    fields.extend(b.schema().fields().iter().map(|f| f.as_ref().clone()));
+    arrays.extend(b.columns().iter().cloned());
+    Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)?)
+}
+
+/// The stage's files from its groups, in the groups' order; the error method
+/// is each distinct one once.
+pub(super) fn collapse_files(parts: Vec<CollapseParts>) -> Result<Output> {
+    let mut methods: Vec<&str> = Vec::new();
+    for p in &parts {
+        if !methods.contains(&p.method.as_str()) {
+            methods.push(&p.method);
+        }
+    }
+    let method = methods.join("; ");
+    let q: Vec<RecordBatch> = parts.iter().map(|p| p.quantities.clone()).collect();
+    let r: Vec<RecordBatch> = parts.iter().map(|p| p.rescaled.clone()).collect();
+    Ok(
+        Output::single("parquet", to_parquet_bytes(&q, &[(ERROR_METHOD, &method)])?)
+            .with("rescaled.parquet", to_parquet_bytes(&r, &[])?),
     )
-    .with("rescaled.parquet", to_parquet_bytes(&[resc], &[])?))
 }

@@ -267,6 +267,12 @@ pub struct CollapseParams {
     /// `rescaling`'s fitted parameters.
     #[serde(default)]
     pub bounds: BTreeMap<String, (f64, f64)>,
+    /// One collapse per distinct value of these columns (e.g. `[n]`, the total
+    /// N of a convergence sweep), each a row group of both outputs with these
+    /// columns; `g_from` then takes the row of its group where the source
+    /// table has these columns.
+    #[serde(default)]
+    pub group_by: Vec<String>,
     /// A named rescaling of [`crate::fit::rescalings`] instead of Fig. 19's
     /// finite-size scaling (e.g. `cluster_cutoff`, `log_normal`).
     #[serde(default)]

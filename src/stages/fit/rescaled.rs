@@ -5,14 +5,14 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 
-use super::collapse_output::collapse_output;
+use super::collapse_output::{CollapseParts, collapse_output};
 use super::params::CollapseParams;
 use super::samples::replica_columns;
 use crate::analysis::pool;
 use crate::fit::collapse::{self, Curve, curves_by};
 use crate::fit::rescalings::{self, At, Rescaling};
 use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, also_units, jackknife_method};
-use crate::pipeline::{Artifact, Output, StageCtx};
+use crate::pipeline::{Artifact, StageCtx};
 use crate::stages::tables::{Columns, inputs_of, pick};
 
 /// The keys of a named rescaling: its fitted parameters in `bounds`, phi_c when it
@@ -54,7 +54,8 @@ pub(super) fn run_named(
     p: &CollapseParams,
     r: &'static Rescaling,
     inputs: &[Artifact],
-) -> Result<Output> {
+    group: &[(String, f64)],
+) -> Result<CollapseParts> {
     let phi_c = match (&p.phi_c, &p.phi_c_from) {
         (Some(v), _) => *v,
         (None, Some(f)) => f.get("collapse", inputs)?.0,
@@ -75,13 +76,13 @@ pub(super) fn run_named(
             })
         })
         .collect::<Result<_>>()?;
+    let rows_in = c.select(&p.filter)?;
     let mut per_curve: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
-    for i in 0..c.rows {
+    for &i in &rows_in {
         per_curve
             .entry(by_all[i].to_bits())
             .or_insert_with(|| cols.iter().map(|v| v[i]).collect());
     }
-    let rows_in = c.select(&p.filter)?;
     let x_all = pick(c.col(&p.x)?, &rows_in);
     let y_all = pick(c.col(&p.y)?, &rows_in);
     let e_all = pick(c.col(&p.y_err)?, &rows_in);
@@ -221,7 +222,16 @@ pub(super) fn run_named(
             (rows, msg, None)
         }
     };
-    collapse_output(p, &curves, best.as_deref(), &rescale, &rows, &note, &method)
+    collapse_output(
+        p,
+        &curves,
+        best.as_deref(),
+        &rescale,
+        &rows,
+        &note,
+        &method,
+        group,
+    )
 }
 
 #[cfg(test)]
