@@ -83,6 +83,7 @@ fn overlap_figure() -> Figure {
         label: "1/e".into(),
         dashed: true,
         color: None,
+        band: None,
     });
     p.legend_title = "φ".into();
     Figure {
@@ -584,6 +585,7 @@ fn a_reference_label_never_covers_data() {
         label: "paper".into(),
         dashed: true,
         color: None,
+        band: None,
     });
     let mut f = Figure {
         panels: vec![p],
@@ -632,6 +634,7 @@ fn a_reference_line_near_the_data_is_in_view() {
             label: label.into(),
             dashed: true,
             color: None,
+            band: None,
         });
     }
     let f = Figure {
@@ -765,4 +768,54 @@ fn noise_on_a_log_axis_is_drawn_open_or_left_out() {
         "{notes}"
     );
     assert!(notes.contains("Open markers"), "{notes}");
+}
+
+/// A paper's value with its tolerance: a pale band about the line, as tall as
+/// twice the half-width on the axis, under the data; none without `band`.
+#[test]
+fn a_reference_band_spans_its_tolerance() {
+    let x: Vec<f64> = (0..8).map(|i| 1000.0 * 2f64.powi(i)).collect();
+    let y: Vec<f64> = (0..8).map(|i| 1.0 + 0.1 * i as f64).collect();
+    let mut yaxis = axis("exponent", false);
+    yaxis.range = Some((0.0, 4.0));
+    let mut p = panel("", axis("N", true), yaxis, vec![series("d_{f}", x, y)]);
+    p.hlines.push(RefLine {
+        at: 1.6,
+        label: "paper".into(),
+        dashed: true,
+        color: Some(repro::plot::Color([0, 0, 0])),
+        band: Some(0.3),
+    });
+    let f = Figure {
+        panels: vec![p],
+        ..overlap_figure()
+    };
+    assert!(defects(&f).unwrap().is_empty(), "{:?}", defects(&f));
+    let lay = layout(&f).unwrap();
+    let frame_h = lay[0].frame.y1 - lay[0].frame.y0;
+    let svg = draw_svg_string(&f).unwrap();
+    // The tint of black: 255 - 255 * 3/20 = 217 (#D9D9D9).
+    let bands: Vec<f64> = svg
+        .split("<rect")
+        .skip(1)
+        .filter(|r| r.contains("#D9D9D9"))
+        .filter_map(|r| {
+            let h = r.split("height=\"").nth(1)?.split('"').next()?;
+            h.parse::<f64>().ok()
+        })
+        .collect();
+    assert_eq!(bands.len(), 1, "one band: {bands:?}");
+    let want = 0.6 / 4.0 * frame_h;
+    assert!(
+        (bands[0] - want).abs() < 2.0,
+        "band {} px, want {want}",
+        bands[0]
+    );
+    let mut plain = f.clone();
+    plain.panels[0].hlines[0].band = None;
+    assert!(!draw_svg_string(&plain).unwrap().contains("#D9D9D9"));
+    // A band needs a positive half-width.
+    let mut bad = f.clone();
+    bad.panels[0].hlines[0].band = Some(-1.0);
+    assert!(draw_svg_string(&bad).is_err() || !defects(&bad).unwrap().is_empty());
 }
