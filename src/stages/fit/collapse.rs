@@ -42,11 +42,6 @@ impl StageKind for Collapse {
             if *k == p.curve_by || *k == p.x {
                 bail!("collapse: `group_by` column '{k}' is also `curve_by` or `x`");
             }
-            if p.filter.contains_key(k) {
-                bail!(
-                    "collapse: `group_by` column '{k}' is also in `where`; each group takes one value"
-                );
-            }
         }
         if let Some(name) = &p.rescaling {
             validate_named(&p, name)?;
@@ -113,6 +108,8 @@ impl StageKind for Collapse {
                     p.group_by.iter().cloned().zip(g.iter().copied()).collect();
                 let mut one = p.clone();
                 one.group_by.clear();
+                // The group's value passed `where`, so it replaces any
+                // condition there on the same column.
                 for (k, v) in &group {
                     one.filter.insert(k.clone(), Cond::Equal(*v));
                 }
@@ -554,11 +551,15 @@ mod tests {
             );
             assert!(c.quantity_in("collapse_S", &group).unwrap().0 < 0.05);
         }
-        // A group_by column may not also be filtered.
-        let bad = yaml(
-            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi, bounds: {g: [0.2, 4.0]}, group_by: ['n'], where: {'n': 1000}}",
+        // `where` on a group_by column keeps only the groups it accepts.
+        let some = yaml(
+            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: phi, xi: xi, bounds: {g: [0.2, 4.0]}, group_by: ['n'], where: {'n': {max: 2000}}}",
         );
-        let e = Collapse.run_params(&ctx, &bad, &[data]).unwrap_err();
-        assert!(format!("{e:#}").contains("group_by"), "{e:#}");
+        let (c, _) = read(&Collapse.run_params(&ctx, &some, &[data]).unwrap());
+        assert!(c.col("n").unwrap().iter().all(|&n| n == 1000.0));
+        assert!(
+            c.quantity_in("collapse_S", &[("n".to_string(), 4000.0)])
+                .is_err()
+        );
     }
 }
