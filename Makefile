@@ -53,8 +53,9 @@ all-figures:
 	$(REPRO) report --profile $(PROFILE) --html
 
 # The sweeps in N of the numbers that disagree at small (docs/figures.md,
-# "Convergence in N"): too slow for CI; 2.74 core-hours of simulation planned at
-# small (`repro plan convergence-tau ... convergence-eps --profile small`).
+# "Convergence in N"): 2.74 core-hours of simulation planned at small (`repro
+# plan convergence-tau ... convergence-eps --profile small`), too slow for CI;
+# their ci versions (a few small N) are built and gated by `make test`.
 convergence:
 	$(REPRO) figure convergence-tau convergence-exponents convergence-cutoff convergence-intruder convergence-collapse convergence-eps --profile $(PROFILE) $(JOBS_FLAG)
 
