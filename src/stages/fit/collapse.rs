@@ -562,4 +562,45 @@ mod tests {
                 .is_err()
         );
     }
+
+    /// Fig. 24: curves by eps in a table that holds every phi; `where` keeps
+    /// phi = 0.78, and each eps is rescaled by the xi of those rows, not by
+    /// the xi of the first row of its eps in the whole table (here phi =
+    /// 0.70, whose xi would spoil the collapse).
+    #[test]
+    fn the_measured_xi_is_that_of_the_rows_where_keeps() {
+        let dir = tempfile::tempdir().unwrap();
+        let ctx = StageCtx::new(0, "where-xi".into(), None);
+        let (g, sizes) = (1.5, [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0]);
+        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for &(eps, xi78) in &[(0.7, 2.0), (0.9, 3.0), (1.0, 4.5)] {
+            for &(phi, xi) in &[(0.70, 1.0), (0.78, xi78)] {
+                for &n in &sizes {
+                    let u: f64 = f64::sqrt(n) / xi;
+                    let chi = xi.powf(g) * u.powf(1.2) / (1.0 + u.powf(1.2));
+                    for (k, v) in [
+                        ("eps", eps),
+                        ("phi", phi),
+                        ("N", n),
+                        ("chi4P", chi),
+                        ("chi4P_err", 0.02 * chi),
+                        ("xi", xi),
+                    ] {
+                        cols.entry(k).or_default().push(v);
+                    }
+                }
+            }
+        }
+        let b: Vec<(&str, Vec<f64>)> = cols.iter().map(|(k, v)| (*k, v.clone())).collect();
+        let data = artifact(dir.path(), "peaks_xi", f64_batch(&b).unwrap());
+        let params = yaml(
+            "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: eps, where: {phi: 0.78}, xi: xi, bounds: {g: [0.2, 4.0]}}",
+        );
+        let out = Collapse.run_params(&ctx, &params, &[data]).unwrap();
+        let c = Columns::read_file(&[&artifact_of(dir.path(), &out)], "parquet").unwrap();
+        let (v, _) = c.quantity("gamma_chi_over_gamma_xi").unwrap();
+        assert!((v - g).abs() < 0.02, "g = {v}");
+        let s = c.quantity("collapse_S").unwrap().0;
+        assert!(s < 0.05, "S = {s}");
+    }
 }
