@@ -400,6 +400,31 @@ mod tests {
     use crate::stages::test_support::{artifact, artifact_of, output_artifact, yaml};
     use crate::table::f64_batch;
 
+    const SIZES: [f64; 8] = [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0];
+
+    /// A peaks_xi table of Fig. 19's scaling form chi4P = xi^g f(sqrt(N)/xi)
+    /// over SIZES: per state, its label columns, xi and g.
+    fn scaling_table(dir: &std::path::Path, states: &[(Vec<(&str, f64)>, f64, f64)]) -> Artifact {
+        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for (labels, xi, g) in states {
+            for &n in &SIZES {
+                let u: f64 = f64::sqrt(n) / xi;
+                let chi = xi.powf(*g) * u.powf(1.2) / (1.0 + u.powf(1.2));
+                let row = [
+                    ("N", n),
+                    ("chi4P", chi),
+                    ("chi4P_err", 0.02 * chi),
+                    ("xi", *xi),
+                ];
+                for &(k, v) in labels.iter().chain(&row) {
+                    cols.entry(k).or_default().push(v);
+                }
+            }
+        }
+        let b: Vec<(&str, Vec<f64>)> = cols.iter().map(|(k, v)| (*k, v.clone())).collect();
+        artifact(dir, "peaks_xi", f64_batch(&b).unwrap())
+    }
+
     /// Fig. 19's collapse with the measured xi: where the data carry xi's
     /// replica samples, the refits rescale with the xi of the same replica left
     /// out. Here chi4P is the same in every replica, so only xi can give g an
@@ -466,29 +491,14 @@ mod tests {
     fn a_grouped_collapse_is_one_collapse_per_group() {
         let dir = tempfile::tempdir().unwrap();
         let ctx = StageCtx::new(0, "grouped".into(), None);
-        let sizes = [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0];
         let groups = [(1000.0, 1.2), (4000.0, 1.9)];
-        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        let mut states = Vec::new();
         for &(total, g) in &groups {
             for &(phi, xi) in &[(0.70, 2.0), (0.74, 3.0), (0.78, 4.5)] {
-                for &n in &sizes {
-                    let u: f64 = f64::sqrt(n) / xi;
-                    let chi = xi.powf(g) * u.powf(1.2) / (1.0 + u.powf(1.2));
-                    for (k, v) in [
-                        ("n", total),
-                        ("phi", phi),
-                        ("N", n),
-                        ("chi4P", chi),
-                        ("chi4P_err", 0.02 * chi),
-                        ("xi", xi),
-                    ] {
-                        cols.entry(k).or_default().push(v);
-                    }
-                }
+                states.push((vec![("n", total), ("phi", phi)], xi, g));
             }
         }
-        let b: Vec<(&str, Vec<f64>)> = cols.iter().map(|(k, v)| (*k, v.clone())).collect();
-        let data = artifact(dir.path(), "peaks_xi", f64_batch(&b).unwrap());
+        let data = scaling_table(dir.path(), &states);
         let read = |out: &Output| {
             let c = Columns::read_file(&[&artifact_of(dir.path(), out)], "parquet").unwrap();
             let r = output_artifact(dir.path(), "r", out, "parquet");
@@ -513,7 +523,7 @@ mod tests {
         let (c1, _) = read(&Collapse.run_params(&ctx, &pooled, &[data.clone()]).unwrap());
         let s1 = c1.quantity("collapse_S").unwrap().0;
         assert!(s1 > 1.0, "pooled S = {s1}");
-        assert_eq!(resc.col("n").unwrap().len(), 2 * 3 * sizes.len());
+        assert_eq!(resc.col("n").unwrap().len(), 2 * 3 * SIZES.len());
         // g held per group from a grouped source: the right g collapses each.
         let source = crate::table::results::quantity_batch(
             &[("n".to_string(), 1000.0)],
@@ -571,28 +581,14 @@ mod tests {
     fn the_measured_xi_is_that_of_the_rows_where_keeps() {
         let dir = tempfile::tempdir().unwrap();
         let ctx = StageCtx::new(0, "where-xi".into(), None);
-        let (g, sizes) = (1.5, [8.0, 16.0, 32.0, 64.0, 125.0, 250.0, 500.0, 1000.0]);
-        let mut cols: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        let g = 1.5;
+        let mut states = Vec::new();
         for &(eps, xi78) in &[(0.7, 2.0), (0.9, 3.0), (1.0, 4.5)] {
             for &(phi, xi) in &[(0.70, 1.0), (0.78, xi78)] {
-                for &n in &sizes {
-                    let u: f64 = f64::sqrt(n) / xi;
-                    let chi = xi.powf(g) * u.powf(1.2) / (1.0 + u.powf(1.2));
-                    for (k, v) in [
-                        ("eps", eps),
-                        ("phi", phi),
-                        ("N", n),
-                        ("chi4P", chi),
-                        ("chi4P_err", 0.02 * chi),
-                        ("xi", xi),
-                    ] {
-                        cols.entry(k).or_default().push(v);
-                    }
-                }
+                states.push((vec![("eps", eps), ("phi", phi)], xi, g));
             }
         }
-        let b: Vec<(&str, Vec<f64>)> = cols.iter().map(|(k, v)| (*k, v.clone())).collect();
-        let data = artifact(dir.path(), "peaks_xi", f64_batch(&b).unwrap());
+        let data = scaling_table(dir.path(), &states);
         let params = yaml(
             "{data: peaks_xi, x: 'N', y: chi4P, y_err: chi4P_err, curve_by: eps, where: {phi: 0.78}, xi: xi, bounds: {g: [0.2, 4.0]}}",
         );
