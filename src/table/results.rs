@@ -86,6 +86,21 @@ fn group_columns(group: &[(String, f64)], rows: usize) -> Vec<(String, ArrayRef)
         .collect()
 }
 
+/// `b` with the group's values in front, as constant float columns (a
+/// `group_by` stage's row group of a table other than its quantity table).
+pub fn led_by_group(group: &[(String, f64)], b: &RecordBatch) -> Result<RecordBatch> {
+    let mut cols = group_columns(group, b.num_rows());
+    let schema = b.schema();
+    cols.extend(
+        schema
+            .fields()
+            .iter()
+            .zip(b.columns())
+            .map(|(f, c)| (f.name().clone(), c.clone())),
+    );
+    Ok(RecordBatch::try_from_iter(cols)?)
+}
+
 /// `lead` followed by `arrays` named and typed by `columns`.
 fn batch(
     mut lead: Vec<(String, ArrayRef)>,

@@ -1,17 +1,14 @@
 //! What a collapse writes: its quantity table and the curves rescaled at the
 //! best parameters, one block of rows per group of `group_by`.
 
-use std::sync::Arc;
-
 use anyhow::Result;
-use arrow_array::{ArrayRef, Float64Array, RecordBatch};
-use arrow_schema::{DataType, Field, Schema};
+use arrow_array::RecordBatch;
 
 use super::ERROR_METHOD;
 use super::params::CollapseParams;
 use crate::fit::collapse::{self, Curve};
 use crate::pipeline::Output;
-use crate::table::results::quantity_batch;
+use crate::table::results::{led_by_group, quantity_batch};
 use crate::table::{f64_batch, to_parquet_bytes};
 
 /// One group's collapse: its quantity rows, its rescaled curves and how its
@@ -57,25 +54,9 @@ pub(super) fn collapse_output(
     ])?;
     Ok(CollapseParts {
         quantities: quantity_batch(group, rows, note, None)?,
-        rescaled: led_by(group, &resc)?,
+        rescaled: led_by_group(group, &resc)?,
         method: method.to_string(),
     })
-}
-
-/// `b` with the group's columns in front.
-fn led_by(group: &[(String, f64)], b: &RecordBatch) -> Result<RecordBatch> {
-    let rows = b.num_rows();
-    let mut fields: Vec<Field> = group
-        .iter()
-        .map(|(k, _)| Field::new(k, DataType::Float64, false))
-        .collect();
-    let mut arrays: Vec<ArrayRef> = group
-        .iter()
-        .map(|(_, v)| Arc::new(Float64Array::from(vec![*v; rows])) as ArrayRef)
-        .collect();
-    fields.extend(b.schema().fields().iter().map(|f| f.as_ref().clone()));
-    arrays.extend(b.columns().iter().cloned());
-    Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)?)
 }
 
 /// The stage's files from its groups, in the groups' order; the error method
