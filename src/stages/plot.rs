@@ -38,6 +38,10 @@ fn legend_number(v: f64) -> String {
 /// A fitted value as a legend shows it: the error to one significant digit (two
 /// when that digit is 1) and the value to the same decimal (`0.80 ± 0.01`).
 fn value_with_error(v: f64, e: f64) -> String {
+    // A fit that failed at this profile has no number to print.
+    if !v.is_finite() {
+        return "(no fit)".into();
+    }
     if !(e.is_finite() && e > 0.0) {
         return legend_number(v);
     }

@@ -296,6 +296,7 @@ fn fitted_values_round_to_their_error() {
     assert_eq!(value_with_error(241.3, 47.0), "241 ± 47");
     assert_eq!(value_with_error(0.6, f64::NAN), "0.60");
     assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
+    assert_eq!(value_with_error(f64::NAN, f64::NAN), "(no fit)");
     assert_eq!(super::legend_number(29.333), "29");
     assert_eq!(super::legend_number(0.785), "0.785");
     assert_eq!(super::legend_number(7.333), "7.3");
