@@ -551,6 +551,21 @@ fn each_class_of_bad_spec_has_its_own_located_error() {
     let pipe = |body: &str| format!("description: d\nstages:\n{body}");
     let e = plan_error(
         "pipelines/figtoy.yaml",
+        &format!(
+            "description: d\nerror_coverage:\n  tiny: {{x: two replicas}}\n{}",
+            pipe("  - name: s\n    kind: table\n    gather: [toy_sweep]\n")
+                .trim_start_matches("description: d\n")
+        ),
+        "figtoy",
+    );
+    assert_located(
+        &e,
+        "figtoy.yaml",
+        3,
+        &["`error_coverage` names the unknown profile 'tiny'", "small"],
+    );
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
         &pipe("  - name: s\n    kind: toy_analyse\n    map: toy_sweeep\n    params: {a: 1}\n"),
         "figtoy",
     );

@@ -218,6 +218,8 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     // so a survey can be read again without rebuilding it.
     let mut per_seed_json = serde_json::Map::new();
     let mut stored_seeds: Option<Vec<u64>> = None;
+    // The commits a stored survey was built at.
+    let mut built: Vec<String> = Vec::new();
     let (rows, gates_from): (Vec<crate::study::coverage::Coverage>, Option<GoldenFile>) =
         if let Some(path) = &a.golden {
             let g = GoldenFile::read(path)?;
@@ -229,7 +231,8 @@ fn coverage(a: CoverageArgs) -> Result<()> {
                 .iter()
                 .map(|l| results.join(format!("coverage-{}-{l}.json", a.profile)))
                 .collect();
-            let (seeds, per_seed) = crate::study::coverage::read_stored(&files)?;
+            let (seeds, per_seed, commits) = crate::study::coverage::read_stored(&files)?;
+            built = commits;
             let g = golden_path
                 .exists()
                 .then(|| GoldenFile::read(&golden_path))
@@ -336,7 +339,9 @@ fn coverage(a: CoverageArgs) -> Result<()> {
         (_, _, Some(s)) => s,
         _ => a.seeds.clone(),
     };
+    let commit = crate::pipeline::publish::git_commit(&a.variant.root);
     let json = serde_json::json!({
+        "commit": if built.is_empty() { commit.clone() } else { Some(built.join(" and ")) },
         "seeds": seeds,
         "rows": rows,
         "regress": checks,
@@ -349,10 +354,12 @@ fn coverage(a: CoverageArgs) -> Result<()> {
         .fold("repro".to_string(), |acc, x| acc + " " + &x);
     let md = crate::study::coverage::markdown(
         &command,
-        crate::pipeline::publish::git_commit(&a.variant.root).as_deref(),
+        commit.as_deref(),
+        &built,
         &seeds,
         &rows,
         &gates,
+        &crate::pipeline::Catalogue::load(&a.variant.root)?.error_coverage(&a.profile),
         &checks,
     );
     let md_path = if a.docs {

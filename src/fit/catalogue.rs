@@ -61,6 +61,14 @@ pub static FORMS: &[Form] = &[
         model: |p, _, x| p[0] + p[1] * x,
     },
     Form {
+        name: "log_trend",
+        describe: "y = slope ln(x / x_0): a trend in ln x and the x where it reaches 0 (a number against N)",
+        params: &["slope", "x_0"],
+        log_x: true,
+        fit: |d, _| linear::log_trend(d),
+        model: |p, _, x| p[0] * (x / p[1]).ln(),
+    },
+    Form {
         name: "proportional",
         describe: "y = slope x (a line through the origin)",
         params: &["slope"],

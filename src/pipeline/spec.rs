@@ -149,6 +149,13 @@ pub struct PipelineSpec {
     /// tests/golden/ci.json.
     #[serde(default)]
     pub ci: bool,
+    /// Why a key number's quoted error misses the rule of `repro coverage`
+    /// (median quoted error within 0.5-2 of the seed-to-seed spread, no seed
+    /// beyond 5 of its errors), per profile: quantity -> the reason, with the
+    /// survey that measured it. Read by `repro coverage` only, so editing a
+    /// reason reruns nothing.
+    #[serde(default)]
+    pub error_coverage: BTreeMap<String, BTreeMap<String, String>>,
     /// The stages, in any order; each reads experiments or other stages by name.
     pub stages: Vec<Spanned<StageSpec>>,
 }
@@ -253,6 +260,18 @@ impl Catalogue {
             .collect()
     }
 
+    /// Every figure's reasons for key numbers whose quoted errors miss the
+    /// coverage rule at `profile`: (figure, quantity) -> reason.
+    pub fn error_coverage(&self, profile: &str) -> BTreeMap<(String, String), String> {
+        let mut out = BTreeMap::new();
+        for (fig, (_, p)) in &self.pipelines {
+            for (q, why) in p.error_coverage.get(profile).into_iter().flatten() {
+                out.insert((fig.clone(), q.clone()), why.clone());
+            }
+        }
+        out
+    }
+
     /// Load `ROOT/experiments/*.yaml` and `ROOT/pipelines/*.yaml`; names are the
     /// file stems. Every file is parsed (a broken spec is reported even when
     /// another figure is asked for: the catalogue is one whole).
@@ -277,6 +296,24 @@ impl Catalogue {
                     line,
                     column,
                     message: "`stages` is empty: a pipeline needs at least one stage".into(),
+                });
+            }
+            if let Some(p) = spec
+                .error_coverage
+                .keys()
+                .find(|p| !PROFILES.contains(&p.as_str()))
+            {
+                let (line, column) = yaml_marks(&text)
+                    .get(&vec!["error_coverage".to_string(), p.clone()])
+                    .and_then(|(k, _)| *k)
+                    .map_or((0, 0), |m| (m.line, m.column));
+                return Err(SpecError {
+                    file,
+                    line,
+                    column,
+                    message: format!(
+                        "`error_coverage` names the unknown profile '{p}'; valid profiles: {PROFILES:?}"
+                    ),
                 });
             }
             c.pipelines.insert(name, (file, spec));

@@ -119,11 +119,15 @@ pub fn per_seed_json(per_seed: &SeedNumbers) -> serde_json::Map<String, serde_js
 /// The seeds and per-seed numbers of stored surveys (results/coverage-*.json),
 /// merged: every file must be of the same seeds, and a number in several is
 /// taken from the last. Surveys written before verdicts were stored have none.
-pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers)> {
+/// Also the commits the surveys were built at, as each file records it
+/// ("unrecorded" for older files), once each.
+pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers, Vec<String>)> {
     #[derive(Deserialize)]
     struct Stored {
         seeds: Vec<u64>,
         per_seed: BTreeMap<String, PerSeed>,
+        #[serde(default)]
+        commit: Option<String>,
     }
     #[derive(Deserialize)]
     struct PerSeed {
@@ -134,6 +138,7 @@ pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers)> {
     }
     let mut seeds: Option<Vec<u64>> = None;
     let mut out: SeedNumbers = BTreeMap::new();
+    let mut built: Vec<String> = Vec::new();
     for f in files {
         let text = std::fs::read_to_string(f).with_context(|| {
             format!(
@@ -143,6 +148,10 @@ pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers)> {
         })?;
         let s: Stored = serde_json::from_str(&text)
             .with_context(|| format!("{}: not a survey of `repro coverage`", f.display()))?;
+        let commit = s.commit.clone().unwrap_or_else(|| "unrecorded".into());
+        if !built.contains(&commit) {
+            built.push(commit);
+        }
         match &seeds {
             Some(first) if *first != s.seeds => bail!(
                 "{} is of the master seeds {:?}, the first survey of {first:?}: merge surveys of the same seeds",
@@ -180,7 +189,7 @@ pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers)> {
             out.insert((fig.to_string(), q.to_string()), fitted);
         }
     }
-    Ok((seeds.unwrap_or_default(), out))
+    Ok((seeds.unwrap_or_default(), out, built))
 }
 
 /// Each stored seed checked against `g` as `repro regress` would check its
@@ -244,35 +253,73 @@ pub fn from_golden(g: &GoldenFile, ids: &[String]) -> Vec<Coverage> {
         .collect()
 }
 
+/// How a coverage row reads against the rule for quoted errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flag {
+    Ok,
+    /// Held by a fit (phi_c fixed at the paper's 0.82): equal at every seed
+    /// but for rounding, so the ratio means nothing.
+    Constant,
+    /// The typical seed's error below half the spread.
+    UnderQuoted,
+    /// The typical seed's error above twice the spread.
+    OverQuoted,
+    /// A seed further than [`OUTLIER_ERRORS`] of its own errors from the median.
+    OutlierSeed,
+}
+
+/// A seed this many of its own quoted errors from the median value is an
+/// outlier: 1 in 1.7 million for Gaussian errors, so with honest errors no
+/// survey of twenty seeds shows one.
+pub const OUTLIER_ERRORS: f64 = 5.0;
+
+impl Flag {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Flag::Ok => "ok",
+            Flag::Constant => "constant",
+            Flag::UnderQuoted => "under-quoted",
+            Flag::OverQuoted => "over-quoted",
+            Flag::OutlierSeed => "outlier seed",
+        }
+    }
+    /// A number flagged so needs a reason in its figure's `error_coverage`.
+    pub fn needs_reason(self) -> bool {
+        !matches!(self, Flag::Ok | Flag::Constant)
+    }
+}
+
 /// How a coverage row reads against the rule for quoted errors: the typical
 /// seed's error (the median) within 0.5-2 of the spread, and no seed further
-/// than 4 of its own errors from the median.
-pub fn flag(c: &Coverage) -> &'static str {
-    // A number held by a fit (phi_c fixed at the paper's 0.82) differs
-    // between seeds by rounding only.
+/// than [`OUTLIER_ERRORS`] of its own errors from the median.
+pub fn flag(c: &Coverage) -> Flag {
     if c.spread <= 1e-9 * c.mean.abs() {
-        "constant"
+        Flag::Constant
     } else if c.median_ratio < 0.5 {
-        "under-quoted"
+        Flag::UnderQuoted
     } else if c.median_ratio > 2.0 {
-        "over-quoted"
-    } else if c.max_from_median > 4.0 {
-        "outlier seed"
+        Flag::OverQuoted
+    } else if c.max_from_median > OUTLIER_ERRORS {
+        Flag::OutlierSeed
     } else {
-        "ok"
+        Flag::Ok
     }
 }
 
 /// The coverage study as Markdown: what was built, the false alarms of
-/// `repro regress` on these seeds, and one row per key number. `gates` names
-/// each number's gate in the golden file (band, one-sided, joint only, or why
-/// it is ungated).
+/// `repro regress` on these seeds, one row per key number, and why each
+/// flagged number is flagged. `gates` names each number's gate in the golden
+/// file (band, one-sided, joint only, or why it is ungated); `reasons` are the
+/// figures' `error_coverage` of this profile. `built`: the commits a stored
+/// survey was built at, when it is read back.
 pub fn markdown(
     command: &str,
     commit: Option<&str>,
+    built: &[String],
     seeds: &[u64],
     rows: &[Coverage],
     gates: &BTreeMap<(String, String), String>,
+    reasons: &BTreeMap<(String, String), String>,
     checks: &[SeedCheck],
 ) -> String {
     let mut m = String::new();
@@ -283,9 +330,19 @@ pub fn markdown(
     } else {
         "# Coverage of the quoted errors on fresh master seeds\n\n"
     });
+    let short = |c: &str| c[..c.len().min(7)].to_string();
+    let read_back = if built.is_empty() {
+        String::new()
+    } else {
+        let b: Vec<String> = built.iter().map(|c| short(c)).collect();
+        format!(
+            ", read back from a survey built at commit {}",
+            b.join(" and ")
+        )
+    };
     m.push_str(&format!(
-        "Generated by `{command}` at commit {} over the master seeds {}.\n\n",
-        commit.map_or("(unknown)".to_string(), |c| c[..c.len().min(7)].to_string()),
+        "Generated by `{command}` at commit {}{read_back} over the master seeds {}.\n\n",
+        commit.map_or("(unknown)".to_string(), short),
         seeds_text.join(", ")
     ));
     if !checks.is_empty() {
@@ -309,7 +366,8 @@ pub fn markdown(
     m.push_str(
         "## Per key number\n\nspread: seed-to-seed standard deviation; quoted / spread: rms and median over the seeds; \
          coverage: seeds whose 1-sigma interval holds the mean; max dist.: the largest distance of a seed from the median value, \
-         in that seed's quoted errors; flag: median quoted / spread outside 0.5-2, or a seed beyond 4 errors.\n\n",
+         in that seed's quoted errors; flag: median quoted / spread outside 0.5-2, or a seed beyond 5 errors; \
+         a flagged number's reason, from its figure's `error_coverage`, is in the next section.\n\n",
     );
     m.push_str("| figure | quantity | gate | seeds | mean | spread | quoted / spread (rms) | median quoted / spread | coverage | max dist. | flag |\n");
     m.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -329,7 +387,60 @@ pub fn markdown(
             ratio(c.median_ratio),
             100.0 * c.coverage,
             c.max_from_median,
-            flag(c)
+            flag(c).as_str()
+        ));
+    }
+    m.push_str(&flagged_section(rows, reasons));
+    m
+}
+
+/// Why each flagged number is flagged, from the figures' `error_coverage`:
+/// the explained ones, those still without a reason, and reasons the survey
+/// no longer needs (their numbers pass, or were not surveyed).
+fn flagged_section(rows: &[Coverage], reasons: &BTreeMap<(String, String), String>) -> String {
+    let key = |c: &Coverage| (c.figure.clone(), c.quantity.clone());
+    let flagged: Vec<&Coverage> = rows.iter().filter(|c| flag(c).needs_reason()).collect();
+    let (explained, bare): (Vec<&Coverage>, Vec<&Coverage>) =
+        flagged.iter().partition(|c| reasons.contains_key(&key(c)));
+    let mut m = format!(
+        "\n## Why the flagged numbers are flagged\n\n{} of {} key numbers are flagged; {} have a reason in their figure's `error_coverage`, {} have none.\n\n",
+        flagged.len(),
+        rows.len(),
+        explained.len(),
+        bare.len()
+    );
+    for c in &explained {
+        m.push_str(&format!(
+            "- {} {} ({}): {}\n",
+            c.figure,
+            c.quantity,
+            flag(c).as_str(),
+            reasons[&key(c)]
+        ));
+    }
+    if !bare.is_empty() {
+        m.push_str("\nWithout a reason:\n\n");
+        for c in &bare {
+            m.push_str(&format!(
+                "- {} {} ({})\n",
+                c.figure,
+                c.quantity,
+                flag(c).as_str()
+            ));
+        }
+    }
+    let stale: Vec<String> = reasons
+        .keys()
+        .filter(|(f, q)| {
+            rows.iter().any(|c| &c.figure == f)
+                && !flagged.iter().any(|c| &c.figure == f && &c.quantity == q)
+        })
+        .map(|(f, q)| format!("{f} {q}"))
+        .collect();
+    if !stale.is_empty() {
+        m.push_str(&format!(
+            "\nReasons given for numbers this survey does not flag (they pass, or are not key numbers): {}.\n",
+            stale.join(", ")
         ));
     }
     m
@@ -375,13 +486,74 @@ mod tests {
         assert!((small.ratio - 0.1).abs() < 1e-12);
         // Seeds without an error are left out; one seed is not enough.
         assert!(coverage("f", "q", &[f(1.0, f64::NAN), f(2.0, 0.5)]).is_none());
-        assert_eq!(flag(&honest), "ok");
-        assert_eq!(flag(&small), "under-quoted");
+        assert_eq!(flag(&honest), Flag::Ok);
+        assert_eq!(flag(&small), Flag::UnderQuoted);
+        assert_eq!(flag(&tail), Flag::UnderQuoted);
         // A value held by a fit, equal but for rounding: constant, not
         // under-quoted.
         let held = 0.82 + 1e-16;
         let h = coverage("f", "q", &[f(0.82, 1e-17), f(held, 1e-17), f(0.82, 1e-17)]).unwrap();
-        assert_eq!(flag(&h), "constant");
+        assert_eq!(flag(&h), Flag::Constant);
+    }
+
+    #[test]
+    fn flagged_numbers_list_their_reasons_and_those_without_one() {
+        let spread3 = [f(-1.0, 0.1), f(0.0, 0.1), f(1.0, 0.1)];
+        let honest = [f(-1.0, 1.0), f(0.0, 1.0), f(1.0, 1.0)];
+        // Median 0: the seed at 1 quoting 0.1 is 10 of its errors away.
+        let outlier = [f(-1.0, 1.0), f(0.0, 1.0), f(0.0, 1.0), f(1.0, 0.1)];
+        let rows: Vec<Coverage> = [
+            ("fig_a", "explained", &spread3[..]),
+            ("fig_a", "bare", &spread3[..]),
+            ("fig_a", "fine", &honest[..]),
+            ("fig_b", "far", &outlier[..]),
+        ]
+        .iter()
+        .map(|(fig, q, v)| coverage(fig, q, v).unwrap())
+        .collect();
+        assert_eq!(flag(&rows[3]), Flag::OutlierSeed);
+        let reasons: BTreeMap<(String, String), String> = [
+            ("fig_a", "explained", "two replicas"),
+            ("fig_a", "fine", "an old reason"),
+            ("fig_b", "far", "one seed's fit in another minimum"),
+            ("fig_c", "unsurveyed", "not in this survey"),
+        ]
+        .iter()
+        .map(|(f, q, r)| ((f.to_string(), q.to_string()), r.to_string()))
+        .collect();
+        let m = markdown(
+            "repro coverage",
+            None,
+            &[],
+            &[1, 2, 3],
+            &rows,
+            &BTreeMap::new(),
+            &reasons,
+            &[],
+        );
+        assert!(
+            m.contains("3 of 4 key numbers are flagged; 2 have a reason"),
+            "{m}"
+        );
+        assert!(
+            m.contains("- fig_a explained (under-quoted): two replicas"),
+            "{m}"
+        );
+        assert!(
+            m.contains("- fig_b far (outlier seed): one seed's fit"),
+            "{m}"
+        );
+        assert!(
+            m.contains("Without a reason:\n\n- fig_a bare (under-quoted)"),
+            "{m}"
+        );
+        // A reason for a number that passes is stale; a figure outside the
+        // survey is not judged.
+        assert!(
+            m.contains("does not flag (they pass, or are not key numbers): fig_a fine."),
+            "{m}"
+        );
+        assert!(!m.contains("unsurveyed"), "{m}");
     }
 
     #[test]
@@ -420,7 +592,8 @@ mod tests {
         let file = dir.path().join("coverage-ci-a.json");
         let json = serde_json::json!({"seeds": [21, 22], "per_seed": per_seed_json(&per_seed)});
         std::fs::write(&file, json.to_string()).unwrap();
-        let (seeds, back) = read_stored(std::slice::from_ref(&file)).unwrap();
+        let (seeds, back, built) = read_stored(std::slice::from_ref(&file)).unwrap();
+        assert_eq!(built, vec!["unrecorded".to_string()]);
         assert_eq!(seeds, vec![21, 22]);
         assert_eq!(back[&("fig_a".to_string(), "x".to_string())][1].value, 12.5);
         assert_eq!(
