@@ -104,7 +104,10 @@ pub(super) fn fit_group(
     let m_scatter = scatter.map_or(0.0, |(m, _)| m);
     let s = widened(&s, &y, m_scatter);
     if let FitForm::Value = p.form {
-        return fit_value(p, group, &y, &s, one_unit.as_ref());
+        // Rows whose x has replica samples too (a lag t = m tau_alpha,
+        // remeasured in each replica sample) are not at a fixed x.
+        let x_moves = !jk_samples(c, &used_rows, &p.x).is_empty();
+        return fit_value(p, group, &y, &s, one_unit.as_ref(), x_moves);
     }
     // Only where every row comes from the one unit: all weights then
     // change together. Across units the sample's larger errors would
@@ -298,6 +301,7 @@ fn fit_value(
     y: &[f64],
     s: &[f64],
     one_unit: Option<&(f64, Vec<Vec<f64>>)>,
+    x_moves: bool,
 ) -> Result<Group> {
     let k = y.len() as f64;
     // Without y_err the points carry unit stand-in errors (for the fits'
@@ -329,13 +333,23 @@ fn fit_value(
         None => "none (no y_err, one point)".to_string(),
     };
     // Rows of one unit with replica samples: the replica jackknife of the
-    // value counts what per-point errors miss (the lag of `at` moving with
-    // the measured tau_alpha); with few replicas it is noisy, so the larger
-    // of the two is quoted.
+    // value counts what per-point errors miss; with few replicas it is noisy,
+    // so the larger of the two is quoted. Where the rows' x moves with the
+    // replicas (y read at t = m tau_alpha, tau_alpha remeasured in each
+    // sample), the per-point error is that of a fixed lag and misses the
+    // lag's covariance with y (Q(tau_alpha) = 1/e pins the MSD there): the
+    // jackknife alone is quoted (fig7's MSD at tau_alpha quoted 2.8-4 times
+    // its seed-to-seed spread with the larger of the two, docs/accuracy.md).
     let mut err = err;
     if let Some((_, y_jk)) = &one_unit {
         let jk = mean_jackknife(y_jk);
-        if jk.is_finite() && (err.is_nan() || jk > err) {
+        if jk.is_finite() && x_moves {
+            err = jk;
+            method = format!(
+                "delete-one jackknife over {} replicas, x remeasured in each (not {method}, which holds x fixed)",
+                y_jk.len()
+            );
+        } else if jk.is_finite() && (err.is_nan() || jk > err) {
             err = jk;
             method = format!(
                 "delete-one jackknife over {} replicas (larger than {method})",

@@ -11,6 +11,7 @@ use super::samples::replica_columns;
 use crate::analysis::pool;
 use crate::fit::collapse::{self, Curve, curves_by};
 use crate::fit::rescalings::{self, At, Rescaling};
+use crate::fit::uncertainty::held::{add_in_quadrature, held_shifts};
 use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, also_units, jackknife_method};
 use crate::pipeline::{Artifact, StageCtx};
 use crate::stages::tables::{Columns, inputs_of, pick};
@@ -56,10 +57,11 @@ pub(super) fn run_named(
     inputs: &[Artifact],
     group: &[(String, f64)],
 ) -> Result<CollapseParts> {
-    let phi_c = match (&p.phi_c, &p.phi_c_from) {
-        (Some(v), _) => *v,
-        (None, Some(f)) => f.get("collapse", inputs)?.0,
-        _ => f64::NAN,
+    // phi_c and its quoted error (none for a number given in the spec).
+    let (phi_c, phi_c_err) = match (&p.phi_c, &p.phi_c_from) {
+        (Some(v), _) => (*v, f64::NAN),
+        (None, Some(f)) => f.get("collapse", inputs)?,
+        _ => (f64::NAN, f64::NAN),
     };
     let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
     // The per-curve numbers (first row of each curve), e.g. a joined per-phi fit.
@@ -194,6 +196,28 @@ pub(super) fn run_named(
                     None => method.push_str(JK_IMPOSSIBLE),
                 }
             }
+            // phi_c from a fit without replica refits (a joint fit) is held
+            // in the jackknife: its quoted error is passed on as the fit
+            // stage passes it (refits at phi_c +- its error).
+            if let (Some(f), None, true) = (
+                &p.phi_c_from,
+                &phi_c_refits,
+                r.needs_phi_c && !r.fitted.is_empty(),
+            ) {
+                let refit_at = |pc: f64| {
+                    if curves.iter().any(|cv| cv.param >= pc) {
+                        return None;
+                    }
+                    collapse::best(&curves, r.fitted, &bounds, &rescale_at(pc)).ok()
+                };
+                if let Some(d) = held_shifts(&q, phi_c, phi_c_err, refit_at) {
+                    add_in_quadrature(&mut dq, &d);
+                    method.push_str(&format!(
+                        "; phi_c ({} of {}, without replica refits) held at {phi_c:.6} +- {phi_c_err:.2e}: each error adds in quadrature half the change between the collapses at phi_c +- {phi_c_err:.2e}",
+                        f.quantity, f.stage
+                    ));
+                }
+            }
             let mut rows: Vec<(String, f64, f64)> = r
                 .fitted
                 .iter()
@@ -318,14 +342,32 @@ mod tests {
             let c = fitted(dir.path(), &o);
             (c.quantity("rho").unwrap(), method)
         };
-        let ((v_held, e_held), _) = rho_of(JACKKNIFE_FILE);
+        let ((v_held, e_held), held_method) = rho_of(JACKKNIFE_FILE);
         let ((v, e), method) = rho_of("");
+        // phi_c given as a number: no error to pass on, the covariance alone.
+        let fixed = yaml(&format!(
+            "{{rescaling: cluster_cutoff, data: sizes, x: Nc, y: P, y_err: P_err, curve_by: phi, \
+             phi_c: {fitted_phi_c}, bounds: {{kappa: [1.0, 3.0], rho: [0.5, 5.0]}}}}"
+        ));
+        let o = Collapse.run_params(&ctx, &fixed, &[sizes.clone()]).unwrap();
+        let (v_fixed, e_fixed) = fitted(dir.path(), &o).quantity("rho").unwrap();
         assert!((v_held - rho).abs() < 0.03, "rho {v_held}");
         assert_eq!(v.to_bits(), v_held.to_bits(), "the value does not change");
+        assert_eq!(v.to_bits(), v_fixed.to_bits(), "the value does not change");
         assert!(
-            e > 5.0 * e_held,
-            "rho error {e} with phi_c refitted, {e_held} held"
+            e > 5.0 * e_fixed,
+            "rho error {e} with phi_c refitted, {e_fixed} with phi_c a number"
         );
         assert!(method.contains("phi_c"), "error method: {method}");
+        // Without refits phi_c's quoted error is passed on instead: the same
+        // share of the variance within a factor of 3.
+        assert!(
+            e_held > 5.0 * e_fixed && (e_held / e - 1.0).abs() < 2.0 && e / e_held < 3.0,
+            "rho error {e_held} with phi_c held at its error, {e} refitted, {e_fixed} fixed"
+        );
+        assert!(
+            held_method.contains("held at"),
+            "error method: {held_method}"
+        );
     }
 }

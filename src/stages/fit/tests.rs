@@ -680,3 +680,55 @@ fn an_error_of_rounding_size_does_not_steer_the_fit() {
     let fit = c.col("value").unwrap()[i];
     assert!((fit - d).abs() < 0.02, "D = {fit}, truth {d}");
 }
+
+/// A `value` of rows of one unit read at t = m tau_alpha, where each replica
+/// sample has its own lag (`t_jkK`): the per-point error is that of a fixed
+/// lag, so the replica jackknife alone is quoted. At a fixed lag the larger
+/// of the two stays.
+#[test]
+fn a_value_at_a_remeasured_lag_quotes_its_jackknife_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctx = StageCtx::new(0, "jk".into(), None);
+    // Three replica samples of one value 1.0: 0.99, 1.0, 1.01 (jackknife
+    // error sqrt(2/3 * 2 * 0.01^2) = 0.0115...), per-point error 0.05.
+    let samples = [0.99, 1.0, 1.01];
+    let jk_want = {
+        let m = 1.0;
+        let n = 3.0;
+        ((n - 1.0) / n * samples.iter().map(|v: &f64| (v - m).powi(2)).sum::<f64>()).sqrt()
+    };
+    let table = |with_t_samples: bool| {
+        let mut cols = vec![
+            ("t", vec![10.0]),
+            ("msd", vec![1.0]),
+            ("msd_err", vec![0.05]),
+            (pool::JK_UNIT, vec![1.0]),
+        ];
+        let names: Vec<String> = (0..3).map(|k| pool::jk_column("msd", k)).collect();
+        let t_names: Vec<String> = (0..3).map(|k| pool::jk_column("t", k)).collect();
+        let mut owned: Vec<(String, Vec<f64>)> = names
+            .iter()
+            .zip(samples)
+            .map(|(n, v)| (n.clone(), vec![v]))
+            .collect();
+        if with_t_samples {
+            owned.extend(t_names.iter().map(|n| (n.clone(), vec![10.0])));
+        }
+        let refs: Vec<(&str, Vec<f64>)> =
+            owned.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
+        cols.extend(refs);
+        f64_batch(&cols).unwrap()
+    };
+    let fit = yaml("{form: value, data: m, x: t, y: msd, y_err: msd_err}");
+    for (moves, want) in [(true, jk_want), (false, 0.05)] {
+        let out = Fit
+            .run_params(&ctx, &fit, &[artifact(dir.path(), "m", table(moves))])
+            .unwrap();
+        let c = fitted(dir.path(), &out);
+        let err = c.col("error").unwrap()[0];
+        assert!(
+            (err - want).abs() < 1e-9,
+            "x moves: {moves}: error {err}, want {want}"
+        );
+    }
+}
