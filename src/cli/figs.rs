@@ -341,7 +341,7 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     };
     let commit = crate::pipeline::publish::git_commit(&a.variant.root);
     let json = serde_json::json!({
-        "commit": if built.is_empty() { commit.clone() } else { Some(built.join(" and ")) },
+        "commits": if built.is_empty() { commit.iter().cloned().collect() } else { built.clone() },
         "seeds": seeds,
         "rows": rows,
         "regress": checks,

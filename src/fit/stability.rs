@@ -66,14 +66,6 @@ pub const EXAMPLES: &[Example] = &[
         x_range: (0.0, 10.0),
         fixed: &[],
     },
-    // A trend against N that would reach 0 just beyond the largest box, as
-    // the cut-off scans' large-a slopes do.
-    Example {
-        form: "log_trend",
-        truth: &[0.5, 20000.0],
-        x_range: (1000.0, 16000.0),
-        fixed: &[],
-    },
     Example {
         form: "proportional",
         truth: &[2.5],
@@ -120,6 +112,14 @@ pub const EXAMPLES: &[Example] = &[
         form: "crossover",
         truth: &[0.25, 30.0, 0.55],
         x_range: (0.5, 2.6e5),
+        fixed: &[],
+    },
+    // A trend against N that would reach 0 just beyond the largest box, as
+    // the cut-off scans' large-a slopes do.
+    Example {
+        form: "log_trend",
+        truth: &[0.5, 20000.0],
+        x_range: (1000.0, 16000.0),
         fixed: &[],
     },
 ];

@@ -126,8 +126,11 @@ pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers, Vec<Stri
     struct Stored {
         seeds: Vec<u64>,
         per_seed: BTreeMap<String, PerSeed>,
+        /// One survey's commit; `commits` where surveys were merged.
         #[serde(default)]
         commit: Option<String>,
+        #[serde(default)]
+        commits: Vec<String>,
     }
     #[derive(Deserialize)]
     struct PerSeed {
@@ -148,9 +151,15 @@ pub fn read_stored(files: &[PathBuf]) -> Result<(Vec<u64>, SeedNumbers, Vec<Stri
         })?;
         let s: Stored = serde_json::from_str(&text)
             .with_context(|| format!("{}: not a survey of `repro coverage`", f.display()))?;
-        let commit = s.commit.clone().unwrap_or_else(|| "unrecorded".into());
-        if !built.contains(&commit) {
-            built.push(commit);
+        let mut commits = s.commits.clone();
+        commits.extend(s.commit.clone());
+        if commits.is_empty() {
+            commits.push("unrecorded".into());
+        }
+        for c in commits {
+            if !built.contains(&c) {
+                built.push(c);
+            }
         }
         match &seeds {
             Some(first) if *first != s.seeds => bail!(
@@ -330,7 +339,11 @@ pub fn markdown(
     } else {
         "# Coverage of the quoted errors on fresh master seeds\n\n"
     });
-    let short = |c: &str| c[..c.len().min(7)].to_string();
+    // A full hash is shortened; anything else ("unrecorded") stays as it is.
+    let short = |c: &str| match c.get(..7) {
+        Some(h) if c.len() == 40 && c.bytes().all(|b| b.is_ascii_hexdigit()) => h.to_string(),
+        _ => c.to_string(),
+    };
     let read_back = if built.is_empty() {
         String::new()
     } else {
@@ -619,6 +632,44 @@ mod tests {
         .unwrap();
         let e = read_stored(&[file, other]).unwrap_err();
         assert!(format!("{e:#}").contains("same seeds"), "{e:#}");
+    }
+
+    /// A survey records the commit it was built at; read back (and merged
+    /// with others), the page names each commit once, shortened.
+    #[test]
+    fn a_read_back_survey_names_the_commits_it_was_built_at() {
+        let dir = tempfile::tempdir().unwrap();
+        let hash = "c9282a3".to_string() + &"0".repeat(33);
+        let write = |name: &str, json: serde_json::Value| {
+            let f = dir.path().join(name);
+            std::fs::write(&f, json.to_string()).unwrap();
+            f
+        };
+        let a = write(
+            "a.json",
+            serde_json::json!({"seeds": [1], "per_seed": {}, "commits": [hash]}),
+        );
+        let b = write(
+            "b.json",
+            serde_json::json!({"seeds": [1], "per_seed": {}, "commit": hash}),
+        );
+        let c = write("c.json", serde_json::json!({"seeds": [1], "per_seed": {}}));
+        let (_, _, built) = read_stored(&[a, b, c]).unwrap();
+        assert_eq!(built, vec![hash.clone(), "unrecorded".to_string()]);
+        let m = markdown(
+            "repro coverage",
+            Some(&hash),
+            &built,
+            &[1],
+            &[],
+            &BTreeMap::new(),
+            &BTreeMap::new(),
+            &[],
+        );
+        assert!(
+            m.contains("at commit c9282a3, read back from a survey built at commit c9282a3 and unrecorded over"),
+            "{m}"
+        );
     }
 
     #[test]
