@@ -22,9 +22,10 @@ use crate::table::to_parquet_bytes;
 pub struct Derived {
     pub name: String,
     /// `divide` (a / b), `multiply` (a b), `sqrt_divide` (sqrt(a) / b),
-    /// `ln_times` (b ln a: Fig. 6's x = beta ln(t/tau0)) or `reciprocal` (1 / a,
-    /// no `b`: d_f from a fitted 1/d_f, with `NAME_err` = a_err / a^2 when the
-    /// table has `a_err`).
+    /// `ln_times` (b ln a: Fig. 6's x = beta ln(t/tau0)), or with no `b`
+    /// `reciprocal` (1 / a: d_f from a fitted 1/d_f, with `NAME_err` = a_err /
+    /// a^2 when the table has `a_err`) or `ln` (ln a, with `NAME_err` = a_err /
+    /// |a|: a ratio's trend fitted in ln).
     pub op: String,
     pub a: String,
     #[serde(default)]
@@ -55,7 +56,13 @@ const OPS: &[&str] = &[
     "sqrt_divide",
     "ln_times",
     "reciprocal",
+    "ln",
 ];
+
+/// Ops that read only `a`.
+fn unary(op: &str) -> bool {
+    matches!(op, "reciprocal" | "ln")
+}
 
 pub struct Join;
 
@@ -137,13 +144,14 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
     Ok(out)
 }
 
-/// A derived column's value from its two inputs (`b` unused by `reciprocal`).
+/// A derived column's value from its two inputs (`b` unused by a unary op).
 fn apply(d: &Derived, a: f64, b: f64) -> f64 {
     match d.op.as_str() {
         "divide" => a / b,
         "multiply" => a * b,
         "ln_times" => b * a.ln(),
         "reciprocal" => 1.0 / a,
+        "ln" => a.ln(),
         _ => a.sqrt() / b,
     }
 }
@@ -173,7 +181,7 @@ fn derived_samples(
     let Some(unit) = f64s.get(pool::JK_UNIT) else {
         return Vec::new();
     };
-    let inputs: Vec<&str> = if d.op == "reciprocal" {
+    let inputs: Vec<&str> = if unary(&d.op) {
         vec![d.a.as_str()]
     } else {
         vec![d.a.as_str(), d.b.as_str()]
@@ -242,7 +250,7 @@ impl StageKind for Join {
         "rows of `left` with the matching row of `right` by key columns `on`, plus derived columns"
     }
     fn details(&self) -> String {
-        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b} or {name, op: reciprocal, a}]; with divide or multiply, propagate_errors: true adds NAME_err from a_err, b_err (independent, first order)\n\
+        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b} or {name, op: reciprocal|ln, a}]; with divide or multiply, propagate_errors: true adds NAME_err from a_err, b_err (independent, first order)\n\
          example: {name: d_vs_tau, kind: join, gather: [msd_fit, tau_table], params: {left: msd_fit, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}}"
             .into()
     }
@@ -270,7 +278,7 @@ impl StageKind for Join {
                     d.op
                 );
             }
-            if (d.op == "reciprocal") != d.b.is_empty() {
+            if unary(&d.op) != d.b.is_empty() {
                 bail!(
                     "join: derived column '{}': op '{}' {}",
                     d.name,
@@ -350,13 +358,27 @@ impl StageKind for Join {
                     )
                 })
             };
-            if d.op == "reciprocal" {
+            if unary(&d.op) {
                 let a = get(&d.a)?;
                 if let Some(e) = f64s.get(&format!("{}_err", d.a)) {
-                    let err = a.iter().zip(e).map(|(x, e)| e / (x * x)).collect();
+                    // First order: |d(1/a)/da| = 1/a^2, |d ln a/da| = 1/|a|.
+                    let err = a
+                        .iter()
+                        .zip(e)
+                        .map(|(x, e)| {
+                            if d.op == "ln" {
+                                e / x.abs()
+                            } else {
+                                e / (x * x)
+                            }
+                        })
+                        .collect();
                     f64s.insert(format!("{}_err", d.name), err);
                 }
-                f64s.insert(d.name.clone(), a.iter().map(|x| 1.0 / x).collect());
+                f64s.insert(
+                    d.name.clone(),
+                    a.iter().map(|&x| apply(d, x, f64::NAN)).collect(),
+                );
                 continue;
             }
             let (a, b) = (get(&d.a)?, get(&d.b)?);
@@ -422,7 +444,8 @@ mod tests {
             "{left: cold, right: hot, on: [phi], derive: [\
              {name: ratio, op: divide, a: v, b: v_hot, propagate_errors: true}, \
              {name: impulse, op: multiply, a: v, b: dt, propagate_errors: true}, \
-             {name: plain, op: divide, a: v, b: v_hot}]}",
+             {name: plain, op: divide, a: v, b: v_hot}, \
+             {name: ln_ratio, op: ln, a: ratio}]}",
         )
         .unwrap();
         Join.validate(&params).unwrap();
@@ -440,6 +463,10 @@ mod tests {
         let ie = col("impulse_err");
         assert!((ie[0] - 1.5 * 0.1).abs() < 1e-12 && (ie[1] - 2.0 * 0.05).abs() < 1e-12);
         assert!(!c.f64.contains_key("plain_err"));
+        // ln of the ratio: its error is the ratio's relative error.
+        let (l, le) = (col("ln_ratio"), col("ln_ratio_err"));
+        assert!((l[0] - 1.5f64.ln()).abs() < 1e-12 && (l[1] - 2.0f64.ln()).abs() < 1e-12);
+        assert!((le[0] - re[0] / 1.5).abs() < 1e-12 && (le[1] - re[1] / 2.0).abs() < 1e-12);
         let bad: Value = serde_saphyr::from_str(
             "{left: cold, right: hot, on: [phi], derive: [{name: l, op: ln_times, a: v, b: dt, propagate_errors: true}]}",
         )

@@ -75,10 +75,21 @@ pub fn leverages(
     )
 }
 
+/// What [`carried_errors`] found.
+#[derive(Debug, PartialEq)]
+pub enum Carried {
+    /// No point carries the fit, or it has no points to spare.
+    No,
+    /// The delete-one-point jackknife error of each parameter.
+    Errors(Vec<f64>),
+    /// One point carries the fit but the fit without point `k` failed: the
+    /// jackknife floor could not be formed (the caller says so).
+    RefitFailed { point: usize },
+}
+
 /// The delete-one-point jackknife errors of the parameters `refit` gives for
 /// the points without each one in turn, when the fit is carried (the largest
-/// of `lev` above [`CARRIED`]) and has points to spare; None otherwise or when
-/// a refit fails.
+/// of `lev` above [`CARRIED`]) and has points to spare.
 pub fn carried_errors(
     x: &[f64],
     y: &[f64],
@@ -86,10 +97,10 @@ pub fn carried_errors(
     lev: &[f64],
     free: usize,
     refit: impl Fn(&[f64], &[f64], &[f64]) -> Option<Vec<f64>>,
-) -> Option<Vec<f64>> {
+) -> Carried {
     let max = lev.iter().copied().fold(f64::NAN, f64::max);
     if x.len() < free + SPARE_POINTS || !(max > CARRIED) {
-        return None;
+        return Carried::No;
     }
     let without = |v: &[f64], k: usize| -> Vec<f64> {
         v.iter()
@@ -98,11 +109,15 @@ pub fn carried_errors(
             .map(|(_, a)| *a)
             .collect()
     };
-    let fits: Vec<Vec<f64>> = (0..x.len())
-        .map(|k| refit(&without(x, k), &without(y, k), &without(s, k)))
-        .collect::<Option<_>>()?;
-    let n_par = fits.first()?.len();
-    Some(
+    let mut fits: Vec<Vec<f64>> = Vec::with_capacity(x.len());
+    for k in 0..x.len() {
+        match refit(&without(x, k), &without(y, k), &without(s, k)) {
+            Some(f) if !f.is_empty() => fits.push(f),
+            _ => return Carried::RefitFailed { point: k },
+        }
+    }
+    let n_par = fits[0].len();
+    Carried::Errors(
         (0..n_par)
             .map(|j| crate::analysis::stats::jackknife_err(fits.iter().map(|f| f[j]).collect()))
             .collect(),
@@ -164,10 +179,11 @@ mod tests {
             assert!(h[1] > CARRIED && h[2] > CARRIED, "{h:?}");
             assert!((h.iter().sum::<f64>() - 2.0).abs() < 1e-6, "{h:?}");
             let (b, cov_err) = (f.params[1], f.stderr[1]);
-            let jk = carried_errors(&x, &y, &s, &h, 2, |x, y, s| {
+            let Carried::Errors(jk) = carried_errors(&x, &y, &s, &h, 2, |x, y, s| {
                 power_law(x, y, s).map(|f| f.params)
-            })
-            .expect("a carried fit");
+            }) else {
+                panic!("a carried fit");
+            };
             let honest = cov_err.max(jk[1]);
             covered_cov += ((b - 1.2).abs() <= cov_err) as usize;
             covered_honest += ((b - 1.2).abs() <= honest) as usize;
@@ -193,14 +209,32 @@ mod tests {
         let max = h.iter().copied().fold(0.0, f64::max);
         assert!(max < 0.5, "{h:?}");
         assert!((h.iter().sum::<f64>() - 2.0).abs() < 1e-6);
-        assert!(carried_errors(&x, &y, &s, &h, 2, |_, _, _| Some(vec![0.0])).is_none());
+        let no = carried_errors(&x, &y, &s, &h, 2, |_, _, _| Some(vec![0.0]));
+        assert_eq!(no, Carried::No);
         // Too few points to spare, however carried.
         let many = vec![0.99; 4];
-        assert!(
-            carried_errors(&x[..4], &y[..4], &s[..4], &many, 2, |_, _, _| Some(vec![
-                0.0
-            ]))
-            .is_none()
-        );
+        let few = carried_errors(&x[..4], &y[..4], &s[..4], &many, 2, |_, _, _| {
+            Some(vec![0.0])
+        });
+        assert_eq!(few, Carried::No);
+    }
+
+    /// A carried fit whose refit without one point fails says which point, so
+    /// that the caller reports the missing floor instead of skipping it.
+    #[test]
+    fn a_failed_refit_of_a_carried_fit_is_reported() {
+        let x: Vec<f64> = (1..=6).map(f64::from).collect();
+        let y = x.clone();
+        let s = vec![1.0; 6];
+        let mut h = vec![0.1; 6];
+        h[2] = 0.95;
+        // The fit fails without the point at x = 4 (index 3).
+        let r = carried_errors(&x, &y, &s, &h, 2, |x, _, _| {
+            x.contains(&4.0).then(|| vec![1.0, 2.0])
+        });
+        assert_eq!(r, Carried::RefitFailed { point: 3 });
+        // Every refit succeeds: the jackknife of identical refits is zero.
+        let ok = carried_errors(&x, &y, &s, &h, 2, |_, _, _| Some(vec![1.0, 2.0]));
+        assert_eq!(ok, Carried::Errors(vec![0.0, 0.0]));
     }
 }

@@ -15,7 +15,7 @@ use super::samples::{
 use crate::fit::Data;
 use crate::fit::catalogue::Form;
 use crate::fit::uncertainty::held::{add_in_quadrature, held_shifts};
-use crate::fit::uncertainty::leverage::{CARRIED, carried_errors, leverages};
+use crate::fit::uncertainty::leverage::{CARRIED, Carried, carried_errors, leverages};
 use crate::fit::uncertainty::replicas::{
     FitPoints, Refits, covariance_method, mean_jackknife, replica_errors,
 };
@@ -177,16 +177,28 @@ pub(super) fn fit_group(
                         fit_form(p, x, y, s, &fixed_ref).ok().map(|f| f.params)
                     };
                     let n_free = free.iter().filter(|b| **b).count();
-                    if let Some(jk) = carried_errors(&x, &y, &s, &h, n_free, refit) {
-                        for (row, e) in rows.iter_mut().zip(&jk) {
-                            row.2 = crate::analysis::stats::at_least(row.2, *e);
+                    match carried_errors(&x, &y, &s, &h, n_free, refit) {
+                        Carried::No => {}
+                        Carried::Errors(jk) => {
+                            for (row, e) in rows.iter_mut().zip(&jk) {
+                                row.2 = crate::analysis::stats::at_least(row.2, *e);
+                            }
+                            method.push_str(&format!(
+                                "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, so each error is at least the delete-one-point jackknife's"
+                            ));
+                            ctx.log(format!(
+                                "fit carried by one point (leverage {max_leverage:.3}): errors at least the delete-one-point jackknife's"
+                            ));
                         }
-                        method.push_str(&format!(
-                            "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, so each error is at least the delete-one-point jackknife's"
-                        ));
-                        ctx.log(format!(
-                            "fit carried by one point (leverage {max_leverage:.3}): errors at least the delete-one-point jackknife's"
-                        ));
+                        Carried::RefitFailed { point } => {
+                            let at = x[point];
+                            method.push_str(&format!(
+                                "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, but the refit without the point at x = {at} failed, so the errors lack the delete-one-point jackknife's floor"
+                            ));
+                            ctx.log(format!(
+                                "fit carried by one point (leverage {max_leverage:.3}); the refit without x = {at} failed: no delete-one-point floor under its errors"
+                            ));
+                        }
                     }
                 }
             }
