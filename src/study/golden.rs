@@ -101,6 +101,18 @@ pub fn ungated_reason(quantity: &str, values: &[f64]) -> Option<String> {
         ));
     }
     let (mean, std) = crate::analysis::stats::mean_std(&finite);
+    // Values so far apart that their spread overflows (an extrapolation such as
+    // the N where a trend reaches 0): the file could not even store the band.
+    if !(mean.is_finite() && std.is_finite()) {
+        let (lo, hi) = finite
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        return Some(format!(
+            "from {lo:.3e} to {hi:.3e} over the {n} recorded seeds: a spread beyond floating point, so no band can hold it"
+        ));
+    }
     if std <= 1e-12 * mean.abs().max(1.0) {
         return Some(format!(
             "{mean} at every seed: fixed by construction (a count or a normalisation), nothing for a band to detect"
@@ -813,5 +825,11 @@ mod tests {
                 .contains("diagnostic")
         );
         assert!(r("gamma_xi", &[1.0, 1.1, 1.2]).is_none());
+        // An extrapolated N spanning 10^-16 to 10^200: its spread overflows.
+        let wild = r("N_ratio_1", &[5e-16, 6e10, 2e200]).unwrap();
+        assert!(
+            wild.contains("beyond floating point") && wild.contains("2.000e200"),
+            "{wild}"
+        );
     }
 }
