@@ -21,47 +21,69 @@ use crate::table::to_parquet_bytes;
 #[serde(deny_unknown_fields)]
 pub struct Derived {
     pub name: String,
-    /// `divide` (a / b), `multiply` (a b), `sqrt_divide` (sqrt(a) / b),
-    /// `ln_times` (b ln a: Fig. 6's x = beta ln(t/tau0)), or with no `b`
-    /// `reciprocal` (1 / a: d_f from a fitted 1/d_f, with `NAME_err` = a_err /
-    /// a^2 when the table has `a_err`) or `ln` (ln a, with `NAME_err` = a_err /
-    /// |a|: a ratio's trend fitted in ln).
-    pub op: String,
+    pub op: Op,
     pub a: String,
     #[serde(default)]
     pub b: String,
-    /// With `divide` or `multiply`: also `NAME_err`, the first-order error of
-    /// independent `a` and `b` from their `a_err` and `b_err` columns (a
-    /// missing one counts as exact): |NAME| ((a_err/a)^2 + (b_err/b)^2)^(1/2).
     #[serde(default)]
     pub propagate_errors: bool,
+}
+
+/// How a derived column is computed from `a` (and `b`).
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Op {
+    /// a / b
+    Divide,
+    /// a b
+    Multiply,
+    /// sqrt(a) / b
+    SqrtDivide,
+    /// b ln a: Fig. 6's x = beta ln(t/tau0)
+    LnTimes,
+    /// 1 / a (no `b`): d_f from a fitted 1/d_f, with `NAME_err` = a_err / a^2
+    /// when the table has `a_err`
+    Reciprocal,
+    /// ln a (no `b`), with `NAME_err` = a_err / |a|: a ratio's trend fitted in ln
+    Ln,
+}
+
+impl Op {
+    /// Reads only `a`.
+    fn unary(self) -> bool {
+        matches!(self, Op::Reciprocal | Op::Ln)
+    }
+
+    /// The op applied to one row's inputs (`b` unused by a unary op).
+    fn apply(self, a: f64, b: f64) -> f64 {
+        match self {
+            Op::Divide => a / b,
+            Op::Multiply => a * b,
+            Op::SqrtDivide => a.sqrt() / b,
+            Op::LnTimes => b * a.ln(),
+            Op::Reciprocal => 1.0 / a,
+            Op::Ln => a.ln(),
+        }
+    }
+
+    /// A unary op's first-order error from a's: |d(1/a)/da| = 1/a^2,
+    /// |d ln a/da| = 1/|a|.
+    fn unary_error(self, a: f64, a_err: f64) -> f64 {
+        match self {
+            Op::Ln => a_err / a.abs(),
+            _ => a_err / (a * a),
+        }
+    }
 }
 
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct JoinParams {
-    /// Stage whose rows are kept (one output row each).
     pub left: String,
-    /// Stage whose matching row adds its columns.
     pub right: String,
-    /// Key columns; a left row matches the right row with equal values (1e-9 relative).
     pub on: Vec<String>,
     #[serde(default)]
     pub derive: Vec<Derived>,
-}
-
-const OPS: &[&str] = &[
-    "divide",
-    "multiply",
-    "sqrt_divide",
-    "ln_times",
-    "reciprocal",
-    "ln",
-];
-
-/// Ops that read only `a`.
-fn unary(op: &str) -> bool {
-    matches!(op, "reciprocal" | "ln")
 }
 
 pub struct Join;
@@ -144,18 +166,6 @@ fn wide(c: Columns, on: &[String]) -> Result<Columns> {
     Ok(out)
 }
 
-/// A derived column's value from its two inputs (`b` unused by a unary op).
-fn apply(d: &Derived, a: f64, b: f64) -> f64 {
-    match d.op.as_str() {
-        "divide" => a / b,
-        "multiply" => a * b,
-        "ln_times" => b * a.ln(),
-        "reciprocal" => 1.0 / a,
-        "ln" => a.ln(),
-        _ => a.sqrt() / b,
-    }
-}
-
 /// The side of the join each column comes from, and the replica unit of each
 /// output row on either side.
 struct Origin {
@@ -181,7 +191,7 @@ fn derived_samples(
     let Some(unit) = f64s.get(pool::JK_UNIT) else {
         return Vec::new();
     };
-    let inputs: Vec<&str> = if unary(&d.op) {
+    let inputs: Vec<&str> = if d.op.unary() {
         vec![d.a.as_str()]
     } else {
         vec![d.a.as_str(), d.b.as_str()]
@@ -230,7 +240,7 @@ fn derived_samples(
                 .map(|i| {
                     let a = a.map_or(f64::NAN, |v| v[i]);
                     let b = b.map_or(f64::NAN, |v| v[i]);
-                    apply(d, a, b)
+                    d.op.apply(a, b)
                 })
                 .collect()
         })
@@ -263,24 +273,16 @@ impl StageKind for Join {
             bail!("join: `on` is empty; give the key columns, e.g. on: [phi]");
         }
         for d in &p.derive {
-            if !OPS.contains(&d.op.as_str()) {
+            if d.propagate_errors && !matches!(d.op, Op::Divide | Op::Multiply) {
                 bail!(
-                    "join: derived column '{}' has op '{}'; valid: {}",
-                    d.name,
-                    d.op,
-                    OPS.join(", ")
-                );
-            }
-            if d.propagate_errors && !matches!(d.op.as_str(), "divide" | "multiply") {
-                bail!(
-                    "join: derived column '{}': `propagate_errors` works with op divide or multiply, not '{}'",
+                    "join: derived column '{}': `propagate_errors` works with op divide or multiply, not {:?}",
                     d.name,
                     d.op
                 );
             }
-            if unary(&d.op) != d.b.is_empty() {
+            if d.op.unary() != d.b.is_empty() {
                 bail!(
-                    "join: derived column '{}': op '{}' {}",
+                    "join: derived column '{}': op {:?} {}",
                     d.name,
                     d.op,
                     if d.b.is_empty() {
@@ -358,31 +360,24 @@ impl StageKind for Join {
                     )
                 })
             };
-            if unary(&d.op) {
+            if d.op.unary() {
                 let a = get(&d.a)?;
                 if let Some(e) = f64s.get(&format!("{}_err", d.a)) {
-                    // First order: |d(1/a)/da| = 1/a^2, |d ln a/da| = 1/|a|.
                     let err = a
                         .iter()
                         .zip(e)
-                        .map(|(x, e)| {
-                            if d.op == "ln" {
-                                e / x.abs()
-                            } else {
-                                e / (x * x)
-                            }
-                        })
+                        .map(|(&x, &e)| d.op.unary_error(x, e))
                         .collect();
                     f64s.insert(format!("{}_err", d.name), err);
                 }
                 f64s.insert(
                     d.name.clone(),
-                    a.iter().map(|&x| apply(d, x, f64::NAN)).collect(),
+                    a.iter().map(|&x| d.op.apply(x, f64::NAN)).collect(),
                 );
                 continue;
             }
             let (a, b) = (get(&d.a)?, get(&d.b)?);
-            let v: Vec<f64> = a.iter().zip(&b).map(|(x, y)| apply(d, *x, *y)).collect();
+            let v: Vec<f64> = a.iter().zip(&b).map(|(x, y)| d.op.apply(*x, *y)).collect();
             if d.propagate_errors {
                 let rel = |col: &str, vals: &[f64]| -> Vec<f64> {
                     match f64s.get(&format!("{col}_err")) {
@@ -473,6 +468,13 @@ mod tests {
         .unwrap();
         let e = Join.validate(&bad).unwrap_err().to_string();
         assert!(e.contains("'l'") && e.contains("propagate_errors"), "{e}");
+        // An op outside the closed set is refused with the valid ones.
+        let unknown: Value = serde_saphyr::from_str(
+            "{left: cold, right: hot, on: [phi], derive: [{name: l, op: log10, a: v}]}",
+        )
+        .unwrap();
+        let e = format!("{:#}", Join.validate(&unknown).unwrap_err());
+        assert!(e.contains("log10") && e.contains("reciprocal") && e.contains("ln"), "{e}");
     }
 
     /// A derived column carries replica samples where its inputs do: the op on
