@@ -474,7 +474,10 @@ mod tests {
         )
         .unwrap();
         let e = format!("{:#}", Join.validate(&unknown).unwrap_err());
-        assert!(e.contains("log10") && e.contains("reciprocal") && e.contains("ln"), "{e}");
+        assert!(
+            e.contains("log10") && e.contains("reciprocal") && e.contains("ln"),
+            "{e}"
+        );
     }
 
     /// A derived column carries replica samples where its inputs do: the op on
