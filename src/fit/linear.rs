@@ -97,13 +97,17 @@ pub fn log_trend(data: Data<'_>) -> Result<FitResult, FitError> {
     let (a, s) = (f.params[0], f.params[1]);
     let x0 = (-a / s).exp();
     if !(x0.is_finite() && x0 > 0.0) {
-        return Err(FitError::IllConditioned {
-            form: "log_trend".into(),
-            parameter: "x_0".into(),
-            hint: format!(
-                "the trend is flat (slope {s:.3e}): y does not reach 0 at any representable x"
-            ),
-        });
+        // The slope is still measured; only where the trend reaches 0 is not.
+        let e = f.covariance[1][1].sqrt();
+        f.warnings.push(format!(
+            "{}x_0: the trend is flat (slope {s:.3e} +- {e:.3e}), so y does not reach 0 at any representable x",
+            crate::fit::forms::UNRELIABLE
+        ));
+        f.names = vec!["slope".into(), "x_0".into()];
+        f.params = vec![s, f64::NAN];
+        f.covariance = vec![vec![f.covariance[1][1], f64::NAN], vec![f64::NAN, f64::NAN]];
+        f.stderr = vec![e, f64::NAN];
+        return Ok(f);
     }
     // d x0 / d(a, s), then x0's row and column of the covariance.
     let j = [-x0 / s, x0 * a / (s * s)];
@@ -217,6 +221,17 @@ mod tests {
             flat.warnings.iter().any(|w| w.contains("not placed")),
             "{:?}",
             flat.warnings
+        );
+        // So flat that the crossing is beyond any representable x: the slope
+        // is still reported, x_0 is NaN and the fit says it is unreliable.
+        let level = log_trend(Data::new(&x, &[-1.3, -1.3, -1.3, -1.3, -1.3001], &s)).unwrap();
+        assert!(level.value("slope").abs() < 1e-3 && level.error("slope") > 0.0);
+        assert!(level.value("x_0").is_nan());
+        assert!(
+            level
+                .warnings
+                .iter()
+                .any(|w| w.starts_with(crate::fit::forms::UNRELIABLE))
         );
         assert!(log_trend(Data::new(&[0.0, 1.0, 2.0], &[1.0, 2.0, 3.0], &[1.0; 3])).is_err());
     }
