@@ -101,7 +101,7 @@ pub fn log_trend(data: Data<'_>) -> Result<FitResult, FitError> {
         let e = f.covariance[1][1].sqrt();
         f.warnings.push(format!(
             "{}x_0: the trend is flat (slope {s:.3e} +- {e:.3e}), so y does not reach 0 at any representable x",
-            crate::fit::forms::UNRELIABLE
+            crate::fit::result::UNRELIABLE
         ));
         f.names = vec!["slope".into(), "x_0".into()];
         f.params = vec![s, f64::NAN];
@@ -231,7 +231,7 @@ mod tests {
             level
                 .warnings
                 .iter()
-                .any(|w| w.starts_with(crate::fit::forms::UNRELIABLE))
+                .any(|w| w.starts_with(crate::fit::result::UNRELIABLE))
         );
         assert!(log_trend(Data::new(&[0.0, 1.0, 2.0], &[1.0, 2.0, 3.0], &[1.0; 3])).is_err());
     }

@@ -4,6 +4,10 @@ use serde::Serialize;
 
 use super::FitError;
 
+/// How a warning that makes the fitted numbers untrustworthy starts (the
+/// `compare` stage turns it into the verdict `unreliable`).
+pub const UNRELIABLE: &str = "unreliable: ";
+
 /// Data to fit: abscissae, ordinates and the 1-sigma errors of the ordinates.
 #[derive(Debug, Clone, Copy)]
 pub struct Data<'a> {

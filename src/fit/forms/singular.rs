@@ -9,6 +9,8 @@
 
 use super::{Data, FitError, FitResult, Fixed, fit_form, fixed_value, log_y};
 use crate::fit::linear::line;
+/// How a warning that makes the fitted numbers untrustworthy starts.
+pub use crate::fit::result::UNRELIABLE;
 use crate::fit::result::positive;
 
 /// One divergent form, ln y = ln A + k u(phi, c), parameters [A, c, k].
@@ -50,10 +52,6 @@ pub fn power_law_offset(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, F
 pub fn vft(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     fit_singular(&VFT, data, fixed)
 }
-
-/// How a warning that makes the fitted numbers untrustworthy starts (the
-/// `compare` stage turns it into the verdict `unreliable`).
-pub const UNRELIABLE: &str = "unreliable: ";
 
 /// Why a singular point `c` fitted above the data `x` is not resolved by them, if
 /// it is not: it lies closer to the last data point than the last step of the
