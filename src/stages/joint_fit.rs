@@ -95,18 +95,18 @@ impl StageKind for JointFit {
         for s in &p.series {
             let own = c.select(&s.filter)?;
             let rows: Vec<usize> = rows.iter().copied().filter(|r| own.contains(r)).collect();
-            let (y, e) = (pick(c.col(&s.y)?, &rows), pick(c.col(&s.y_err)?, &rows));
-            let rows: Vec<usize> = (0..rows.len())
-                .filter(|&i| y[i].is_finite() && y[i] > 0.0 && e[i].is_finite() && e[i] > 0.0)
-                .map(|i| rows[i])
+            let (y, e) = (c.col(&s.y)?, c.col(&s.y_err)?);
+            let rows: Vec<usize> = rows
+                .into_iter()
+                .filter(|&r| y[r].is_finite() && y[r] > 0.0 && e[r].is_finite() && e[r] > 0.0)
                 .collect();
             let jk = (0..samples)
                 .map(|k| Ok(pick(c.col(&jk_column(&s.y, k))?, &rows)))
                 .collect::<Result<Vec<_>>>()?;
             cols.push(SeriesRows {
                 x: pick(c.col(&p.x)?, &rows),
-                y: pick(c.col(&s.y)?, &rows),
-                e: pick(c.col(&s.y_err)?, &rows),
+                y: pick(y, &rows),
+                e: pick(e, &rows),
                 unit: if samples > 0 {
                     pick(c.col(JK_UNIT)?, &rows)
                 } else {
@@ -176,7 +176,7 @@ struct SeriesRows {
 /// The replica jackknife of the joint fit, its numbers in the order phi_c,
 /// then A and gamma of each series: every series' rows of one unit take their
 /// values with the same replica left out (the series are concatenated so that
-/// [`pool::replica_jackknife_with`] replaces them together). The errors and
+/// [`pool::replica_jackknife`] replaces them together). The errors and
 /// the number of refits; None when a refit fails or a unit lacks samples.
 fn jackknife(cols: &[SeriesRows]) -> Option<(Vec<f64>, usize)> {
     let cat = |f: &dyn Fn(&SeriesRows) -> &[f64]| -> Vec<f64> {
@@ -186,7 +186,7 @@ fn jackknife(cols: &[SeriesRows]) -> Option<(Vec<f64>, usize)> {
     let y_jk: Vec<Vec<f64>> = (0..cols[0].jk.len())
         .map(|k| cols.iter().flat_map(|s| s.jk[k].iter().copied()).collect())
         .collect();
-    let refit = |_: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+    let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
         let mut at = 0;
         let data: Vec<Data> = cols
             .iter()
@@ -204,8 +204,7 @@ fn jackknife(cols: &[SeriesRows]) -> Option<(Vec<f64>, usize)> {
         }
         Some(v)
     };
-    let j = pool::replica_jackknife_with(&units, &x, &y, &[], &y_jk, &[], refit)?;
-    Some((j.errors, j.refits.len()))
+    pool::replica_jackknife(&units, &x, &y, &[], &y_jk, refit)
 }
 
 #[cfg(test)]
