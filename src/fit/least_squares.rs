@@ -82,6 +82,53 @@ pub fn least_squares(
     p0: &[f64],
     opts: &FitOptions,
 ) -> Result<FitResult, FitError> {
+    let setup = checked_setup(form, names, data, p0, opts)?;
+    let free = setup.fixed.iter().filter(|f| !**f).count();
+    let (p, iterations) = minimise(form, names, model, data, p0, opts, &setup)?;
+    let residual = |q: &[f64]| -> Vec<f64> {
+        (0..data.len())
+            .map(|i| (data.y[i] - model(data.x[i], q)) / data.sigma[i])
+            .collect()
+    };
+    let r0 = residual(&p);
+    let chi2: f64 = r0.iter().map(|r| r * r).sum();
+    let dof = data.len() - free;
+    let reduced_chi2 = chi2 / dof as f64;
+    let scale = if opts.scale_errors { reduced_chi2 } else { 1.0 };
+    let covariance = covariance_at(form, names, &residual, &p, p0, &setup, scale)?;
+    let stderr = (0..p.len()).map(|j| covariance[j][j].sqrt()).collect();
+    Ok(FitResult {
+        form: form.to_string(),
+        names: names.iter().map(|s| s.to_string()).collect(),
+        params: p,
+        stderr,
+        covariance,
+        fixed: setup.fixed,
+        chi2,
+        dof,
+        reduced_chi2,
+        converged: true,
+        iterations,
+        errors_scaled: opts.scale_errors,
+        warnings: Vec::new(),
+    })
+}
+
+/// Per parameter: held at its start value, and its (lower, upper) bounds.
+struct Setup {
+    fixed: Vec<bool>,
+    bounds: Vec<(f64, f64)>,
+}
+
+/// The per-parameter fixed flags and bounds of `opts`, after checking that
+/// names, options, data and start values fit together.
+fn checked_setup(
+    form: &str,
+    names: &[&str],
+    data: Data<'_>,
+    p0: &[f64],
+    opts: &FitOptions,
+) -> Result<Setup, FitError> {
     let np = p0.len();
     if names.len() != np {
         return Err(FitError::invalid(
@@ -128,7 +175,22 @@ pub fn least_squares(
             ));
         }
     }
+    Ok(Setup { fixed, bounds })
+}
 
+/// MPFIT's minimum and its iteration count; a minimum on a bound of a free
+/// parameter is an error (its error bar would be meaningless).
+fn minimise(
+    form: &str,
+    names: &[&str],
+    model: Model<'_>,
+    data: Data<'_>,
+    p0: &[f64],
+    opts: &FitOptions,
+    setup: &Setup,
+) -> Result<(Vec<f64>, usize), FitError> {
+    let (fixed, bounds) = (&setup.fixed, &setup.bounds);
+    let np = p0.len();
     let pars = (0..np)
         .map(|j| {
             let mut p = MPPar::new();
@@ -195,17 +257,24 @@ pub fn least_squares(
             }
         }
     }
+    Ok((p, iterations))
+}
 
-    let residual = |q: &[f64]| -> Vec<f64> {
-        (0..data.len())
-            .map(|i| (data.y[i] - model(data.x[i], q)) / data.sigma[i])
-            .collect()
-    };
-    let r0 = residual(&p);
-    let chi2: f64 = r0.iter().map(|r| r * r).sum();
-    let dof = data.len() - free;
-    let reduced_chi2 = chi2 / dof as f64;
-
+/// The covariance of the free parameters at the minimum `p`: the inverse of
+/// J^T J of the residuals (times `scale`), zero rows and columns for fixed ones.
+fn covariance_at(
+    form: &str,
+    names: &[&str],
+    residual: &dyn Fn(&[f64]) -> Vec<f64>,
+    p: &[f64],
+    p0: &[f64],
+    setup: &Setup,
+    scale: f64,
+) -> Result<Vec<Vec<f64>>, FitError> {
+    let (fixed, bounds) = (&setup.fixed, &setup.bounds);
+    let np = p.len();
+    let free = fixed.iter().filter(|f| !**f).count();
+    let r0 = residual(p);
     // Jacobian of the residuals w.r.t. the free parameters (central differences,
     // one-sided where a bound or the model's domain forbids a side).
     let free_idx: Vec<usize> = (0..np).filter(|&j| !fixed[j]).collect();
@@ -218,7 +287,7 @@ pub fn least_squares(
             if v < bounds[j].0 || v > bounds[j].1 {
                 return None;
             }
-            let mut q = p.clone();
+            let mut q = p.to_vec();
             q[j] = v;
             let r = residual(&q);
             r.iter().all(|x| x.is_finite()).then_some(r)
@@ -254,27 +323,11 @@ pub fn least_squares(
                the form"
             .to_string(),
     })?;
-    let scale = if opts.scale_errors { reduced_chi2 } else { 1.0 };
     let mut covariance = vec![vec![0.0; np]; np];
     for (a, &i) in free_idx.iter().enumerate() {
         for (b, &j) in free_idx.iter().enumerate() {
             covariance[i][j] = inv[a][b] * scale;
         }
     }
-    let stderr = (0..np).map(|j| covariance[j][j].sqrt()).collect();
-    Ok(FitResult {
-        form: form.to_string(),
-        names: names.iter().map(|s| s.to_string()).collect(),
-        params: p,
-        stderr,
-        covariance,
-        fixed,
-        chi2,
-        dof,
-        reduced_chi2,
-        converged: true,
-        iterations,
-        errors_scaled: opts.scale_errors,
-        warnings: Vec::new(),
-    })
+    Ok(covariance)
 }

@@ -244,37 +244,8 @@ pub fn replica_errors(
             None => method.push_str(JK_IMPOSSIBLE),
         }
     } else if let Some(replica) = object_replicas {
-        // One row per object (cluster) of every replica: refit with the
-        // rows of each replica left out. Objects of one replica share
-        // its frames, so they are not independent points.
-        let mut labels = replica.clone();
-        labels.sort_by(f64::total_cmp);
-        labels.dedup();
-        let thetas: Option<Vec<Vec<f64>>> = labels
-            .iter()
-            .map(|&r| {
-                let ys: Vec<f64> = ry
-                    .iter()
-                    .zip(replica)
-                    .map(|(&y, &k)| if k == r { f64::NAN } else { y })
-                    .collect();
-                let left = LeftOut {
-                    unit: f64::NAN,
-                    replica: 0,
-                };
-                sample_refit(left, rx, &ys)
-            })
-            .collect();
-        match thetas {
-            Some(t) => {
-                let n = t.len() as f64;
-                let errors: Vec<f64> = (0..t[0].len())
-                    .map(|q| {
-                        let mean = t.iter().map(|v| v[q]).sum::<f64>() / n;
-                        ((n - 1.0) / n * t.iter().map(|v| (v[q] - mean).powi(2)).sum::<f64>())
-                            .sqrt()
-                    })
-                    .collect();
+        match object_jackknife(replica, rx, ry, &sample_refit) {
+            Some((errors, replicas)) => {
                 if also.is_empty() {
                     pooled = Some(rows.iter().map(|r| r.2).zip(errors.clone()).collect());
                 }
@@ -282,8 +253,7 @@ pub fn replica_errors(
                     row.2 = *e;
                 }
                 *method = format!(
-                    "delete-one jackknife over replicas: refit with the rows of each of {} replicas left out",
-                    labels.len()
+                    "delete-one jackknife over replicas: refit with the rows of each of {replicas} replicas left out"
                 );
             }
             None => method.push_str(
@@ -291,34 +261,82 @@ pub fn replica_errors(
             ),
         }
     }
-    // A fit on one unit's rows (the OZ fit of one state point's S4
-    // over q) takes no error from two replicas, but carries its numbers
-    // refitted with each replica left out, so that a fit across state
-    // points (xi against phi, the collapse) refits them on the same
-    // replicas instead of holding them at their values.
-    let samples = one_unit.map(|(unit, y_jk)| {
-        let per_replica = y_jk
-            .iter()
-            .enumerate()
-            .map(|(k, ys)| {
-                let left = LeftOut {
-                    unit: *unit,
-                    replica: k,
-                };
-                let xs = match jk {
-                    Some((_, x_jk, _)) if x_jk.len() == y_jk.len() => &x_jk[k],
-                    _ => rx,
-                };
-                sample_refit(left, xs, ys).unwrap_or_default()
-            })
-            .collect();
-        (*unit, per_replica)
-    });
+    let samples = one_unit.map(|u| unit_samples(u, *jk, rx, &sample_refit));
     Replicated {
         refits,
         pooled,
         samples,
     }
+}
+
+/// A refit of the points with one replica left out: (the replica, its x, its y).
+type SampleRefit<'a> = dyn Fn(LeftOut, &[f64], &[f64]) -> Option<Vec<f64>> + 'a;
+
+/// The delete-one jackknife errors of a fit whose rows are objects (clusters)
+/// of several replicas, refitted with the rows of each replica left out
+/// (objects of one replica share its frames, so they are not independent
+/// points), and the number of replicas; None when a refit fails.
+fn object_jackknife(
+    replica: &[f64],
+    rx: &[f64],
+    ry: &[f64],
+    sample_refit: &SampleRefit<'_>,
+) -> Option<(Vec<f64>, usize)> {
+    let mut labels = replica.to_vec();
+    labels.sort_by(f64::total_cmp);
+    labels.dedup();
+    let t: Vec<Vec<f64>> = labels
+        .iter()
+        .map(|&r| {
+            let ys: Vec<f64> = ry
+                .iter()
+                .zip(replica)
+                .map(|(&y, &k)| if k == r { f64::NAN } else { y })
+                .collect();
+            let left = LeftOut {
+                unit: f64::NAN,
+                replica: 0,
+            };
+            sample_refit(left, rx, &ys)
+        })
+        .collect::<Option<_>>()?;
+    let n = t.len() as f64;
+    let errors = (0..t[0].len())
+        .map(|q| {
+            let mean = t.iter().map(|v| v[q]).sum::<f64>() / n;
+            ((n - 1.0) / n * t.iter().map(|v| (v[q] - mean).powi(2)).sum::<f64>()).sqrt()
+        })
+        .collect();
+    Some((errors, labels.len()))
+}
+
+/// A fit on one unit's rows (the OZ fit of one state point's S4 over q) takes
+/// no error from two replicas, but carries its numbers refitted with each
+/// replica left out, so that a fit across state points (xi against phi, the
+/// collapse) refits them on the same replicas instead of holding them at
+/// their values.
+fn unit_samples(
+    (unit, y_jk): &(f64, Vec<Vec<f64>>),
+    jk: Option<&Replicas>,
+    rx: &[f64],
+    sample_refit: &SampleRefit<'_>,
+) -> (f64, Vec<Vec<f64>>) {
+    let per_replica = y_jk
+        .iter()
+        .enumerate()
+        .map(|(k, ys)| {
+            let left = LeftOut {
+                unit: *unit,
+                replica: k,
+            };
+            let xs = match jk {
+                Some((_, x_jk, _)) if x_jk.len() == y_jk.len() => &x_jk[k],
+                _ => rx,
+            };
+            sample_refit(left, xs, ys).unwrap_or_default()
+        })
+        .collect();
+    (*unit, per_replica)
 }
 
 /// The delete-one jackknife error over replicas of the mean of y, from the
