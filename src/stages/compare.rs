@@ -10,7 +10,7 @@ use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{read_parquet_bytes, results, to_parquet_bytes};
 
 /// `compare`: one row per paper value: quantity, ours, ours_err, paper, tolerance,
-/// verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
+/// source (`figure` or `ref12`), verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
 /// says its data cannot support the number, `missing`) and the reason.
 pub struct Compare;
 
@@ -30,6 +30,10 @@ struct PaperValue {
     /// (e.g. a tail length that grows with phi: x0 at 0.78 above x0 at 0.60).
     #[serde(default)]
     than: Option<String>,
+    /// Whether paper H measures the value in a figure (default) or quotes it
+    /// from its reference 12; a column of the output, so a reader can tell.
+    #[serde(default)]
+    source: results::Source,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -129,6 +133,7 @@ impl StageKind for Compare {
         }
         let (mut q, mut o, mut oe, mut pv, mut tol, mut verdict, mut reason) =
             (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let source = p.paper.iter().map(|v| v.source).collect();
         for pval in &p.paper {
             let found = ours.iter().find(|(name, ..)| *name == pval.quantity);
             let (v, e, ver, why) = match found {
@@ -231,6 +236,7 @@ impl StageKind for Compare {
             tolerance: tol,
             verdict,
             reason,
+            source,
         }
         .batch()?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))

@@ -551,6 +551,7 @@ mod tests {
             tolerance: vec![0.01],
             verdict: vec!["agree".into()],
             reason: vec!["|a - b| <= c".into()],
+            source: vec![crate::table::results::Source::Figure],
         }
         .batch()
         .unwrap();
