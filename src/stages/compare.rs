@@ -276,7 +276,7 @@ mod tests {
     use crate::stages::tables::Columns;
     use crate::stages::test_support::{artifact, yaml};
     use crate::table::read_parquet_bytes;
-    use crate::table::results::{REASON, VERDICT, quantity_batch};
+    use crate::table::results::{REASON, SOURCE, VERDICT, quantity_batch};
 
     /// Verdicts against the paper: inside the tolerance agrees, outside
     /// disagrees unless the profile says it is out of reach; a caveat is
@@ -296,7 +296,7 @@ mod tests {
         );
         let params = yaml(
             "paper:\n\
-             - {quantity: a, value: 1.6, tolerance: 0.3}\n\
+             - {quantity: a, value: 1.6, tolerance: 0.3, source: ref12}\n\
              - {quantity: b, value: 1.0, tolerance: 0.3}\n\
              - {quantity: c, value: 1.0, tolerance: 0.3}\n\
              - {quantity: d, value: 1.0, tolerance: 0.3}\n\
@@ -308,6 +308,10 @@ mod tests {
         bad["caveats"] = yaml("{e: x}");
         let e = Compare.validate(&bad).unwrap_err().to_string();
         assert!(e.contains("caveats names 'e'"), "{e}");
+        let mut bad = params.clone();
+        bad["paper"][0]["source"] = yaml("ref13");
+        let e = format!("{:#}", Compare.validate(&bad).unwrap_err());
+        assert!(e.contains("ref13") && e.contains("ref12"), "{e}");
         let ctx = StageCtx::new(0, "compare".into(), None);
         let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
         let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
@@ -316,6 +320,8 @@ mod tests {
             c.str[VERDICT],
             ["agree", "disagree", "out_of_reach", "missing"]
         );
+        // The source column: ref12 where the value says so, figure by default.
+        assert_eq!(c.str[SOURCE], ["ref12", "figure", "figure", "figure"]);
         let reason = &c.str[REASON];
         assert!(
             reason[0].starts_with("|1.5500 - 1.6| = 0.0500 <= 0.3; one seed in twenty"),
