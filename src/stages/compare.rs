@@ -10,7 +10,7 @@ use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::{read_parquet_bytes, results, to_parquet_bytes};
 
 /// `compare`: one row per paper value: quantity, ours, ours_err, paper, tolerance,
-/// verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
+/// source (`figure` or `ref12`), verdict (`agree`, `disagree`, `out_of_reach`, `unreliable` when the fit's note
 /// says its data cannot support the number, `missing`) and the reason.
 pub struct Compare;
 
@@ -30,6 +30,10 @@ struct PaperValue {
     /// (e.g. a tail length that grows with phi: x0 at 0.78 above x0 at 0.60).
     #[serde(default)]
     than: Option<String>,
+    /// Whether paper H measures the value in a figure (default) or quotes it
+    /// from its reference 12; a column of the output, so a reader can tell.
+    #[serde(default)]
+    source: results::Source,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -129,6 +133,7 @@ impl StageKind for Compare {
         }
         let (mut q, mut o, mut oe, mut pv, mut tol, mut verdict, mut reason) =
             (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let source = p.paper.iter().map(|v| v.source).collect();
         for pval in &p.paper {
             let found = ours.iter().find(|(name, ..)| *name == pval.quantity);
             let (v, e, ver, why) = match found {
@@ -231,6 +236,7 @@ impl StageKind for Compare {
             tolerance: tol,
             verdict,
             reason,
+            source,
         }
         .batch()?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
@@ -270,7 +276,7 @@ mod tests {
     use crate::stages::tables::Columns;
     use crate::stages::test_support::{artifact, yaml};
     use crate::table::read_parquet_bytes;
-    use crate::table::results::{REASON, VERDICT, quantity_batch};
+    use crate::table::results::{REASON, SOURCE, VERDICT, quantity_batch};
 
     /// Verdicts against the paper: inside the tolerance agrees, outside
     /// disagrees unless the profile says it is out of reach; a caveat is
@@ -290,7 +296,7 @@ mod tests {
         );
         let params = yaml(
             "paper:\n\
-             - {quantity: a, value: 1.6, tolerance: 0.3}\n\
+             - {quantity: a, value: 1.6, tolerance: 0.3, source: ref12}\n\
              - {quantity: b, value: 1.0, tolerance: 0.3}\n\
              - {quantity: c, value: 1.0, tolerance: 0.3}\n\
              - {quantity: d, value: 1.0, tolerance: 0.3}\n\
@@ -302,6 +308,10 @@ mod tests {
         bad["caveats"] = yaml("{e: x}");
         let e = Compare.validate(&bad).unwrap_err().to_string();
         assert!(e.contains("caveats names 'e'"), "{e}");
+        let mut bad = params.clone();
+        bad["paper"][0]["source"] = yaml("ref13");
+        let e = format!("{:#}", Compare.validate(&bad).unwrap_err());
+        assert!(e.contains("ref13") && e.contains("ref12"), "{e}");
         let ctx = StageCtx::new(0, "compare".into(), None);
         let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
         let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
@@ -310,6 +320,8 @@ mod tests {
             c.str[VERDICT],
             ["agree", "disagree", "out_of_reach", "missing"]
         );
+        // The source column: ref12 where the value says so, figure by default.
+        assert_eq!(c.str[SOURCE], ["ref12", "figure", "figure", "figure"]);
         let reason = &c.str[REASON];
         assert!(
             reason[0].starts_with("|1.5500 - 1.6| = 0.0500 <= 0.3; one seed in twenty"),

@@ -35,6 +35,8 @@ pub const TOLERANCE: &str = "tolerance";
 pub const VERDICT: &str = "verdict";
 /// Why the verdict.
 pub const REASON: &str = "reason";
+/// Where the paper's value comes from: `figure` or `ref12` ([`Source`]).
+pub const SOURCE: &str = "source";
 
 /// A column of a result table: its name and Arrow type.
 pub type Column = (&'static str, DataType);
@@ -57,7 +59,7 @@ pub const JACKKNIFE_COLUMNS: [Column; 4] = [
 ];
 
 /// The columns of the compare table.
-pub const COMPARE_COLUMNS: [Column; 7] = [
+pub const COMPARE_COLUMNS: [Column; 8] = [
     (QUANTITY, DataType::Utf8),
     (OURS, DataType::Float64),
     (OURS_ERR, DataType::Float64),
@@ -65,6 +67,7 @@ pub const COMPARE_COLUMNS: [Column; 7] = [
     (TOLERANCE, DataType::Float64),
     (VERDICT, DataType::Utf8),
     (REASON, DataType::Utf8),
+    (SOURCE, DataType::Utf8),
 ];
 
 /// Column of a quantity table holding each quantity refitted with replica k
@@ -298,6 +301,42 @@ impl std::fmt::Display for Verdict {
     }
 }
 
+/// Where a paper value comes from: measured in one of the paper's own figures,
+/// or quoted by paper H from its reference 12 ("we had shown in 12"), with that
+/// paper's data, sizes and fit ranges. A quoted number is not what paper H's
+/// data give, so agreeing with it is a different claim.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Source {
+    #[default]
+    Figure,
+    Ref12,
+}
+
+impl Source {
+    pub const ALL: [Source; 2] = [Source::Figure, Source::Ref12];
+
+    /// As compare.parquet spells it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Source::Figure => "figure",
+            Source::Ref12 => "ref12",
+        }
+    }
+
+    /// For readers.
+    pub fn label(self) -> &'static str {
+        match self {
+            Source::Figure => "measured (figure)",
+            Source::Ref12 => "quoted (ref. 12)",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Source> {
+        Source::ALL.into_iter().find(|v| v.as_str() == s)
+    }
+}
+
 impl PartialEq<&str> for Verdict {
     fn eq(&self, other: &&str) -> bool {
         self.as_str() == *other
@@ -315,6 +354,7 @@ pub struct Compared {
     pub tolerance: f64,
     pub verdict: Verdict,
     pub reason: String,
+    pub source: Source,
 }
 
 /// The compare table's columns, one entry per paper value.
@@ -327,6 +367,7 @@ pub struct CompareColumns {
     pub tolerance: Vec<f64>,
     pub verdict: Vec<String>,
     pub reason: Vec<String>,
+    pub source: Vec<Source>,
 }
 
 impl CompareColumns {
@@ -343,6 +384,9 @@ impl CompareColumns {
                 Arc::new(Float64Array::from(self.tolerance)),
                 Arc::new(StringArray::from(self.verdict)),
                 Arc::new(StringArray::from(self.reason)),
+                Arc::new(StringArray::from_iter_values(
+                    self.source.iter().map(|s| s.as_str()),
+                )),
             ],
         )
     }
@@ -360,6 +404,8 @@ pub fn read_compare(b: &RecordBatch) -> Result<Vec<Compared>> {
         f(TOLERANCE)?,
     );
     let (ver, why) = (s(VERDICT)?, s(REASON)?);
+    // Tables written before the column existed hold figure values only.
+    let src = strings(b, SOURCE);
     (0..b.num_rows())
         .map(|i| {
             Ok(Compared {
@@ -371,6 +417,11 @@ pub fn read_compare(b: &RecordBatch) -> Result<Vec<Compared>> {
                 verdict: Verdict::parse(ver.value(i))
                     .with_context(|| format!("unknown verdict '{}'", ver.value(i)))?,
                 reason: why.value(i).to_string(),
+                source: match src {
+                    Some(c) => Source::parse(c.value(i))
+                        .with_context(|| format!("unknown source '{}'", c.value(i)))?,
+                    None => Source::Figure,
+                },
             })
         })
         .collect()
@@ -419,6 +470,7 @@ mod tests {
             tolerance: vec![0.2],
             verdict: vec!["agree".into()],
             reason: vec!["close".into()],
+            source: vec![Source::Ref12],
         }
         .batch()
         .unwrap();
@@ -427,5 +479,6 @@ mod tests {
         }
         let r = read_compare(&c).unwrap();
         assert_eq!((r[0].verdict.as_str(), r[0].paper), ("agree", 1.1));
+        assert_eq!(r[0].source, Source::Ref12);
     }
 }

@@ -12,7 +12,10 @@ pub use distributions::{exponential_tail, gaussian_van_hove, log_normal};
 pub use oz::{oz, oz_quartic};
 pub use power_law::{crossover, power_law};
 pub use relaxation::q_relaxation;
-pub use singular::{UNRELIABLE, joint_power_law_offset, on_last_point, power_law_offset, vft};
+pub use singular::{
+    AIC_MARGIN, DivergenceShape, Shape, UNRELIABLE, joint_power_law_offset, on_last_point,
+    power_law_offset, vft,
+};
 
 use super::least_squares::Model;
 use super::result::require_positive;

@@ -75,6 +75,69 @@ pub fn on_last_point(x: &[f64], c: f64) -> Option<String> {
     })
 }
 
+/// Which divergence data resemble whose free power law puts phi_c on the last
+/// point. Fitted to exact VFT data ending at phi_max, a free power law puts
+/// phi_c between phi_max and phi_0, so a phi_c on the last point does not by
+/// itself say that the data cannot locate a divergence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// The VFT describes the data better and its phi_0 lies beyond the power
+    /// law's phi_c: the power law's phi_c is what VFT-shaped data give.
+    VftShaped,
+    /// Neither form is preferred (or the VFT fails): the data cannot locate phi_c.
+    Unlocated,
+}
+
+/// The classification and the measurement behind it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DivergenceShape {
+    pub shape: Shape,
+    /// chi^2 of the free power law and of the free VFT on the same points (both
+    /// have three parameters, so their difference is the AIC difference).
+    pub chi2_power: f64,
+    pub chi2_vft: f64,
+    pub phi_c: f64,
+    /// NaN when the VFT fit failed.
+    pub phi_0: f64,
+}
+
+/// Smallest AIC difference read as support for one form over the other
+/// (Burnham and Anderson's "substantially less support" below it).
+pub const AIC_MARGIN: f64 = 2.0;
+
+impl DivergenceShape {
+    /// Classifies `data` given its free power-law fit `power`.
+    pub fn of(data: Data<'_>, power: &FitResult) -> DivergenceShape {
+        let phi_c = power.get("phi_c").map_or(f64::NAN, |p| p.0);
+        let (chi2_vft, phi_0) = match vft(data, &[]) {
+            Ok(v) => (v.chi2, v.value("phi_0")),
+            Err(_) => (f64::NAN, f64::NAN),
+        };
+        let vft_shaped = power.chi2 - chi2_vft >= AIC_MARGIN && phi_0 > phi_c;
+        DivergenceShape {
+            shape: if vft_shaped { Shape::VftShaped } else { Shape::Unlocated },
+            chi2_power: power.chi2,
+            chi2_vft,
+            phi_c,
+            phi_0,
+        }
+    }
+}
+
+impl std::fmt::Display for DivergenceShape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let what = match self.shape {
+            Shape::VftShaped => "VFT-shaped: phi_c of a free power law lands between the last point and phi_0",
+            Shape::Unlocated => "cannot locate phi_c",
+        };
+        write!(
+            f,
+            "{what} (chi^2 {:.3} for the power law against {:.3} for the VFT, phi_0 = {:.4})",
+            self.chi2_power, self.chi2_vft, self.phi_0
+        )
+    }
+}
+
 fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
     data.validate(s.form, 3usize.saturating_sub(fixed.len()))?;
     let (ly, ls) = log_y(s.form, data)?;
@@ -142,8 +205,14 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
     })?;
     let (c, dc) = fit.get(s.names[1]).expect("singular point is a parameter");
     if let Some(why) = on_last_point(data.x, c) {
+        // A free power law on the last point is also what VFT-shaped data give:
+        // say which of the two the data resemble (a VFT fit never recurses here).
+        let shape = match s.form {
+            "power_law_offset" => format!("; {}", DivergenceShape::of(data, &fit)),
+            _ => String::new(),
+        };
         fit.warnings
-            .push(format!("{UNRELIABLE}{} = {c:.4}: {why}", s.names[1]));
+            .push(format!("{UNRELIABLE}{} = {c:.4}: {why}{shape}", s.names[1]));
     } else if c - max < 3.0 * dc {
         fit.warnings.push(format!(
             "{} = {c} is within 3 sigma ({dc:.2e}) of max(phi) = {max}: the divergence is not \
@@ -327,5 +396,90 @@ mod tests {
         }
         assert!(f.warnings.is_empty(), "{:?}", f.warnings);
         assert!(joint_power_law_offset(&series[..1]).is_err());
+    }
+
+    /// Paper H's packing fractions (Fig. 3) from 0.60 up to `phi_max`.
+    fn paper_grid(phi_max: f64) -> Vec<f64> {
+        [0.60, 0.65, 0.70, 0.72, 0.74, 0.76, 0.77, 0.78, 0.785, 0.79, 0.795, 0.80, 0.805]
+            .into_iter()
+            .filter(|&p| p <= phi_max + 1e-12)
+            .collect()
+    }
+
+    /// Exact tau(phi) on the paper's grid up to `phi_max`, with 2% errors.
+    fn exact(law: impl Fn(f64) -> f64, phi_max: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let phi = paper_grid(phi_max);
+        let tau: Vec<f64> = phi.iter().map(|&p| law(p)).collect();
+        let sig = tau.iter().map(|t| 0.02 * t).collect();
+        (phi, tau, sig)
+    }
+
+    /// The last step of the paper's grid near its end (0.805 - 0.80).
+    const STEP: f64 = 0.005;
+    /// Paper H's phi_0 (Fig. 4) as our VFT gives it at small, and a VFT tau of its size.
+    const PHI_0: f64 = 0.8288;
+    fn vft_tau(p: f64) -> f64 {
+        0.82 * (0.133 / (PHI_0 - p)).exp()
+    }
+
+    /// Exact VFT data ending at phi_max: a free power law puts phi_c between
+    /// phi_max and phi_0, on the last point (within one step of the data), at
+    /// the landing points measured here (0.8078 over 0.60-0.805, 0.8040 over
+    /// 0.60-0.80; to a tenth of the step); the flag says VFT-shaped, with the
+    /// chi^2 of both forms.
+    #[test]
+    fn a_free_power_law_on_vft_data_lands_between_the_last_point_and_phi_0() {
+        for (hi, landing) in [(0.805, 0.8078), (0.80, 0.8040)] {
+            let (x, y, s) = exact(vft_tau, hi);
+            let d = Data::new(&x, &y, &s);
+            let f = power_law_offset(d, &[]).unwrap();
+            let c = f.value("phi_c");
+            assert!(hi < c && c < PHI_0, "phi_c {c} over 0.60-{hi}");
+            assert!(c - hi < STEP, "on the last point: {c}");
+            assert!((c - landing).abs() < STEP / 10.0, "phi_c {c} over 0.60-{hi}");
+            let shape = DivergenceShape::of(d, &f);
+            assert_eq!(shape.shape, Shape::VftShaped, "{shape}");
+            // Exact VFT data: the VFT fits them to rounding, the power law does not.
+            assert!(shape.chi2_vft < 1e-6 && shape.chi2_power > 100.0, "{shape}");
+            assert!((shape.phi_0 - PHI_0).abs() < 1e-6, "{shape}");
+            let w = f.warnings.join("; ");
+            assert!(w.starts_with(UNRELIABLE) && w.contains("VFT-shaped"), "{w}");
+        }
+    }
+
+    /// The converse: power-law data with phi_c = 0.82 (three steps beyond
+    /// 0.805, so the power law locates it and raises no flag) give a VFT
+    /// phi_0 far beyond 0.82 (0.8777 at gamma = 1.5 over 0.60-0.805, measured
+    /// here), and more so the earlier the window ends: one tau(phi) cannot
+    /// give a free phi_c of 0.82 and a free phi_0 of 0.83 at once.
+    #[test]
+    fn a_free_vft_on_power_law_data_puts_phi_0_far_beyond_phi_c() {
+        let law = |p: f64| 0.4 * (0.82 - p).powf(-1.5);
+        let phi_0 = |hi: f64| {
+            let (x, y, s) = exact(law, hi);
+            let d = Data::new(&x, &y, &s);
+            let pl = power_law_offset(d, &[]).unwrap();
+            assert!((pl.value("phi_c") - 0.82).abs() < 1e-6 && pl.warnings.is_empty());
+            vft(d, &[]).unwrap().value("phi_0")
+        };
+        let (late, early) = (phi_0(0.805), phi_0(0.80));
+        assert!((late - 0.8777).abs() < STEP / 10.0, "{late}");
+        assert!(early > late, "{early} {late}");
+    }
+
+    /// A divergence truly on the last point (power-law data with phi_c one
+    /// tenth of a step beyond 0.805): the power law fits exactly, the VFT does
+    /// not (it fails, or its chi^2 exceeds the margin), and the flag says the
+    /// data cannot locate phi_c.
+    #[test]
+    fn a_power_law_on_its_last_point_cannot_be_located() {
+        let (x, y, s) = exact(|p| 0.4 * (0.8055 - p).powf(-1.5), 0.805);
+        let d = Data::new(&x, &y, &s);
+        let f = power_law_offset(d, &[]).unwrap();
+        let shape = DivergenceShape::of(d, &f);
+        assert_eq!(shape.shape, Shape::Unlocated, "{shape}");
+        assert!(shape.chi2_power < 1e-3 && !(shape.chi2_vft <= AIC_MARGIN), "{shape}");
+        let w = f.warnings.join("; ");
+        assert!(w.contains("cannot locate phi_c (chi^2"), "{w}");
     }
 }

@@ -11,9 +11,12 @@ use crate::fit::catalogue::Form;
 use crate::fit::ranges::range_scan;
 use crate::table::results::quantity_batch;
 
+/// The fit quality of each window, as the main table names it.
+const REDUCED_CHI2: &str = "reduced_chi2";
+
 /// The range scan of one group: every window's fit as rows of `ranges.parquet`
 /// (the group's values, x_min, x_max, n_points, then quantity, value, error,
-/// note), and each parameter's spread between windows appended to `rows` as
+/// note; the parameters and `reduced_chi2`), and each parameter's spread between windows appended to `rows` as
 /// `<parameter>_range_std` (NaN, with the reason in `note`, when no window fits).
 pub(super) fn scan_ranges(
     p: &FitParams,
@@ -40,17 +43,22 @@ pub(super) fn scan_ranges(
             ("n_points".to_string(), points as f64),
         ]);
         let (quantities, why) = match result {
+            // Each window's reduced chi^2 beside its parameters: where the form
+            // holds (paper H, Fig. 4: the power law "only works for a narrower range").
             Ok(f) => (
                 f.names
                     .iter()
                     .zip(f.params.iter().zip(&f.stderr))
                     .map(|(n, (v, e))| (name(n), *v, *e))
+                    .chain([(name(REDUCED_CHI2), f.reduced_chi2, f64::NAN)])
                     .collect::<Vec<_>>(),
                 f.warnings.join("; "),
             ),
             Err(e) => (
                 form.params
                     .iter()
+                    .copied()
+                    .chain([REDUCED_CHI2])
                     .map(|n| (name(n), f64::NAN, f64::NAN))
                     .collect(),
                 format!("fit failed: {e}"),

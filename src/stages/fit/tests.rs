@@ -56,7 +56,7 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
     let n = b[0].column_by_name("n_points").unwrap();
     assert_eq!(n.data_type(), &arrow_schema::DataType::Int64);
     let c = Columns::from_batch(&b[0]).unwrap();
-    assert_eq!(c.rows, 4 * 2, "four windows, two parameters each");
+    assert_eq!(c.rows, 4 * 3, "four windows, two parameters and the reduced chi^2 each");
     let (lo, hi, np) = (
         c.col("x_min").unwrap(),
         c.col("x_max").unwrap(),
@@ -72,8 +72,14 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
         v[i],
         np[i]
     );
+    // The window across the kink fits worse than the one on a single law.
+    let chi2 = |lo_: f64, hi_: f64| {
+        let i = (0..c.rows).find(|&i| lo[i] == lo_ && hi[i] == hi_ && q[i] == "reduced_chi2");
+        v[i.unwrap()]
+    };
+    assert!(chi2(1.0, 100.0) > 10.0 * chi2(1.0, 10.0), "{} {}", chi2(1.0, 100.0), chi2(1.0, 10.0));
     let narrow: Vec<usize> = (0..c.rows).filter(|&i| lo[i] == 50.0).collect();
-    assert_eq!(narrow.len(), 2);
+    assert_eq!(narrow.len(), 3);
     for i in narrow {
         assert!(v[i].is_nan() && np[i] == 1.0, "{} {}", v[i], np[i]);
         assert!(note[i].starts_with("fit failed:"), "{}", note[i]);

@@ -281,18 +281,20 @@ fn key_numbers(s: &mut String, f: &FigureReport) {
     }
     s.push_str(
         "<p>ours ± error is the fit's 1-sigma error; tolerance is the largest accepted \
-         |ours − paper|.</p>\n<table id=\"key-numbers\"><tr><th>quantity</th><th>ours</th>\
-         <th>error</th><th>paper</th><th>tolerance</th><th>verdict</th><th>reason</th></tr>\n",
+         |ours − paper|; source says whether paper H measures its value in a figure or \
+         quotes it from its reference 12.</p>\n<table id=\"key-numbers\"><tr><th>quantity</th><th>ours</th>\
+         <th>error</th><th>paper</th><th>source</th><th>tolerance</th><th>verdict</th><th>reason</th></tr>\n",
     );
     for c in &f.compared {
         let _ = writeln!(
             s,
             "<tr class=\"key\"><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td>\
-             <td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"{}\">{}</td><td>{}</td></tr>",
+             <td class=\"n\">{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"{}\">{}</td><td>{}</td></tr>",
             esc(&c.quantity),
             number(c.ours, c.ours_err),
             error(c.ours_err),
             plain(c.paper),
+            c.source.label(),
             plain(c.tolerance),
             c.verdict.as_str(),
             c.verdict.label(),

@@ -58,23 +58,25 @@ pub fn render(report: &Report, image: impl Fn(&str) -> String) -> String {
     let _ = writeln!(
         s,
         "ours +- error is the fit's quoted 1-sigma error; tolerance is the largest \
-         accepted |ours - paper|.\n"
+         accepted |ours - paper|; source says whether paper H measures its value in a \
+         figure or quotes it from its reference 12.\n"
     );
     let _ = writeln!(
         s,
-        "| figure | quantity | ours | error | paper | tolerance | verdict | reason |"
+        "| figure | quantity | ours | error | paper | source | tolerance | verdict | reason |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
     for f in &figs {
         for c in &f.compared {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 f.id,
                 cell(&c.quantity),
                 number(c.ours, c.ours_err),
                 error(c.ours_err),
                 plain(c.paper),
+                c.source.label(),
                 plain(c.tolerance),
                 c.verdict,
                 cell(&c.reason)

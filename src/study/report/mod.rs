@@ -8,9 +8,12 @@
 //! - [`markdown`]: `results/REPORT.md` (images linked in place) and, on request,
 //!   `docs/report-PROFILE.md` with the PNGs copied to `docs/img/ID-PROFILE.png`,
 //!   for the README to link;
+//! - [`headline`]: paper H's headline numbers in one table, `results/HEADLINE.md`
+//!   and, on request, `docs/headline-PROFILE.md`;
 //! - [`html`]: `results/report/`, an index (scoreboard of every figure) and a
 //!   page per figure, opened from the file system (no server, no network).
 
+pub mod headline;
 pub mod html;
 pub mod markdown;
 
@@ -513,6 +516,10 @@ pub fn write_markdown(report: &Report, root: &Path, results: &Path, docs: bool) 
     let md = markdown::render(report, |id| format!("{id}/figure.png"));
     crate::table::write_atomic(&here, md.as_bytes())?;
     files.push(here);
+    let headline = headline::render(report);
+    let here = results.join("HEADLINE.md");
+    crate::table::write_atomic(&here, headline.as_bytes())?;
+    files.push(here);
     if docs {
         let img = root.join("docs").join("img");
         std::fs::create_dir_all(&img).with_context(|| format!("creating {}", img.display()))?;
@@ -526,6 +533,9 @@ pub fn write_markdown(report: &Report, root: &Path, results: &Path, docs: bool) 
         let doc = root.join("docs").join(format!("report-{profile}.md"));
         let md = markdown::render(report, |id| format!("img/{id}-{profile}.png"));
         crate::table::write_atomic(&doc, md.as_bytes())?;
+        files.push(doc);
+        let doc = root.join("docs").join(format!("headline-{profile}.md"));
+        crate::table::write_atomic(&doc, headline.as_bytes())?;
         files.push(doc);
     }
     Ok(Written {
@@ -551,6 +561,7 @@ mod tests {
             tolerance: vec![0.01],
             verdict: vec!["agree".into()],
             reason: vec!["|a - b| <= c".into()],
+            source: vec![crate::table::results::Source::Figure],
         }
         .batch()
         .unwrap();
@@ -571,13 +582,21 @@ mod tests {
         assert_eq!((w.profile.as_str(), w.figures), ("ci", 1));
         let md = std::fs::read_to_string(results.join("REPORT.md")).unwrap();
         assert!(
-            md.contains("| fig4 | phi_0 | 0.8123 | 0.0021 | 0.83 | 0.01 | agree |"),
+            md.contains("| fig4 | phi_0 | 0.8123 | 0.0021 | 0.83 | measured (figure) | 0.01 | agree |"),
             "{md}"
         );
         assert!(md.contains("`0123456789ab`"), "commit: {md}");
         assert!(md.contains("| 4 |"), "CPU seconds of all stages: {md}");
         assert!(md.contains("\\|a - b\\|"), "pipes escaped: {md}");
         assert!(dir.path().join("docs/report-ci.md").is_file());
+        // The headline table: the built number with its source, the rest named.
+        let hl = std::fs::read_to_string(dir.path().join("docs/headline-ci.md")).unwrap();
+        assert!(
+            hl.contains("| fig4 | `phi_0` | 0.8123 (0.0021) | 0.83 | measured (figure) | agree |"),
+            "{hl}"
+        );
+        assert!(hl.contains("| fig9 | `minus_theta` | — | — | — | not built |"), "{hl}");
+        assert!(hl.contains("fig4 reports no 'phi_c'"), "{hl}");
 
         // Change the number in the compare table: the report follows.
         built(&results, "fig4", "ci", 0.7345, 0.0004);
