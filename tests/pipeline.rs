@@ -1406,3 +1406,27 @@ fn repository_specs() -> tempfile::TempDir {
     d
 }
 
+/// The intruder's velocity takes the drive from the runs it analyses: a copy
+/// in the pipeline that equals it plans, one that does not is refused naming
+/// the stage's key and the experiment with its key.
+#[test]
+fn an_intruder_analysis_takes_its_drive_from_the_run_and_refuses_a_wrong_copy() {
+    let d = repository_specs();
+    let rel = "pipelines/intruder-fig3.yaml";
+    let plan = |d: &tempfile::TempDir| Workspace::new(d.path()).plan(&reg(), &ids(&["intruder-fig3"]), "ci");
+    plan(&d).expect("the pipeline without a copy of the drive plans");
+    let line = "params: {t_start: 0, blocks: 10}";
+    edit(d.path(), rel, line, "params: {t_start: 0, blocks: 10, drive: {eps: 0.7, gamma: 1.0, temperature: 1.0}, kick_rate_factor: 1000}");
+    plan(&d).expect("a copy equal to the run's drive is accepted");
+    edit(d.path(), rel, "drive: {eps: 0.7,", "drive: {eps: 0.9,");
+    let e = format!("{:#}", plan(&d).expect_err("a copy that disagrees is refused"));
+    for w in ["intruder-fig3.yaml:", "stage 'velocity'", "`drive.eps` = 0.9", "experiment 'intruder_eps07'", "intruder_eps07.yaml", "eps = 0.7"] {
+        assert!(e.contains(w), "expected {w:?} in\n{e}");
+    }
+    edit(d.path(), rel, "drive: {eps: 0.9,", "drive: {eps: 0.7,");
+    edit(d.path(), rel, "kick_rate_factor: 1000}", "kick_rate_factor: 10000}");
+    let e = format!("{:#}", plan(&d).expect_err("a kick rate that disagrees is refused"));
+    for w in ["`kick_rate_factor` = 10000", "intruder.kick_rate_factor", "intruder_eps07.yaml"] {
+        assert!(e.contains(w), "expected {w:?} in\n{e}");
+    }
+}
