@@ -167,22 +167,7 @@ pub(super) fn fit_group(
                 .map(|cs| curve_points(cs, form, &f.params, &fixed_ref, &x));
             (rows, f.warnings.join("; "), curve, samples)
         }
-        Err(e) => {
-            let msg = format!("{e:#}");
-            ctx.log(format!("fit failed: {msg}"));
-            let rows = p
-                .form
-                .params()
-                .iter()
-                .map(|n| (p.quantity_name(n), f64::NAN, f64::NAN))
-                .collect();
-            (
-                rows,
-                format!("fit failed: {msg}"),
-                p.curve.as_ref().map(|_| (vec![], vec![])),
-                None,
-            )
-        }
+        Err(e) => failed_fit(ctx, p, &e),
     };
     let (mut rows, mut note) = (rows, note);
     let scan = match form {
@@ -210,6 +195,35 @@ pub(super) fn fit_group(
         jackknife,
         pooled,
     })
+}
+
+/// What a failed fit writes: its numbers as NaN, the error as its note, an
+/// empty curve if one was asked for.
+#[allow(clippy::type_complexity)]
+fn failed_fit(
+    ctx: &StageCtx,
+    p: &FitParams,
+    e: &anyhow::Error,
+) -> (
+    Vec<(String, f64, f64)>,
+    String,
+    Option<(Vec<f64>, Vec<f64>)>,
+    Option<crate::table::results::UnitSamples>,
+) {
+    let msg = format!("{e:#}");
+    ctx.log(format!("fit failed: {msg}"));
+    let rows = p
+        .form
+        .params()
+        .iter()
+        .map(|n| (p.quantity_name(n), f64::NAN, f64::NAN))
+        .collect();
+    (
+        rows,
+        format!("fit failed: {msg}"),
+        p.curve.as_ref().map(|_| (vec![], vec![])),
+        None,
+    )
 }
 
 /// `scatter: relative`: the relative model scatter s_m and the reduced chi^2 of
