@@ -1353,3 +1353,80 @@ fn without_a_terminal_each_finished_stage_and_long_stage_prints_a_line() {
         "{last}"
     );
 }
+
+/// The example of `from: FIGURE/STAGE` in docs/spec.md, planned with the
+/// repository's specs: the referring figure's stage is fig4's node itself.
+#[test]
+fn the_documented_reference_to_another_figure_s_stage_is_that_stage() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let doc = std::fs::read_to_string(repo.join("docs/spec.md")).unwrap();
+    let example = doc
+        .split("```yaml\n")
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("from: fig4/joint"))
+        .expect("docs/spec.md shows a pipeline with `from: fig4/joint`");
+    let d = repository_specs();
+    std::fs::write(d.path().join("pipelines/figref.yaml"), example).unwrap();
+    let g = Workspace::new(d.path())
+        .plan(&reg(), &ids(&["fig4", "figref"]), "ci")
+        .unwrap();
+    let joint = |fig: &str| {
+        let f = g.figures.iter().find(|f| f.id == fig).unwrap();
+        f.publish.iter().find(|(s, _)| s == "joint").unwrap().1
+    };
+    assert_eq!(joint("fig4"), joint("figref"));
+    let n = &g.nodes[joint("fig4")];
+    assert_eq!(n.labels, ["fig4/joint", "figref/joint"]);
+    // The referring figure needs fig4's joint fit and what it reads, nothing more.
+    let mine = &g.figures.iter().find(|f| f.id == "figref").unwrap().nodes;
+    assert!(mine.iter().all(|&i| g.nodes[i].kind != "plot"));
+
+    // A reference to a stage fig4 does not have names the file, line and fig4's stages.
+    std::fs::write(
+        d.path().join("pipelines/figref.yaml"),
+        example.replace("fig4/joint", "fig4/jiont"),
+    )
+    .unwrap();
+    let e = Workspace::new(d.path())
+        .plan(&reg(), &ids(&["figref"]), "ci")
+        .expect_err("an unknown stage must be refused");
+    assert_located(&format!("{e:#}"), "figref.yaml", 3, &["no stage 'jiont'", "joint", "tau_table"]);
+}
+
+/// The repository's experiments and pipelines, copied to a temporary root.
+fn repository_specs() -> tempfile::TempDir {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let d = tempfile::tempdir().unwrap();
+    for sub in ["experiments", "pipelines"] {
+        std::fs::create_dir_all(d.path().join(sub)).unwrap();
+        for e in std::fs::read_dir(repo.join(sub)).unwrap().flatten() {
+            std::fs::copy(e.path(), d.path().join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    d
+}
+
+/// The intruder's velocity takes the drive from the runs it analyses: a copy
+/// in the pipeline that equals it plans, one that does not is refused naming
+/// the stage's key and the experiment with its key.
+#[test]
+fn an_intruder_analysis_takes_its_drive_from_the_run_and_refuses_a_wrong_copy() {
+    let d = repository_specs();
+    let rel = "pipelines/intruder-fig3.yaml";
+    let plan = |d: &tempfile::TempDir| Workspace::new(d.path()).plan(&reg(), &ids(&["intruder-fig3"]), "ci");
+    plan(&d).expect("the pipeline without a copy of the drive plans");
+    let line = "params: {t_start: 0, blocks: 10}";
+    edit(d.path(), rel, line, "params: {t_start: 0, blocks: 10, drive: {eps: 0.7, gamma: 1.0, temperature: 1.0}, kick_rate_factor: 1000}");
+    plan(&d).expect("a copy equal to the run's drive is accepted");
+    edit(d.path(), rel, "drive: {eps: 0.7,", "drive: {eps: 0.9,");
+    let e = format!("{:#}", plan(&d).expect_err("a copy that disagrees is refused"));
+    for w in ["intruder-fig3.yaml:", "stage 'velocity'", "`drive.eps` = 0.9", "experiment 'intruder_eps07'", "intruder_eps07.yaml", "eps = 0.7"] {
+        assert!(e.contains(w), "expected {w:?} in\n{e}");
+    }
+    edit(d.path(), rel, "drive: {eps: 0.9,", "drive: {eps: 0.7,");
+    edit(d.path(), rel, "kick_rate_factor: 1000}", "kick_rate_factor: 10000}");
+    let e = format!("{:#}", plan(&d).expect_err("a kick rate that disagrees is refused"));
+    for w in ["`kick_rate_factor` = 10000", "intruder.kick_rate_factor", "intruder_eps07.yaml"] {
+        assert!(e.contains(w), "expected {w:?} in\n{e}");
+    }
+}

@@ -57,6 +57,9 @@ pub struct Observable {
     pub compute: fn(&[&Trajectory], &Value) -> Result<Tables>,
     /// How `at` (times in units of a measured time) reads it between lags.
     pub at: lags::AtLag,
+    /// Whether it takes the drive of its runs (`drive`, `kick_rate_factor`):
+    /// the analysis stage reads them from the runs it analyses.
+    pub takes_drive: bool,
 }
 
 /// The lags realised by every time origin when none are requested.
@@ -180,6 +183,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "overlap",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
         validate: |v| typed::<overlap::Params>("overlap", v).map(drop),
         compute: |t, v| {
@@ -197,6 +201,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "tau_alpha",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
         validate: |v| typed::<overlap::Params>("tau_alpha", v).map(drop),
         compute: |t, v| {
@@ -213,6 +218,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "q_levels",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
         validate: |v| typed::<overlap::LevelParams>("q_levels", v).map(drop),
         compute: |t, v| {
@@ -224,6 +230,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "aging",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
         validate: |v| typed::<overlap::Params>("aging", v).map(drop),
         compute: |t, v| {
@@ -240,6 +247,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "chi4",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "chi4(t) (paper H, Eq. 14) per sub-box size N, pooled replicas: N, t, Q, chi4, chi4_err, n_origins",
         validate: |v| chi4_params("chi4", v).map(drop),
         compute: |t, v| {
@@ -250,6 +258,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "chi4_peaks",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "chi4 peak per sub-box size with tau_alpha and chi4(tau_alpha): N, tau4, chi4P, tau_alpha, chi4_tau_alpha (+ _err)",
         validate: |v| chi4_params("chi4_peaks", v).map(drop),
         compute: |t, v| {
@@ -260,6 +269,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "s4",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
         validate: |v| typed::<s4::Params>("s4", v).map(drop),
         compute: |t, v| {
@@ -271,6 +281,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "msd",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
         validate: |v| typed::<msd::Params>("msd", v).map(drop),
         compute: |t, v| {
@@ -287,6 +298,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "diffusion",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "D from the long-time MSD slope over [fit_min_tau, fit_max_tau] x tau_alpha (Fig. 9), one jackknife: D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points",
         validate: |v| typed::<msd::DiffusionParams>("diffusion", v).map(drop),
         compute: |t, v| {
@@ -297,6 +309,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "van_hove",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
         validate: |v| typed::<van_hove::Params>("van_hove", v).map(drop),
         compute: |t, v| per_replica("van_hove", t, v, van_hove::compute),
@@ -304,6 +317,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "gr",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
         validate: |v| typed::<gr::Params>("gr", v).map(drop),
         compute: |t, v| per_replica("gr", t, v, gr::compute),
@@ -311,6 +325,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "clusters",
         at: lags::AtLag::Nearest,
+        takes_drive: false,
         describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
         validate: |v| typed::<clusters::Params>("clusters", v).map(drop),
         compute: |t, v| {
@@ -323,6 +338,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "cluster_sizes",
         at: lags::AtLag::Nearest,
+        takes_drive: false,
         describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
         validate: |v| typed::<clusters::Params>("cluster_sizes", v).map(drop),
         compute: |t, v| {
@@ -344,6 +360,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "mobility_snapshot",
         at: lags::AtLag::Nearest,
+        takes_drive: false,
         describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
         validate: |v| typed::<clusters::Params>("mobility_snapshot", v).map(drop),
         compute: |t, v| {
@@ -354,6 +371,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "intruder_velocity",
         at: lags::AtLag::Interpolate,
+        takes_drive: true,
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
         validate: |v| typed::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
         compute: |t, v| {
@@ -365,6 +383,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "intruder_path",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
         validate: |v| typed::<intruder::VelocityParams>("intruder_path", v).map(drop),
         compute: |t, v| {
@@ -375,6 +394,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "intruder_diffusion",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
         validate: |v| typed::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
         compute: |t, v| {
@@ -388,6 +408,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "momentum_profile",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
         validate: |v| typed::<intruder::ProfileParams>("momentum_profile", v).map(drop),
         compute: |t, v| per_replica("momentum_profile", t, v, intruder::compute_profile),
@@ -395,6 +416,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "velocity_field",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
         validate: |v| typed::<front::FieldParams>("velocity_field", v).map(drop),
         compute: |t, v| {
@@ -411,6 +433,7 @@ pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "front",
         at: lags::AtLag::Interpolate,
+        takes_drive: false,
         describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
         validate: |v| typed::<front::FrontParams>("front", v).map(drop),
         compute: |t, v| {

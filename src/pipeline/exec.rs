@@ -1,13 +1,13 @@
 //! Run the stage graph: cache lookups, parallel execution on a rayon pool, early
 //! cut-off, failure isolation; and `status`/`why` explanations without running.
 //!
-//! A stage's key is blake3(kind, canonical params, input digests, code fingerprint).
+//! A stage's key is blake3(kind, canonical params, code fingerprint, the settings
+//! of its upstream runs it reads, input digests) ([`stage_key`]).
 //! Input digests are hashes of the upstream *files*, so a stage whose upstream
 //! reran but produced byte-identical files keeps its key and is not rerun
 //! (early cut-off). Keys are therefore known only once the inputs are: nodes are
 //! scheduled as soon as their inputs finish.
 
-use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::sync::Mutex;
@@ -136,20 +136,18 @@ impl RunReport {
     }
 }
 
-/// The parameters a stage's key hashes: its own and, when its kind reads
-/// settings of the upstream runs ([`StageKind::reads_run`](super::StageKind::reads_run)),
-/// those settings of each input, so that an edit of one reruns it however
-/// its inputs' files came out.
-pub fn keyed_params<'a>(graph: &Graph, reg: &Registry, node: &'a Node) -> Cow<'a, Value> {
+/// The settings of its upstream runs a stage's kind reads
+/// ([`StageKind::reads_run`](super::StageKind::reads_run)), per input in
+/// input order; empty when it reads none.
+fn runs_read(graph: &Graph, reg: &Registry, node: &Node) -> Vec<Value> {
     let keys = reg
         .get(&node.kind)
         .map(|k| k.reads_run(&node.parsed))
         .unwrap_or_default();
     if keys.is_empty() {
-        return Cow::Borrowed(&node.params);
+        return Vec::new();
     }
-    let runs: Vec<Value> = node
-        .inputs
+    node.inputs
         .iter()
         .map(|&j| {
             let run = &graph.nodes[j].run;
@@ -159,23 +157,27 @@ pub fn keyed_params<'a>(graph: &Graph, reg: &Registry, node: &'a Node) -> Cow<'a
                     .collect(),
             )
         })
-        .collect();
-    let mut p = node.params.clone();
-    if let Value::Object(m) = &mut p {
-        m.insert("(runs read)".into(), Value::Array(runs));
-    }
-    Cow::Owned(p)
+        .collect()
 }
 
-/// The cache key of a stage.
-pub fn stage_key(
-    kind: &str,
-    params: &serde_json::Value,
-    input_digests: &[&str],
-    fingerprint: &str,
-) -> String {
-    let canon = canonical(params);
-    let mut fields: Vec<&[u8]> = vec![kind.as_bytes(), canon.as_bytes(), fingerprint.as_bytes()];
+/// The cache key of a stage, given its inputs' digests: the hash of its kind,
+/// its canonical parameters, its code fingerprint, the settings of its
+/// upstream runs it reads (a field of their own, so that an edit of one
+/// reruns it however its inputs' files came out) and the digests.
+pub fn stage_key(graph: &Graph, reg: &Registry, node: &Node, input_digests: &[&str]) -> String {
+    let canon = canonical(&node.params);
+    let fingerprint = reg.fingerprint(&node.kind);
+    let mut fields: Vec<&[u8]> = vec![
+        node.kind.as_bytes(),
+        canon.as_bytes(),
+        fingerprint.as_bytes(),
+    ];
+    let runs = runs_read(graph, reg, node);
+    let runs = (!runs.is_empty()).then(|| canonical(&Value::Array(runs)));
+    if let Some(r) = &runs {
+        // A tag no input digest (hex) can equal keeps the fields apart.
+        fields.extend([b"runs read".as_slice(), r.as_bytes()]);
+    }
     fields.extend(input_digests.iter().map(|d| d.as_bytes()));
     hash_fields("repro-stage-v1", &fields).to_hex().to_string()
 }
@@ -414,14 +416,8 @@ fn run_node(sh: &Shared, i: usize) -> StageResult {
             }
         }
     }
-    let fingerprint = sh.reg.fingerprint(&node.kind);
     let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
-    let key = stage_key(
-        &node.kind,
-        &keyed_params(sh.graph, sh.reg, node),
-        &digests,
-        fingerprint,
-    );
+    let key = stage_key(sh.graph, sh.reg, node, &digests);
     let forced = sh.opts.force.contains(&node.kind);
     let hit = |e: Entry| {
         for l in &node.labels {
@@ -618,7 +614,7 @@ pub fn status(
             .collect();
         let forced = force.contains(&node.kind);
         if let Some(d) = &known {
-            let key = stage_key(&node.kind, &keyed_params(graph, reg, node), d, fp);
+            let key = stage_key(graph, reg, node, d);
             match store.find(&key) {
                 Found::Hit(e) if !forced => {
                     digest.insert(i, e.digest.clone());
@@ -714,12 +710,7 @@ pub fn stale_keys(
         if let Some(d) = known {
             out.push((
                 *i,
-                stage_key(
-                    &node.kind,
-                    &keyed_params(graph, reg, node),
-                    &d,
-                    reg.fingerprint(&node.kind),
-                ),
+                stage_key(graph, reg, node, &d),
             ));
         }
     }

@@ -104,6 +104,8 @@ struct Planner<'a> {
     graph: Graph,
     experiments: HashMap<String, Vec<usize>>,
     parsed: HashMap<(String, String), Parsed>,
+    /// Figures being planned, outermost first: a `from` back to one is a cycle.
+    open: Vec<String>,
 }
 
 /// Plan figures `ids` (all figures if empty) at `profile`.
@@ -125,6 +127,7 @@ pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> R
         },
         experiments: HashMap::new(),
         parsed: HashMap::new(),
+        open: Vec::new(),
     };
     for id in &ids {
         let (file, spec) = cat.pipeline(id).map_err(anyhow::Error::msg)?;
@@ -204,11 +207,7 @@ impl Planner<'_> {
         let recipe_hex = recipe.to_hex().to_string();
         let label = id.to_string();
         if let Some(&i) = self.graph.by_recipe.get(&recipe_hex) {
-            let node = &mut self.graph.nodes[i];
-            if !node.labels.contains(&label) {
-                node.labels.push(label);
-                node.ids.push(id);
-            }
+            self.also_is(i, id);
             return i;
         }
         let seed =
@@ -233,6 +232,17 @@ impl Planner<'_> {
         let i = self.graph.nodes.len() - 1;
         self.graph.by_recipe.insert(recipe_hex, i);
         i
+    }
+
+    /// Node `i` is also the declared stage `id` (another figure's identical
+    /// stage, or a reference to it).
+    fn also_is(&mut self, i: usize, id: StageId) {
+        let node = &mut self.graph.nodes[i];
+        let label = id.to_string();
+        if !node.labels.contains(&label) {
+            node.labels.push(label);
+            node.ids.push(id);
+        }
     }
 
     /// Parse a stage's parameters with its kind, once per (kind, parameters).
@@ -361,266 +371,412 @@ impl Planner<'_> {
         Ok(nodes)
     }
 
+    /// Plan figure `id`: every stage of its pipeline and what they read.
     fn pipeline(&mut self, id: &str, file: &Path, spec: &PipelineSpec) -> Result<FigurePlan> {
-        let mut by_name: BTreeMap<&str, &Spanned<StageSpec>> = BTreeMap::new();
-        for s in &spec.stages {
-            if self.cat.experiments.contains_key(&s.value.name) {
-                return Err(err(
-                    file,
-                    s,
-                    format!(
-                        "stage name '{}' is also an experiment name; rename the stage",
-                        s.value.name
-                    ),
-                ));
-            }
-            if by_name.insert(&s.value.name, s).is_some() {
-                return Err(err(
-                    file,
-                    s,
-                    format!(
-                        "two stages are called '{}'; stage names must be unique",
-                        s.value.name
-                    ),
-                ));
-            }
-        }
-        let order = topological(file, spec, &by_name, self.cat)?;
-        let mut instances: HashMap<String, Vec<usize>> = HashMap::new();
-        let mut publish = Vec::new();
-        let mut describes = BTreeMap::new();
-        for s in order {
-            let st = &s.value;
-            if let Some(d) = &st.describes {
-                describes.insert(st.name.clone(), d.clone());
-            }
-            let sources: Vec<String> = match (&st.map, &st.gather) {
-                (Some(m), None) => vec![m.clone()],
-                (None, Some(g)) if !g.is_empty() => g.clone(),
-                (None, Some(_)) => {
-                    return Err(err(
-                        file,
-                        s,
-                        format!("stage '{}': `gather` lists no source", st.name),
-                    ));
-                }
-                (Some(_), Some(_)) => {
-                    return Err(err(
-                        file,
-                        s,
-                        format!(
-                            "stage '{}' has both `map` and `gather`; give exactly one",
-                            st.name
-                        ),
-                    ));
-                }
-                (None, None) => {
-                    return Err(err(
-                        file,
-                        s,
-                        format!(
-                            "stage '{}' reads nothing: give `map: SOURCE` (one instance per source instance) or `gather: [SOURCES]` (one instance reading them all)",
-                            st.name
-                        ),
-                    ));
-                }
-            };
-            if st.map.is_some() && !st.by.is_empty() {
-                return Err(err(
-                    file,
-                    s,
-                    format!("stage '{}': `by` only applies to `gather`", st.name),
-                ));
-            }
-            let mut src_nodes: Vec<Vec<usize>> = Vec::new();
-            for src in &sources {
-                let nodes = if self.cat.experiments.contains_key(src) {
-                    self.experiment(src)?
-                } else {
-                    instances[src].clone()
-                };
-                src_nodes.push(nodes);
-            }
-            // Parameters: common, then this profile's overrides.
-            for p in st.profiles.keys() {
-                if !PROFILES.contains(&p.as_str()) {
-                    return Err(err(
-                        file,
-                        s,
-                        format!(
-                            "stage '{}': unknown profile '{p}' under `profiles`; valid: {PROFILES:?}",
-                            st.name
-                        ),
-                    ));
-                }
-            }
-            let mut params: serde_json::Map<String, Value> =
-                st.params.clone().into_iter().collect();
-            if let Some(o) = st.profiles.get(&self.graph.profile) {
-                params.extend(o.clone());
-            }
-            for (k, v) in &st.sweep {
-                if v.is_empty() {
-                    return Err(err(
-                        file,
-                        s,
-                        format!(
-                            "stage '{}': sweep over '{k}' has an empty list of values; give at least one value",
-                            st.name
-                        ),
-                    ));
-                }
-                if params.contains_key(k) {
-                    return Err(err(
-                        file,
-                        s,
-                        format!(
-                            "stage '{}': '{k}' is both a fixed parameter and swept; keep one",
-                            st.name
-                        ),
-                    ));
-                }
-            }
-            let sweeps = combinations(&st.sweep);
-            // Groups of input nodes, each with the point it carries downstream.
-            let groups: Vec<(Point, Vec<usize>)> = if st.map.is_some() {
-                src_nodes[0]
-                    .iter()
-                    .map(|&n| (self.graph.nodes[n].point.clone(), vec![n]))
-                    .collect()
-            } else {
-                let mut g: BTreeMap<String, (Point, Vec<usize>)> = BTreeMap::new();
-                let mut order = Vec::new();
-                for &n in src_nodes.iter().flatten() {
-                    let pt = &self.graph.nodes[n].point;
-                    let mut key = Point::new();
-                    for b in &st.by {
-                        let v = pt.get(b).ok_or_else(|| {
-                            err(file, s, format!("stage '{}': cannot group by '{b}': input {} has no such point key (it has: {})", st.name, self.graph.nodes[n].label(), pt.keys().cloned().collect::<Vec<_>>().join(", ")))
-                        })?;
-                        key.insert(b.clone(), v.clone());
-                    }
-                    let kc = canonical(&Value::Object(key.clone().into_iter().collect()));
-                    if !g.contains_key(&kc) {
-                        order.push(kc.clone());
-                    }
-                    g.entry(kc).or_insert_with(|| (key, Vec::new())).1.push(n);
-                }
-                order.into_iter().map(|k| g.remove(&k).unwrap()).collect()
-            };
-            let mut mine = Vec::new();
-            for (gpoint, inputs) in &groups {
-                for sw in &sweeps {
-                    let mut point = gpoint.clone();
-                    for (k, v) in sw {
-                        if point.contains_key(k) {
-                            return Err(err(
-                                file,
-                                s,
-                                format!(
-                                    "stage '{}': swept key '{k}' is already a point key of its input; rename it",
-                                    st.name
-                                ),
-                            ));
-                        }
-                        point.insert(k.clone(), v.clone());
-                    }
-                    let mut p = params.clone();
-                    p.extend(sw.clone());
-                    if st.kind == "plot" {
-                        p.insert("build".into(), self.build_info(inputs));
-                    }
-                    let profile = self.graph.profile.clone();
-                    let locate = |e: anyhow::Error| {
-                        let i = spec
-                            .stages
-                            .iter()
-                            .position(|x| x.value.name == st.name)
-                            .unwrap_or(0)
-                            .to_string();
-                        let at = |p: &[&str]| p.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-                        spec::param_error(
-                            file,
-                            &[
-                                at(&["stages", &i, "sweep"]),
-                                at(&["stages", &i, "profiles", &profile]),
-                                at(&["stages", &i, "params"]),
-                            ],
-                            mark(s),
-                            &format!("stage '{}' (kind {})", st.name, st.kind),
-                            &e,
-                        )
-                    };
-                    let parsed = self.parse(&st.kind, &p).map_err(locate)?;
-                    // What the stage asks of its planned inputs (lags long enough, ...).
-                    let upstream: Vec<PlannedInput> = inputs
-                        .iter()
-                        .map(|&n| self.graph.nodes[n].planned(self.reg))
-                        .collect();
-                    self.reg
-                        .get(&st.kind)?
-                        .check_inputs(&parsed, &upstream)
-                        .map_err(locate)?;
-                    let sid = StageId {
-                        figure: Some(id.to_string()),
-                        stage: st.name.clone(),
-                        point: point.clone(),
-                    };
-                    let origin = (file.to_path_buf(), s.referenced.line());
-                    mine.push(self.add(
-                        &st.kind,
-                        sid,
-                        p,
-                        parsed,
-                        point,
-                        inputs.clone(),
-                        None,
-                        origin,
-                    ));
-                }
-            }
-            let single = mine.len() == 1;
-            match st.publish {
-                Some(true) if !single => {
-                    return Err(err(
-                        file,
-                        s,
-                        format!(
-                            "stage '{}' has {} instances; only a single-instance stage can be published (gather it first)",
-                            st.name,
-                            mine.len()
-                        ),
-                    ));
-                }
-                Some(true) | None if single => publish.push((st.name.clone(), mine[0])),
-                _ => {}
-            }
-            instances.insert(st.name.clone(), mine);
-        }
+        self.open.push(id.to_string());
+        let planned = self.stages(id, file, spec, None);
+        self.open.pop();
+        let planned = planned?;
+        let nodes = self.upstream(planned.instances.values().flatten().copied());
+        Ok(FigurePlan {
+            id: id.to_string(),
+            description: spec.description.clone(),
+            nodes,
+            publish: planned.publish,
+            describes: planned.describes,
+        })
+    }
+
+    /// Every node `roots` reach through their inputs, the roots included, in order.
+    fn upstream(&self, roots: impl Iterator<Item = usize>) -> Vec<usize> {
         let mut needed = vec![false; self.graph.nodes.len()];
-        let mut stack: Vec<usize> = instances.values().flatten().copied().collect();
+        let mut stack: Vec<usize> = roots.collect();
         while let Some(n) = stack.pop() {
             if !needed[n] {
                 needed[n] = true;
                 stack.extend(self.graph.nodes[n].inputs.iter().copied());
             }
         }
-        Ok(FigurePlan {
-            id: id.to_string(),
-            description: spec.description.clone(),
-            nodes: (0..needed.len()).filter(|&i| needed[i]).collect(),
-            publish,
-            describes,
-        })
+        (0..needed.len()).filter(|&i| needed[i]).collect()
+    }
+
+    /// Plan the stages of figure `id` (only `root` and what it reads, when given).
+    fn stages(
+        &mut self,
+        id: &str,
+        file: &Path,
+        spec: &PipelineSpec,
+        root: Option<&str>,
+    ) -> Result<Stages> {
+        let by_name = stage_names(file, spec, self.cat)?;
+        let order = topological(file, spec, &by_name, self.cat, root)?;
+        let mut out = Stages::default();
+        for s in order {
+            let site = Site {
+                figure: id,
+                file,
+                spec,
+                stage: s,
+            };
+            let st = &s.value;
+            if let Some(d) = &st.describes {
+                out.describes.insert(st.name.clone(), d.clone());
+            }
+            let mine = match &st.from {
+                Some(target) => self.reference(site, target)?,
+                None => self.declared(site, &out.instances)?,
+            };
+            if let Some(n) = published(site, &mine)? {
+                out.publish.push((st.name.clone(), n));
+            }
+            out.instances.insert(st.name.clone(), mine);
+        }
+        Ok(out)
+    }
+
+    /// The instances of another figure's stage (`from: FIGURE/STAGE`), planned
+    /// as that figure plans them, so that both figures share the nodes.
+    fn reference(&mut self, site: Site, target: &str) -> Result<Vec<usize>> {
+        let st = &site.stage.value;
+        if !st.kind.is_empty()
+            || st.map.is_some()
+            || st.gather.is_some()
+            || !st.by.is_empty()
+            || !st.params.is_empty()
+            || !st.sweep.is_empty()
+            || !st.profiles.is_empty()
+        {
+            return Err(site.err(format!(
+                "stage '{}' is `from: {target}`, another figure's stage as that figure declares it: it takes only `name`, `publish` and `describes` (no `kind`, `map`, `gather`, `by`, `params`, `sweep` or `profiles`)",
+                st.name
+            )));
+        }
+        let Some((fig, stage)) = target.split_once('/') else {
+            return Err(site.err(format!(
+                "stage '{}': `from` wants FIGURE/STAGE (e.g. fig4/joint); got '{target}'",
+                st.name
+            )));
+        };
+        let (file, spec) = self.cat.pipeline(fig).map_err(|e| {
+            site.err(format!("stage '{}': `from: {target}`: {e}", st.name))
+        })?;
+        if !spec.stages.iter().any(|x| x.value.name == stage) {
+            let known: Vec<&str> = spec.stages.iter().map(|x| x.value.name.as_str()).collect();
+            return Err(site.err(format!(
+                "stage '{}': `from: {target}`: figure '{fig}' ({}) has no stage '{stage}'; its stages: {}",
+                st.name,
+                file.display(),
+                known.join(", ")
+            )));
+        }
+        if self.open.iter().any(|f| f == fig) {
+            return Err(site.err(format!(
+                "stage '{}': `from: {target}` closes a cycle of figures reading each other's stages: {} -> {fig}",
+                st.name,
+                self.open.join(" -> ")
+            )));
+        }
+        self.open.push(fig.to_string());
+        let planned = self.stages(fig, file, spec, Some(stage));
+        self.open.pop();
+        let nodes = planned?.instances.remove(stage).unwrap_or_default();
+        for &n in &nodes {
+            let point = self.graph.nodes[n].point.clone();
+            self.also_is(
+                n,
+                StageId {
+                    figure: Some(site.figure.to_string()),
+                    stage: st.name.clone(),
+                    point,
+                },
+            );
+        }
+        Ok(nodes)
+    }
+
+    /// The instances of a stage declared with its kind: one per group of its
+    /// inputs and per combination of its sweep.
+    fn declared(&mut self, site: Site, planned: &HashMap<String, Vec<usize>>) -> Result<Vec<usize>> {
+        let st = &site.stage.value;
+        if st.kind.is_empty() {
+            return Err(site.err(format!(
+                "stage '{}' has no `kind`: give `kind: KIND`, or `from: FIGURE/STAGE` to read another figure's stage",
+                st.name
+            )));
+        }
+        let mut src_nodes: Vec<Vec<usize>> = Vec::new();
+        for src in sources(site)? {
+            let nodes = if self.cat.experiments.contains_key(&src) {
+                self.experiment(&src)?
+            } else {
+                planned[&src].clone()
+            };
+            src_nodes.push(nodes);
+        }
+        let params = stage_params(site, &self.graph.profile)?;
+        let groups = self.input_groups(site, &src_nodes)?;
+        let sweeps = combinations(&st.sweep);
+        let mut mine = Vec::new();
+        for (gpoint, inputs) in &groups {
+            for sw in &sweeps {
+                mine.push(self.instance(site, &params, gpoint, sw, inputs)?);
+            }
+        }
+        Ok(mine)
+    }
+
+    /// Groups of input nodes, each with the point it carries downstream: one
+    /// per source instance (`map`), or per equal `by` values (`gather`).
+    fn input_groups(&self, site: Site, src_nodes: &[Vec<usize>]) -> Result<Vec<(Point, Vec<usize>)>> {
+        let st = &site.stage.value;
+        if st.map.is_some() {
+            return Ok(src_nodes[0]
+                .iter()
+                .map(|&n| (self.graph.nodes[n].point.clone(), vec![n]))
+                .collect());
+        }
+        let mut g: BTreeMap<String, (Point, Vec<usize>)> = BTreeMap::new();
+        let mut order = Vec::new();
+        for &n in src_nodes.iter().flatten() {
+            let pt = &self.graph.nodes[n].point;
+            let mut key = Point::new();
+            for b in &st.by {
+                let v = pt.get(b).ok_or_else(|| {
+                    site.err(format!(
+                        "stage '{}': cannot group by '{b}': input {} has no such point key (it has: {})",
+                        st.name,
+                        self.graph.nodes[n].label(),
+                        pt.keys().cloned().collect::<Vec<_>>().join(", ")
+                    ))
+                })?;
+                key.insert(b.clone(), v.clone());
+            }
+            let kc = canonical(&Value::Object(key.clone().into_iter().collect()));
+            if !g.contains_key(&kc) {
+                order.push(kc.clone());
+            }
+            g.entry(kc).or_insert_with(|| (key, Vec::new())).1.push(n);
+        }
+        Ok(order.into_iter().map(|k| g.remove(&k).unwrap()).collect())
+    }
+
+    /// One instance of a declared stage: its parameters parsed and checked
+    /// against its planned inputs, then added (or found) as a node.
+    fn instance(
+        &mut self,
+        site: Site,
+        params: &serde_json::Map<String, Value>,
+        gpoint: &Point,
+        sweep: &Point,
+        inputs: &[usize],
+    ) -> Result<usize> {
+        let st = &site.stage.value;
+        let mut point = gpoint.clone();
+        for (k, v) in sweep {
+            if point.contains_key(k) {
+                return Err(site.err(format!(
+                    "stage '{}': swept key '{k}' is already a point key of its input; rename it",
+                    st.name
+                )));
+            }
+            point.insert(k.clone(), v.clone());
+        }
+        let mut p = params.clone();
+        p.extend(sweep.clone());
+        if st.kind == "plot" {
+            p.insert("build".into(), self.build_info(inputs));
+        }
+        let profile = self.graph.profile.clone();
+        let locate = |e: anyhow::Error| site.param_error(&profile, &e);
+        let parsed = self.parse(&st.kind, &p).map_err(locate)?;
+        // What the stage asks of its planned inputs (lags long enough, ...).
+        let upstream: Vec<PlannedInput> = inputs
+            .iter()
+            .map(|&n| self.graph.nodes[n].planned(self.reg))
+            .collect();
+        self.reg
+            .get(&st.kind)?
+            .check_inputs(&parsed, &upstream)
+            .map_err(locate)?;
+        let sid = StageId {
+            figure: Some(site.figure.to_string()),
+            stage: st.name.clone(),
+            point: point.clone(),
+        };
+        let origin = (site.file.to_path_buf(), site.stage.referenced.line());
+        Ok(self.add(&st.kind, sid, p, parsed, point, inputs.to_vec(), None, origin))
     }
 }
 
-/// Order the stages so each comes after what it reads; detect unknown names and cycles.
+/// A pipeline's stages as planned: instances by stage name, what it
+/// publishes and what its stages are in the paper.
+#[derive(Default)]
+struct Stages {
+    instances: HashMap<String, Vec<usize>>,
+    publish: Vec<(String, usize)>,
+    describes: BTreeMap<String, String>,
+}
+
+/// Where a stage is declared: its figure, file, pipeline and entry.
+#[derive(Clone, Copy)]
+struct Site<'s> {
+    figure: &'s str,
+    file: &'s Path,
+    spec: &'s PipelineSpec,
+    stage: &'s Spanned<StageSpec>,
+}
+
+impl Site<'_> {
+    /// An error located at the stage's entry.
+    fn err(&self, msg: String) -> anyhow::Error {
+        err(self.file, self.stage, msg)
+    }
+
+    /// A parameter error located at its key under the stage's `sweep`, this
+    /// profile's overrides or `params`.
+    fn param_error(&self, profile: &str, e: &anyhow::Error) -> anyhow::Error {
+        let st = &self.stage.value;
+        let i = self
+            .spec
+            .stages
+            .iter()
+            .position(|x| x.value.name == st.name)
+            .unwrap_or(0)
+            .to_string();
+        let at = |p: &[&str]| p.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        spec::param_error(
+            self.file,
+            &[
+                at(&["stages", &i, "sweep"]),
+                at(&["stages", &i, "profiles", profile]),
+                at(&["stages", &i, "params"]),
+            ],
+            mark(self.stage),
+            &format!("stage '{}' (kind {})", st.name, st.kind),
+            e,
+        )
+        .into()
+    }
+}
+
+/// The stages of a pipeline by name; an error for a name used twice or also
+/// an experiment's.
+fn stage_names<'s>(
+    file: &Path,
+    spec: &'s PipelineSpec,
+    cat: &Catalogue,
+) -> Result<BTreeMap<&'s str, &'s Spanned<StageSpec>>> {
+    let mut by_name: BTreeMap<&str, &Spanned<StageSpec>> = BTreeMap::new();
+    for s in &spec.stages {
+        if cat.experiments.contains_key(&s.value.name) {
+            return Err(err(
+                file,
+                s,
+                format!(
+                    "stage name '{}' is also an experiment name; rename the stage",
+                    s.value.name
+                ),
+            ));
+        }
+        if by_name.insert(&s.value.name, s).is_some() {
+            return Err(err(
+                file,
+                s,
+                format!(
+                    "two stages are called '{}'; stage names must be unique",
+                    s.value.name
+                ),
+            ));
+        }
+    }
+    Ok(by_name)
+}
+
+/// What a declared stage reads: its `map` source or its `gather` list.
+fn sources(site: Site) -> Result<Vec<String>> {
+    let st = &site.stage.value;
+    let sources = match (&st.map, &st.gather) {
+        (Some(m), None) => vec![m.clone()],
+        (None, Some(g)) if !g.is_empty() => g.clone(),
+        (None, Some(_)) => {
+            return Err(site.err(format!("stage '{}': `gather` lists no source", st.name)));
+        }
+        (Some(_), Some(_)) => {
+            return Err(site.err(format!(
+                "stage '{}' has both `map` and `gather`; give exactly one",
+                st.name
+            )));
+        }
+        (None, None) => {
+            return Err(site.err(format!(
+                "stage '{}' reads nothing: give `map: SOURCE` (one instance per source instance) or `gather: [SOURCES]` (one instance reading them all)",
+                st.name
+            )));
+        }
+    };
+    if st.map.is_some() && !st.by.is_empty() {
+        return Err(site.err(format!(
+            "stage '{}': `by` only applies to `gather`",
+            st.name
+        )));
+    }
+    Ok(sources)
+}
+
+/// A declared stage's parameters at `profile`: common, then the profile's
+/// overrides; checks its profile names and its sweep.
+fn stage_params(site: Site, profile: &str) -> Result<serde_json::Map<String, Value>> {
+    let st = &site.stage.value;
+    if let Some(p) = st.profiles.keys().find(|p| !PROFILES.contains(&p.as_str())) {
+        return Err(site.err(format!(
+            "stage '{}': unknown profile '{p}' under `profiles`; valid: {PROFILES:?}",
+            st.name
+        )));
+    }
+    let mut params: serde_json::Map<String, Value> = st.params.clone().into_iter().collect();
+    if let Some(o) = st.profiles.get(profile) {
+        params.extend(o.clone());
+    }
+    for (k, v) in &st.sweep {
+        if v.is_empty() {
+            return Err(site.err(format!(
+                "stage '{}': sweep over '{k}' has an empty list of values; give at least one value",
+                st.name
+            )));
+        }
+        if params.contains_key(k) {
+            return Err(site.err(format!(
+                "stage '{}': '{k}' is both a fixed parameter and swept; keep one",
+                st.name
+            )));
+        }
+    }
+    Ok(params)
+}
+
+/// The node a stage publishes into `results/ID/`: its one instance, unless
+/// `publish: false`; an error when `publish: true` asks it of several.
+fn published(site: Site, mine: &[usize]) -> Result<Option<usize>> {
+    let st = &site.stage.value;
+    match (st.publish, mine) {
+        (Some(true), m) if m.len() != 1 => Err(site.err(format!(
+            "stage '{}' has {} instances; only a single-instance stage can be published (gather it first)",
+            st.name,
+            mine.len()
+        ))),
+        (Some(true) | None, [one]) => Ok(Some(*one)),
+        _ => Ok(None),
+    }
+}
+
+/// Order the stages (all, or `root` and what it reads) so each comes after
+/// what it reads; detect unknown names and cycles.
 fn topological<'s>(
     file: &Path,
     spec: &'s PipelineSpec,
     by_name: &BTreeMap<&'s str, &'s Spanned<StageSpec>>,
     cat: &Catalogue,
+    root: Option<&str>,
 ) -> Result<Vec<&'s Spanned<StageSpec>>> {
     #[derive(Clone, Copy, PartialEq)]
     enum Mark {
@@ -691,7 +847,11 @@ fn topological<'s>(
         out.push(s);
         Ok(())
     }
-    for s in &spec.stages {
+    let roots = spec
+        .stages
+        .iter()
+        .filter(|s| root.is_none_or(|r| s.value.name == r));
+    for s in roots {
         visit(
             &s.value.name,
             &mut Vec::new(),
@@ -836,6 +996,48 @@ mod tests {
         let again = plan(&c, &[], "ci", &registry()).unwrap();
         let r = |g: &Graph| g.nodes.iter().map(|n| n.recipe.clone()).collect::<Vec<_>>();
         assert_eq!(r(&g), r(&again));
+    }
+
+    #[test]
+    fn a_stage_from_another_figure_is_its_node_and_a_wrong_reference_is_located() {
+        let a = "description: a\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    params: {a: 1.0}\n  - name: t\n    kind: table\n    gather: [s]\n";
+        let b = "description: b\nstages:\n  - name: mine\n    from: a/t\n  - name: u\n    kind: table\n    gather: [mine]\n";
+        let g = plan(&catalogue(&[("a", a), ("b", b)]), &["b".into()], "ci", &registry()).unwrap();
+        // Only what b reads of a is planned, once: one table node that is both stages.
+        let tables: Vec<&Node> = g.nodes.iter().filter(|n| n.kind == "table").collect();
+        assert_eq!(tables.len(), 2);
+        let t = tables.iter().find(|n| n.labels[0] == "a/t").unwrap();
+        assert_eq!(t.labels, ["a/t", "b/mine"]);
+        let u = tables.iter().find(|n| n.labels[0] == "b/u").unwrap();
+        assert_eq!(g.nodes[u.inputs[0]].recipe, t.recipe);
+        let fig = &g.figures[0];
+        assert!(fig.publish.iter().any(|(name, _)| name == "mine"));
+        // Planning a too gives the very same node.
+        let both = plan(&catalogue(&[("a", a), ("b", b)]), &["a".into(), "b".into()], "ci", &registry()).unwrap();
+        let recipe = |g: &Graph, fig: &str, stage: &str| {
+            let f = g.figures.iter().find(|f| f.id == fig).unwrap();
+            let (_, n) = f.publish.iter().find(|(s, _)| s == stage).unwrap();
+            g.nodes[*n].recipe.clone()
+        };
+        assert_eq!(recipe(&both, "a", "t"), recipe(&both, "b", "mine"));
+        assert_eq!(recipe(&both, "a", "t"), t.recipe);
+
+        let wrong = |b: &str| {
+            let e = plan(&catalogue(&[("a", a), ("b", b)]), &["b".into()], "ci", &registry()).unwrap_err();
+            format!("{e:#}")
+        };
+        let m = wrong("description: b\nstages:\n  - name: mine\n    from: a/nope\n");
+        assert!(m.starts_with("pipelines/b.yaml:3:") && m.contains("no stage 'nope'") && m.contains("its stages: s, t"), "{m}");
+        let m = wrong("description: b\nstages:\n  - name: mine\n    from: z/t\n");
+        assert!(m.starts_with("pipelines/b.yaml:3:") && m.contains("'z'") && m.contains("known figures: a, b"), "{m}");
+        let m = wrong("description: b\nstages:\n  - name: mine\n    from: a/t\n    kind: table\n");
+        assert!(m.contains("takes only `name`, `publish` and `describes`"), "{m}");
+        let m = wrong("description: b\nstages:\n  - name: mine\n    map: e\n");
+        assert!(m.contains("has no `kind`"), "{m}");
+        // Figures reading each other's stages in a circle.
+        let a2 = "description: a\nstages:\n  - name: t\n    from: b/mine\n";
+        let e = plan(&catalogue(&[("a", a2), ("b", b)]), &["b".into()], "ci", &registry()).unwrap_err();
+        assert!(format!("{e:#}").contains("cycle of figures") && format!("{e:#}").contains("b -> a -> b"), "{e:#}");
     }
 
     #[test]

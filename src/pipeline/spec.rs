@@ -166,8 +166,15 @@ pub struct PipelineSpec {
 pub struct StageSpec {
     /// Name, unique within the pipeline; published files are named after it.
     pub name: String,
-    /// The stage kind (registered in the stage-kind registry).
+    /// The stage kind (registered in the stage-kind registry); empty for a
+    /// stage that is another figure's (`from`).
+    #[serde(default)]
     pub kind: String,
+    /// Another figure's stage, `FIGURE/STAGE` (`fig4/joint`), read by reference
+    /// instead of copied: its instances are planned once (same node, same key)
+    /// whichever figure asks for them. Takes no `kind`, sources or parameters.
+    #[serde(default)]
+    pub from: Option<String>,
     /// Map: one instance per instance of this experiment or stage.
     #[serde(default)]
     pub map: Option<String>,

@@ -24,12 +24,14 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, inputs_of, trajectories};
+use crate::analysis::intruder::DriveParams;
 use crate::analysis::lags;
 use crate::analysis::observables::{OBSERVABLES, Observable};
 use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
 use crate::pipeline::canon::param_error;
 use crate::pipeline::stage::{Holds, PlannedInput};
 use crate::pipeline::{Artifact, Output, Registry, StageCtx, StageKind};
+use crate::sim::{ForceMode, SimConfig};
 use crate::table::{f64_batch, to_parquet_bytes};
 use crate::traj::Trajectory;
 
@@ -219,6 +221,140 @@ fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[PlannedInput]) -> R
     Ok(())
 }
 
+/// The drive of the runs an intruder analysis reads: eps, gamma, T and, with
+/// the force as kicks, their rate factor. The observable takes them from the
+/// run it analyses, never from a copy in the pipeline that could drift.
+#[derive(Debug, Clone, PartialEq)]
+struct RunDrive {
+    drive: DriveParams,
+    kick_rate_factor: Option<f64>,
+}
+
+/// The settings of a run ([`Artifact::run`]) that [`RunDrive`] reads: they join the stage's key.
+const DRIVE_SETTINGS: &[&str] = &["eps", "gamma", "temperature", "intruder"];
+
+impl RunDrive {
+    fn of(cfg: &SimConfig) -> Self {
+        RunDrive {
+            drive: DriveParams {
+                eps: cfg.eps,
+                gamma: cfg.gamma,
+                temperature: cfg.temperature,
+            },
+            kick_rate_factor: cfg
+                .intruder
+                .as_ref()
+                .filter(|i| i.force_mode == ForceMode::Kicks)
+                .map(|i| i.kick_rate_factor),
+        }
+    }
+
+    /// The one drive of every run gathered (`runs`: where each is declared,
+    /// and its configuration); `None` without runs.
+    fn shared(name: &str, runs: impl IntoIterator<Item = (String, SimConfig)>) -> Result<Option<(String, Self)>> {
+        let mut first: Option<(String, Self)> = None;
+        for (source, cfg) in runs {
+            let d = Self::of(&cfg);
+            match &first {
+                None => first = Some((source, d)),
+                Some((f, fd)) if *fd != d => bail!(
+                    "{name}: the gathered runs differ in their drive ({f}: {fd:?}; {source}: {d:?}); gather runs of one drive"
+                ),
+                Some(_) => {}
+            }
+        }
+        Ok(first)
+    }
+
+    /// A copy of the drive in the pipeline (`drive`, `kick_rate_factor`) is
+    /// accepted only when it equals the run's (`source` says where that is).
+    fn check_copy(&self, observable: &Value, source: &str) -> Result<()> {
+        if let Some(v) = observable.get("drive") {
+            let copy: DriveParams = serde_json::from_value(v.clone())
+                .map_err(|e| param_error(&["drive"], format!("`drive` wants {{eps, gamma, temperature}}: {e}")))?;
+            let pairs = [
+                ("eps", copy.eps, self.drive.eps),
+                ("gamma", copy.gamma, self.drive.gamma),
+                ("temperature", copy.temperature, self.drive.temperature),
+            ];
+            for (key, mine, run) in pairs {
+                if mine.to_bits() != run.to_bits() {
+                    return Err(param_error(
+                        &["drive", key],
+                        format!(
+                            "`drive.{key}` = {mine} here, but {source} runs with {key} = {run} (its `{key}`); leave `drive` out: the analysis reads it from the run"
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(k) = observable.get("kick_rate_factor").and_then(Value::as_f64) {
+            let run = match self.kick_rate_factor {
+                Some(r) if r.to_bits() == k.to_bits() => return Ok(()),
+                Some(r) => format!("kicks at kick_rate_factor = {r} (its `intruder.kick_rate_factor`)"),
+                None => "applies the force exactly (its `intruder.force_mode` is not `kicks`)".to_string(),
+            };
+            return Err(param_error(
+                &["kick_rate_factor"],
+                format!(
+                    "`kick_rate_factor` = {k} here, but {source} {run}; leave it out: the analysis reads it from the run"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The observable's parameters with the run's drive.
+    fn into_params(self, observable: &Value) -> Value {
+        let mut obs = observable.clone();
+        if let Value::Object(m) = &mut obs {
+            let d = &self.drive;
+            let drive = serde_json::json!({"eps": d.eps, "gamma": d.gamma, "temperature": d.temperature});
+            m.insert("drive".into(), drive);
+            match self.kick_rate_factor {
+                Some(k) => m.insert("kick_rate_factor".into(), Value::from(k)),
+                None => m.remove("kick_rate_factor"),
+            };
+        }
+        obs
+    }
+}
+
+/// Plan-time check of an intruder analysis: its runs share one drive, and a
+/// copy of it in the pipeline equals theirs.
+fn planned_drive(name: &str, observable: &Value, inputs: &[PlannedInput]) -> Result<()> {
+    let mut runs = Vec::new();
+    for n in inputs.iter().filter(|n| n.kind.holds == Holds::Trajectory) {
+        let super::simulate::Run { config, .. } = n.parsed.get()?;
+        let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());
+        runs.push((format!("experiment '{experiment}' ({})", n.file.display()), config.clone()));
+    }
+    match RunDrive::shared(name, runs)? {
+        Some((source, d)) => d.check_copy(observable, &source),
+        None => Ok(()),
+    }
+}
+
+/// The observable's parameters for this run: with the drive of the gathered
+/// runs when the observable takes one.
+fn with_run_drive(obs: &Observable, observable: &Value, inputs: &[Artifact]) -> Result<Value> {
+    if !obs.takes_drive {
+        return Ok(observable.clone());
+    }
+    let runs = inputs
+        .iter()
+        .filter(|a| a.kind.holds == Holds::Trajectory)
+        .map(|a| Ok((a.label.clone(), super::simulate::run_config(a)?)))
+        .collect::<Result<Vec<_>>>()?;
+    match RunDrive::shared(obs.name, runs)? {
+        Some((source, d)) => {
+            d.check_copy(observable, &source)?;
+            Ok(d.into_params(observable))
+        }
+        None => Ok(observable.clone()),
+    }
+}
+
 /// Observables with time-block errors that also get replica samples: S4, whose
 /// OZ fit per state point gives the xi that the xi fits and the collapse of
 /// Fig. 19 refit with one replica left out; the intruder's stationary velocity,
@@ -364,10 +500,20 @@ impl StageKind for Analyse {
         Ok(s)
     }
     fn check_inputs(&self, s: &Split, inputs: &[PlannedInput]) -> Result<()> {
-        let (Some(at), Some(u)) = (&s.at, &s.unit) else {
-            return Ok(());
-        };
-        covered_by_run_length(at, u, inputs)
+        if self.obs.takes_drive {
+            planned_drive(self.obs.name, &s.observable, inputs)?;
+        }
+        match (&s.at, &s.unit) {
+            (Some(at), Some(u)) => covered_by_run_length(at, u, inputs),
+            _ => Ok(()),
+        }
+    }
+    fn reads_run(&self, _s: &Split) -> Vec<String> {
+        if self.obs.takes_drive {
+            DRIVE_SETTINGS.iter().map(|k| k.to_string()).collect()
+        } else {
+            Vec::new()
+        }
     }
     fn run(&self, ctx: &StageCtx, s: &Split, inputs: &[Artifact]) -> Result<Output> {
         let name = self.obs.name;
@@ -385,7 +531,7 @@ impl StageKind for Analyse {
             .as_ref()
             .map(|u| measured(name, u, inputs).map(|v| (v, u)))
             .transpose()?;
-        let mut obs = s.observable.clone();
+        let mut obs = with_run_drive(self.obs, &s.observable, inputs)?;
         let mut at_table = None;
         let jk_unit = replica_unit(inputs);
         let mut sample_obs = Vec::new();

@@ -273,12 +273,7 @@ impl Driver<'_> {
                     continue;
                 }
                 let digests: Vec<&str> = inputs.iter().map(|e| e.digest.as_str()).collect();
-                let key = stage_key(
-                    &node.kind,
-                    &exec::keyed_params(g, self.reg, node),
-                    &digests,
-                    self.reg.fingerprint(&node.kind),
-                );
+                let key = stage_key(g, self.reg, node, &digests);
                 if !self.opts.force.contains(&node.kind) {
                     match self.store.find(&key) {
                         Found::Hit(e) => {
@@ -587,12 +582,7 @@ pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
         inputs.push(exec::artifact(&store, reg, node, &graph.nodes[j], &e));
     }
     let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
-    let mine = stage_key(
-        &node.kind,
-        &exec::keyed_params(&graph, reg, node),
-        &digests,
-        reg.fingerprint(&node.kind),
-    );
+    let mine = stage_key(&graph, reg, node, &digests);
     ensure!(
         mine == key,
         "stage {}: this binary computes key {mine}, the submitter {key}: the repro binary (code fingerprint) differs from the submitter's",

@@ -85,22 +85,7 @@ pub(super) fn fit_group(
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
     // fit, its refits and its range scan then weight by the widened errors.
-    let scatter = match &p.scatter {
-        Some(_) => {
-            let fit = |s: &[f64]| fit_data(p, p.form.named(), Data::new(&x, &y, s), &fixed_ref);
-            match relative_scatter(&y, &s, fit) {
-                Ok(m) => Some(m),
-                Err(e) => {
-                    let e = anyhow::Error::from(e);
-                    ctx.log(format!(
-                        "no relative model scatter: a fit on the way failed: {e:#}"
-                    ));
-                    None
-                }
-            }
-        }
-        None => None,
-    };
+    let scatter = model_scatter(ctx, p, &x, &y, &s, &fixed_ref);
     let m_scatter = scatter.map_or(0.0, |(m, _)| m);
     let s = widened(&s, &y, m_scatter);
     if let FitForm::Value = p.form {
@@ -165,117 +150,24 @@ pub(super) fn fit_group(
                 Some(reported(p, x, y, &g))
             };
             let replicated = replica_errors(&pts, &mut rows, &mut method, passes, refit);
-            // The largest leverage, and an error at least the point jackknife's
-            // when one point carries the fit.
-            let mut max_leverage = f64::NAN;
-            if let Some(fm) = form {
-                let free: Vec<bool> = f.stderr.iter().map(|e| e.is_finite() && *e > 0.0).collect();
-                let model = |par: &[f64], x: f64| (fm.model)(par, &fixed_ref, x);
-                if let Some(h) = leverages(&x, &s, &f.params, &free, model) {
-                    max_leverage = h.iter().copied().fold(f64::NAN, f64::max);
-                    let refit = |x: &[f64], y: &[f64], s: &[f64]| {
-                        fit_form(p, x, y, s, &fixed_ref).ok().map(|f| f.params)
-                    };
-                    let n_free = free.iter().filter(|b| **b).count();
-                    match carried_errors(&x, &y, &s, &h, n_free, refit) {
-                        Carried::No => {}
-                        Carried::Errors(jk) => {
-                            for (row, e) in rows.iter_mut().zip(&jk) {
-                                row.2 = crate::analysis::stats::at_least(row.2, *e);
-                            }
-                            method.push_str(&format!(
-                                "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, so each error is at least the delete-one-point jackknife's"
-                            ));
-                            ctx.log(format!(
-                                "fit carried by one point (leverage {max_leverage:.3}): errors at least the delete-one-point jackknife's"
-                            ));
-                        }
-                        Carried::RefitFailed { point } => {
-                            let at = x[point];
-                            method.push_str(&format!(
-                                "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, but the refit without the point at x = {at} failed, so the errors lack the delete-one-point jackknife's floor"
-                            ));
-                            ctx.log(format!(
-                                "fit carried by one point (leverage {max_leverage:.3}); the refit without x = {at} failed: no delete-one-point floor under its errors"
-                            ));
-                        }
-                    }
-                }
-            }
-            // A number held at another fit's value, that fit without replica
-            // refits: its error passed on by refits at its value +- that error.
-            let center = reported(p, &x, &y, &f);
-            for (name, value, err) in &from_other.held {
-                let refit_at = |v: f64| {
-                    let at: Vec<(&str, f64)> = fixed_ref
-                        .iter()
-                        .map(|&(k, w)| (k, if k == name { v } else { w }))
-                        .collect();
-                    let g = fit_form(p, &x, &y, &s, &at).ok()?;
-                    Some(reported(p, &x, &y, &g))
-                };
-                if let Some(d) = held_shifts(&center, *value, *err, refit_at) {
-                    let mut e: Vec<f64> = rows.iter().map(|r| r.2).collect();
-                    add_in_quadrature(&mut e, &d);
-                    for (row, e) in rows.iter_mut().zip(e) {
-                        row.2 = e;
-                    }
-                    method.push_str(&format!(
-                        "; {name} held at {value:.6} +- {err:.2e} (from another fit without replica refits): each error adds in quadrature half the change between the refits at {name} +- {err:.2e}"
-                    ));
-                }
-            }
+            let pts = (x.as_slice(), y.as_slice(), s.as_slice());
+            let max_leverage =
+                leverage_floor(ctx, p, form, &f, pts, &fixed_ref, &mut rows, &mut method);
+            held_errors(p, &f, pts, &fixed_ref, &from_other.held, &mut rows, &mut method);
             if let Some(r) = &replicated.refits {
                 jackknife = Some(jackknife_table(group, &rows, r)?);
             }
             pooled = replicated.pooled;
             let samples = replicated.samples;
-            match scatter {
-                Some((m, alone)) => {
-                    rows.push((p.quantity_name("reduced_chi2"), alone, f64::NAN));
-                    rows.push((p.quantity_name("points"), x.len() as f64, 0.0));
-                    rows.push((p.leverage_name(), max_leverage, f64::NAN));
-                    rows.push((p.quantity_name("scatter"), m, f64::NAN));
-                    if m > 0.0 {
-                        method.push_str(&format!(
-                            "; each point's error widened by a relative model scatter {m:.3} |y| in quadrature (reduced chi2 {alone:.1} -> 1)"
-                        ));
-                    }
-                }
-                None => {
-                    rows.push((p.quantity_name("reduced_chi2"), f.reduced_chi2, f64::NAN));
-                    rows.push((p.quantity_name("points"), x.len() as f64, 0.0));
-                    rows.push((p.leverage_name(), max_leverage, f64::NAN));
-                    if p.scatter.is_some() {
-                        rows.push((p.quantity_name("scatter"), f64::NAN, f64::NAN));
-                        method.push_str(
-                            "; no relative model scatter: a fit while searching for it failed (the errors alone)",
-                        );
-                    }
-                }
-            }
+            let fit_quality = (f.reduced_chi2, x.len(), max_leverage);
+            diagnostic_rows(p, scatter, fit_quality, &mut rows, &mut method);
             let curve = p
                 .curve
                 .as_ref()
                 .map(|cs| curve_points(cs, form, &f.params, &fixed_ref, &x));
             (rows, f.warnings.join("; "), curve, samples)
         }
-        Err(e) => {
-            let msg = format!("{e:#}");
-            ctx.log(format!("fit failed: {msg}"));
-            let rows = p
-                .form
-                .params()
-                .iter()
-                .map(|n| (p.quantity_name(n), f64::NAN, f64::NAN))
-                .collect();
-            (
-                rows,
-                format!("fit failed: {msg}"),
-                p.curve.as_ref().map(|_| (vec![], vec![])),
-                None,
-            )
-        }
+        Err(e) => failed_fit(ctx, p, &e),
     };
     let (mut rows, mut note) = (rows, note);
     let scan = match form {
@@ -303,6 +195,180 @@ pub(super) fn fit_group(
         jackknife,
         pooled,
     })
+}
+
+/// What a failed fit writes: its numbers as NaN, the error as its note, an
+/// empty curve if one was asked for.
+#[allow(clippy::type_complexity)]
+fn failed_fit(
+    ctx: &StageCtx,
+    p: &FitParams,
+    e: &anyhow::Error,
+) -> (
+    Vec<(String, f64, f64)>,
+    String,
+    Option<(Vec<f64>, Vec<f64>)>,
+    Option<crate::table::results::UnitSamples>,
+) {
+    let msg = format!("{e:#}");
+    ctx.log(format!("fit failed: {msg}"));
+    let rows = p
+        .form
+        .params()
+        .iter()
+        .map(|n| (p.quantity_name(n), f64::NAN, f64::NAN))
+        .collect();
+    (
+        rows,
+        format!("fit failed: {msg}"),
+        p.curve.as_ref().map(|_| (vec![], vec![])),
+        None,
+    )
+}
+
+/// `scatter: relative`: the relative model scatter s_m and the reduced chi^2 of
+/// the errors alone; `None` without it, or when a fit on the way failed.
+fn model_scatter(
+    ctx: &StageCtx,
+    p: &FitParams,
+    x: &[f64],
+    y: &[f64],
+    s: &[f64],
+    fixed_ref: &[(&str, f64)],
+) -> Option<(f64, f64)> {
+    p.scatter.as_ref()?;
+    let fit = |s: &[f64]| fit_data(p, p.form.named(), Data::new(x, y, s), fixed_ref);
+    match relative_scatter(y, s, fit) {
+        Ok(m) => Some(m),
+        Err(e) => {
+            let e = anyhow::Error::from(e);
+            ctx.log(format!(
+                "no relative model scatter: a fit on the way failed: {e:#}"
+            ));
+            None
+        }
+    }
+}
+
+/// The largest leverage of the fit's points, and each error raised to at
+/// least the delete-one-point jackknife's when one point carries the fit.
+#[allow(clippy::too_many_arguments)]
+fn leverage_floor(
+    ctx: &StageCtx,
+    p: &FitParams,
+    form: Option<&Form>,
+    f: &crate::fit::FitResult,
+    (x, y, s): (&[f64], &[f64], &[f64]),
+    fixed_ref: &[(&str, f64)],
+    rows: &mut [(String, f64, f64)],
+    method: &mut String,
+) -> f64 {
+    let Some(fm) = form else {
+        return f64::NAN;
+    };
+    let free: Vec<bool> = f.stderr.iter().map(|e| e.is_finite() && *e > 0.0).collect();
+    let model = |par: &[f64], x: f64| (fm.model)(par, fixed_ref, x);
+    let Some(h) = leverages(x, s, &f.params, &free, model) else {
+        return f64::NAN;
+    };
+    let max_leverage = h.iter().copied().fold(f64::NAN, f64::max);
+    let refit = |x: &[f64], y: &[f64], s: &[f64]| {
+        fit_form(p, x, y, s, fixed_ref).ok().map(|f| f.params)
+    };
+    let n_free = free.iter().filter(|b| **b).count();
+    match carried_errors(x, y, s, &h, n_free, refit) {
+        Carried::No => {}
+        Carried::Errors(jk) => {
+            for (row, e) in rows.iter_mut().zip(&jk) {
+                row.2 = crate::analysis::stats::at_least(row.2, *e);
+            }
+            method.push_str(&format!(
+                "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, so each error is at least the delete-one-point jackknife's"
+            ));
+            ctx.log(format!(
+                "fit carried by one point (leverage {max_leverage:.3}): errors at least the delete-one-point jackknife's"
+            ));
+        }
+        Carried::RefitFailed { point } => {
+            let at = x[point];
+            method.push_str(&format!(
+                "; one point's leverage is {max_leverage:.3} (> {CARRIED}): it carries the fit, but the refit without the point at x = {at} failed, so the errors lack the delete-one-point jackknife's floor"
+            ));
+            ctx.log(format!(
+                "fit carried by one point (leverage {max_leverage:.3}); the refit without x = {at} failed: no delete-one-point floor under its errors"
+            ));
+        }
+    }
+    max_leverage
+}
+
+/// A number held at another fit's value, that fit without replica refits:
+/// its error passed on by refits at its value +- that error.
+fn held_errors(
+    p: &FitParams,
+    f: &crate::fit::FitResult,
+    (x, y, s): (&[f64], &[f64], &[f64]),
+    fixed_ref: &[(&str, f64)],
+    held: &[(String, f64, f64)],
+    rows: &mut [(String, f64, f64)],
+    method: &mut String,
+) {
+    let center = reported(p, x, y, f);
+    for (name, value, err) in held {
+        let refit_at = |v: f64| {
+            let at: Vec<(&str, f64)> = fixed_ref
+                .iter()
+                .map(|&(k, w)| (k, if k == name { v } else { w }))
+                .collect();
+            let g = fit_form(p, x, y, s, &at).ok()?;
+            Some(reported(p, x, y, &g))
+        };
+        if let Some(d) = held_shifts(&center, *value, *err, refit_at) {
+            let mut e: Vec<f64> = rows.iter().map(|r| r.2).collect();
+            add_in_quadrature(&mut e, &d);
+            for (row, e) in rows.iter_mut().zip(e) {
+                row.2 = e;
+            }
+            method.push_str(&format!(
+                "; {name} held at {value:.6} +- {err:.2e} (from another fit without replica refits): each error adds in quadrature half the change between the refits at {name} +- {err:.2e}"
+            ));
+        }
+    }
+}
+
+/// The fit's diagnostic rows: reduced chi^2 (of the errors alone under a
+/// model scatter), points, largest leverage and the scatter itself.
+fn diagnostic_rows(
+    p: &FitParams,
+    scatter: Option<(f64, f64)>,
+    (reduced_chi2, points, max_leverage): (f64, usize, f64),
+    rows: &mut Vec<(String, f64, f64)>,
+    method: &mut String,
+) {
+    match scatter {
+        Some((m, alone)) => {
+            rows.push((p.quantity_name("reduced_chi2"), alone, f64::NAN));
+            rows.push((p.quantity_name("points"), points as f64, 0.0));
+            rows.push((p.leverage_name(), max_leverage, f64::NAN));
+            rows.push((p.quantity_name("scatter"), m, f64::NAN));
+            if m > 0.0 {
+                method.push_str(&format!(
+                    "; each point's error widened by a relative model scatter {m:.3} |y| in quadrature (reduced chi2 {alone:.1} -> 1)"
+                ));
+            }
+        }
+        None => {
+            rows.push((p.quantity_name("reduced_chi2"), reduced_chi2, f64::NAN));
+            rows.push((p.quantity_name("points"), points as f64, 0.0));
+            rows.push((p.leverage_name(), max_leverage, f64::NAN));
+            if p.scatter.is_some() {
+                rows.push((p.quantity_name("scatter"), f64::NAN, f64::NAN));
+                method.push_str(
+                    "; no relative model scatter: a fit while searching for it failed (the errors alone)",
+                );
+            }
+        }
+    }
 }
 
 /// `value`: the mean of y over the group's points, with the combined per-point
