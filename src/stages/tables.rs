@@ -210,6 +210,37 @@ impl Columns {
             })?;
         Ok((self.col(VALUE)?[i], self.col(ERROR)?[i]))
     }
+    /// The value a text's reference `NAME.FIELD[@COLUMN=VALUE]` names
+    /// ([`crate::pipeline::references`]): a fit table's row `field` (in the row
+    /// group `row`), or else column `field` at its one row (the row whose
+    /// column `row.0` equals `row.1`, within 1e-9 relative), with its error
+    /// from `FIELD_err` (NaN without one).
+    pub fn value_of(&self, field: &str, row: Option<&(String, f64)>) -> Result<(f64, f64)> {
+        if let Some((c, _)) = row {
+            self.col(c)?;
+        }
+        if self.str.contains_key(QUANTITY) {
+            return self.quantity_in(field, row.map_or(&[][..], std::slice::from_ref));
+        }
+        let col = self.col(field)?;
+        let rows = match row {
+            Some((c, v)) => self.select(&[(c.clone(), Cond::Equal(*v))].into())?,
+            None => (0..self.rows).collect(),
+        };
+        let [i] = rows[..] else {
+            bail!(
+                "table from {} has {} rows{}: name one as {field}@COLUMN=VALUE",
+                self.source,
+                rows.len(),
+                row.map_or(String::new(), |(c, v)| format!(" with {c} = {v}"))
+            );
+        };
+        let err = self
+            .f64
+            .get(&format!("{field}_err"))
+            .map_or(f64::NAN, |e| e[i]);
+        Ok((col[i], err))
+    }
 }
 
 /// A condition on one column: equal to a value (within 1e-9 relative), or in a range.
