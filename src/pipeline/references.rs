@@ -8,7 +8,7 @@
 use anyhow::{Context, Result, bail};
 use serde_json::Value;
 
-/// One `{=...}`: `[PROFILE:][FIGURE/]NAME.FIELD[@COLUMN=VALUE][:FORMAT]`, or
+/// One `{=...}`: `[PROFILE:][FIGURE/]NAME.FIELD[@COLUMN=VALUE,...][:FORMAT]`, or
 /// `{=profile}`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reference {
@@ -25,11 +25,12 @@ pub enum Target {
     /// `{=profile}`: the build's profile.
     Profile,
     /// `NAME.FIELD`: an experiment's parameter, or a stage's quantity (a fit
-    /// table's row) or column, at the row whose `row.0` equals `row.1`.
+    /// table's row) or column, at the row whose columns equal the values of
+    /// `row` (empty: the table's one row).
     Field {
         name: String,
         field: String,
-        row: Option<(String, f64)>,
+        row: Vec<(String, f64)>,
     },
 }
 
@@ -65,7 +66,7 @@ impl Reference {
     pub fn parse(key: &str) -> Result<Reference> {
         let bad = |why: &str| {
             anyhow::anyhow!(
-                "`{{={key}}}`: {why} (the form is [PROFILE:][FIGURE/]NAME.FIELD[@COLUMN=VALUE][:FORMAT], docs/spec.md)"
+                "`{{={key}}}`: {why} (the form is [PROFILE:][FIGURE/]NAME.FIELD[@COLUMN=VALUE,...][:FORMAT], docs/spec.md)"
             )
         };
         let mut rest = key;
@@ -83,16 +84,18 @@ impl Reference {
             })?;
             rest = r;
         }
-        let mut row = None;
+        let mut row = Vec::new();
         if let Some((r, sel)) = rest.split_once('@') {
-            let (col, v) = sel
-                .split_once('=')
-                .ok_or_else(|| bad("a row is selected as @COLUMN=VALUE"))?;
-            let v: f64 = v
-                .trim()
-                .parse()
-                .map_err(|_| bad("the row's VALUE is not a number"))?;
-            row = Some((word(col).ok_or_else(|| bad("the row's COLUMN is not a name"))?, v));
+            for one in sel.split(',') {
+                let (col, v) = one
+                    .split_once('=')
+                    .ok_or_else(|| bad("a row is selected as @COLUMN=VALUE[,COLUMN=VALUE]"))?;
+                let v: f64 = v
+                    .trim()
+                    .parse()
+                    .map_err(|_| bad("the row's VALUE is not a number"))?;
+                row.push((word(col.trim()).ok_or_else(|| bad("the row's COLUMN is not a name"))?, v));
+            }
             rest = r;
         }
         let mut figure = None;
@@ -100,7 +103,7 @@ impl Reference {
             figure = Some(word(f).ok_or_else(|| bad("the figure is not a name"))?);
             rest = r;
         }
-        let target = if rest == "profile" && row.is_none() {
+        let target = if rest == "profile" && row.is_empty() {
             Target::Profile
         } else {
             let (name, field) = rest

@@ -15,19 +15,19 @@ impl Lookup for Fixed {
         }
         match &r.target {
             Target::Profile => Ok(Resolved::Text("ci".into())),
-            Target::Field { name, field, row } => match (name.as_str(), field.as_str(), row) {
-                ("fit", "phi_c", None) => Ok(Resolved::Number {
+            Target::Field { name, field, row } => match (name.as_str(), field.as_str(), row.as_slice()) {
+                ("fit", "phi_c", []) => Ok(Resolved::Number {
                     value: 0.80342,
                     error: 0.0123,
                 }),
-                ("fit", "exponent", Some((c, v))) if c == "N" && *v == 4000.0 => {
+                ("fit", "exponent", [(c, v)]) if c == "N" && *v == 4000.0 => {
                     Ok(Resolved::Number {
                         value: 1.5,
                         error: f64::NAN,
                     })
                 }
-                ("eps09", "n", None) => Ok(Resolved::Param(serde_json::json!(1000))),
-                ("eps09", "phi", None) => Ok(Resolved::Param(serde_json::json!([0.6, 0.7]))),
+                ("eps09", "n", []) => Ok(Resolved::Param(serde_json::json!(1000))),
+                ("eps09", "phi", []) => Ok(Resolved::Param(serde_json::json!([0.6, 0.7]))),
                 _ => bail!("no {name}.{field}"),
             },
         }
@@ -44,11 +44,13 @@ fn references_parse_into_profile_figure_stage_quantity_row_and_format() {
         Target::Field {
             name: "fit".into(),
             field: "exponent".into(),
-            row: Some(("N".into(), 4000.0))
+            row: vec![("N".into(), 4000.0)]
         }
     );
     assert_eq!(r.format.decimals, Some(3));
     assert!(!r.format.value_only);
+    let two = Reference::parse("slopes.slope@phi=0.76,n=1000").unwrap();
+    assert!(matches!(two.target, Target::Field { ref row, .. } if row == &[("phi".to_string(), 0.76), ("n".to_string(), 1000.0)]));
     let local = Reference::parse("joint.phi_c:value").unwrap();
     assert!(local.is_local() && local.format.value_only);
     assert_eq!(Reference::parse("profile").unwrap().target, Target::Profile);

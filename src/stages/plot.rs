@@ -35,13 +35,13 @@ impl Lookup for PlotLookup<'_> {
         let Target::Field { name, field, row } = &r.target else {
             return Ok(Resolved::Text(self.build.profile.clone()));
         };
-        if row.is_none()
+        if row.is_empty()
             && let Some(v) = self.build.experiments.get(name).and_then(|e| e.get(field))
         {
             return Ok(Resolved::Param(v.clone()));
         }
         let c = Columns::read(&inputs_of("plot", self.inputs, name)?)?;
-        let (value, error) = c.value_of(field, row.as_ref())?;
+        let (value, error) = c.value_of(field, row)?;
         Ok(Resolved::Number { value, error })
     }
 }

@@ -79,7 +79,7 @@ impl<'a> Built<'a> {
         profile: &str,
         name: &str,
         field: &str,
-        row: Option<&(String, f64)>,
+        row: &[(String, f64)],
     ) -> Result<Resolved> {
         let plan = self.plan(figure, profile)?;
         let nodes: Vec<usize> = (0..plan.graph.nodes.len())
@@ -130,9 +130,9 @@ impl Lookup for Of<'_, '_> {
             return Ok(Resolved::Text(profile.to_string()));
         };
         let Some((_, exp)) = b.cat.experiments.get(name) else {
-            return b.stage_value(figure, profile, name, field, row.as_ref());
+            return b.stage_value(figure, profile, name, field, row);
         };
-        if row.is_some() {
+        if !row.is_empty() {
             bail!("experiment {name}: a parameter has no rows");
         }
         let params = exp
