@@ -258,6 +258,19 @@ pub fn render(text: &str, lookup: &dyn Lookup) -> Result<String> {
     Ok(out)
 }
 
+/// `text` with its `{paper:X}` quotations printed, for a text that names no
+/// build (a pipeline's `description`, a stage's `describes`): a `{=...}` there
+/// is an error.
+pub fn quotations(text: &str) -> Result<String> {
+    struct NoBuild;
+    impl Lookup for NoBuild {
+        fn resolve(&self, _: &Reference) -> Result<Resolved> {
+            bail!("a description names no build: state a measured number in a reason or a note")
+        }
+    }
+    render(text, &NoBuild)
+}
+
 /// The next `{=` or `{paper:` in `s`: its position, and whether it is a quotation.
 fn next_marker(s: &str) -> Option<(usize, bool)> {
     let r = s.find("{=").map(|i| (i, false));

@@ -76,6 +76,9 @@ fn a_text_renders_values_parameters_quotations_and_unbuilt_builds() {
     // A quotation is one number.
     assert!(render("{paper:about 0.8}", &Fixed).is_err());
     assert!(render("{=fit.phi_c", &Fixed).is_err());
+    // A description prints its quotations and names no build.
+    assert_eq!(quotations("at phi = {paper:0.78}").unwrap(), "at phi = 0.78");
+    assert!(quotations("at {=fit.phi_c}").is_err());
 }
 
 #[test]

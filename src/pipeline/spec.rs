@@ -228,9 +228,10 @@ pub struct StageSpec {
 }
 
 /// `spec` with every `{reason:ID}` of its `error_coverage` and stage
-/// parameters replaced by the text `reasons[ID]` (docs/spec.md, "Numbers in
-/// texts"): before planning, so a stage's key sees the text it states. An
-/// unknown id, or one no text uses, is an error naming it.
+/// parameters replaced by the text `reasons[ID]`, and the `{paper:X}` of its
+/// description and `describes` printed (docs/spec.md, "Numbers in texts"):
+/// before planning, so a stage's key sees the text it states. An unknown id,
+/// or one no text uses, is an error naming it.
 fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String> {
     use crate::pipeline::references::expand_reasons;
     fn in_value(v: &mut Value, expand: &mut dyn FnMut(&str) -> Result<String, String>) -> Result<(), String> {
@@ -252,6 +253,14 @@ fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String>
         let st = &mut st.value;
         for v in st.params.values_mut().chain(st.profiles.values_mut().flat_map(|m| m.values_mut())) {
             in_value(v, &mut expand)?;
+        }
+    }
+    // Texts that name no build: their quotations are printed once, here.
+    let quoted = |t: &str| crate::pipeline::references::quotations(t).map_err(|e| format!("{e:#}"));
+    spec.description = quoted(&spec.description)?;
+    for st in &mut spec.stages {
+        if let Some(d) = &st.value.describes {
+            st.value.describes = Some(quoted(d)?);
         }
     }
     if let Some(id) = reasons.keys().find(|id| !used.contains(*id)) {
