@@ -58,7 +58,9 @@ fn no_enforced_pipeline_types_a_number_into_its_texts() {
     for id in ENFORCED {
         for (path, n, text) in typed(&pipeline(id)) {
             let head: String = text.chars().take(100).collect();
-            bad.push(format!("pipelines/{id}.yaml {path}: `{n}` in \"{head}...\""));
+            bad.push(format!(
+                "pipelines/{id}.yaml {path}: `{n}` in \"{head}...\""
+            ));
         }
     }
     assert!(
@@ -80,7 +82,10 @@ fn the_check_finds_a_typed_number_in_a_pipeline_text() {
     let found = typed(&doc);
     assert_eq!(found.len(), 2, "{found:?}");
     assert_eq!(found[0].0, "stages[compare].profiles.small.caveats.phi_c");
-    assert_eq!((found[0].1.as_str(), found[1].1.as_str()), ("0.8053", "0.82"));
+    assert_eq!(
+        (found[0].1.as_str(), found[1].1.as_str()),
+        ("0.8053", "0.82")
+    );
     let fixed: Value = serde_saphyr::from_str(
         "description: x\nstages:\n  - name: compare\n    profiles:\n      small:\n        caveats:\n          phi_c: \"phi_c lies at {=joint.phi_c}, short of {paper:0.82}\"\n",
     )
@@ -98,7 +103,11 @@ fn every_reference_parses_and_a_plot_names_only_its_own_build() {
                 Err(e) => bad.push(format!("pipelines/{id}.yaml {path}: {e:#}")),
                 Ok(refs) => {
                     let plot = doc["stages"].as_array().into_iter().flatten().any(|s| {
-                        s["kind"] == "plot" && path.starts_with(&format!("stages[{}]", s["name"].as_str().unwrap_or("")))
+                        s["kind"] == "plot"
+                            && path.starts_with(&format!(
+                                "stages[{}]",
+                                s["name"].as_str().unwrap_or("")
+                            ))
                     });
                     if plot && refs.iter().any(|r| !r.is_local()) {
                         bad.push(format!(

@@ -79,9 +79,8 @@ impl Reference {
         }
         let mut format = Format::default();
         if let Some((r, f)) = rest.split_once(':') {
-            format = Format::parse(f).ok_or_else(|| {
-                bad("the format is `value`, `.N` or `value.N` (N decimals)")
-            })?;
+            format = Format::parse(f)
+                .ok_or_else(|| bad("the format is `value`, `.N` or `value.N` (N decimals)"))?;
             rest = r;
         }
         let mut row = Vec::new();
@@ -94,7 +93,10 @@ impl Reference {
                     .trim()
                     .parse()
                     .map_err(|_| bad("the row's VALUE is not a number"))?;
-                row.push((word(col.trim()).ok_or_else(|| bad("the row's COLUMN is not a name"))?, v));
+                row.push((
+                    word(col.trim()).ok_or_else(|| bad("the row's COLUMN is not a name"))?,
+                    v,
+                ));
             }
             rest = r;
         }
@@ -232,26 +234,38 @@ fn print(r: &Reference, found: Resolved) -> String {
 /// `text` with every `{=...}` resolved by `lookup` and every `{paper:X}`
 /// printed as X (which must be a number as the paper writes it).
 pub fn render(text: &str, lookup: &dyn Lookup) -> Result<String> {
+    // A quotation prints a number, never a brace: one pass per kind is the same
+    // as one over both.
+    let quoted = replace_marked(text, "{paper:", |inner| {
+        if inner.trim().parse::<f64>().is_err() {
+            bail!("`{{paper:{inner}}}`: a quotation is one number as the paper writes it");
+        }
+        Ok(inner.to_string())
+    });
+    replace_marked(&quoted?, "{=", |inner| {
+        let r = Reference::parse(inner)?;
+        let found = lookup
+            .resolve(&r)
+            .with_context(|| format!("`{{={inner}}}`"))?;
+        Ok(print(&r, found))
+    })
+    .with_context(|| format!("in \"{text}\""))
+}
+
+/// `text` with each `OPEN...}` replaced by `f` of what stands between.
+fn replace_marked(
+    text: &str,
+    open: &str,
+    mut f: impl FnMut(&str) -> Result<String>,
+) -> Result<String> {
     let mut out = String::new();
     let mut rest = text;
-    while let Some((i, paper)) = next_marker(rest) {
+    while let Some(i) = rest.find(open) {
         let end = rest[i..]
             .find('}')
-            .with_context(|| format!("`{{` without `}}` in \"{text}\""))?;
-        let inner = &rest[i + if paper { 7 } else { 2 }..i + end];
+            .with_context(|| format!("`{open}` without `}}`"))?;
         out.push_str(&rest[..i]);
-        if paper {
-            if inner.trim().parse::<f64>().is_err() {
-                bail!("`{{paper:{inner}}}` in \"{text}\": a quotation is one number as the paper writes it");
-            }
-            out.push_str(inner);
-        } else {
-            let r = Reference::parse(inner).with_context(|| format!("in \"{text}\""))?;
-            let found = lookup
-                .resolve(&r)
-                .with_context(|| format!("`{{={inner}}}` in \"{text}\""))?;
-            out.push_str(&print(&r, found));
-        }
+        out.push_str(&f(&rest[i + open.len()..i + end])?);
         rest = &rest[i + end + 1..];
     }
     out.push_str(rest);
@@ -271,27 +285,14 @@ pub fn quotations(text: &str) -> Result<String> {
     render(text, &NoBuild)
 }
 
-/// The next `{=` or `{paper:` in `s`: its position, and whether it is a quotation.
-fn next_marker(s: &str) -> Option<(usize, bool)> {
-    let r = s.find("{=").map(|i| (i, false));
-    let p = s.find("{paper:").map(|i| (i, true));
-    match (r, p) {
-        (Some(a), Some(b)) => Some(if a.0 < b.0 { a } else { b }),
-        (a, b) => a.or(b),
-    }
-}
-
 /// Every `{=...}` of `text`, parsed (for a check before anything is built).
 pub fn references(text: &str) -> Result<Vec<Reference>> {
     let mut out = Vec::new();
-    let mut rest = text;
-    while let Some(i) = rest.find("{=") {
-        let end = rest[i..]
-            .find('}')
-            .with_context(|| format!("`{{=` without `}}` in \"{text}\""))?;
-        out.push(Reference::parse(&rest[i + 2..i + end]).with_context(|| format!("in \"{text}\""))?);
-        rest = &rest[i + end + 1..];
-    }
+    replace_marked(text, "{=", |inner| {
+        out.push(Reference::parse(inner)?);
+        Ok(String::new())
+    })
+    .with_context(|| format!("in \"{text}\""))?;
     Ok(out)
 }
 
@@ -302,13 +303,7 @@ pub fn expand_reasons(
     reasons: &std::collections::BTreeMap<String, String>,
     used: &mut std::collections::BTreeSet<String>,
 ) -> Result<String> {
-    let mut out = String::new();
-    let mut rest = text;
-    while let Some(i) = rest.find("{reason:") {
-        let end = rest[i..]
-            .find('}')
-            .with_context(|| format!("`{{reason:` without `}}` in \"{text}\""))?;
-        let id = &rest[i + 8..i + end];
+    replace_marked(text, "{reason:", |id| {
         let body = reasons.get(id).with_context(|| {
             format!(
                 "`{{reason:{id}}}`: no such id in `reasons:` (it has: {})",
@@ -316,12 +311,8 @@ pub fn expand_reasons(
             )
         })?;
         used.insert(id.to_string());
-        out.push_str(&rest[..i]);
-        out.push_str(body);
-        rest = &rest[i + end + 1..];
-    }
-    out.push_str(rest);
-    Ok(out)
+        Ok(body.clone())
+    })
 }
 
 /// The keys whose texts are prose: every string below them states no number
@@ -368,7 +359,10 @@ pub fn typed_numbers(text: &str) -> Vec<String> {
                 }
             }
             let sign = usize::from(j + 1 < c.len() && matches!(c[j + 1], '-' | '+'));
-            if j + 1 + sign < c.len() && matches!(c[j], 'e' | 'E') && c[j + 1 + sign].is_ascii_digit() {
+            if j + 1 + sign < c.len()
+                && matches!(c[j], 'e' | 'E')
+                && c[j + 1 + sign].is_ascii_digit()
+            {
                 j += 1 + sign;
                 while j < c.len() && c[j].is_ascii_digit() {
                     j += 1;

@@ -15,21 +15,23 @@ impl Lookup for Fixed {
         }
         match &r.target {
             Target::Profile => Ok(Resolved::Text("ci".into())),
-            Target::Field { name, field, row } => match (name.as_str(), field.as_str(), row.as_slice()) {
-                ("fit", "phi_c", []) => Ok(Resolved::Number {
-                    value: 0.80342,
-                    error: 0.0123,
-                }),
-                ("fit", "exponent", [(c, v)]) if c == "N" && *v == 4000.0 => {
-                    Ok(Resolved::Number {
-                        value: 1.5,
-                        error: f64::NAN,
-                    })
+            Target::Field { name, field, row } => {
+                match (name.as_str(), field.as_str(), row.as_slice()) {
+                    ("fit", "phi_c", []) => Ok(Resolved::Number {
+                        value: 0.80342,
+                        error: 0.0123,
+                    }),
+                    ("fit", "exponent", [(c, v)]) if c == "N" && *v == 4000.0 => {
+                        Ok(Resolved::Number {
+                            value: 1.5,
+                            error: f64::NAN,
+                        })
+                    }
+                    ("eps09", "n", []) => Ok(Resolved::Param(serde_json::json!(1000))),
+                    ("eps09", "phi", []) => Ok(Resolved::Param(serde_json::json!([0.6, 0.7]))),
+                    _ => bail!("no {name}.{field}"),
                 }
-                ("eps09", "n", []) => Ok(Resolved::Param(serde_json::json!(1000))),
-                ("eps09", "phi", []) => Ok(Resolved::Param(serde_json::json!([0.6, 0.7]))),
-                _ => bail!("no {name}.{field}"),
-            },
+            }
         }
     }
 }
@@ -50,11 +52,19 @@ fn references_parse_into_profile_figure_stage_quantity_row_and_format() {
     assert_eq!(r.format.decimals, Some(3));
     assert!(!r.format.value_only);
     let two = Reference::parse("slopes.slope@phi=0.76,n=1000").unwrap();
-    assert!(matches!(two.target, Target::Field { ref row, .. } if row == &[("phi".to_string(), 0.76), ("n".to_string(), 1000.0)]));
+    assert!(
+        matches!(two.target, Target::Field { ref row, .. } if row == &[("phi".to_string(), 0.76), ("n".to_string(), 1000.0)])
+    );
     let local = Reference::parse("joint.phi_c:value").unwrap();
     assert!(local.is_local() && local.format.value_only);
     assert_eq!(Reference::parse("profile").unwrap().target, Target::Profile);
-    for bad in ["phi_c", "fit.phi_c:.x", "fit.phi_c@N", "fit.phi_c@N=many", "a b.c"] {
+    for bad in [
+        "phi_c",
+        "fit.phi_c:.x",
+        "fit.phi_c@N",
+        "fit.phi_c@N=many",
+        "a b.c",
+    ] {
         let e = Reference::parse(bad).unwrap_err().to_string();
         assert!(e.contains(bad), "{e}");
     }
@@ -72,12 +82,18 @@ fn a_text_renders_values_parameters_quotations_and_unbuilt_builds() {
     );
     // An unknown quantity is an error naming the reference and the text.
     let e = format!("{:#}", render("x {=fit.nope} y", &Fixed).unwrap_err());
-    assert!(e.contains("{=fit.nope}") && e.contains("x {=fit.nope} y"), "{e}");
+    assert!(
+        e.contains("{=fit.nope}") && e.contains("x {=fit.nope} y"),
+        "{e}"
+    );
     // A quotation is one number.
     assert!(render("{paper:about 0.8}", &Fixed).is_err());
     assert!(render("{=fit.phi_c", &Fixed).is_err());
     // A description prints its quotations and names no build.
-    assert_eq!(quotations("at phi = {paper:0.78}").unwrap(), "at phi = 0.78");
+    assert_eq!(
+        quotations("at phi = {paper:0.78}").unwrap(),
+        "at phi = 0.78"
+    );
     assert!(quotations("at {=fit.phi_c}").is_err());
 }
 
@@ -94,7 +110,8 @@ fn values_print_with_their_error_to_its_significant_digit() {
 
 #[test]
 fn shared_reasons_expand_and_an_unknown_id_is_named() {
-    let reasons: BTreeMap<String, String> = [("jk".to_string(), "The jackknife.".to_string())].into();
+    let reasons: BTreeMap<String, String> =
+        [("jk".to_string(), "The jackknife.".to_string())].into();
     let mut used = BTreeSet::new();
     assert_eq!(
         expand_reasons("{reason:jk} More.", &reasons, &mut used).unwrap(),

@@ -234,7 +234,10 @@ pub struct StageSpec {
 /// or one no text uses, is an error naming it.
 fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String> {
     use crate::pipeline::references::expand_reasons;
-    fn in_value(v: &mut Value, expand: &mut dyn FnMut(&str) -> Result<String, String>) -> Result<(), String> {
+    fn in_value(
+        v: &mut Value,
+        expand: &mut dyn FnMut(&str) -> Result<String, String>,
+    ) -> Result<(), String> {
         match v {
             Value::String(s) if s.contains("{reason:") => *s = expand(s)?,
             Value::Array(xs) => xs.iter_mut().try_for_each(|x| in_value(x, expand))?,
@@ -246,12 +249,20 @@ fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String>
     let reasons = std::mem::take(&mut spec.reasons);
     let mut used = std::collections::BTreeSet::new();
     let mut expand = |t: &str| expand_reasons(t, &reasons, &mut used).map_err(|e| format!("{e:#}"));
-    for why in spec.error_coverage.values_mut().flat_map(|m| m.values_mut()) {
+    for why in spec
+        .error_coverage
+        .values_mut()
+        .flat_map(|m| m.values_mut())
+    {
         *why = expand(why)?;
     }
     for st in &mut spec.stages {
         let st = &mut st.value;
-        for v in st.params.values_mut().chain(st.profiles.values_mut().flat_map(|m| m.values_mut())) {
+        for v in st
+            .params
+            .values_mut()
+            .chain(st.profiles.values_mut().flat_map(|m| m.values_mut()))
+        {
             in_value(v, &mut expand)?;
         }
     }
@@ -264,7 +275,9 @@ fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String>
         }
     }
     if let Some(id) = reasons.keys().find(|id| !used.contains(*id)) {
-        return Err(format!("`reasons` holds '{id}', which no text uses as {{reason:{id}}}"));
+        return Err(format!(
+            "`reasons` holds '{id}', which no text uses as {{reason:{id}}}"
+        ));
     }
     spec.reasons = reasons;
     Ok(spec)

@@ -9,8 +9,8 @@ use anyhow::{Context, Result};
 use serde::Deserialize;
 use serde_json::Value;
 
-use crate::pipeline::references::{Lookup, Reference, Resolved, Target, legend_number, render};
 use super::tables::{Columns, Where, inputs_of};
+use crate::pipeline::references::{Lookup, Reference, Resolved, Target, legend_number, render};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::plot::{
@@ -572,13 +572,27 @@ fn build(
             s.label = fill(&s.label)?;
             all.push(s);
         }
+        // Every text of the panel takes references and quotations alike.
+        let (mut x, mut y) = (ps.x.clone(), ps.y.clone());
+        x.label = fill(&x.label)?;
+        y.label = fill(&y.label)?;
+        let lines = |ls: &[RefLine]| -> Result<Vec<RefLine>> {
+            ls.iter()
+                .map(|l| {
+                    Ok(RefLine {
+                        label: fill(&l.label)?,
+                        ..l.clone()
+                    })
+                })
+                .collect()
+        };
         panels.push(Panel {
             title: fill(&ps.title)?,
-            x: ps.x.clone(),
-            y: ps.y.clone(),
+            x,
+            y,
             series: all,
-            hlines: ps.hlines.clone(),
-            vlines: ps.vlines.clone(),
+            hlines: lines(&ps.hlines)?,
+            vlines: lines(&ps.vlines)?,
             legend: ps.legend,
             legend_title: ps.legend_title.clone(),
             palette: ps.palette,

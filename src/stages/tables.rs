@@ -223,7 +223,10 @@ impl Columns {
             return self.quantity_in(field, row);
         }
         let col = self.col(field)?;
-        let filter: Where = row.iter().map(|(c, v)| (c.clone(), Cond::Equal(*v))).collect();
+        let filter: Where = row
+            .iter()
+            .map(|(c, v)| (c.clone(), Cond::Equal(*v)))
+            .collect();
         let rows = self.select(&filter)?;
         let [i] = rows[..] else {
             bail!(

@@ -51,7 +51,14 @@ impl<'a> Built<'a> {
 
     /// `text` of figure `figure` with its references resolved.
     pub fn render(&self, figure: &str, text: &str) -> Result<String> {
-        render(text, &Of { built: self, figure }).with_context(|| format!("figure {figure}"))
+        render(
+            text,
+            &Of {
+                built: self,
+                figure,
+            },
+        )
+        .with_context(|| format!("figure {figure}"))
     }
 
     fn plan(&self, figure: &str, profile: &str) -> Result<Rc<Plan>> {

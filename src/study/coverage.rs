@@ -318,7 +318,10 @@ pub fn flag(c: &Coverage) -> Flag {
 /// Every figure's `error_coverage` at `profile` ((figure, quantity) ->
 /// reason), its references resolved from the builds in the store under
 /// `root` (docs/spec.md, "Numbers in texts").
-pub fn reasons(root: &std::path::Path, profile: &str) -> Result<BTreeMap<(String, String), String>> {
+pub fn reasons(
+    root: &std::path::Path,
+    profile: &str,
+) -> Result<BTreeMap<(String, String), String>> {
     let reg = crate::stages::registry();
     let builds = super::built::Built::open(root, &reg, profile)?;
     crate::pipeline::Catalogue::load(root)?
