@@ -359,7 +359,7 @@ fn coverage(a: CoverageArgs) -> Result<()> {
         &seeds,
         &rows,
         &gates,
-        &crate::pipeline::Catalogue::load(&a.variant.root)?.error_coverage(&a.profile),
+        &crate::study::coverage::reasons(&a.variant.root, &a.profile)?,
         &checks,
     );
     let md_path = if a.docs {

@@ -279,23 +279,11 @@ impl Planner<'_> {
             let Some((_, spec)) = self.cat.experiments.get(name) else {
                 continue;
             };
-            let Some(prof) = spec.profiles.get(&self.graph.profile) else {
+            let Some(mut m) = spec.parameters(&self.graph.profile) else {
                 continue;
             };
-            let mut m = serde_json::Map::new();
-            for (k, v) in spec.params.iter().chain(prof.value.params.iter()) {
-                if v.is_number() {
-                    m.insert(k.clone(), v.clone());
-                }
-            }
-            for (k, v) in &prof.value.grid {
-                if let [one] = v.value.as_slice()
-                    && one.is_number()
-                {
-                    m.insert(k.clone(), one.clone());
-                }
-            }
-            m.insert("replicas".into(), Value::from(prof.value.replicas.value));
+            // Numbers only: a grid of several values is not one number of the build.
+            m.retain(|_, v| v.is_number());
             experiments.insert(name.clone(), Value::Object(m));
         }
         serde_json::json!({"profile": self.graph.profile, "experiments": experiments})

@@ -27,6 +27,7 @@ pub mod graph;
 pub mod kinds;
 pub mod progress;
 pub mod publish;
+pub mod references;
 pub mod registry;
 pub mod slurm;
 pub mod spec;

@@ -87,6 +87,30 @@ pub struct ExperimentSpec {
     pub profiles: BTreeMap<String, Spanned<ProfileSpec>>,
 }
 
+impl ExperimentSpec {
+    /// Its parameters at `profile` (None: no such profile), as a text may
+    /// state them (`{=eps09.n}`): the common and the profile's `params`, each
+    /// grid key (one value as itself, several as a list) and `replicas`.
+    pub fn parameters(&self, profile: &str) -> Option<serde_json::Map<String, Value>> {
+        let prof = &self.profiles.get(profile)?.value;
+        let mut m: serde_json::Map<String, Value> = self
+            .params
+            .iter()
+            .chain(prof.params.iter())
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect();
+        for (k, v) in &prof.grid {
+            let v = match v.value.as_slice() {
+                [one] => one.clone(),
+                many => Value::Array(many.to_vec()),
+            };
+            m.insert(k.clone(), v);
+        }
+        m.insert("replicas".into(), Value::from(prof.replicas.value));
+        Some(m)
+    }
+}
+
 /// The ensemble at one profile.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -156,6 +180,10 @@ pub struct PipelineSpec {
     /// reason reruns nothing.
     #[serde(default)]
     pub error_coverage: BTreeMap<String, BTreeMap<String, String>>,
+    /// Paragraphs several texts share (id -> text), included by
+    /// `{reason:ID}`; expanded at load ([`expand_shared_reasons`]).
+    #[serde(default)]
+    pub reasons: BTreeMap<String, String>,
     /// The stages, in any order; each reads experiments or other stages by name.
     pub stages: Vec<Spanned<StageSpec>>,
 }
@@ -204,6 +232,62 @@ pub struct StageSpec {
     /// symbols"), for `results/ID/README.md`; not part of any cache key.
     #[serde(default)]
     pub describes: Option<String>,
+}
+
+/// `spec` with every `{reason:ID}` of its `error_coverage` and stage
+/// parameters replaced by the text `reasons[ID]`, and the `{paper:X}` of its
+/// description and `describes` printed (docs/spec.md, "Numbers in texts"):
+/// before planning, so a stage's key sees the text it states. An unknown id,
+/// or one no text uses, is an error naming it.
+fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String> {
+    use crate::pipeline::references::expand_reasons;
+    fn in_value(
+        v: &mut Value,
+        expand: &mut dyn FnMut(&str) -> Result<String, String>,
+    ) -> Result<(), String> {
+        match v {
+            Value::String(s) if s.contains("{reason:") => *s = expand(s)?,
+            Value::Array(xs) => xs.iter_mut().try_for_each(|x| in_value(x, expand))?,
+            Value::Object(m) => m.values_mut().try_for_each(|x| in_value(x, expand))?,
+            _ => {}
+        }
+        Ok(())
+    }
+    let reasons = std::mem::take(&mut spec.reasons);
+    let mut used = std::collections::BTreeSet::new();
+    let mut expand = |t: &str| expand_reasons(t, &reasons, &mut used).map_err(|e| format!("{e:#}"));
+    for why in spec
+        .error_coverage
+        .values_mut()
+        .flat_map(|m| m.values_mut())
+    {
+        *why = expand(why)?;
+    }
+    for st in &mut spec.stages {
+        let st = &mut st.value;
+        for v in st
+            .params
+            .values_mut()
+            .chain(st.profiles.values_mut().flat_map(|m| m.values_mut()))
+        {
+            in_value(v, &mut expand)?;
+        }
+    }
+    // Texts that name no build: their quotations are printed once, here.
+    let quoted = |t: &str| crate::pipeline::references::quotations(t).map_err(|e| format!("{e:#}"));
+    spec.description = quoted(&spec.description)?;
+    for st in &mut spec.stages {
+        if let Some(d) = &st.value.describes {
+            st.value.describes = Some(quoted(d)?);
+        }
+    }
+    if let Some(id) = reasons.keys().find(|id| !used.contains(*id)) {
+        return Err(format!(
+            "`reasons` holds '{id}', which no text uses as {{reason:{id}}}"
+        ));
+    }
+    spec.reasons = reasons;
+    Ok(spec)
 }
 
 /// Every spec under a root: experiments and pipelines by name, with their files.
@@ -323,6 +407,7 @@ impl Catalogue {
                     ),
                 });
             }
+            let spec = expand_shared_reasons(spec).map_err(|e| SpecError::file(&file, e))?;
             c.pipelines.insert(name, (file, spec));
         }
         Ok(c)
@@ -588,6 +673,36 @@ mod tests {
 
     /// `ci: true` marks a figure for CI; absent means not; a misspelt key is a
     /// located error, as every unknown key.
+    /// A paragraph shared by several texts is written once under `reasons:`
+    /// and included where `{reason:ID}` stands; an unknown or unused id fails
+    /// the load with the file and the id.
+    #[test]
+    fn shared_reasons_are_expanded_at_load_and_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("pipelines");
+        std::fs::create_dir_all(&p).unwrap();
+        let write = |body: &str| {
+            std::fs::write(
+                p.join("a.yaml"),
+                format!(
+                    "description: a\n{body}stages:\n  - {{name: c, kind: compare, gather: [x], params: {{caveats: {{q: \"{{reason:jk}} Two.\"}}}}}}\n"
+                ),
+            )
+            .unwrap()
+        };
+        write("reasons: {jk: \"One.\"}\nerror_coverage: {small: {q: \"{reason:jk}\"}}\n");
+        let c = Catalogue::load(dir.path()).unwrap();
+        let spec = &c.pipelines["a"].1;
+        assert_eq!(spec.error_coverage["small"]["q"], "One.");
+        assert_eq!(spec.stages[0].value.params["caveats"]["q"], "One. Two.");
+        write("reasons: {jk: \"One.\", other: \"unused\"}\n");
+        let e = Catalogue::load(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("a.yaml") && e.contains("'other'"), "{e}");
+        write("reasons: {other: \"x\"}\nerror_coverage: {small: {q: \"{reason:other}\"}}\n");
+        let e = Catalogue::load(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("{reason:jk}") && e.contains("other"), "{e}");
+    }
+
     #[test]
     fn ci_figures_are_those_marked_ci() {
         let dir = tempfile::tempdir().unwrap();

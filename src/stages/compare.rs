@@ -96,6 +96,12 @@ impl StageKind for Compare {
                 bail!("compare: {field} names '{q}', which is not one of the paper values");
             }
         }
+        // Kept verbatim in `reason` and resolved by the report, from the store
+        // (docs/spec.md, "Numbers in texts"): only their form is checked here.
+        for (q, text) in p.out_of_reach.iter().chain(&p.caveats) {
+            crate::pipeline::references::references(text)
+                .with_context(|| format!("compare: the reason of '{q}'"))?;
+        }
         for v in &p.paper {
             if v.than.is_some() && v.claim.is_none() {
                 bail!(

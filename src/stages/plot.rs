@@ -10,110 +10,46 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of};
+use crate::pipeline::references::{Lookup, Reference, Resolved, Target, legend_number, render};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::plot::{
     Axis, Color, Figure, Group, Legend, Marker, Palette, Panel, RefLine, Series, Style,
 };
 
-/// A group value as a legend shows it: three decimals tell phi (0.785) or t0 apart,
-/// and values below 10 keep two (0.60, 0.65) so a column of phi reads evenly.
-fn legend_number(v: f64) -> String {
-    let r = (v * 1e3).round() / 1e3;
-    if r.abs() >= 10.0 {
-        // Times and sizes: to the unit (t0 = 29, not 29.333).
-        format!("{v:.0}")
-    } else if r == 0.0 {
-        format!("{r}")
-    } else if ((r * 1e2).round() / 1e2 - r).abs() < 1e-12 {
-        format!("{r:.2}")
-    } else if r.abs() >= 1.0 {
-        // A time between 1 and 10 off a round value (t0 = 7.333): one decimal.
-        format!("{r:.1}")
-    } else {
-        format!("{r:.3}")
-    }
+/// The values a plot's texts name: its gathered tables and its build (the
+/// profile and the experiments upstream). Only this build: a figure is a
+/// function of its cache key, which no other figure or profile enters.
+struct PlotLookup<'a> {
+    inputs: &'a [Artifact],
+    build: &'a BuildInfo,
 }
 
-/// A fitted value as a legend shows it: the error to one significant digit (two
-/// when that digit is 1) and the value to the same decimal (`0.80 ± 0.01`).
-fn value_with_error(v: f64, e: f64) -> String {
-    // A fit that failed at this profile has no number to print.
-    if !v.is_finite() {
-        return "(no fit)".into();
-    }
-    if !(e.is_finite() && e > 0.0) {
-        return legend_number(v);
-    }
-    let mut digits = -e.log10().floor();
-    if e * 10f64.powf(digits) < 2.0 {
-        digits += 1.0;
-    }
-    let d = digits.max(0.0) as usize;
-    // A typeset minus, as in the axis labels.
-    format!("{v:.d$} ± {e:.d$}").replacen('-', "−", 1)
-}
-
-/// A number of the build as a note states it: integers as integers
-/// (N = 1000), others as written.
-fn build_number(v: &Value) -> String {
-    match v.as_f64() {
-        Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => format!("{}", x as i64),
-        Some(x) => format!("{x}"),
-        None => v.to_string(),
-    }
-}
-
-/// `{=profile}`, or `{=EXPERIMENT.PARAM}` of the build info (`n`,
-/// `replicas`, ... of an experiment upstream), if `key` is one.
-fn build_value(key: &str, build: &BuildInfo) -> Option<String> {
-    if key == "profile" {
-        return Some(build.profile.clone());
-    }
-    let (exp, param) = key.split_once('.')?;
-    build.experiments.get(exp)?.get(param).map(build_number)
-}
-
-/// `{=STAGE.QUANTITY}` in a title or legend entry: that fitted value with its
-/// error, read from the quantity table of the gathered stage STAGE; or
-/// `{=profile}` and `{=EXPERIMENT.PARAM}`, the build's profile and an
-/// experiment's parameter at it (`{=eps09.n}`, `{=eps09.replicas}`).
-fn fill(text: &str, inputs: &[Artifact], build: &BuildInfo) -> Result<String> {
-    let mut out = String::new();
-    let mut rest = text;
-    while let Some(i) = rest.find("{=") {
-        let end = rest[i..]
-            .find('}')
-            .with_context(|| format!("plot: `{{=` without `}}` in label \"{text}\""))?;
-        let key = &rest[i + 2..i + end];
-        if let Some(v) = build_value(key, build) {
-            out.push_str(&rest[..i]);
-            out.push_str(&v);
-            rest = &rest[i + end + 1..];
-            continue;
+impl Lookup for PlotLookup<'_> {
+    fn resolve(&self, r: &Reference) -> Result<Resolved> {
+        if !r.is_local() {
+            anyhow::bail!(
+                "a plot's text references only its own build (a stage it gathers, `profile`, an experiment upstream): state a number of another figure or profile in a compare reason or `error_coverage`"
+            );
         }
-        let (key, raw) = match key.strip_suffix(":value") {
-            Some(k) => (k, true),
-            None => (key, false),
+        let Target::Field { name, field, row } = &r.target else {
+            return Ok(Resolved::Text(self.build.profile.clone()));
         };
-        let (stage, quantity) = key.split_once('.').with_context(|| {
-            format!("plot: `{{={key}}}` in label \"{text}\" needs the form {{=STAGE.QUANTITY}}")
-        })?;
-        let c = Columns::read(&inputs_of("plot", inputs, stage)?)
-            .with_context(|| format!("plot: label \"{text}\""))?;
-        let (v, e) = c
-            .quantity(quantity)
-            .with_context(|| format!("plot: label \"{text}\""))?;
-        out.push_str(&rest[..i]);
-        out.push_str(&if raw {
-            format!("{v}")
-        } else {
-            value_with_error(v, e)
-        });
-        rest = &rest[i + end + 1..];
+        if row.is_empty()
+            && let Some(v) = self.build.experiments.get(name).and_then(|e| e.get(field))
+        {
+            return Ok(Resolved::Param(v.clone()));
+        }
+        let c = Columns::read(&inputs_of("plot", self.inputs, name)?)?;
+        let (value, error) = c.value_of(field, row)?;
+        Ok(Resolved::Number { value, error })
     }
-    out.push_str(rest);
-    Ok(out)
+}
+
+/// A title, legend entry or note with its references resolved
+/// ([`crate::pipeline::references`]).
+fn fill(text: &str, inputs: &[Artifact], build: &BuildInfo) -> Result<String> {
+    render(text, &PlotLookup { inputs, build }).context("plot")
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -636,13 +572,27 @@ fn build(
             s.label = fill(&s.label)?;
             all.push(s);
         }
+        // Every text of the panel takes references and quotations alike.
+        let (mut x, mut y) = (ps.x.clone(), ps.y.clone());
+        x.label = fill(&x.label)?;
+        y.label = fill(&y.label)?;
+        let lines = |ls: &[RefLine]| -> Result<Vec<RefLine>> {
+            ls.iter()
+                .map(|l| {
+                    Ok(RefLine {
+                        label: fill(&l.label)?,
+                        ..l.clone()
+                    })
+                })
+                .collect()
+        };
         panels.push(Panel {
             title: fill(&ps.title)?,
-            x: ps.x.clone(),
-            y: ps.y.clone(),
+            x,
+            y,
             series: all,
-            hlines: ps.hlines.clone(),
-            vlines: ps.vlines.clone(),
+            hlines: lines(&ps.hlines)?,
+            vlines: lines(&ps.vlines)?,
             legend: ps.legend,
             legend_title: ps.legend_title.clone(),
             palette: ps.palette,

@@ -1,5 +1,5 @@
 //! Tests of the `plot` stage kind (src/stages/plot.rs).
-use super::value_with_error;
+use crate::pipeline::references::{Lookup, Reference, Resolved, Target, value_with_error};
 
 /// A table every column of `layer` can be read from: three groups of twelve
 /// points along a rising curve inside the panel's axes, errors of 5% of the
@@ -161,24 +161,7 @@ fn every_plot_spec_lays_out_without_defects() {
                     .unwrap();
                 Ok(synthetic(layer, ps, &p.colour_ranges))
             };
-            let fill = |t: &str| {
-                let mut out = t.to_string();
-                while let Some(i) = out.find("{=") {
-                    let j = i + out[i..].find('}').unwrap();
-                    let key = &out[i + 2..j];
-                    let text = if key == "profile" {
-                        profile
-                    } else if key.ends_with(":value") {
-                        "0.5"
-                    } else if key.ends_with(".n") || key.ends_with(".replicas") {
-                        "7"
-                    } else {
-                        "0.50 ± 0.02"
-                    };
-                    out.replace_range(i..=j, text);
-                }
-                Ok(out)
-            };
+            let fill = |t: &str| crate::pipeline::references::render(t, &Placeholder(profile));
             let mut fig = super::build(&p, table, fill).unwrap();
             fig.profile = Some(profile.to_string());
             let name = f.file_name().unwrap().to_string_lossy().to_string();
@@ -297,10 +280,10 @@ fn fitted_values_round_to_their_error() {
     assert_eq!(value_with_error(0.6, f64::NAN), "0.60");
     assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
     assert_eq!(value_with_error(f64::NAN, f64::NAN), "(no fit)");
-    assert_eq!(super::legend_number(29.333), "29");
-    assert_eq!(super::legend_number(0.785), "0.785");
-    assert_eq!(super::legend_number(7.333), "7.3");
-    assert_eq!(super::legend_number(1.4), "1.40");
+    assert_eq!(crate::pipeline::references::legend_number(29.333), "29");
+    assert_eq!(crate::pipeline::references::legend_number(0.785), "0.785");
+    assert_eq!(crate::pipeline::references::legend_number(7.333), "7.3");
+    assert_eq!(crate::pipeline::references::legend_number(1.4), "1.40");
 }
 
 /// `scale: auto` makes the longest arrow 0.9 of the grid step (here the
@@ -415,4 +398,23 @@ fn figure_of(
         Ok(c)
     };
     super::build(&p, table, |t| Ok(t.to_string())).unwrap()
+}
+
+/// Stand-ins of a build for the layout check: the profile drawn, 7 for a
+/// parameter and 0.50 ± 0.02 for a value (any length a real one has).
+struct Placeholder<'a>(&'a str);
+
+impl Lookup for Placeholder<'_> {
+    fn resolve(&self, r: &Reference) -> anyhow::Result<Resolved> {
+        Ok(match &r.target {
+            Target::Profile => Resolved::Text(self.0.to_string()),
+            Target::Field { field, .. } if field == "n" || field == "replicas" => {
+                Resolved::Param(serde_json::json!(7))
+            }
+            Target::Field { .. } => Resolved::Number {
+                value: 0.5,
+                error: 0.02,
+            },
+        })
+    }
 }

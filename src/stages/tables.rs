@@ -210,6 +210,42 @@ impl Columns {
             })?;
         Ok((self.col(VALUE)?[i], self.col(ERROR)?[i]))
     }
+    /// The value a text's reference `NAME.FIELD[@COLUMN=VALUE,...]` names
+    /// ([`crate::pipeline::references`]): a fit table's row `field` (in the row
+    /// group `row`), or else column `field` at its one row (the row whose
+    /// columns equal the values of `row`, within 1e-9 relative), with its
+    /// error from `FIELD_err` (NaN without one).
+    pub fn value_of(&self, field: &str, row: &[(String, f64)]) -> Result<(f64, f64)> {
+        for (c, _) in row {
+            self.col(c)?;
+        }
+        if self.str.contains_key(QUANTITY) {
+            return self.quantity_in(field, row);
+        }
+        let col = self.col(field)?;
+        let filter: Where = row
+            .iter()
+            .map(|(c, v)| (c.clone(), Cond::Equal(*v)))
+            .collect();
+        let rows = self.select(&filter)?;
+        let [i] = rows[..] else {
+            bail!(
+                "table from {} has {} rows{}: name one as {field}@COLUMN=VALUE",
+                self.source,
+                rows.len(),
+                if row.is_empty() {
+                    String::new()
+                } else {
+                    format!(" with {row:?}")
+                }
+            );
+        };
+        let err = self
+            .f64
+            .get(&format!("{field}_err"))
+            .map_or(f64::NAN, |e| e[i]);
+        Ok((col[i], err))
+    }
 }
 
 /// A condition on one column: equal to a value (within 1e-9 relative), or in a range.

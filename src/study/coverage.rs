@@ -315,6 +315,27 @@ pub fn flag(c: &Coverage) -> Flag {
     }
 }
 
+/// Every figure's `error_coverage` at `profile` ((figure, quantity) ->
+/// reason), its references resolved from the builds in the store under
+/// `root` (docs/spec.md, "Numbers in texts").
+pub fn reasons(
+    root: &std::path::Path,
+    profile: &str,
+) -> Result<BTreeMap<(String, String), String>> {
+    let reg = crate::stages::registry();
+    let builds = super::built::Built::open(root, &reg, profile)?;
+    crate::pipeline::Catalogue::load(root)?
+        .error_coverage(profile)
+        .into_iter()
+        .map(|((fig, q), why)| {
+            let text = builds
+                .render(&fig, &why)
+                .with_context(|| format!("error_coverage of {q}"))?;
+            Ok(((fig, q), text))
+        })
+        .collect()
+}
+
 /// The coverage study as Markdown: what was built, the false alarms of
 /// `repro regress` on these seeds, one row per key number, and why each
 /// flagged number is flagged. `gates` names each number's gate in the golden

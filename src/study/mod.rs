@@ -16,6 +16,7 @@
 //!   compare tables (never typed by hand): one model, rendered as Markdown and as
 //!   an HTML scoreboard with a page per figure.
 
+pub mod built;
 pub mod coverage;
 pub mod frontier;
 pub mod golden;

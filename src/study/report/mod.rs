@@ -309,7 +309,20 @@ pub fn collect(root: &Path, results: &Path, profile: Option<&str>) -> Result<Rep
             built: None,
         })
         .collect();
-    for f in figs {
+    // The compare reasons name numbers by reference (docs/spec.md, "Numbers
+    // in texts"): resolved now, from the store, at the report's profile.
+    let reg = crate::stages::registry();
+    let builds = super::built::Built::open(root, &reg, &profile)?;
+    for e in &mut entries {
+        e.description = builds.render(&e.id, &e.description)?;
+    }
+    for mut f in figs {
+        for c in &mut f.compared {
+            c.reason = builds
+                .render(&f.id, &c.reason)
+                .with_context(|| format!("the reason of {}", c.quantity))?;
+        }
+        f.provenance.description = builds.render(&f.id, &f.provenance.description)?;
         match entries.iter_mut().find(|e| e.id == f.id) {
             Some(e) => e.built = Some(f),
             None => entries.push(Entry {

@@ -1,0 +1,122 @@
+//! Numbers in texts (docs/spec.md, "Numbers in texts"): no pipeline's prose
+//! (description, notes, labels, titles, compare reasons, `error_coverage`,
+//! shared `reasons`) states a number typed by hand; each is a reference to a
+//! build, a `{paper:...}` quotation, or inside a backticked command. Every
+//! reference parses, and a plot's texts reference only its own build.
+
+use std::path::PathBuf;
+
+use repro::pipeline::references::{prose, references, typed_numbers};
+use serde_json::Value;
+
+/// The pipelines whose texts are checked (the others are being rewritten to
+/// references; each joins this list when it passes).
+const ENFORCED: &[&str] = &[
+    "fig2",
+    "fig3",
+    "fig4",
+    "fig5",
+    "fig6",
+    "fig7",
+    "fig8",
+    "fig9",
+    "fig10",
+    "fig11",
+    "fig12",
+    "fig13",
+    "stationarity",
+    "method-cutoff",
+    "method-drive",
+    "method-front",
+    "method-intruder-heating",
+    "method-s4",
+];
+
+fn pipeline(id: &str) -> Value {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("pipelines")
+        .join(format!("{id}.yaml"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_saphyr::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Every typed number of `doc`'s prose: (path of the text, the number, the text).
+fn typed(doc: &Value) -> Vec<(String, String, String)> {
+    prose(doc)
+        .into_iter()
+        .flat_map(|(path, text)| {
+            typed_numbers(&text)
+                .into_iter()
+                .map(move |n| (path.clone(), n, text.clone()))
+        })
+        .collect()
+}
+
+#[test]
+fn no_enforced_pipeline_types_a_number_into_its_texts() {
+    let mut bad = Vec::new();
+    for id in ENFORCED {
+        for (path, n, text) in typed(&pipeline(id)) {
+            let head: String = text.chars().take(100).collect();
+            bad.push(format!(
+                "pipelines/{id}.yaml {path}: `{n}` in \"{head}...\""
+            ));
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "{} numbers typed by hand (write {{=STAGE.QUANTITY}}, {{paper:X}} or drop them; docs/spec.md, \"Numbers in texts\"):\n{}",
+        bad.len(),
+        bad.join("\n")
+    );
+}
+
+/// The check itself: a pipeline text with a measured number typed in fails,
+/// the same text with a reference and a quotation passes.
+#[test]
+fn the_check_finds_a_typed_number_in_a_pipeline_text() {
+    let doc: Value = serde_saphyr::from_str(
+        "description: x\nstages:\n  - name: compare\n    profiles:\n      small:\n        caveats:\n          phi_c: \"phi_c lies at 0.8053, short of 0.82\"\n",
+    )
+    .unwrap();
+    let found = typed(&doc);
+    assert_eq!(found.len(), 2, "{found:?}");
+    assert_eq!(found[0].0, "stages[compare].profiles.small.caveats.phi_c");
+    assert_eq!(
+        (found[0].1.as_str(), found[1].1.as_str()),
+        ("0.8053", "0.82")
+    );
+    let fixed: Value = serde_saphyr::from_str(
+        "description: x\nstages:\n  - name: compare\n    profiles:\n      small:\n        caveats:\n          phi_c: \"phi_c lies at {=joint.phi_c}, short of {paper:0.82}\"\n",
+    )
+    .unwrap();
+    assert!(typed(&fixed).is_empty());
+}
+
+#[test]
+fn every_reference_parses_and_a_plot_names_only_its_own_build() {
+    let mut bad = Vec::new();
+    for id in ENFORCED {
+        let doc = pipeline(id);
+        for (path, text) in prose(&doc) {
+            match references(&text) {
+                Err(e) => bad.push(format!("pipelines/{id}.yaml {path}: {e:#}")),
+                Ok(refs) => {
+                    let plot = doc["stages"].as_array().into_iter().flatten().any(|s| {
+                        s["kind"] == "plot"
+                            && path.starts_with(&format!(
+                                "stages[{}]",
+                                s["name"].as_str().unwrap_or("")
+                            ))
+                    });
+                    if plot && refs.iter().any(|r| !r.is_local()) {
+                        bad.push(format!(
+                            "pipelines/{id}.yaml {path}: a plot's text references another figure or profile: \"{text}\""
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
