@@ -25,7 +25,7 @@ pub const COLLISIONS_PER_CHECKPOINT: f64 = 3e8;
 
 const MAGIC: &[u8; 8] = b"REPROCKP";
 /// Bumped whenever the payload's layout changes.
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 32 + 8;
 
 /// Simulation time between checkpoints: `cfg.checkpoint_every` if given, else

@@ -2,7 +2,7 @@
 //! then record frames and measure temperature, pressure and rates.
 
 use super::checkpoint::{self, Keeper};
-use super::engine_for_run::{bath_collision_rate, drive};
+use super::engine_for_run::{self, bath_collision_rate, drive};
 use super::progress::{Progress, Stage};
 use super::resources;
 use crate::sim::engine::{Engine, Kicks, Stats};
@@ -174,7 +174,7 @@ impl Sampler {
         let now = e.time();
         let dt = now - self.last_time;
         let tm = 0.5 * (t + self.last_t);
-        let pv = (e.stats.virial - self.last_virial) / (2.0 * dt);
+        let pv = (e.stats().virial - self.last_virial) / (2.0 * dt);
         let pressure = (n * tm + pv) / self.area;
         self.samples.push(Sample {
             time: now - self.t0,
@@ -188,12 +188,12 @@ impl Sampler {
         self.drift.push([p[0] / m, p[1] / m]);
         if let Some(k) = e.intruder() {
             let (_, v) = e.particle(k);
-            let m0 = e.masses[e.species[k] as usize];
+            let m0 = e.masses()[e.species()[k] as usize];
             self.bath_drift
                 .push([0, 1].map(|a| (p[a] - m0 * v[a]) / (m - m0)));
         }
         self.last_time = now;
-        self.last_virial = e.stats.virial;
+        self.last_virial = e.stats().virial;
         self.last_t = t;
     }
 }
@@ -432,7 +432,7 @@ pub fn run_kept(
             (e, st, cpu)
         }
         None => {
-            let (e, compress_time) = Engine::for_run(cfg, progress)?;
+            let (e, compress_time) = engine_for_run::build(cfg, progress)?;
             let t_relax0 = e.time();
             let dt = (cfg.relax_time + cfg.schedule.end()) / cfg.samples as f64;
             let sampler = Sampler {
@@ -440,7 +440,7 @@ pub fn run_kept(
                 next: t_relax0 + dt,
                 t0: t_relax0 + cfg.relax_time,
                 last_time: e.time(),
-                last_virial: e.stats.virial,
+                last_virial: e.stats().virial,
                 last_t: bath_temperature(&e),
                 area: cfg.box_size()[0] * cfg.box_size()[1],
                 samples: Vec::with_capacity(cfg.samples + 1),
@@ -512,7 +512,7 @@ pub fn run_kept(
                     e.skip_to(t0);
                 }
                 st.production = Some(ProductionStart {
-                    stats: e.stats,
+                    stats: *e.stats(),
                     kinetic_energy: e.kinetic_energy(),
                     intruder: e.intruder().map(|k| e.particle(k).0),
                     force_kicks: e.force_kicks(),
@@ -576,7 +576,7 @@ pub fn run_kept(
     let (s, frames, compress_time) = (st.sampler, st.frames, st.compress_time);
     let [lx, ly] = cfg.box_size();
     let cpu_prod = cpu.now() - cpu_prod0;
-    let st = e.stats;
+    let st = *e.stats();
     let collisions = st.collisions - before.collisions;
 
     let prod_samples = &s.samples[n_relax_samples..];
@@ -698,7 +698,7 @@ pub fn run_kept(
     let traj = Trajectory {
         box_size: [lx, ly],
         periodic: cfg.walls.map(|w| !w),
-        species: e.species.clone(),
+        species: e.species().to_vec(),
         radii,
         masses,
         frames,
