@@ -4,10 +4,8 @@
 //! it from the state alone, the same way for a new engine and a resumed one:
 //! a resume continues bit for bit only if nothing here carries history.
 
-use super::{
-    Book, Engine, EngineState, PREFETCH_MIN_BYTES, SHELL_FRACTION, neighbour_lists,
-    prefetch_pipeline,
-};
+use super::state::EngineState;
+use super::{Book, Engine, PREFETCH_MIN_BYTES, SHELL_FRACTION, neighbour_lists, prefetch_pipeline};
 use crate::sim::big_vec::big_vec;
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, NONE};

@@ -15,7 +15,7 @@
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
 //!
-//! The engine is two values: its state ([`EngineState`], everything that
+//! The engine is two values: its state ([`state::EngineState`], everything that
 //! determines the run's future, serialised whole at a checkpoint) and what is
 //! derived from it (cells, neighbour lists, pending events and their calendar,
 //! prefetch state), rebuilt from the state alone. One `impl Engine` per
@@ -41,11 +41,9 @@ mod prefetch_pipeline;
 mod pulled_intruder;
 mod setup;
 mod snapshot;
-mod state;
+pub mod state;
 
-use derived::Derived;
 pub use setup::Setup;
-pub use state::EngineState;
 
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
 use crate::sim::events::pair_scan::{earliest_pair, nearest_image};
@@ -149,8 +147,8 @@ impl Default for Book {
 /// the run's future: what a checkpoint saves) and what is derived from it
 /// (rebuilt from the state alone at a resume).
 pub struct Engine {
-    state: EngineState,
-    derived: Derived,
+    state: state::EngineState,
+    derived: derived::Derived,
 }
 
 impl Engine {

@@ -4,7 +4,8 @@
 use rand_chacha::ChaCha8Rng;
 
 use super::derived::Geometry;
-use super::{Engine, EngineState, LIST_CAPACITY, Stats, driving, force_kicks, pulled_intruder};
+use super::state::EngineState;
+use super::{Engine, LIST_CAPACITY, Stats, driving, force_kicks, pulled_intruder};
 use crate::sim::big_vec::{big_vec, big_vec_from};
 use crate::sim::events::disk::{Disk, NONE};
 use crate::sim::model::friction::Clock;

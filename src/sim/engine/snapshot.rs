@@ -9,7 +9,8 @@
 //! forgotten first (the pair scan skips partners by them) and the calendar
 //! starts new (its heap's capacity counts in [`Engine::bytes`]).
 
-use super::{Engine, EngineState, pulled_intruder};
+use super::state::EngineState;
+use super::{Engine, pulled_intruder};
 use crate::sim::big_vec::big_vec_from;
 use crate::sim::events::calendar::EventCalendar;
 

@@ -16,7 +16,7 @@
 use anyhow::{Context, Result, bail, ensure};
 use serde::{Deserialize, Serialize};
 
-use crate::sim::engine::EngineState;
+use crate::sim::engine::state::EngineState;
 use crate::sim::model::config::SimConfig;
 
 /// Collisions between two checkpoints by default: about 10 minutes of CPU

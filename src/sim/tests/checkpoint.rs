@@ -11,7 +11,8 @@
 use anyhow::{Result, bail};
 
 use super::intruder::{bath, quiet};
-use crate::sim::engine::{Engine, EngineState};
+use crate::sim::engine::Engine;
+use crate::sim::engine::state::EngineState;
 use crate::sim::model::config::ForceMode;
 use crate::sim::run::checkpoint::Keeper;
 use crate::sim::run::engine_for_run;
