@@ -402,7 +402,7 @@ mod late_clock {
             ..SimConfig::default()
         };
         let mut e = initial_state::prepare(&c, &quiet).unwrap();
-        (e.eps, e.tc) = (c.eps, c.collapse_tc);
+        e.set_restitution(c.eps, c.collapse_tc);
         let (kicks, rate, p_dr) = run::drive(&c, 6.0);
         e.set_kicks(kicks, rate, p_dr);
         e.run_until(e.time() + 1.0, u64::MAX);
@@ -427,11 +427,11 @@ mod late_clock {
                 vy: vec![],
             });
         }
-        assert!(e.stats.collisions > 100_000, "{:?}", e.stats);
+        assert!(e.stats().collisions > 100_000, "{:?}", e.stats());
         let traj = Trajectory {
             box_size: c.box_size(),
             periodic: [true, true],
-            species: e.species.clone(),
+            species: e.species().to_vec(),
             radii: c.radii(),
             masses: c.species_masses(),
             frames,

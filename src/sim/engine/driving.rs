@@ -43,9 +43,9 @@ impl Engine {
     /// Start (or stop) driving: `rate` kicks per unit time in the whole
     /// system, each of momentum `p_dr` times a unit 2D Gaussian vector.
     pub fn set_kicks(&mut self, kicks: Kicks, rate: f64, p_dr: f64) {
-        self.drive.kicks = kicks;
-        self.drive.kick_rate = rate;
-        self.drive.p_dr = p_dr;
+        self.state.drive.kicks = kicks;
+        self.state.drive.kick_rate = rate;
+        self.state.drive.p_dr = p_dr;
         self.schedule_kick();
     }
 
@@ -55,38 +55,41 @@ impl Engine {
     pub(super) fn schedule_kick(&mut self) {
         let wait = self.kick_wait();
         // Kicks come at a constant rate in time, not in the friction clock.
-        self.drive.next_drive = if self.clock.gamma == 0.0 {
-            self.now + wait
+        self.state.drive.next_drive = if self.state.clock.gamma == 0.0 {
+            self.state.now + wait
         } else {
-            self.clock.s(self.clock.t(self.now) + wait)
+            self.state
+                .clock
+                .s(self.state.clock.t(self.state.now) + wait)
         };
-        self.next_kick = self.drive.next_drive.min(self.train.next);
-        if self.drive.next_drive < f64::INFINITY {
+        self.state.next_kick = self.state.drive.next_drive.min(self.state.train.next);
+        if self.state.drive.next_drive < f64::INFINITY {
             let n = self.n();
-            let rng = &mut self.rng;
+            let rng = &mut self.state.rng;
             let ring = self
+                .state
                 .drive
                 .kick_ring
                 .get_or_insert_with(|| std::array::from_fn(|_| rng.random_range(0..n) as u32));
-            let pos = self.drive.kick_pos;
-            self.drive.kick_next = ring[pos] as usize;
-            ring[pos] = self.rng.random_range(0..n) as u32;
-            self.drive.kick_pos = (pos + 1) % KICKS_AHEAD;
+            let pos = self.state.drive.kick_pos;
+            self.state.drive.kick_next = ring[pos] as usize;
+            ring[pos] = self.state.rng.random_range(0..n) as u32;
+            self.state.drive.kick_pos = (pos + 1) % KICKS_AHEAD;
             self.prefetch_kicks();
         }
     }
 
     pub fn kick_rate(&self) -> f64 {
-        self.drive.kick_rate
+        self.state.drive.kick_rate
     }
 
     fn kick_wait(&mut self) -> f64 {
-        if self.drive.kicks == Kicks::Off || self.drive.kick_rate <= 0.0 {
+        if self.state.drive.kicks == Kicks::Off || self.state.drive.kick_rate <= 0.0 {
             return f64::INFINITY;
         }
-        Exp::new(self.drive.kick_rate)
+        Exp::new(self.state.drive.kick_rate)
             .expect("kick rate is positive and finite")
-            .sample(&mut self.rng)
+            .sample(&mut self.state.rng)
     }
 
     /// A kick: one particle (Eq. 2 of paper I) or a pair with equal and
@@ -95,41 +98,41 @@ impl Engine {
     /// `PLAIN`: [`Self::plain`] holds.
     pub(super) fn kick<const PLAIN: bool>(&mut self) {
         let n = self.n();
-        let i = self.drive.kick_next;
+        let i = self.state.drive.kick_next;
         let lam = self.lambda();
-        if self.drive.kicks == Kicks::Single {
+        if self.state.drive.kicks == Kicks::Single {
             self.advance(i);
-            let kx: f64 = StandardNormal.sample(&mut self.rng);
-            let ky: f64 = StandardNormal.sample(&mut self.rng);
+            let kx: f64 = StandardNormal.sample(&mut self.state.rng);
+            let ky: f64 = StandardNormal.sample(&mut self.state.rng);
             let before = self.kinetic_energy_of(i);
             let m = self.mass(i) * lam;
-            let d = &mut self.d[i];
-            d.vx += self.drive.p_dr * kx / m;
-            d.vy += self.drive.p_dr * ky / m;
+            let d = &mut self.state.d[i];
+            d.vx += self.state.drive.p_dr * kx / m;
+            d.vy += self.state.drive.p_dr * ky / m;
             d.count = d.count.wrapping_add(1);
-            self.kick_momentum_u[0] += self.drive.p_dr * kx / lam;
-            self.kick_momentum_u[1] += self.drive.p_dr * ky / lam;
+            self.state.kick_momentum_u[0] += self.state.drive.p_dr * kx / lam;
+            self.state.kick_momentum_u[1] += self.state.drive.p_dr * ky / lam;
             self.account_injection(self.kinetic_energy_of(i) - before, lam);
             self.predict(i);
             return;
         }
-        let j = match self.drive.kicks {
+        let j = match self.state.drive.kicks {
             Kicks::NeighbourPairs => self.random_neighbour(i),
             _ => None,
         }
         .unwrap_or_else(|| {
-            let k = self.rng.random_range(0..n - 1);
+            let k = self.state.rng.random_range(0..n - 1);
             if k >= i { k + 1 } else { k }
         });
         self.advance_in::<PLAIN>(i);
         self.advance_in::<PLAIN>(j);
-        let kx: f64 = StandardNormal.sample(&mut self.rng);
-        let ky: f64 = StandardNormal.sample(&mut self.rng);
-        let (px, py) = (self.drive.p_dr * kx, self.drive.p_dr * ky);
+        let kx: f64 = StandardNormal.sample(&mut self.state.rng);
+        let ky: f64 = StandardNormal.sample(&mut self.state.rng);
+        let (px, py) = (self.state.drive.p_dr * kx, self.state.drive.p_dr * ky);
         let before = self.kinetic_energy_of(i) + self.kinetic_energy_of(j);
         for (k, s) in [(i, 1.0), (j, -1.0)] {
             let m = self.mass(k) * lam;
-            let d = &mut self.d[k];
+            let d = &mut self.state.d[k];
             d.vx += s * px / m;
             d.vy += s * py / m;
             d.count = d.count.wrapping_add(1);
@@ -146,12 +149,12 @@ impl Engine {
     /// Count a kick that changed the kinetic energy in u by `du` at `lam`.
     #[inline]
     fn account_injection(&mut self, du: f64, lam: f64) {
-        if self.clock.gamma > 0.0 {
+        if self.state.clock.gamma > 0.0 {
             self.account_friction();
-            self.ke_u += du;
+            self.state.ke_u += du;
         }
-        self.stats.injected += du * (lam * lam);
-        self.stats.kicks += 1;
+        self.state.stats.injected += du * (lam * lam);
+        self.state.stats.kicks += 1;
     }
 
     /// A uniformly chosen other particle from the 3x3 cells around `i`, if any
@@ -161,25 +164,25 @@ impl Engine {
     /// in contact, were tried: kicked contact pairs collide at once and dissipate
     /// more, and the balanced rate left T at 0.94 at phi = 0.7.)
     fn random_neighbour(&mut self, i: usize) -> Option<usize> {
-        let c = self.cell[i] as usize;
+        let c = self.derived.cell[i] as usize;
         let cells = self.neighbour_cells(c);
         // `i` itself is in its own cell and never chosen.
         let total = cells
             .iter()
-            .map(|&k| self.occupancy[k] as usize)
+            .map(|&k| self.derived.occupancy[k] as usize)
             .sum::<usize>()
             - 1;
         if total == 0 {
             return None;
         }
-        let mut k = self.rng.random_range(0..total);
+        let mut k = self.state.rng.random_range(0..total);
         for cell in cells {
-            let m = self.occupancy[cell] as usize - usize::from(cell == c);
+            let m = self.derived.occupancy[cell] as usize - usize::from(cell == c);
             if k >= m {
                 k -= m;
                 continue;
             }
-            let mut j = self.head[cell];
+            let mut j = self.derived.head[cell];
             loop {
                 if j as usize != i {
                     if k == 0 {
@@ -187,7 +190,7 @@ impl Engine {
                     }
                     k -= 1;
                 }
-                j = self.d[j as usize].next;
+                j = self.state.d[j as usize].next;
             }
         }
         unreachable!("the draw is below the number of neighbours")

@@ -46,7 +46,7 @@ impl Engine {
     /// moves straight between kicks; [`Self::set_force`] is the exact mode).
     pub fn set_force_kicks(&mut self, force: f64, dt: f64) -> anyhow::Result<()> {
         anyhow::ensure!(
-            self.pulling.intruder != super::pulled_intruder::NO_INTRUDER,
+            self.state.pulling.intruder != super::pulled_intruder::NO_INTRUDER,
             "no intruder to push"
         );
         anyhow::ensure!(
@@ -57,47 +57,47 @@ impl Engine {
             dt.is_finite() && dt > 0.0,
             "force kick interval {dt} is invalid: must be positive"
         );
-        self.pulling.force = force;
-        self.train = if force > 0.0 {
+        self.state.pulling.force = force;
+        self.state.train = if force > 0.0 {
             Train {
                 dt,
-                t0: self.clock.t(self.now),
+                t0: self.state.clock.t(self.state.now),
                 k: 0,
                 next: 0.0,
             }
         } else {
             Train::OFF
         };
-        self.train.next = self.train.reading(&self.clock);
-        self.next_kick = self.drive.next_drive.min(self.train.next);
+        self.state.train.next = self.state.train.reading(&self.state.clock);
+        self.state.next_kick = self.state.drive.next_drive.min(self.state.train.next);
         Ok(())
     }
 
     /// Force kicks given so far.
     pub fn force_kicks(&self) -> u64 {
-        self.train.k
+        self.state.train.k
     }
 
     /// The next force kick (now): the intruder gets F dt along x; the kinetic
     /// energy it gains is the work of F (the ledger closes with it).
     pub(super) fn force_kick(&mut self) {
-        let i = self.pulling.intruder;
+        let i = self.state.pulling.intruder;
         self.advance(i);
         let lam = self.lambda();
         let before = self.kinetic_energy_of(i);
         let m = self.mass(i) * lam;
-        let d = &mut self.d[i];
-        d.vx += self.pulling.force * self.train.dt / m;
+        let d = &mut self.state.d[i];
+        d.vx += self.state.pulling.force * self.state.train.dt / m;
         d.count = d.count.wrapping_add(1);
         let du = self.kinetic_energy_of(i) - before;
-        if self.clock.gamma > 0.0 {
+        if self.state.clock.gamma > 0.0 {
             self.account_friction();
-            self.ke_u += du;
+            self.state.ke_u += du;
         }
-        self.stats.work += du * (lam * lam);
-        self.train.k += 1;
-        self.train.next = self.train.reading(&self.clock);
-        self.next_kick = self.drive.next_drive.min(self.train.next);
+        self.state.stats.work += du * (lam * lam);
+        self.state.train.k += 1;
+        self.state.train.next = self.state.train.reading(&self.state.clock);
+        self.state.next_kick = self.state.drive.next_drive.min(self.state.train.next);
         self.predict(i);
     }
 }

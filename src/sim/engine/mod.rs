@@ -14,7 +14,25 @@
 //! only touch while it is in both lists. Leaving the shell is an event that
 //! rebuilds that one disk's list (from the cell list). The cell list stays for
 //! the rebuilds and for choosing kick partners.
+//!
+//! The engine is two values: its state ([`state::EngineState`], everything that
+//! determines the run's future, serialised whole at a checkpoint) and what is
+//! derived from it (cells, neighbour lists, pending events and their calendar,
+//! prefetch state), rebuilt from the state alone. One `impl Engine` per
+//! mechanism, one file each:
+//!
+//! - this file: the event loop (events in order, collisions, cell crossings,
+//!   predictions, the cell list, velocity and radius scaling, friction clock);
+//! - `state.rs`: the state; `derived.rs`: what is rebuilt from it and how
+//!   (`Engine::from_state`); `setup.rs`: a new engine from a [`Setup`];
+//!   `snapshot.rs`: checkpoints and resuming from one;
+//! - `neighbour_lists.rs`: the lists and their shell; `driving.rs`: the kicks
+//!   of the drive; `force_kicks.rs`: the force on the intruder as kicks;
+//!   `pulled_intruder.rs`: the intruder's curved path, walls and rebounds;
+//!   `prefetch_pipeline.rs`: memory hints; `observables.rs`: what the engine
+//!   reports (time, velocities, energies, parameters) without changing it.
 
+mod derived;
 mod driving;
 mod force_kicks;
 mod neighbour_lists;
@@ -23,11 +41,10 @@ mod prefetch_pipeline;
 mod pulled_intruder;
 mod setup;
 mod snapshot;
+pub mod state;
 
 pub use setup::Setup;
-pub use snapshot::EngineState;
 
-use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
 use crate::sim::events::pair_scan::{earliest_pair, nearest_image};
 use crate::sim::model::friction::Clock;
@@ -126,84 +143,24 @@ impl Default for Book {
     }
 }
 
+/// The event-driven engine: its state (one value, everything that determines
+/// the run's future: what a checkpoint saves) and what is derived from it
+/// (rebuilt from the state alone at a resume).
 pub struct Engine {
-    /// The engine's box: the physical box, padded on walled axes.
-    pub lx: f64,
-    pub ly: f64,
-    /// Length of each walled axis (the walls are at 0 and there); infinity
-    /// on periodic axes.
-    wall_len: [f64; 2],
-    has_walls: bool,
-    ncx: usize,
-    ncy: usize,
-    wx: f64,
-    wy: f64,
-    head: Vec<u32>,
-    /// Number of disks in each cell (kick partners are drawn without a walk).
-    occupancy: Vec<u32>,
-    d: Vec<Disk>,
-    prev: Vec<u32>,
-    cell: Vec<u32>,
-    /// Periodic images crossed, to unwrap positions.
-    imx: Vec<i32>,
-    imy: Vec<i32>,
-    pub species: Vec<u8>,
-    pub radii: Vec<f64>,
-    pub masses: Vec<f64>,
-    last_collision: Vec<f64>,
-    /// Per-disk event partner, list centre and list length, packed so that a
-    /// prediction touches one line for them instead of five arrays.
-    bk: Vec<Book>,
-    calendar: EventCalendar,
-    /// The neighbour lists and their shell.
-    lists: neighbour_lists::Lists,
-    /// Largest radius.
-    rmax: f64,
-    /// Current clock reading: the time without friction, the friction clock s
-    /// with it (velocities are then u = v / lambda, see [`crate::sim::model::friction`]).
-    now: f64,
-    /// Current time (`clock.t(now)`, exact at the stop times of [`Self::run_until`]).
-    time: f64,
-    clock: Clock,
-    /// With friction: the kinetic energy in u (sum of m u^2 / 2) and lambda^2
-    /// when friction was last accounted for (the friction ledger).
-    ke_u: f64,
-    lam2: f64,
-    /// Momentum brought by single kicks, each decayed by friction since
-    /// (sum dp_k exp(-gamma (t - t_k))), in u units (divided by lambda).
-    kick_momentum_u: [f64; 2],
-    pub eps: f64,
-    /// Collapse guard: a collision within `tc` of a particle's previous one is elastic.
-    pub tc: f64,
-    /// Radii are `radii * (scale0 + growth * (t - scale_t0))`.
-    scale0: f64,
-    scale_t0: f64,
-    growth: f64,
-    /// The driving's state: its kicks, their rate and amplitude, the next one.
-    drive: driving::Driving,
-    /// Clock reading of the next kick of either train: the driving's
-    /// (`next_drive`) or the force's (`train.next`).
-    next_kick: f64,
-    /// The force on the intruder as a train of momentum kicks (off: never).
-    train: force_kicks::Train,
-    /// The prefetch pipeline's state.
-    pipeline: prefetch_pipeline::Pipeline,
-    /// The intruder's state (paper I).
-    pulling: pulled_intruder::Pulling,
-    rng: ChaCha8Rng,
-    pub stats: Stats,
+    state: state::EngineState,
+    derived: derived::Derived,
 }
 
 impl Engine {
     pub fn n(&self) -> usize {
-        self.species.len()
+        self.state.species.len()
     }
 
     fn rebuild_cells(&mut self) {
-        self.head.fill(NONE);
-        self.occupancy.fill(0);
+        self.derived.head.fill(NONE);
+        self.derived.occupancy.fill(0);
         for i in 0..self.n() {
-            let c = self.cell_of(self.d[i].x, self.d[i].y);
+            let c = self.cell_of(self.state.d[i].x, self.state.d[i].y);
             self.insert(i, c);
         }
     }
@@ -213,44 +170,60 @@ impl Engine {
     pub fn sort_by_cell(&mut self) {
         self.sync_all();
         let mut order: Vec<u32> = (0..self.n() as u32).collect();
-        if self.pulling.intruder == pulled_intruder::NO_INTRUDER {
-            order.sort_by_key(|&i| self.cell[i as usize]);
+        if self.state.pulling.intruder == pulled_intruder::NO_INTRUDER {
+            order.sort_by_key(|&i| self.derived.cell[i as usize]);
         } else {
             // The intruder keeps its index (the first).
-            order.sort_by_key(|&i| (i as usize != self.pulling.intruder, self.cell[i as usize]));
-            assert_eq!(self.pulling.intruder, 0, "the intruder is placed first");
+            order.sort_by_key(|&i| {
+                (
+                    i as usize != self.state.pulling.intruder,
+                    self.derived.cell[i as usize],
+                )
+            });
+            assert_eq!(
+                self.state.pulling.intruder, 0,
+                "the intruder is placed first"
+            );
         }
         // In place, array by array: a copy of the disks would be the peak memory
         // of a 4 x 10^6 disk run.
         let mut done = vec![false; self.n()];
-        permute(&mut self.d, &order, &mut done);
-        permute(&mut self.imx, &order, &mut done);
-        permute(&mut self.imy, &order, &mut done);
-        permute(&mut self.species, &order, &mut done);
-        permute(&mut self.last_collision, &order, &mut done);
+        permute(&mut self.state.d, &order, &mut done);
+        permute(&mut self.state.imx, &order, &mut done);
+        permute(&mut self.state.imy, &order, &mut done);
+        permute(&mut self.state.species, &order, &mut done);
+        permute(&mut self.state.last_collision, &order, &mut done);
         self.reschedule_all();
+    }
+
+    /// Collide with normal restitution `eps` from now on, elastically within
+    /// `tc` of a particle's previous collision (the collapse guard). Pending
+    /// events stay valid: they do not depend on either.
+    pub fn set_restitution(&mut self, eps: f64, tc: f64) {
+        self.state.eps = eps;
+        self.state.tc = tc;
     }
 
     /// Let the radii grow: contact distance sigma_ij (scale0 + rate (t - now)).
     pub fn set_growth(&mut self, scale0: f64, rate: f64) {
         self.sync_all();
-        self.scale0 = scale0;
-        self.scale_t0 = self.now;
-        self.growth = rate;
+        self.state.scale0 = scale0;
+        self.state.scale_t0 = self.state.now;
+        self.state.growth = rate;
         self.reschedule_all();
     }
 
     /// Current radius scale factor (1 once compression is over).
     pub fn scale(&self) -> f64 {
-        self.scale0 + self.growth * (self.now - self.scale_t0)
+        self.state.scale0 + self.state.growth * (self.state.now - self.state.scale_t0)
     }
 
     /// Multiply every velocity by `f` (e.g. to restore T = 1 during compression).
     pub fn scale_velocities(&mut self, f: f64) {
         self.sync_all();
         self.account_friction();
-        self.ke_u *= f * f;
-        for d in &mut self.d {
+        self.state.ke_u *= f * f;
+        for d in &mut self.state.d {
             d.vx *= f;
             d.vy *= f;
         }
@@ -260,7 +233,7 @@ impl Engine {
     /// lambda = v / u now (1 without friction).
     #[inline]
     pub(super) fn lambda(&self) -> f64 {
-        self.clock.lambda(self.now)
+        self.state.clock.lambda(self.state.now)
     }
 
     /// Switch viscous friction -gamma m v on (or off, gamma = 0) from now on:
@@ -273,7 +246,7 @@ impl Engine {
     /// and u = v now (Eqs. 8-9 of paper I restart from here). Every event is
     /// predicted anew.
     fn anchor(&mut self, gamma: f64) {
-        let t = self.clock.t(self.now);
+        let t = self.state.clock.t(self.state.now);
         self.move_origin(gamma, t);
         self.reschedule_all();
     }
@@ -285,44 +258,44 @@ impl Engine {
         self.sync_all();
         self.account_friction();
         let lam = self.lambda();
-        let t_kick = self.clock.t(self.drive.next_drive);
-        for d in &mut self.d {
+        let t_kick = self.state.clock.t(self.state.drive.next_drive);
+        for d in &mut self.state.d {
             d.vx *= lam;
             d.vy *= lam;
             d.t = 0.0;
         }
-        self.kick_momentum_u = self.kick_momentum_u.map(|p| p * lam);
-        self.clock = Clock { gamma, t0: t };
-        self.pulling.pull.gamma = gamma;
-        self.now = 0.0;
-        self.time = t;
-        self.drive.next_drive = self.clock.s(t_kick);
-        self.train.next = self.train.reading(&self.clock);
-        self.next_kick = self.drive.next_drive.min(self.train.next);
-        self.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
-        self.lam2 = 1.0;
+        self.state.kick_momentum_u = self.state.kick_momentum_u.map(|p| p * lam);
+        self.state.clock = Clock { gamma, t0: t };
+        self.state.pulling.pull.gamma = gamma;
+        self.state.now = 0.0;
+        self.state.time = t;
+        self.state.drive.next_drive = self.state.clock.s(t_kick);
+        self.state.train.next = self.state.train.reading(&self.state.clock);
+        self.state.next_kick = self.state.drive.next_drive.min(self.state.train.next);
+        self.state.ke_u = (0..self.n()).map(|i| self.kinetic_energy_of(i)).sum();
+        self.state.lam2 = 1.0;
     }
 
     /// Add the energy friction removed since the last call (the kinetic energy
     /// in u is constant between events, so the loss is ke_u (lambda_a^2 - lambda_b^2)).
     #[inline]
     pub(super) fn account_friction(&mut self) {
-        if self.clock.gamma > 0.0 {
+        if self.state.clock.gamma > 0.0 {
             let l = self.lambda();
             let l2 = l * l;
-            self.stats.friction += self.ke_u * (self.lam2 - l2);
-            self.lam2 = l2;
+            self.state.stats.friction += self.state.ke_u * (self.state.lam2 - l2);
+            self.state.lam2 = l2;
         }
     }
 
     #[inline]
     fn mass(&self, i: usize) -> f64 {
-        self.masses[self.species[i] as usize]
+        self.state.masses[self.state.species[i] as usize]
     }
 
     #[inline]
     fn kinetic_energy_of(&self, i: usize) -> f64 {
-        let d = &self.d[i];
+        let d = &self.state.d[i];
         0.5 * self.mass(i) * (d.vx * d.vx + d.vy * d.vy)
     }
 
@@ -330,7 +303,8 @@ impl Engine {
     /// clock is set to `t_stop`) or `max_events` were processed. True if `t_stop`
     /// was reached.
     pub fn run_until(&mut self, t_stop: f64, max_events: u64) -> bool {
-        self.pipeline.on = self.lists.on && self.bytes() > self.pipeline.min_bytes;
+        self.derived.pipeline.on =
+            self.derived.lists.on && self.bytes() > self.derived.pipeline.min_bytes;
         if self.plain() {
             self.run_events::<true>(t_stop, max_events)
         } else {
@@ -344,33 +318,33 @@ impl Engine {
     /// either way.
     #[inline]
     fn plain(&self) -> bool {
-        self.pulling.pulled == pulled_intruder::NO_INTRUDER
-            && !self.has_walls
-            && self.clock.gamma == 0.0
+        self.state.pulling.pulled == pulled_intruder::NO_INTRUDER
+            && !self.derived.has_walls
+            && self.state.clock.gamma == 0.0
     }
 
     /// [`Self::run_until`]'s loop; `PLAIN`: [`Self::plain`] holds.
     #[inline(never)]
     fn run_events<const PLAIN: bool>(&mut self, t_stop: f64, max_events: u64) -> bool {
-        let mut s_stop = self.clock.s(t_stop);
-        let s_max = self.clock.s_max();
+        let mut s_stop = self.state.clock.s(t_stop);
+        let s_max = self.state.clock.s_max();
         for _ in 0..max_events {
-            let (i, te) = self.calendar.min();
-            if !PLAIN && te.min(self.next_kick).min(s_stop) > s_max {
+            let (i, te) = self.derived.calendar.min();
+            if !PLAIN && te.min(self.state.next_kick).min(s_stop) > s_max {
                 // Friction: nothing happens before lambda = 1/8; re-anchor there.
-                self.now = s_max;
-                self.anchor(self.clock.gamma);
-                self.stats.reanchors += 1;
-                s_stop = self.clock.s(t_stop);
+                self.state.now = s_max;
+                self.anchor(self.state.clock.gamma);
+                self.state.stats.reanchors += 1;
+                s_stop = self.state.clock.s(t_stop);
                 continue;
             }
-            if self.next_kick <= te {
-                if self.next_kick > s_stop {
+            if self.state.next_kick <= te {
+                if self.state.next_kick > s_stop {
                     self.stop_at(s_stop, t_stop);
                     return true;
                 }
-                self.now = self.next_kick;
-                if self.next_kick == self.train.next {
+                self.state.now = self.state.next_kick;
+                if self.state.next_kick == self.state.train.next {
                     self.force_kick();
                 } else {
                     self.kick::<PLAIN>();
@@ -382,16 +356,16 @@ impl Engine {
                 self.stop_at(s_stop, t_stop);
                 return true;
             }
-            self.now = te;
-            if self.pipeline.on {
+            self.state.now = te;
+            if self.derived.pipeline.on {
                 self.look_ahead();
             }
-            let p = self.bk[i].ev_p;
+            let p = self.derived.bk[i].ev_p;
             if p == SHELL {
                 self.shell_exit(i);
             } else if !PLAIN && p >= WALL {
                 if p == REPREDICT {
-                    self.stats.repredicts += 1;
+                    self.state.stats.repredicts += 1;
                     self.advance(i);
                     self.predict(i);
                 } else {
@@ -399,15 +373,15 @@ impl Engine {
                 }
             } else if p >= CROSS {
                 self.cross(i, p - CROSS);
-            } else if self.d[p as usize].count != self.bk[i].ev_c {
-                self.stats.stale_events += 1;
+            } else if self.state.d[p as usize].count != self.derived.bk[i].ev_c {
+                self.state.stats.stale_events += 1;
                 self.advance_in::<PLAIN>(i);
                 self.predict_in::<PLAIN>(i);
             } else {
                 self.collide::<PLAIN>(i, p as usize);
             }
         }
-        self.time = self.clock.t(self.now);
+        self.state.time = self.state.clock.t(self.state.now);
         self.sync_pulled();
         self.account_friction();
         false
@@ -416,14 +390,14 @@ impl Engine {
     /// Move the clock on to `t` without processing events: only to absorb the
     /// round-off between stop times that should coincide.
     pub fn skip_to(&mut self, t: f64) {
-        self.stop_at(self.clock.s(t), t);
+        self.stop_at(self.state.clock.s(t), t);
     }
 
     /// Set the clock to `s` at time `t` (the same reading) with nothing happening between.
     #[inline]
     fn stop_at(&mut self, s: f64, t: f64) {
-        self.now = s;
-        self.time = t;
+        self.state.now = s;
+        self.state.time = t;
         self.sync_pulled();
         self.account_friction();
     }
@@ -432,7 +406,7 @@ impl Engine {
     /// ledgers are then current for the readers).
     #[inline]
     fn sync_pulled(&mut self) {
-        if self.pulling.pulled != pulled_intruder::NO_INTRUDER {
+        if self.state.pulling.pulled != pulled_intruder::NO_INTRUDER {
             self.advance_pulled();
         }
     }
@@ -445,12 +419,12 @@ impl Engine {
     /// Bring disk `i` to now; `PLAIN`: there is no pulled intruder.
     #[inline]
     fn advance_in<const PLAIN: bool>(&mut self, i: usize) {
-        if !PLAIN && i == self.pulling.pulled {
+        if !PLAIN && i == self.state.pulling.pulled {
             self.advance_pulled();
             return;
         }
-        let now = self.now;
-        let d = &mut self.d[i];
+        let now = self.state.now;
+        let d = &mut self.state.d[i];
         let dt = now - d.t;
         d.x += d.vx * dt;
         d.y += d.vy * dt;
@@ -466,67 +440,71 @@ impl Engine {
     /// Bring disk `i`'s position into [0, L) and count the images crossed (with
     /// lists, positions run up to `shell` outside the box between list rebuilds).
     fn wrap_into_box(&mut self, i: usize) {
-        let d = &mut self.d[i];
-        let (kx, ky) = ((d.x / self.lx).floor(), (d.y / self.ly).floor());
+        let d = &mut self.state.d[i];
+        let (kx, ky) = (
+            (d.x / self.derived.lx).floor(),
+            (d.y / self.derived.ly).floor(),
+        );
         if kx != 0.0 || ky != 0.0 {
-            d.x -= kx * self.lx;
-            d.y -= ky * self.ly;
+            d.x -= kx * self.derived.lx;
+            d.y -= ky * self.derived.ly;
             // Round-off can leave x == L after subtracting: that is cell ncx - 1.
-            self.imx[i] += kx as i32;
-            self.imy[i] += ky as i32;
+            self.state.imx[i] += kx as i32;
+            self.state.imy[i] += ky as i32;
         }
     }
 
     /// Predict every event anew (after all velocities or radii changed).
     fn reschedule_all(&mut self) {
         self.sync_all();
-        for d in &mut self.d {
+        for d in &mut self.state.d {
             d.count = d.count.wrapping_add(1);
         }
         for i in 0..self.n() {
             self.wrap_into_box(i);
         }
         self.rebuild_cells();
-        self.lists.on = !self.lists.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0;
-        if self.lists.on {
+        self.derived.lists.on =
+            !self.derived.lists.nb.is_empty() && self.state.growth == 0.0 && self.scale() == 1.0;
+        if self.derived.lists.on {
             self.build_all_lists();
         }
         for i in 0..self.n() {
             let t = self.find_event(i);
             self.set_te(i, t);
-            self.calendar.set_lazy(i, t);
+            self.derived.calendar.set_lazy(i, t);
         }
-        self.calendar.rebuild();
+        self.derived.calendar.rebuild();
     }
 
     fn cell_of(&self, x: f64, y: f64) -> usize {
-        let cx = ((x / self.wx) as usize).min(self.ncx - 1);
-        let cy = ((y / self.wy) as usize).min(self.ncy - 1);
-        cy * self.ncx + cx
+        let cx = ((x / self.derived.wx) as usize).min(self.derived.ncx - 1);
+        let cy = ((y / self.derived.wy) as usize).min(self.derived.ncy - 1);
+        cy * self.derived.ncx + cx
     }
 
     fn insert(&mut self, i: usize, c: usize) {
-        let h = self.head[c];
-        self.d[i].next = h;
-        self.prev[i] = NONE;
+        let h = self.derived.head[c];
+        self.state.d[i].next = h;
+        self.derived.prev[i] = NONE;
         if h != NONE {
-            self.prev[h as usize] = i as u32;
+            self.derived.prev[h as usize] = i as u32;
         }
-        self.head[c] = i as u32;
-        self.cell[i] = c as u32;
-        self.occupancy[c] += 1;
+        self.derived.head[c] = i as u32;
+        self.derived.cell[i] = c as u32;
+        self.derived.occupancy[c] += 1;
     }
 
     fn remove(&mut self, i: usize) {
-        let (p, nx) = (self.prev[i], self.d[i].next);
-        self.occupancy[self.cell[i] as usize] -= 1;
+        let (p, nx) = (self.derived.prev[i], self.state.d[i].next);
+        self.derived.occupancy[self.derived.cell[i] as usize] -= 1;
         if p != NONE {
-            self.d[p as usize].next = nx;
+            self.state.d[p as usize].next = nx;
         } else {
-            self.head[self.cell[i] as usize] = nx;
+            self.derived.head[self.derived.cell[i] as usize] = nx;
         }
         if nx != NONE {
-            self.prev[nx as usize] = p;
+            self.derived.prev[nx as usize] = p;
         }
     }
 
@@ -548,13 +526,13 @@ impl Engine {
     /// growth s): the same quadratic serves fixed and growing radii.
     #[inline]
     fn pair_time(&self, a: &Disk, b: &Disk, sx: f64, sy: f64, scale: f64) -> f64 {
-        let dtj = self.now - b.t;
+        let dtj = self.state.now - b.t;
         let dvx = b.vx - a.vx;
         let dvy = b.vy - a.vy;
         let dx = b.x + b.vx * dtj + sx - a.x;
         let dy = b.y + b.vy * dtj + sy - a.y;
         let sig = a.radius + b.radius;
-        let g = sig * self.growth;
+        let g = sig * self.state.growth;
         let s = sig * scale;
         let bb = dx * dvx + dy * dvy - s * g;
         let aa = dvx * dvx + dvy * dvy - g * g;
@@ -583,15 +561,15 @@ impl Engine {
     /// [`Self::find_event`]; `PLAIN`: [`Self::plain`] holds.
     #[inline]
     fn find_event_in<const PLAIN: bool>(&mut self, i: usize) -> f64 {
-        if self.lists.on {
+        if self.derived.lists.on {
             return self.find_event_listed::<PLAIN>(i);
         }
-        let a = self.d[i];
-        let c = self.cell[i] as usize;
-        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        let a = self.state.d[i];
+        let c = self.derived.cell[i] as usize;
+        let (cx, cy) = (c % self.derived.ncx, c / self.derived.ncx);
         // Cell crossing.
-        let tx = exit_time(a.x, a.vx, cx, self.wx);
-        let ty = exit_time(a.y, a.vy, cy, self.wy);
+        let tx = exit_time(a.x, a.vx, cx, self.derived.wx);
+        let ty = exit_time(a.y, a.vy, cy, self.derived.wy);
         let (mut best, mut partner) = if tx < ty {
             (tx, CROSS + if a.vx > 0.0 { 0 } else { 1 })
         } else {
@@ -601,22 +579,22 @@ impl Engine {
         let scale = self.scale();
         self.for_neighbour_cells(cx, cy, 1, |e, j, sx, sy| {
             if j != i {
-                let b = &e.d[j];
+                let b = &e.state.d[j];
                 let tt = e.pair_time(&a, b, sx, sy, scale);
                 // Skip j if it has an earlier event: it will rescan then (every
                 // event ends in a prediction) and find i itself (Smallenburg's
                 // rule; spares the stale event this one would become).
-                if tt < best && e.now + tt <= b.te {
+                if tt < best && e.state.now + tt <= b.te {
                     best = tt;
                     partner = j as u32;
                 }
             }
         });
-        if !PLAIN && self.has_walls {
+        if !PLAIN && self.derived.has_walls {
             self.earlier_wall(&a, scale, &mut best, &mut partner);
         }
         self.set_partner(i, partner);
-        self.now + best
+        self.state.now + best
     }
 
     /// Replace the event (`best`, `partner`) of disk `a` by a wall collision if
@@ -624,9 +602,9 @@ impl Engine {
     #[inline]
     fn earlier_wall(&self, a: &Disk, scale: f64, best: &mut f64, partner: &mut u32) {
         for (k, (x, v)) in [(a.x, a.vx), (a.y, a.vy)].into_iter().enumerate() {
-            let l = self.wall_len[k];
+            let l = self.derived.wall_len[k];
             if l.is_finite() {
-                let (t, _) = walls::wall_time(x, v, a.radius, scale, self.growth, l);
+                let (t, _) = walls::wall_time(x, v, a.radius, scale, self.state.growth, l);
                 if t < *best {
                     *best = t;
                     *partner = WALL + k as u32;
@@ -640,28 +618,28 @@ impl Engine {
     /// counted for the wall pressure.
     fn hit_wall(&mut self, i: usize, axis: usize) {
         self.advance(i);
-        let (m, lam, d) = (self.mass(i), self.lambda(), self.d[i]);
+        let (m, lam, d) = (self.mass(i), self.lambda(), self.state.d[i]);
         let (pos, old) = if axis == 0 { (d.x, d.vx) } else { (d.y, d.vy) };
-        let upper = pos > 0.5 * self.wall_len[axis];
-        let mut new = walls::reflect(old, d.radius, self.growth, upper);
-        if axis == 0 && upper && i == self.pulling.pulled {
+        let upper = pos > 0.5 * self.derived.wall_len[axis];
+        let mut new = walls::reflect(old, d.radius, self.state.growth, upper);
+        if axis == 0 && upper && i == self.state.pulling.pulled {
             new = self.settle_on_wall(i, new);
         }
-        let dm = &mut self.d[i];
+        let dm = &mut self.state.d[i];
         if axis == 0 {
             dm.vx = new;
         } else {
             dm.vy = new;
         }
         dm.count = dm.count.wrapping_add(1);
-        if self.clock.gamma > 0.0 {
+        if self.state.clock.gamma > 0.0 {
             self.account_friction();
-            self.ke_u += 0.5 * m * (new * new - old * old);
+            self.state.ke_u += 0.5 * m * (new * new - old * old);
         }
         let dp = m * (new - old) * lam;
-        self.stats.wall_collisions += 1;
-        self.stats.wall_impulse[axis] += dp.abs();
-        self.stats.wall_virial += pos * dp;
+        self.state.stats.wall_collisions += 1;
+        self.state.stats.wall_impulse[axis] += dp.abs();
+        self.state.stats.wall_virial += pos * dp;
         self.predict(i);
     }
 
@@ -669,33 +647,40 @@ impl Engine {
     /// earliest collision with a listed disk.
     #[inline]
     fn find_event_listed<const PLAIN: bool>(&mut self, i: usize) -> f64 {
-        if !PLAIN && i == self.pulling.pulled {
+        if !PLAIN && i == self.state.pulling.pulled {
             return self.find_pulled_event(i);
         }
-        let a = self.d[i];
+        let a = self.state.d[i];
         let shell = self.shell_time(i, &a);
-        let base = i * self.lists.cap;
-        let list = &self.lists.nb[base..base + self.bk[i].nn as usize];
-        let (mut best, mut partner) =
-            earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
+        let base = i * self.state.list_capacity;
+        let list = &self.derived.lists.nb[base..base + self.derived.bk[i].nn as usize];
+        let (mut best, mut partner) = earliest_pair(
+            &self.state.d,
+            list,
+            &a,
+            self.state.now,
+            self.derived.lx,
+            self.derived.ly,
+            shell,
+        );
         if !PLAIN
-            && self.pulling.pulled != pulled_intruder::NO_INTRUDER
-            && list.contains(&(self.pulling.pulled as u32))
+            && self.state.pulling.pulled != pulled_intruder::NO_INTRUDER
+            && list.contains(&(self.state.pulling.pulled as u32))
         {
             self.earlier_intruder(&a, &mut best, &mut partner);
         }
-        if !PLAIN && self.has_walls {
+        if !PLAIN && self.derived.has_walls {
             self.earlier_wall(&a, 1.0, &mut best, &mut partner);
         }
         self.set_partner(i, partner);
-        self.now + best
+        self.state.now + best
     }
 
     #[inline]
     fn set_partner(&mut self, i: usize, partner: u32) {
-        self.bk[i].ev_p = partner;
-        self.bk[i].ev_c = if partner < CROSS {
-            self.d[partner as usize].count
+        self.derived.bk[i].ev_p = partner;
+        self.derived.bk[i].ev_c = if partner < CROSS {
+            self.state.d[partner as usize].count
         } else {
             0
         };
@@ -711,52 +696,66 @@ impl Engine {
     fn predict_in<const PLAIN: bool>(&mut self, i: usize) {
         let t = self.find_event_in::<PLAIN>(i);
         if PLAIN {
-            self.d[i].te = t;
+            self.state.d[i].te = t;
         } else {
             self.set_te(i, t);
         }
-        self.calendar.update(i, t);
+        self.derived.calendar.update(i, t);
     }
 
     /// Record disk `i`'s pending event time `t` where its neighbours' scans read it.
     #[inline]
     fn set_te(&mut self, i: usize, t: f64) {
-        if i == self.pulling.pulled {
-            self.pulling.intruder_te = t;
-            self.d[i].te = f64::NEG_INFINITY;
+        if i == self.state.pulling.pulled {
+            self.state.pulling.intruder_te = t;
+            self.state.d[i].te = f64::NEG_INFINITY;
         } else {
-            self.d[i].te = t;
+            self.state.d[i].te = t;
         }
     }
 
     fn cross(&mut self, i: usize, dir: u32) {
-        self.stats.cell_crossings += 1;
+        self.state.stats.cell_crossings += 1;
         self.advance(i);
-        let c = self.cell[i] as usize;
-        let (mut cx, mut cy) = (c % self.ncx, c / self.ncx);
-        let d = &mut self.d[i];
+        let c = self.derived.cell[i] as usize;
+        let (mut cx, mut cy) = (c % self.derived.ncx, c / self.derived.ncx);
+        let d = &mut self.state.d[i];
         match dir {
-            0 => step_cell(&mut cx, true, self.ncx, &mut d.x, self.lx, &mut self.imx[i]),
+            0 => step_cell(
+                &mut cx,
+                true,
+                self.derived.ncx,
+                &mut d.x,
+                self.derived.lx,
+                &mut self.state.imx[i],
+            ),
             1 => step_cell(
                 &mut cx,
                 false,
-                self.ncx,
+                self.derived.ncx,
                 &mut d.x,
-                self.lx,
-                &mut self.imx[i],
+                self.derived.lx,
+                &mut self.state.imx[i],
             ),
-            2 => step_cell(&mut cy, true, self.ncy, &mut d.y, self.ly, &mut self.imy[i]),
+            2 => step_cell(
+                &mut cy,
+                true,
+                self.derived.ncy,
+                &mut d.y,
+                self.derived.ly,
+                &mut self.state.imy[i],
+            ),
             _ => step_cell(
                 &mut cy,
                 false,
-                self.ncy,
+                self.derived.ncy,
                 &mut d.y,
-                self.ly,
-                &mut self.imy[i],
+                self.derived.ly,
+                &mut self.state.imy[i],
             ),
         }
         self.remove(i);
-        self.insert(i, cy * self.ncx + cx);
+        self.insert(i, cy * self.derived.ncx + cx);
         self.predict(i);
     }
 
@@ -766,62 +765,62 @@ impl Engine {
     fn collide<const PLAIN: bool>(&mut self, i: usize, j: usize) {
         self.advance_in::<PLAIN>(i);
         self.advance_in::<PLAIN>(j);
-        let (a, b) = (self.d[i], self.d[j]);
+        let (a, b) = (self.state.d[i], self.state.d[j]);
         let (ma, mb) = (self.mass(i), self.mass(j));
         // Minimum image: touching disks are closer than half a box.
-        let dx = nearest_image(a.x - b.x, self.lx);
-        let dy = nearest_image(a.y - b.y, self.ly);
+        let dx = nearest_image(a.x - b.x, self.derived.lx);
+        let dy = nearest_image(a.y - b.y, self.derived.ly);
         let r = (dx * dx + dy * dy).sqrt();
         let (nx, ny) = (dx / r, dy / r);
         let gn = (a.vx - b.vx) * nx + (a.vy - b.vy) * ny;
         let mu = ma * mb / (ma + mb);
         // The guard counts real time (the clock reading without friction).
-        let t = self.clock.t(self.now);
+        let t = self.state.clock.t(self.state.now);
         let (e, guarded) = restitution::coefficient(
-            self.eps,
-            self.growth != 0.0,
-            t - self.last_collision[i],
-            t - self.last_collision[j],
-            self.tc,
+            self.state.eps,
+            self.state.growth != 0.0,
+            t - self.state.last_collision[i],
+            t - self.state.last_collision[j],
+            self.state.tc,
         );
-        self.stats.guard_activations += u64::from(guarded);
+        self.state.stats.guard_activations += u64::from(guarded);
         // Approach speed of the surfaces (-gn when radii are fixed).
-        let g = gn - (a.radius + b.radius) * self.growth;
+        let g = gn - (a.radius + b.radius) * self.state.growth;
         let mut imp = restitution::normal_impulse(mu, e, g);
         let mut lift = 0.0;
-        if !PLAIN && (i == self.pulling.pulled || j == self.pulling.pulled) {
+        if !PLAIN && (i == self.state.pulling.pulled || j == self.state.pulling.pulled) {
             // The force may press the pair back together at once: the rebound
             // speed -e g is lifted so that it returns no sooner than WALL_REST_TIME.
-            let s = self.lift_rebound(i == self.pulling.pulled, nx, -e * g);
+            let s = self.lift_rebound(i == self.state.pulling.pulled, nx, -e * g);
             if s != -e * g {
                 imp = mu * (g - s);
                 lift = 0.5 * mu * (s * s - e * e * g * g);
             }
         }
-        let da = &mut self.d[i];
+        let da = &mut self.state.d[i];
         da.vx -= imp / ma * nx;
         da.vy -= imp / ma * ny;
         da.count = da.count.wrapping_add(1);
-        let db = &mut self.d[j];
+        let db = &mut self.state.d[j];
         db.vx += imp / mb * nx;
         db.vy += imp / mb * ny;
         db.count = db.count.wrapping_add(1);
         // Velocities are u = v / lambda: energies scale by lambda^2, momenta by lambda.
         let loss = restitution::energy_loss(mu, e, g);
         let lam = self.lambda();
-        if !PLAIN && self.clock.gamma > 0.0 {
+        if !PLAIN && self.state.clock.gamma > 0.0 {
             self.account_friction();
-            self.ke_u += lift - loss;
+            self.state.ke_u += lift - loss;
         }
-        self.stats.dissipated += loss * (lam * lam);
+        self.state.stats.dissipated += loss * (lam * lam);
         if !PLAIN && lift > 0.0 {
-            self.stats.lifts += 1;
-            self.stats.lifted += lift * (lam * lam);
+            self.state.stats.lifts += 1;
+            self.state.stats.lifted += lift * (lam * lam);
         }
-        self.stats.virial += -imp * r * lam;
-        self.stats.collisions += 1;
-        self.last_collision[i] = t;
-        self.last_collision[j] = t;
+        self.state.stats.virial += -imp * r * lam;
+        self.state.stats.collisions += 1;
+        self.state.last_collision[i] = t;
+        self.state.last_collision[j] = t;
         self.prefetch_around(j);
         self.predict_in::<PLAIN>(i);
         self.predict_in::<PLAIN>(j);
@@ -830,12 +829,12 @@ impl Engine {
     /// The 3x3 cells around cell `c`, in the order [`Self::for_neighbour_cells`]
     /// visits them.
     fn neighbour_cells(&self, c: usize) -> [usize; 9] {
-        let (cx, cy) = (c % self.ncx, c / self.ncx);
+        let (cx, cy) = (c % self.derived.ncx, c / self.derived.ncx);
         let mut out = [0; 9];
         for (k, o) in out.iter_mut().enumerate() {
-            let (ny, _) = Self::wrap(cy, k as isize / 3 - 1, self.ncy, self.ly);
-            let (nx, _) = Self::wrap(cx, k as isize % 3 - 1, self.ncx, self.lx);
-            *o = ny * self.ncx + nx;
+            let (ny, _) = Self::wrap(cy, k as isize / 3 - 1, self.derived.ncy, self.derived.ly);
+            let (nx, _) = Self::wrap(cx, k as isize % 3 - 1, self.derived.ncx, self.derived.lx);
+            *o = ny * self.derived.ncx + nx;
         }
         out
     }
@@ -852,13 +851,13 @@ impl Engine {
         mut f: impl FnMut(&Self, usize, f64, f64),
     ) {
         for dy in -reach..=reach {
-            let (ny, sy) = Self::wrap(cy, dy, self.ncy, self.ly);
+            let (ny, sy) = Self::wrap(cy, dy, self.derived.ncy, self.derived.ly);
             for dx in -reach..=reach {
-                let (nx, sx) = Self::wrap(cx, dx, self.ncx, self.lx);
-                let mut j = self.head[ny * self.ncx + nx];
+                let (nx, sx) = Self::wrap(cx, dx, self.derived.ncx, self.derived.lx);
+                let mut j = self.derived.head[ny * self.derived.ncx + nx];
                 while j != NONE {
                     f(self, j as usize, sx, sy);
-                    j = self.d[j as usize].next;
+                    j = self.state.d[j as usize].next;
                 }
             }
         }
@@ -942,18 +941,18 @@ mod unit {
         let run = |min_bytes: usize| {
             let mut e = crate::sim::initial_state::prepare(&c, &|_| {}).unwrap();
             let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 15.0);
-            (e.eps, e.tc) = (c.eps, c.collapse_tc);
+            e.set_restitution(c.eps, c.collapse_tc);
             e.set_kicks(kicks, rate, p_dr);
-            e.pipeline.min_bytes = min_bytes;
+            e.derived.pipeline.min_bytes = min_bytes;
             e.run_until(f64::INFINITY, 200_000);
-            assert_eq!(e.pipeline.on, min_bytes == 0, "pipeline on/off");
+            assert_eq!(e.derived.pipeline.on, min_bytes == 0, "pipeline on/off");
             let ((x, y), (vx, vy)) = (e.unwrapped_positions(), e.velocities());
             let bits: Vec<u64> = [x, y, vx, vy]
                 .concat()
                 .iter()
                 .map(|v| v.to_bits())
                 .collect();
-            (e.stats, bits)
+            (e.state.stats, bits)
         };
         let (on, off) = (run(0), run(usize::MAX));
         assert!(

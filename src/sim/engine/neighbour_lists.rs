@@ -14,13 +14,13 @@ pub(super) struct Lists {
     pub(super) on: bool,
     /// Shell half-width: how far a disk may move from its list centre.
     pub(super) shell: f64,
-    /// List capacity per disk; it doubles when a list overflows, up to `cap_max`.
-    pub(super) cap: usize,
-    /// A packing bound on the list length: lists never exceed it.
+    /// A packing bound on the list length: lists never exceed it. (The
+    /// capacity per disk, which doubles when a list overflows up to this, is
+    /// state: `EngineState::list_capacity`.)
     pub(super) cap_max: usize,
     /// A list was full when a disk had to be added: grow and rebuild.
     pub(super) overflow: bool,
-    /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]`.
+    /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]` (cap: the list capacity).
     pub(super) nb: Vec<u32>,
 }
 
@@ -32,14 +32,14 @@ impl Engine {
         // No nearest image: positions are wrapped into the box only where the
         // centre is set (shell exits, full rebuilds), so a disk is never more
         // than `shell` from its centre in unwrapped coordinates.
-        let dx = a.x - self.bk[i].ox;
-        let dy = a.y - self.bk[i].oy;
+        let dx = a.x - self.derived.bk[i].ox;
+        let dy = a.y - self.derived.bk[i].oy;
         let aa = a.vx * a.vx + a.vy * a.vy;
         if aa == 0.0 {
             return f64::INFINITY;
         }
         let bb = dx * a.vx + dy * a.vy;
-        let c = dx * dx + dy * dy - self.lists.shell * self.lists.shell;
+        let c = dx * dx + dy * dy - self.derived.lists.shell * self.derived.lists.shell;
         if c >= 0.0 {
             return 0.0;
         }
@@ -56,25 +56,25 @@ impl Engine {
     /// a disk's cell is that of its list centre, so this is also where its
     /// position is wrapped into the box and its cell changes (no crossing events).
     pub(super) fn shell_exit(&mut self, i: usize) {
-        self.stats.shell_exits += 1;
+        self.state.stats.shell_exits += 1;
         self.advance(i);
         self.wrap_into_box(i);
-        let c = self.cell_of(self.d[i].x, self.d[i].y);
-        if c != self.cell[i] as usize {
+        let c = self.cell_of(self.state.d[i].x, self.state.d[i].y);
+        if c != self.derived.cell[i] as usize {
             self.remove(i);
             self.insert(i, c);
         }
-        let base = i * self.lists.cap;
-        for k in 0..self.bk[i].nn as usize {
-            let j = self.lists.nb[base + k] as usize;
+        let base = i * self.state.list_capacity;
+        for k in 0..self.derived.bk[i].nn as usize {
+            let j = self.derived.lists.nb[base + k] as usize;
             self.unlist(j, i as u32);
         }
-        self.bk[i].nn = 0;
-        self.bk[i].ox = self.d[i].x;
-        self.bk[i].oy = self.d[i].y;
+        self.derived.bk[i].nn = 0;
+        self.derived.bk[i].ox = self.state.d[i].x;
+        self.derived.bk[i].oy = self.state.d[i].y;
         self.scan_list(i, true);
-        if self.lists.overflow {
-            self.grow_lists(2 * self.lists.cap);
+        if self.derived.lists.overflow {
+            self.grow_lists(2 * self.state.list_capacity);
         } else {
             self.predict(i);
         }
@@ -83,32 +83,32 @@ impl Engine {
     /// Give every list room for `cap` disks (at most the packing bound) and
     /// rebuild them all, with every event predicted anew.
     fn grow_lists(&mut self, cap: usize) {
-        self.lists.cap = cap.min(self.lists.cap_max);
-        self.lists.nb = big_vec(self.n() * self.lists.cap, NONE);
+        self.state.list_capacity = cap.min(self.derived.lists.cap_max);
+        self.derived.lists.nb = big_vec(self.n() * self.state.list_capacity, NONE);
         self.reschedule_all();
     }
 
     /// Remove `i` from the list of `j`.
     fn unlist(&mut self, j: usize, i: u32) {
-        let base = j * self.lists.cap;
-        let m = self.bk[j].nn as usize;
-        let list = &mut self.lists.nb[base..base + m];
+        let base = j * self.state.list_capacity;
+        let m = self.derived.bk[j].nn as usize;
+        let list = &mut self.derived.lists.nb[base..base + m];
         let k = list
             .iter()
             .position(|&x| x == i)
             .expect("neighbour lists are symmetric");
         list[k] = list[m - 1];
-        self.bk[j].nn -= 1;
+        self.derived.bk[j].nn -= 1;
     }
 
     fn push_list(&mut self, i: usize, j: usize) {
-        let m = self.bk[i].nn as usize;
-        if m == self.lists.cap {
-            self.lists.overflow = true;
+        let m = self.derived.bk[i].nn as usize;
+        if m == self.state.list_capacity {
+            self.derived.lists.overflow = true;
             return;
         }
-        self.lists.nb[i * self.lists.cap + m] = j as u32;
-        self.bk[i].nn += 1;
+        self.derived.lists.nb[i * self.state.list_capacity + m] = j as u32;
+        self.derived.bk[i].nn += 1;
     }
 
     /// Fill the list of `i` with every disk whose centre is within the list
@@ -116,35 +116,50 @@ impl Engine {
     /// `shell` of its centre, so it is within sigma_max + 3 shell <= two cells
     /// of `i`). With `both`, also put `i` in their lists.
     fn scan_list(&mut self, i: usize, both: bool) {
-        let c = self.cell[i] as usize;
-        let (cx, cy) = (c % self.ncx, c / self.ncx);
-        let (oxi, oyi, ri) = (self.bk[i].ox, self.bk[i].oy, self.d[i].radius);
+        let c = self.derived.cell[i] as usize;
+        let (cx, cy) = (c % self.derived.ncx, c / self.derived.ncx);
+        let (oxi, oyi, ri) = (
+            self.derived.bk[i].ox,
+            self.derived.bk[i].oy,
+            self.state.d[i].radius,
+        );
         // Cells two away are needed only on a side where the centre is within
         // `reach - w` of its cell's edge (reach < 2 w): about 12 cells instead of 25.
-        let reach = (ri + self.rmax + 2.0 * self.lists.shell) * (1.0 + 1e-9);
-        let (fx, fy) = (oxi - cx as f64 * self.wx, oyi - cy as f64 * self.wy);
+        let reach = (ri + self.derived.rmax + 2.0 * self.derived.lists.shell) * (1.0 + 1e-9);
+        let (fx, fy) = (
+            oxi - cx as f64 * self.derived.wx,
+            oyi - cy as f64 * self.derived.wy,
+        );
         let (x0, x1) = (
-            if fx + self.wx < reach { -2 } else { -1 },
-            if 2.0 * self.wx - fx < reach { 2 } else { 1 },
+            if fx + self.derived.wx < reach { -2 } else { -1 },
+            if 2.0 * self.derived.wx - fx < reach {
+                2
+            } else {
+                1
+            },
         );
         let (y0, y1) = (
-            if fy + self.wy < reach { -2 } else { -1 },
-            if 2.0 * self.wy - fy < reach { 2 } else { 1 },
+            if fy + self.derived.wy < reach { -2 } else { -1 },
+            if 2.0 * self.derived.wy - fy < reach {
+                2
+            } else {
+                1
+            },
         );
         for dy in y0..=y1 {
-            let (ny, _) = Self::wrap(cy, dy, self.ncy, self.ly);
+            let (ny, _) = Self::wrap(cy, dy, self.derived.ncy, self.derived.ly);
             for dx in x0..=x1 {
-                let (nx, _) = Self::wrap(cx, dx, self.ncx, self.lx);
-                let mut j = self.head[ny * self.ncx + nx];
+                let (nx, _) = Self::wrap(cx, dx, self.derived.ncx, self.derived.lx);
+                let mut j = self.derived.head[ny * self.derived.ncx + nx];
                 while j != NONE {
                     let ju = j as usize;
-                    j = self.d[ju].next;
+                    j = self.state.d[ju].next;
                     if ju == i {
                         continue;
                     }
-                    let ddx = nearest_image(self.bk[ju].ox - oxi, self.lx);
-                    let ddy = nearest_image(self.bk[ju].oy - oyi, self.ly);
-                    let range = ri + self.d[ju].radius + 2.0 * self.lists.shell;
+                    let ddx = nearest_image(self.derived.bk[ju].ox - oxi, self.derived.lx);
+                    let ddy = nearest_image(self.derived.bk[ju].oy - oyi, self.derived.ly);
+                    let range = ri + self.state.d[ju].radius + 2.0 * self.derived.lists.shell;
                     if ddx * ddx + ddy * ddy < range * range {
                         self.push_list(i, ju);
                         if both {
@@ -159,27 +174,28 @@ impl Engine {
     /// Centre every list on the current positions and fill them.
     pub(super) fn build_all_lists(&mut self) {
         for i in 0..self.n() {
-            self.bk[i].ox = self.d[i].x;
-            self.bk[i].oy = self.d[i].y;
+            self.derived.bk[i].ox = self.state.d[i].x;
+            self.derived.bk[i].oy = self.state.d[i].y;
         }
         loop {
-            self.lists.overflow = false;
-            for b in &mut self.bk {
+            self.derived.lists.overflow = false;
+            for b in &mut self.derived.bk {
                 b.nn = 0;
             }
             for i in 0..self.n() {
                 self.scan_list(i, false);
             }
-            if !self.lists.overflow {
+            if !self.derived.lists.overflow {
                 return;
             }
             assert!(
-                self.lists.cap < self.lists.cap_max,
+                self.state.list_capacity < self.derived.lists.cap_max,
                 "a neighbour list exceeds its packing bound {}: overlapping disks",
-                self.lists.cap_max
+                self.derived.lists.cap_max
             );
-            self.lists.cap = (2 * self.lists.cap).min(self.lists.cap_max);
-            self.lists.nb = big_vec(self.n() * self.lists.cap, NONE);
+            self.state.list_capacity =
+                (2 * self.state.list_capacity).min(self.derived.lists.cap_max);
+            self.derived.lists.nb = big_vec(self.n() * self.state.list_capacity, NONE);
         }
     }
 
@@ -191,46 +207,47 @@ impl Engine {
 
     /// Current list capacity per disk.
     pub fn list_capacity(&self) -> usize {
-        self.lists.cap
+        self.state.list_capacity
     }
 
     /// Check the neighbour-list invariants against all pairs: every disk is within
     /// `shell` of its centre, and `j` is in the list of `i` exactly when their
     /// centres are within range. The error names the first violation.
     pub fn check_lists(&self) -> Result<(), String> {
-        if !self.lists.on {
+        if !self.derived.lists.on {
             return Err("neighbour lists are not in use".into());
         }
         let near = |i: usize, x: f64, y: f64| {
-            let dx = nearest_image(x - self.bk[i].ox, self.lx);
-            let dy = nearest_image(y - self.bk[i].oy, self.ly);
+            let dx = nearest_image(x - self.derived.bk[i].ox, self.derived.lx);
+            let dy = nearest_image(y - self.derived.bk[i].oy, self.derived.ly);
             dx * dx + dy * dy
         };
         let list = |i: usize| {
-            &self.lists.nb[i * self.lists.cap..i * self.lists.cap + self.bk[i].nn as usize]
+            &self.derived.lists.nb[i * self.state.list_capacity
+                ..i * self.state.list_capacity + self.derived.bk[i].nn as usize]
         };
         for i in 0..self.n() {
-            let d = &self.d[i];
-            let dt = self.now - d.t;
+            let d = &self.state.d[i];
+            let dt = self.state.now - d.t;
             // Unwrapped, without a nearest image: shell times rely on it.
             let (dx, dy) = (
-                d.x + d.vx * dt - self.bk[i].ox,
-                d.y + d.vy * dt - self.bk[i].oy,
+                d.x + d.vx * dt - self.derived.bk[i].ox,
+                d.y + d.vy * dt - self.derived.bk[i].oy,
             );
             let r2 = dx * dx + dy * dy;
-            if r2 > self.lists.shell * self.lists.shell * (1.0 + 1e-9) {
+            if r2 > self.derived.lists.shell * self.derived.lists.shell * (1.0 + 1e-9) {
                 return Err(format!(
                     "disk {i} is {} from its centre, shell {}",
                     r2.sqrt(),
-                    self.lists.shell
+                    self.derived.lists.shell
                 ));
             }
             for j in 0..self.n() {
                 if j == i {
                     continue;
                 }
-                let range = d.radius + self.d[j].radius + 2.0 * self.lists.shell;
-                let inside = near(i, self.bk[j].ox, self.bk[j].oy) < range * range;
+                let range = d.radius + self.state.d[j].radius + 2.0 * self.derived.lists.shell;
+                let inside = near(i, self.derived.bk[j].ox, self.derived.bk[j].oy) < range * range;
                 if inside != list(i).contains(&(j as u32)) {
                     return Err(format!(
                         "disk {j} is wrongly {} the list of {i}",

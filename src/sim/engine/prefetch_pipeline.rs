@@ -22,28 +22,28 @@ impl Engine {
     /// the listed neighbours of the next one. Each stage reads only what the
     /// previous one fetched, a kick (~2 events) earlier.
     pub(super) fn prefetch_kicks(&self) {
-        if !self.pipeline.on {
+        if !self.derived.pipeline.on {
             // Small systems: only the next kick's disk and neighbours.
-            self.prefetch_around(self.drive.kick_next);
+            self.prefetch_around(self.state.drive.kick_next);
             return;
         }
-        let Some(ring) = &self.drive.kick_ring else {
+        let Some(ring) = &self.state.drive.kick_ring else {
             return;
         };
-        let at = |m: usize| ring[(self.drive.kick_pos + m) % KICKS_AHEAD] as usize;
+        let at = |m: usize| ring[(self.state.drive.kick_pos + m) % KICKS_AHEAD] as usize;
         let drawn = at(KICKS_AHEAD - 1);
-        prefetch(&self.d[drawn]);
-        prefetch(&self.bk[drawn]);
-        prefetch(&self.cell[drawn]);
+        prefetch(&self.state.d[drawn]);
+        prefetch(&self.derived.bk[drawn]);
+        prefetch(&self.derived.cell[drawn]);
         let after_next = at(1);
         self.prefetch_list(after_next);
         // Three rows of three cells, ignoring the periodic wrap (a wrong
         // guess at the box edge only costs a useless fetch).
-        let c = self.cell[after_next] as usize;
-        for row in [c.wrapping_sub(self.ncx), c, c + self.ncx] {
+        let c = self.derived.cell[after_next] as usize;
+        for row in [c.wrapping_sub(self.derived.ncx), c, c + self.derived.ncx] {
             for k in [row.wrapping_sub(1), row + 1] {
-                prefetch_index(&self.occupancy, k);
-                prefetch_index(&self.head, k);
+                prefetch_index(&self.derived.occupancy, k);
+                prefetch_index(&self.derived.head, k);
             }
         }
         self.prefetch_listed(at(0));
@@ -53,8 +53,8 @@ impl Engine {
     /// its next prediction reads (at large N each is a miss to the L3 cache).
     #[inline]
     pub(super) fn prefetch_around(&self, i: usize) {
-        prefetch(&self.d[i]);
-        prefetch(&self.cell[i]);
+        prefetch(&self.state.d[i]);
+        prefetch(&self.derived.cell[i]);
         self.prefetch_listed(i);
     }
 
@@ -62,11 +62,11 @@ impl Engine {
     /// slots may straddle two lines). Reads `bk[i]`.
     #[inline]
     fn prefetch_list(&self, i: usize) {
-        if self.lists.on {
-            let base = i * self.lists.cap;
-            let m = self.bk[i].nn as usize;
-            prefetch_index(&self.lists.nb, base);
-            prefetch_index(&self.lists.nb, base + m.saturating_sub(1));
+        if self.derived.lists.on {
+            let base = i * self.state.list_capacity;
+            let m = self.derived.bk[i].nn as usize;
+            prefetch_index(&self.derived.lists.nb, base);
+            prefetch_index(&self.derived.lists.nb, base + m.saturating_sub(1));
         }
     }
 
@@ -74,10 +74,10 @@ impl Engine {
     /// prediction reads). Reads `bk[i]` and the list.
     #[inline]
     fn prefetch_listed(&self, i: usize) {
-        if self.lists.on {
-            let base = i * self.lists.cap;
-            for &k in &self.lists.nb[base..base + self.bk[i].nn as usize] {
-                prefetch(&self.d[k as usize]);
+        if self.derived.lists.on {
+            let base = i * self.state.list_capacity;
+            for &k in &self.derived.lists.nb[base..base + self.derived.bk[i].nn as usize] {
+                prefetch(&self.state.d[k as usize]);
             }
         }
     }
@@ -96,49 +96,54 @@ impl Engine {
     /// Events predicted meanwhile into these buckets are missed and stale
     /// ones fetched for nothing: it is only a hint, results never depend on it.
     pub(super) fn look_ahead(&mut self) {
-        let cur = self.calendar.current_bucket();
-        if cur == self.pipeline.bucket {
+        let cur = self.derived.calendar.current_bucket();
+        if cur == self.derived.pipeline.bucket {
             return;
         }
         // Usually one step; after a jump or a re-binning (numbering restarts),
         // only the latest.
-        let from = if cur < self.pipeline.bucket || cur - self.pipeline.bucket > 4 {
+        let from = if cur < self.derived.pipeline.bucket || cur - self.derived.pipeline.bucket > 4 {
             cur
         } else {
-            self.pipeline.bucket + 1
+            self.derived.pipeline.bucket + 1
         };
-        self.pipeline.bucket = cur;
-        let cal = &self.calendar;
+        self.derived.pipeline.bucket = cur;
+        let cal = &self.derived.calendar;
         for b in from..=cur {
             for j in cal.bucket_members(b + 4).take(1) {
                 cal.prefetch(j);
             }
             for j in cal.bucket_members(b + 3).take(BUCKET_PREFETCH_MAX) {
                 cal.prefetch(j);
-                prefetch(&self.d[j]);
-                prefetch(&self.bk[j]);
+                prefetch(&self.state.d[j]);
+                prefetch(&self.derived.bk[j]);
             }
             for j in cal.bucket_members(b + 2).take(BUCKET_PREFETCH_MAX) {
                 self.prefetch_list(j);
-                prefetch(&self.last_collision[j]);
+                prefetch(&self.state.last_collision[j]);
                 // The partner may be a SHELL code: then the fetches are useless.
-                let p = self.bk[j].ev_p as usize;
-                prefetch_index(&self.d, p);
-                prefetch_index(&self.bk, p);
-                prefetch_index(&self.last_collision, p);
+                let p = self.derived.bk[j].ev_p as usize;
+                prefetch_index(&self.state.d, p);
+                prefetch_index(&self.derived.bk, p);
+                prefetch_index(&self.state.last_collision, p);
                 cal.prefetch(p);
             }
             for j in cal.bucket_members(b + 1).take(BUCKET_PREFETCH_MAX) {
                 self.prefetch_listed(j);
-                let p = self.bk[j].ev_p as usize;
+                let p = self.derived.bk[j].ev_p as usize;
                 if p < self.n() {
                     self.prefetch_list(p);
                     cal.prefetch_links(p);
                 }
             }
         }
-        for j in self.calendar.current_members().take(BUCKET_PREFETCH_MAX) {
-            let p = self.bk[j].ev_p as usize;
+        for j in self
+            .derived
+            .calendar
+            .current_members()
+            .take(BUCKET_PREFETCH_MAX)
+        {
+            let p = self.derived.bk[j].ev_p as usize;
             if p < self.n() {
                 self.prefetch_listed(p);
             }

@@ -49,7 +49,8 @@ pub(super) struct Pulling {
     pub(super) force: f64,
     pub(super) pull: Pull,
     /// The pulled intruder's pending event (its `Disk::te` reads minus
-    /// infinity so that the bath's pair scan skips it).
+    /// infinity so that the bath's pair scan skips it); rebuilt, not saved.
+    #[serde(skip, default = "unknown_event")]
     pub(super) intruder_te: f64,
     /// The pulled intruder rests on the x wall the force presses it on (the
     /// wall holds F; see the module doc).
@@ -71,6 +72,11 @@ impl Pulling {
     };
 }
 
+/// A pending event not yet predicted.
+fn unknown_event() -> f64 {
+    f64::INFINITY
+}
+
 /// No intruder (or one the force does not pull): its index.
 pub(super) const NO_INTRUDER: usize = usize::MAX;
 
@@ -86,21 +92,21 @@ const HORIZON_SHELLS: f64 = 4.0;
 impl Engine {
     /// Particle `i` is the intruder: kept first when disks are renumbered.
     pub fn set_intruder(&mut self, i: usize) {
-        self.pulling.intruder = i;
+        self.state.pulling.intruder = i;
     }
 
     /// The intruder's index, if there is one.
     pub fn intruder(&self) -> Option<usize> {
-        (self.pulling.intruder != NO_INTRUDER).then_some(self.pulling.intruder)
+        (self.state.pulling.intruder != NO_INTRUDER).then_some(self.state.pulling.intruder)
     }
 
     /// Left at rest after the compression with its mass `mass` (it was held
     /// in place by a huge one).
     pub fn release_intruder(&mut self, mass: f64) {
-        let k = self.pulling.intruder;
+        let k = self.state.pulling.intruder;
         self.advance(k);
-        self.masses[self.species[k] as usize] = mass;
-        let d = &mut self.d[k];
+        self.state.masses[self.state.species[k] as usize] = mass;
+        let d = &mut self.state.d[k];
         (d.vx, d.vy) = (0.0, 0.0);
         d.count = d.count.wrapping_add(1);
         self.reschedule_all();
@@ -109,7 +115,7 @@ impl Engine {
     /// The pulled intruder rests on the x wall (it touches it and has no
     /// velocity along x): then the wall holds F.
     pub fn intruder_resting(&self) -> bool {
-        self.pulling.resting && self.d[self.pulling.pulled].vx == 0.0
+        self.state.pulling.resting && self.state.d[self.state.pulling.pulled].vx == 0.0
     }
 
     /// The intruder's motion law now: no acceleration while it rests on the wall.
@@ -117,11 +123,11 @@ impl Engine {
     fn path(&self) -> Pull {
         if self.intruder_resting() {
             Pull {
-                gamma: self.pulling.pull.gamma,
+                gamma: self.state.pulling.pull.gamma,
                 accel: 0.0,
             }
         } else {
-            self.pulling.pull
+            self.state.pulling.pull
         }
     }
 
@@ -129,11 +135,13 @@ impl Engine {
     /// with the intruder resting when it would return within [`WALL_REST_TIME`].
     pub(super) fn settle_on_wall(&mut self, i: usize, u: f64) -> f64 {
         let v = u.abs() * self.lambda();
-        if i != self.pulling.pulled || 2.0 * v >= self.pulling.pull.accel * WALL_REST_TIME {
+        if i != self.state.pulling.pulled
+            || 2.0 * v >= self.state.pulling.pull.accel * WALL_REST_TIME
+        {
             return u;
         }
-        self.pulling.resting = true;
-        self.stats.dissipated += 0.5 * self.mass(i) * v * v;
+        self.state.pulling.resting = true;
+        self.state.stats.dissipated += 0.5 * self.mass(i) * v * v;
         0.0
     }
 
@@ -146,7 +154,7 @@ impl Engine {
     /// the pair then meets at most once per WALL_REST_TIME under the force.
     #[inline]
     pub(super) fn lift_rebound(&self, first: bool, nx: f64, s: f64) -> f64 {
-        let a = (if first { -nx } else { nx }) * self.pulling.pull.accel;
+        let a = (if first { -nx } else { nx }) * self.state.pulling.pull.accel;
         let lam = self.lambda();
         if a > 0.0 && 2.0 * s * lam < a * WALL_REST_TIME {
             0.5 * a * WALL_REST_TIME / lam
@@ -158,28 +166,33 @@ impl Engine {
     /// Pull the intruder with force `force` along +x from now on (0: a
     /// passive disk). Needs the neighbour lists (radii fixed, 5 x 5 cells).
     pub fn set_force(&mut self, force: f64) -> anyhow::Result<()> {
-        anyhow::ensure!(self.pulling.intruder != NO_INTRUDER, "no intruder to pull");
+        anyhow::ensure!(
+            self.state.pulling.intruder != NO_INTRUDER,
+            "no intruder to pull"
+        );
         anyhow::ensure!(
             force.is_finite() && force >= 0.0,
             "intruder force {force} is invalid: F must be finite and >= 0"
         );
         anyhow::ensure!(
             force == 0.0
-                || (!self.lists.nb.is_empty() && self.growth == 0.0 && self.scale() == 1.0),
+                || (!self.derived.lists.nb.is_empty()
+                    && self.state.growth == 0.0
+                    && self.scale() == 1.0),
             "the pulled intruder needs neighbour lists: radii fixed (compression over) and a box of 5 x 5 cells of {:.3}; use more disks",
-            2.0 * self.rmax
+            2.0 * self.derived.rmax
         );
         self.sync_all();
-        self.pulling.force = force;
-        self.pulling.resting = false;
-        self.pulling.pulled = if force > 0.0 {
-            self.pulling.intruder
+        self.state.pulling.force = force;
+        self.state.pulling.resting = false;
+        self.state.pulling.pulled = if force > 0.0 {
+            self.state.pulling.intruder
         } else {
             NO_INTRUDER
         };
-        self.pulling.pull = Pull {
-            gamma: self.clock.gamma,
-            accel: force / self.mass(self.pulling.intruder),
+        self.state.pulling.pull = Pull {
+            gamma: self.state.clock.gamma,
+            accel: force / self.mass(self.state.pulling.intruder),
         };
         self.reschedule_all();
         Ok(())
@@ -187,17 +200,17 @@ impl Engine {
 
     /// The force on the intruder.
     pub fn force(&self) -> f64 {
-        self.pulling.force
+        self.state.pulling.force
     }
 
     /// Real time from clock reading `s0` to `s1` (the inverse of Eq. 9 between two readings).
     #[inline]
     fn real_interval(&self, s0: f64, s1: f64) -> f64 {
-        let g = self.clock.gamma;
+        let g = self.state.clock.gamma;
         if g == 0.0 {
             return s1 - s0;
         }
-        let x = g * (s1 - s0) / self.clock.lambda(s0);
+        let x = g * (s1 - s0) / self.state.clock.lambda(s0);
         if x >= 1.0 {
             f64::INFINITY
         } else {
@@ -208,15 +221,15 @@ impl Engine {
     /// Clock interval from now to real time `tau` later (Eq. 8's factor).
     #[inline]
     fn clock_interval(&self, tau: f64) -> f64 {
-        self.lambda() * self.pulling.pull.e(tau)
+        self.lambda() * self.state.pulling.pull.e(tau)
     }
 
     /// The pulled intruder's position (in the frame of its stored one) and
     /// real velocity now, without moving it.
     fn intruder_now(&self) -> ([f64; 2], [f64; 2]) {
-        let d = &self.d[self.pulling.pulled];
-        let lam0 = self.clock.lambda(d.t);
-        let tau = self.real_interval(d.t, self.now);
+        let d = &self.state.d[self.state.pulling.pulled];
+        let lam0 = self.state.clock.lambda(d.t);
+        let tau = self.real_interval(d.t, self.state.now);
         let v0 = [d.vx * lam0, d.vy * lam0];
         let p = self.path();
         let dx = p.displacement(v0, tau);
@@ -226,45 +239,45 @@ impl Engine {
     /// Move the pulled intruder to now along its exact path; the work of F
     /// and the friction it suffered go to the ledgers.
     pub(super) fn advance_pulled(&mut self) {
-        let k = self.pulling.pulled;
-        let d = self.d[k];
-        if d.t == self.now {
+        let k = self.state.pulling.pulled;
+        let d = self.state.d[k];
+        if d.t == self.state.now {
             return;
         }
-        let (lam0, lam1) = (self.clock.lambda(d.t), self.lambda());
-        let tau = self.real_interval(d.t, self.now);
+        let (lam0, lam1) = (self.state.clock.lambda(d.t), self.lambda());
+        let tau = self.real_interval(d.t, self.state.now);
         let ([x, y], v) = self.intruder_now();
         let m = self.mass(k);
-        self.stats.work += self.pulling.force * (x - d.x);
+        self.state.stats.work += self.state.pulling.force * (x - d.x);
         if self.intruder_resting() {
             // The wall holds F meanwhile.
-            self.stats.wall_impulse[0] += self.pulling.force * tau;
-            self.stats.wall_virial += x * self.pulling.force * tau;
+            self.state.stats.wall_impulse[0] += self.state.pulling.force * tau;
+            self.state.stats.wall_virial += x * self.state.pulling.force * tau;
         }
         let u1 = [v[0] / lam1, v[1] / lam1];
-        if self.clock.gamma > 0.0 {
+        if self.state.clock.gamma > 0.0 {
             // The kinetic energy in u holds the intruder's at its last update,
             // and the friction ledger charged it as if u had stayed constant:
             // replace that charge by the exact friction loss.
             self.account_friction();
             let u0sq = d.vx * d.vx + d.vy * d.vy;
             let charged = 0.5 * m * u0sq * (lam0 * lam0 - lam1 * lam1);
-            self.stats.friction +=
+            self.state.stats.friction +=
                 self.intruder_friction(m, [d.vx * lam0, d.vy * lam0], tau) - charged;
-            self.ke_u += 0.5 * m * (u1[0] * u1[0] + u1[1] * u1[1] - u0sq);
+            self.state.ke_u += 0.5 * m * (u1[0] * u1[0] + u1[1] * u1[1] - u0sq);
         }
-        let dm = &mut self.d[k];
-        (dm.x, dm.y, dm.vx, dm.vy, dm.t) = (x, y, u1[0], u1[1], self.now);
+        let dm = &mut self.state.d[k];
+        (dm.x, dm.y, dm.vx, dm.vy, dm.t) = (x, y, u1[0], u1[1], self.state.now);
     }
 
     /// The energy friction -gamma m v takes from the intruder over tau from
     /// velocity v0: gamma m times the integral of |v|^2, with
     /// v_x = V + (v0_x - V) exp(-gamma t), V = F / (gamma m), v_y = v0_y exp(-gamma t).
     fn intruder_friction(&self, m: f64, v0: [f64; 2], tau: f64) -> f64 {
-        let g = self.clock.gamma;
+        let g = self.state.clock.gamma;
         let vt = self.path().accel / g;
         let c = v0[0] - vt;
-        let e1 = self.pulling.pull.e(tau);
+        let e1 = self.state.pulling.pull.e(tau);
         let e2 = Pull {
             gamma: 2.0 * g,
             accel: 0.0,
@@ -277,12 +290,12 @@ impl Engine {
     /// exit, a contact with a listed disk, a wall in y, or a re-prediction.
     /// Sets its partner and returns the event's clock reading.
     pub(super) fn find_pulled_event(&mut self, i: usize) -> f64 {
-        let a = self.d[i];
+        let a = self.state.d[i];
         let lam = self.lambda();
         let v = [a.vx * lam, a.vy * lam];
-        if self.pulling.resting && a.vx != 0.0 {
+        if self.state.pulling.resting && a.vx != 0.0 {
             // A collision or kick moved it off the wall: the force acts again.
-            self.pulling.resting = false;
+            self.state.pulling.resting = false;
         }
         let p = self.path();
         // Horizon: the bound |v| + |F/m0| h allows HORIZON_SHELLS shells of
@@ -291,47 +304,47 @@ impl Engine {
         let (wn, acc, reach) = (
             v[0].hypot(v[1]),
             p.accel.abs(),
-            HORIZON_SHELLS * self.lists.shell,
+            HORIZON_SHELLS * self.derived.lists.shell,
         );
         let h = 2.0 * reach / (wn + (wn * wn + 4.0 * acc * reach).sqrt());
-        let centre = [a.x - self.bk[i].ox, a.y - self.bk[i].oy];
-        let (root, steps) = p.exit_time(centre, v, self.lists.shell, h);
-        self.stats.root_calls += 1;
-        self.stats.root_steps += u64::from(steps);
+        let centre = [a.x - self.derived.bk[i].ox, a.y - self.derived.bk[i].oy];
+        let (root, steps) = p.exit_time(centre, v, self.derived.lists.shell, h);
+        self.state.stats.root_calls += 1;
+        self.state.stats.root_steps += u64::from(steps);
         let (mut best, mut partner) = match root {
             Root::At(t) => (t, SHELL),
             Root::Never => (h, REPREDICT),
             Root::GaveUp(t) => (t, REPREDICT),
         };
-        let base = i * self.lists.cap;
-        for k in 0..self.bk[i].nn as usize {
-            let j = self.lists.nb[base + k] as usize;
-            let b = self.d[j];
+        let base = i * self.state.list_capacity;
+        for k in 0..self.derived.bk[i].nn as usize {
+            let j = self.derived.lists.nb[base + k] as usize;
+            let b = self.state.d[j];
             // Skip beyond j's own event: j predicts anew then and finds the intruder.
-            let hj = best.min(self.real_interval(self.now, b.te));
+            let hj = best.min(self.real_interval(self.state.now, b.te));
             if hj <= 0.0 {
                 continue;
             }
-            let dt = self.now - b.t;
+            let dt = self.state.now - b.t;
             let sep = [
-                nearest_image(a.x - (b.x + b.vx * dt), self.lx),
-                nearest_image(a.y - (b.y + b.vy * dt), self.ly),
+                nearest_image(a.x - (b.x + b.vx * dt), self.derived.lx),
+                nearest_image(a.y - (b.y + b.vy * dt), self.derived.ly),
             ];
             let w = [v[0] - b.vx * lam, v[1] - b.vy * lam];
             let (root, steps) = p.contact_time(sep, w, a.radius + b.radius, hj);
-            self.stats.root_calls += 1;
-            self.stats.root_steps += u64::from(steps);
+            self.state.stats.root_calls += 1;
+            self.state.stats.root_steps += u64::from(steps);
             match root {
                 Root::At(t) if t < best => (best, partner) = (t, j as u32),
                 Root::GaveUp(t) if t < best => (best, partner) = (t, REPREDICT),
                 _ => {}
             }
         }
-        let lx = self.wall_len[0];
+        let lx = self.derived.wall_len[0];
         if lx.is_finite() {
             let (root, steps) = p.wall_time(a.x, v[0], a.radius, lx - a.radius, best);
-            self.stats.root_calls += 1;
-            self.stats.root_steps += u64::from(steps);
+            self.state.stats.root_calls += 1;
+            self.state.stats.root_steps += u64::from(steps);
             match root {
                 Root::At(t) if t < best => (best, partner) = (t, WALL),
                 Root::GaveUp(t) if t < best => (best, partner) = (t, REPREDICT),
@@ -340,7 +353,7 @@ impl Engine {
         }
         let mut ds = self.clock_interval(best);
         // Across y the intruder moves as any disk: straight in the clock.
-        let l = self.wall_len[1];
+        let l = self.derived.wall_len[1];
         if l.is_finite() {
             let (t, _) = walls::wall_time(a.y, a.vy, a.radius, 1.0, 0.0, l);
             if t < ds {
@@ -348,31 +361,31 @@ impl Engine {
             }
         }
         self.set_partner(i, partner);
-        self.now + ds
+        self.state.now + ds
     }
 
     /// Replace the event (`best`, from now, and `partner`) of disk `a` (which
     /// lists the pulled intruder) by its contact with the intruder if that
     /// comes first and before the intruder's own event.
     pub(super) fn earlier_intruder(&mut self, a: &Disk, best: &mut f64, partner: &mut u32) {
-        let k = self.pulling.pulled;
-        let s_h = (self.now + *best).min(self.pulling.intruder_te);
-        if s_h <= self.now {
+        let k = self.state.pulling.pulled;
+        let s_h = (self.state.now + *best).min(self.state.pulling.intruder_te);
+        if s_h <= self.state.now {
             return;
         }
-        let h = self.real_interval(self.now, s_h);
+        let h = self.real_interval(self.state.now, s_h);
         let (pos, v) = self.intruder_now();
         let lam = self.lambda();
         let sep = [
-            nearest_image(pos[0] - a.x, self.lx),
-            nearest_image(pos[1] - a.y, self.ly),
+            nearest_image(pos[0] - a.x, self.derived.lx),
+            nearest_image(pos[1] - a.y, self.derived.ly),
         ];
         let w = [v[0] - a.vx * lam, v[1] - a.vy * lam];
         let (root, steps) = self
             .path()
-            .contact_time(sep, w, a.radius + self.d[k].radius, h);
-        self.stats.root_calls += 1;
-        self.stats.root_steps += u64::from(steps);
+            .contact_time(sep, w, a.radius + self.state.d[k].radius, h);
+        self.state.stats.root_calls += 1;
+        self.state.stats.root_steps += u64::from(steps);
         match root {
             Root::At(t) => (*best, *partner) = (self.clock_interval(t), k as u32),
             Root::GaveUp(t) => (*best, *partner) = (self.clock_interval(t), REPREDICT),

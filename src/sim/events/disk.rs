@@ -15,7 +15,10 @@ pub(crate) const SHELL: u32 = CROSS + 4;
 
 /// The state of one disk that every collision prediction reads, packed in one
 /// cache line: scanning a neighbour costs one memory access instead of seven.
-#[derive(Clone, Copy, Debug, Default)]
+/// Serialised as part of the engine's state without `radius`, `te` and
+/// `next`, which are rebuilt from it (the species' radius, the calendar, the
+/// cell list).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 #[repr(C, align(64))]
 pub(crate) struct Disk {
     pub(crate) x: f64,
@@ -24,11 +27,14 @@ pub(crate) struct Disk {
     pub(crate) vy: f64,
     /// Time at which `x`, `y` are valid (lazy update).
     pub(crate) t: f64,
+    #[serde(skip)]
     pub(crate) radius: f64,
     /// Time of this disk's pending event (a copy of its calendar time, read while
     /// scanning neighbours from the line that is loaded anyway).
+    #[serde(skip)]
     pub(crate) te: f64,
     /// Next disk in the same cell.
+    #[serde(skip)]
     pub(crate) next: u32,
     /// Velocity changes so far: events predicted with an older value are stale.
     pub(crate) count: u32,

@@ -223,7 +223,19 @@ fn finite_in(name: &str, v: f64, lo: f64, hi: f64, what: &str) -> Result<()> {
 
 impl SimConfig {
     /// Reject impossible or unsupported values, naming the key and what is valid.
+    /// The particles and box come first: the later checks read the box size.
     pub fn validate(&self) -> Result<()> {
+        self.check_particles()?;
+        self.check_times()?;
+        self.check_driving()?;
+        self.check_walls()?;
+        self.check_intruder()?;
+        self.check_precision()?;
+        Ok(())
+    }
+
+    /// Number, sizes, masses and packing of the disks, restitution, box shape.
+    fn check_particles(&self) -> Result<()> {
         if self.n < 2 {
             bail!("n = {} is invalid: need at least 2 disks", self.n);
         }
@@ -267,33 +279,6 @@ impl SimConfig {
             1.0,
             "must be in [0, 1]",
         )?;
-        match self.kick_rate {
-            KickRate::Enskog { prefactor } => finite_in(
-                "kick_rate: enskog prefactor",
-                prefactor,
-                0.0,
-                1e6,
-                "must be >= 0",
-            )?,
-            KickRate::PerParticle(r) => {
-                finite_in("kick_rate: per_particle", r, 0.0, 1e9, "must be >= 0")?
-            }
-            KickRate::Balanced => {}
-        }
-        finite_in(
-            "collapse_tc",
-            self.collapse_tc,
-            0.0,
-            1.0,
-            "must be in [0, 1]",
-        )?;
-        finite_in(
-            "guard_warn",
-            self.guard_warn,
-            0.0,
-            1.0,
-            "the fraction of collisions must be in [0, 1]",
-        )?;
         finite_in(
             "aspect",
             self.aspect,
@@ -301,6 +286,11 @@ impl SimConfig {
             100.0,
             "Ly/Lx must be in [0.01, 100]",
         )?;
+        Ok(())
+    }
+
+    /// Relaxation, checkpoints, frame schedule, samples and compression.
+    fn check_times(&self) -> Result<()> {
         finite_in("relax_time", self.relax_time, 0.0, 1e12, "must be >= 0")?;
         if let Some(every) = self.checkpoint_every {
             finite_in(
@@ -356,6 +346,38 @@ impl SimConfig {
             1.0,
             "must be in [1e-7, 1]",
         )?;
+        Ok(())
+    }
+
+    /// Kick rate, collapse guard, friction, temperature and how they combine.
+    fn check_driving(&self) -> Result<()> {
+        match self.kick_rate {
+            KickRate::Enskog { prefactor } => finite_in(
+                "kick_rate: enskog prefactor",
+                prefactor,
+                0.0,
+                1e6,
+                "must be >= 0",
+            )?,
+            KickRate::PerParticle(r) => {
+                finite_in("kick_rate: per_particle", r, 0.0, 1e9, "must be >= 0")?
+            }
+            KickRate::Balanced => {}
+        }
+        finite_in(
+            "collapse_tc",
+            self.collapse_tc,
+            0.0,
+            1.0,
+            "must be in [0, 1]",
+        )?;
+        finite_in(
+            "guard_warn",
+            self.guard_warn,
+            0.0,
+            1.0,
+            "the fraction of collisions must be in [0, 1]",
+        )?;
         finite_in(
             "gamma",
             self.gamma,
@@ -381,6 +403,11 @@ impl SimConfig {
                 self.gamma
             );
         }
+        Ok(())
+    }
+
+    /// Walls: the box between them must not jam the compression.
+    fn check_walls(&self) -> Result<()> {
         if self.walls != [false, false] {
             // Every walled axis must hold a few large disks side by side at the
             // target packing: the compression would otherwise jam against the walls.
@@ -399,71 +426,76 @@ impl SimConfig {
                 }
             }
         }
-        if let Some(intr) = &self.intruder {
-            finite_in(
-                "intruder.radius",
+        Ok(())
+    }
+
+    /// The intruder: its radius, mass, force, kick rate and start.
+    fn check_intruder(&self) -> Result<()> {
+        let Some(intr) = &self.intruder else {
+            return Ok(());
+        };
+        finite_in(
+            "intruder.radius",
+            intr.radius,
+            0.1,
+            100.0,
+            "R_0 must be in [0.1, 100] small-disk radii",
+        )?;
+        finite_in(
+            "intruder.mass",
+            intr.mass,
+            1e-3,
+            1e6,
+            "m_0 must be in [1e-3, 1e6] small-disk masses",
+        )?;
+        finite_in(
+            "intruder.force",
+            intr.force,
+            0.0,
+            1e12,
+            "the force pulls along +x: F must be in [0, 1e12]",
+        )?;
+        // The engine needs 5 x 5 cells of the largest contact range (its
+        // neighbour lists) to follow the intruder.
+        let box_size = self.box_size();
+        let need = 5.0 * 2.0 * intr.radius.max(self.radius_ratio);
+        if box_size[0] < need || box_size[1] < need {
+            bail!(
+                "intruder.radius = {} is too large for the box ({:.3} x {:.3} at n = {}, phi = {}): each side must hold five intruder diameters ({need:.3}); use more disks or a smaller intruder",
                 intr.radius,
-                0.1,
-                100.0,
-                "R_0 must be in [0.1, 100] small-disk radii",
-            )?;
-            finite_in(
-                "intruder.mass",
-                intr.mass,
-                1e-3,
-                1e6,
-                "m_0 must be in [1e-3, 1e6] small-disk masses",
-            )?;
-            finite_in(
-                "intruder.force",
-                intr.force,
-                0.0,
-                1e12,
-                "the force pulls along +x: F must be in [0, 1e12]",
-            )?;
-            // The engine needs 5 x 5 cells of the largest contact range (its
-            // neighbour lists) to follow the intruder.
-            let box_size = self.box_size();
-            let need = 5.0 * 2.0 * intr.radius.max(self.radius_ratio);
-            if box_size[0] < need || box_size[1] < need {
-                bail!(
-                    "intruder.radius = {} is too large for the box ({:.3} x {:.3} at n = {}, phi = {}): each side must hold five intruder diameters ({need:.3}); use more disks or a smaller intruder",
-                    intr.radius,
-                    box_size[0],
-                    box_size[1],
-                    self.n,
-                    self.phi
-                );
-            }
-            finite_in(
-                "intruder.kick_rate_factor",
-                intr.kick_rate_factor,
-                1.0,
-                1e9,
-                "the force kicks come at this multiple of the collision rate: must be in [1, 1e9]",
-            )?;
-            if let Some(start) = intr.start {
-                for k in 0..2 {
-                    let (f, l) = (start[k], box_size[k]);
-                    let axis = ["x", "y"][k];
-                    if !(f.is_finite() && (0.0..1.0).contains(&f)) {
-                        bail!(
-                            "intruder.start = {start:?} is invalid: the {axis} fraction {f} must be in [0, 1)"
-                        );
-                    }
-                    if self.walls[k] && (f * l < intr.radius || (1.0 - f) * l < intr.radius) {
-                        bail!(
-                            "intruder.start = {start:?} overlaps a wall of axis {axis}: the centre at {:.3} of {l:.3} must be at least R_0 = {} from the walls (fraction in [{:.4}, {:.4}])",
-                            f * l,
-                            intr.radius,
-                            intr.radius / l,
-                            1.0 - intr.radius / l
-                        );
-                    }
+                box_size[0],
+                box_size[1],
+                self.n,
+                self.phi
+            );
+        }
+        finite_in(
+            "intruder.kick_rate_factor",
+            intr.kick_rate_factor,
+            1.0,
+            1e9,
+            "the force kicks come at this multiple of the collision rate: must be in [1, 1e9]",
+        )?;
+        if let Some(start) = intr.start {
+            for k in 0..2 {
+                let (f, l) = (start[k], box_size[k]);
+                let axis = ["x", "y"][k];
+                if !(f.is_finite() && (0.0..1.0).contains(&f)) {
+                    bail!(
+                        "intruder.start = {start:?} is invalid: the {axis} fraction {f} must be in [0, 1)"
+                    );
+                }
+                if self.walls[k] && (f * l < intr.radius || (1.0 - f) * l < intr.radius) {
+                    bail!(
+                        "intruder.start = {start:?} overlaps a wall of axis {axis}: the centre at {:.3} of {l:.3} must be at least R_0 = {} from the walls (fraction in [{:.4}, {:.4}])",
+                        f * l,
+                        intr.radius,
+                        intr.radius / l,
+                        1.0 - intr.radius / l
+                    );
                 }
             }
         }
-        self.check_precision()?;
         Ok(())
     }
 

@@ -16,7 +16,7 @@
 use anyhow::{Context, Result, bail, ensure};
 use serde::{Deserialize, Serialize};
 
-use crate::sim::engine::EngineState;
+use crate::sim::engine::state::EngineState;
 use crate::sim::model::config::SimConfig;
 
 /// Collisions between two checkpoints by default: about 10 minutes of CPU
@@ -25,7 +25,7 @@ pub const COLLISIONS_PER_CHECKPOINT: f64 = 3e8;
 
 const MAGIC: &[u8; 8] = b"REPROCKP";
 /// Bumped whenever the payload's layout changes.
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 32 + 8;
 
 /// Simulation time between checkpoints: `cfg.checkpoint_every` if given, else

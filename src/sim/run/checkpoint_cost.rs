@@ -38,9 +38,9 @@ pub struct CheckpointCost {
     pub overhead_at_default_interval: f64,
 }
 
-/// The engine of a run of `cfg` ([`Engine::for_run`]) after `relax` time units.
+/// The engine of a run of `cfg` ([`super::engine_for_run::build`]) after `relax` time units.
 fn driven(cfg: &SimConfig, relax: f64) -> Result<Engine> {
-    let (mut e, _) = Engine::for_run(cfg, &|_| {})?;
+    let (mut e, _) = super::engine_for_run::build(cfg, &|_| {})?;
     e.run_until(e.time() + relax, u64::MAX);
     Ok(e)
 }
@@ -82,12 +82,12 @@ pub fn measure(
     let mut resumed = Engine::restore(c.engine)?;
     let resume_s = t.elapsed().as_secs_f64();
     // The pair: the resumed engine and the one that went on are the same bits.
-    let collisions0 = e.stats.collisions;
+    let collisions0 = e.stats().collisions;
     let cpu_with = timed_run(&mut e, run_time, every, true);
     let cpu_without = timed_run(&mut resumed, run_time, every, false);
     let syncs = (run_time / every).round();
     let sync_cpu_s = (cpu_with - cpu_without) / syncs;
-    let collisions_per_second = (e.stats.collisions - collisions0) as f64 / cpu_without.max(1e-9);
+    let collisions_per_second = (e.stats().collisions - collisions0) as f64 / cpu_without.max(1e-9);
     let default_interval_cpu_s = checkpoint::COLLISIONS_PER_CHECKPOINT / collisions_per_second;
     Ok(CheckpointCost {
         n: e.n(),

@@ -59,34 +59,31 @@ pub fn drive(cfg: &SimConfig, enskog: f64) -> (Kicks, f64, f64) {
     (kicks, rate, p_dr)
 }
 
-impl Engine {
-    /// The engine of a run of `cfg`, compressed to its packing fraction and set
-    /// up to relax: returns it with the time the compression took.
-    pub fn for_run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Engine, f64)> {
-        let mut e = initial_state::prepare(cfg, progress)?;
-        let compress_time = e.time();
-        e.eps = cfg.eps;
-        e.tc = cfg.collapse_tc;
-        if cfg.temperature != 1.0 {
-            initial_state::set_temperature(&mut e, cfg.temperature);
-        }
-        if cfg.gamma > 0.0 {
-            e.set_friction(cfg.gamma);
-        }
-        let rate = bath_collision_rate(cfg, cfg.temperature);
-        let (kicks, kick_rate, p_dr) = drive(cfg, rate);
-        e.set_kicks(kicks, kick_rate, p_dr);
-        if let Some(intr) = &cfg.intruder {
-            // The force is on from here: the relaxation holds the intruder's transient.
-            match intr.force_mode {
-                ForceMode::Exact => e.set_force(intr.force)?,
-                ForceMode::Kicks => {
-                    e.set_force_kicks(intr.force, 1.0 / (intr.kick_rate_factor * rate))?
-                }
+/// The engine of a run of `cfg`, compressed to its packing fraction and set
+/// up to relax: returns it with the time the compression took.
+pub fn build(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Engine, f64)> {
+    let mut e = initial_state::prepare(cfg, progress)?;
+    let compress_time = e.time();
+    e.set_restitution(cfg.eps, cfg.collapse_tc);
+    if cfg.temperature != 1.0 {
+        initial_state::set_temperature(&mut e, cfg.temperature);
+    }
+    if cfg.gamma > 0.0 {
+        e.set_friction(cfg.gamma);
+    }
+    let rate = bath_collision_rate(cfg, cfg.temperature);
+    let (kicks, kick_rate, p_dr) = drive(cfg, rate);
+    e.set_kicks(kicks, kick_rate, p_dr);
+    if let Some(intr) = &cfg.intruder {
+        // The force is on from here: the relaxation holds the intruder's transient.
+        match intr.force_mode {
+            ForceMode::Exact => e.set_force(intr.force)?,
+            ForceMode::Kicks => {
+                e.set_force_kicks(intr.force, 1.0 / (intr.kick_rate_factor * rate))?
             }
         }
-        Ok((e, compress_time))
     }
+    Ok((e, compress_time))
 }
 
 #[cfg(test)]
@@ -108,9 +105,9 @@ mod tests {
     fn the_engine_of_a_run_carries_every_setting_of_its_configuration() {
         for gamma in [0.0, 0.2] {
             let c = cfg(gamma);
-            let (e, compress_time) = Engine::for_run(&c, &|_| {}).unwrap();
+            let (e, compress_time) = build(&c, &|_| {}).unwrap();
             assert!(compress_time > 0.0 && e.time() == compress_time);
-            assert_eq!((e.eps, e.tc), (0.85, 1e-5));
+            assert_eq!((e.eps(), e.tc()), (0.85, 1e-5));
             assert_eq!(e.force(), 3.0);
             let t = e.kinetic_energy() / e.n() as f64;
             assert!((t - 0.5).abs() < 1e-9, "T = {t}");

@@ -183,7 +183,7 @@ pub fn compression_limit(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result
         reached: jam.unwrap_or(cfg.phi),
         jammed: jam.is_some(),
         time: e.time(),
-        collisions: e.stats.collisions,
+        collisions: e.stats().collisions,
     })
 }
 
@@ -249,10 +249,10 @@ fn compress(
     let clock = std::time::Instant::now();
     while e.time() < t_end {
         let stop = (e.time() + 1.0).min(t_end);
-        let c0 = e.stats.collisions;
+        let c0 = e.stats().collisions;
         while !e.run_until(stop, 1 << 20) {
             progress(Progress::new(Stage::Compress, e, t_end, clock));
-            if e.stats.collisions - c0 > 20_000 * n {
+            if e.stats().collisions - c0 > 20_000 * n {
                 let phi_now = cfg.phi * e.scale().powi(2);
                 return Ok(Some(phi_now));
             }

@@ -2,7 +2,7 @@
 //!
 //! - [`initial_state`]: random start and Lubachevsky-Stillinger compression;
 //!   [`engine_for_run`]: the engine of a run from its configuration
-//!   (`Engine::for_run`), the one place a run's engine is set up.
+//!   ([`engine_for_run::build`]), the one place a run's engine is set up.
 //! - [`simulation`]: relax under driving, record frames, measure
 //!   ([`RunSummary`](simulation::RunSummary)).
 //! - [`checkpoint`]: when a run checkpoints, where it keeps them, their format;

@@ -29,7 +29,7 @@ pub struct Progress {
 
 impl Progress {
     pub(crate) fn new(stage: Stage, e: &Engine, end: f64, since: Instant) -> Progress {
-        let s = &e.stats;
+        let s = e.stats();
         let events = s.collisions + s.cell_crossings + s.kicks + s.stale_events + s.shell_exits;
         Progress {
             stage,

@@ -2,7 +2,7 @@
 //! then record frames and measure temperature, pressure and rates.
 
 use super::checkpoint::{self, Keeper};
-use super::engine_for_run::{bath_collision_rate, drive};
+use super::engine_for_run::{self, bath_collision_rate, drive};
 use super::progress::{Progress, Stage};
 use super::resources;
 use crate::sim::engine::{Engine, Kicks, Stats};
@@ -174,7 +174,7 @@ impl Sampler {
         let now = e.time();
         let dt = now - self.last_time;
         let tm = 0.5 * (t + self.last_t);
-        let pv = (e.stats.virial - self.last_virial) / (2.0 * dt);
+        let pv = (e.stats().virial - self.last_virial) / (2.0 * dt);
         let pressure = (n * tm + pv) / self.area;
         self.samples.push(Sample {
             time: now - self.t0,
@@ -188,12 +188,12 @@ impl Sampler {
         self.drift.push([p[0] / m, p[1] / m]);
         if let Some(k) = e.intruder() {
             let (_, v) = e.particle(k);
-            let m0 = e.masses[e.species[k] as usize];
+            let m0 = e.masses()[e.species()[k] as usize];
             self.bath_drift
                 .push([0, 1].map(|a| (p[a] - m0 * v[a]) / (m - m0)));
         }
         self.last_time = now;
-        self.last_virial = e.stats.virial;
+        self.last_virial = e.stats().virial;
         self.last_t = t;
     }
 }
@@ -403,6 +403,35 @@ pub fn run(cfg: &SimConfig, progress: &dyn Fn(Progress)) -> Result<(Trajectory, 
     run_kept(cfg, progress, None)
 }
 
+/// What the configuration fixes about driving before the run starts.
+struct DriveSettings {
+    kicks: Kicks,
+    /// Starting kick rate (whole system) and the kick amplitude p_dr.
+    rate0: f64,
+    p_dr: f64,
+    /// The force kicks' interval: kick_rate_factor times the bath's collision rate.
+    force_dt: f64,
+    /// The kick rate is tuned during relaxation (the balanced rule).
+    balance: bool,
+}
+
+impl DriveSettings {
+    fn of(cfg: &SimConfig) -> DriveSettings {
+        let rate = bath_collision_rate(cfg, cfg.temperature);
+        let (kicks, rate0, p_dr) = drive(cfg, rate);
+        DriveSettings {
+            kicks,
+            rate0,
+            p_dr,
+            force_dt: cfg
+                .intruder
+                .as_ref()
+                .map_or(0.0, |i| 1.0 / (i.kick_rate_factor * rate)),
+            balance: cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off,
+        }
+    }
+}
+
 /// [`run`], checkpointing into `keeper` (when the run is longer than one
 /// [`checkpoint::interval`]) and going on from its newest usable checkpoint.
 /// The results are the same bits whether or not the run stopped and resumed.
@@ -412,19 +441,11 @@ pub fn run_kept(
     mut keeper: Option<&mut dyn Keeper>,
 ) -> Result<(Trajectory, RunSummary)> {
     cfg.validate()?;
+    // A new run's CPU time counts its compression.
     let cpu = Cpu::reading(0.0);
-    let n_bath = cfg.n as f64;
-    let radii = cfg.radii();
-    let masses = cfg.species_masses();
-    let enskog_rate = |t: f64| bath_collision_rate(cfg, t);
-    let (kicks, rate0, p_dr) = drive(cfg, enskog_rate(cfg.temperature));
-    // The force kicks' interval: kick_rate_factor times the bath's collision rate.
-    let force_dt = cfg.intruder.as_ref().map_or(0.0, |i| {
-        1.0 / (i.kick_rate_factor * enskog_rate(cfg.temperature))
-    });
-    let balance = cfg.kick_rate == KickRate::Balanced && kicks != Kicks::Off;
+    let drv = DriveSettings::of(cfg);
     // The steps do not depend on where the relaxation starts.
-    let n_steps = steps(cfg, 0.0, balance).len();
+    let n_steps = steps(cfg, 0.0, drv.balance).len();
     let resumed = keeper.as_deref_mut().and_then(|k| resume(cfg, k, n_steps));
     let (mut e, mut st, cpu) = match resumed {
         Some((e, st)) => {
@@ -432,51 +453,74 @@ pub fn run_kept(
             (e, st, cpu)
         }
         None => {
-            let (e, compress_time) = Engine::for_run(cfg, progress)?;
-            let t_relax0 = e.time();
-            let dt = (cfg.relax_time + cfg.schedule.end()) / cfg.samples as f64;
-            let sampler = Sampler {
-                dt,
-                next: t_relax0 + dt,
-                t0: t_relax0 + cfg.relax_time,
-                last_time: e.time(),
-                last_virial: e.stats.virial,
-                last_t: bath_temperature(&e),
-                area: cfg.box_size()[0] * cfg.box_size()[1],
-                samples: Vec::with_capacity(cfg.samples + 1),
-                species: Vec::with_capacity(cfg.samples + 1),
-                drift: Vec::with_capacity(cfg.samples + 1),
-                bath_drift: Vec::new(),
-            };
-            let st = RunState {
-                compress_time,
-                t_relax0,
-                rate: rate0,
-                step: 0,
-                tsum: 0.0,
-                sampler,
-                frames: Vec::new(),
-                production: None,
-                checkpoints: 0,
-                cpu_seconds: 0.0,
-            };
+            let (e, compress_time) = engine_for_run::build(cfg, progress)?;
+            let st = RunState::new(cfg, &e, compress_time, drv.rate0);
             (e, st, cpu)
         }
     };
-    let n = e.n();
-    let nf = n as f64;
-    let prod = cfg.schedule.end();
-    let t0 = st.t_relax0 + cfg.relax_time;
-    let end = t0 + prod;
+    let end = st.t_relax0 + cfg.relax_time + cfg.schedule.end();
     let mut ck = Checkpointing {
         cfg,
         origin: st.t_relax0,
-        every: checkpoint::interval(cfg, enskog_rate(cfg.temperature) * n_bath / 2.0),
+        every: checkpoint::interval(
+            cfg,
+            bath_collision_rate(cfg, cfg.temperature) * cfg.n as f64 / 2.0,
+        ),
         end,
         keeper,
         cpu,
     };
-    let plan = steps(cfg, st.t_relax0, balance);
+    carry_out(cfg, &drv, &mut e, &mut st, &mut ck, progress)?;
+    Ok(summarise(cfg, &drv, &e, st, &ck.cpu))
+}
+
+impl RunState {
+    /// The run state of a new run whose engine `e` has just been compressed
+    /// (in `compress_time`) and starts relaxing, at kick rate `rate0`.
+    fn new(cfg: &SimConfig, e: &Engine, compress_time: f64, rate0: f64) -> RunState {
+        let t_relax0 = e.time();
+        let dt = (cfg.relax_time + cfg.schedule.end()) / cfg.samples as f64;
+        let sampler = Sampler {
+            dt,
+            next: t_relax0 + dt,
+            t0: t_relax0 + cfg.relax_time,
+            last_time: e.time(),
+            last_virial: e.stats().virial,
+            last_t: bath_temperature(e),
+            area: cfg.box_size()[0] * cfg.box_size()[1],
+            samples: Vec::with_capacity(cfg.samples + 1),
+            species: Vec::with_capacity(cfg.samples + 1),
+            drift: Vec::with_capacity(cfg.samples + 1),
+            bath_drift: Vec::new(),
+        };
+        RunState {
+            compress_time,
+            t_relax0,
+            rate: rate0,
+            step: 0,
+            tsum: 0.0,
+            sampler,
+            frames: Vec::new(),
+            production: None,
+            checkpoints: 0,
+            cpu_seconds: 0.0,
+        }
+    }
+}
+
+/// Carry out the run's steps from `st.step` on: relaxation (balancing the
+/// kick rate), the start of production, the frames, the end.
+fn carry_out(
+    cfg: &SimConfig,
+    drv: &DriveSettings,
+    e: &mut Engine,
+    st: &mut RunState,
+    ck: &mut Checkpointing,
+    progress: &dyn Fn(Progress),
+) -> Result<()> {
+    let t0 = st.t_relax0 + cfg.relax_time;
+    let end = t0 + cfg.schedule.end();
+    let plan = steps(cfg, st.t_relax0, drv.balance);
     let mut clock = Instant::now();
     while st.step < plan.len() {
         match plan[st.step] {
@@ -485,25 +529,16 @@ pub fn run_kept(
                 measure,
                 correct,
             } => {
-                advance(
-                    &mut e,
-                    to,
-                    &mut st,
-                    &mut ck,
-                    Stage::Relax,
-                    t0,
-                    clock,
-                    progress,
-                )?;
+                advance(e, to, st, ck, Stage::Relax, t0, clock, progress)?;
                 if measure {
-                    st.tsum += bath_temperature(&e);
+                    st.tsum += bath_temperature(e);
                 }
                 if correct {
                     let tmean = st.tsum / (BALANCE_SUB / 2) as f64;
                     st.tsum = 0.0;
                     if tmean > 0.0 {
                         st.rate *= tmean.powf(-1.5);
-                        e.set_kicks(kicks, st.rate, p_dr);
+                        e.set_kicks(drv.kicks, st.rate, drv.p_dr);
                     }
                 }
             }
@@ -512,7 +547,7 @@ pub fn run_kept(
                     e.skip_to(t0);
                 }
                 st.production = Some(ProductionStart {
-                    stats: e.stats,
+                    stats: *e.stats(),
                     kinetic_energy: e.kinetic_energy(),
                     intruder: e.intruder().map(|k| e.particle(k).0),
                     force_kicks: e.force_kicks(),
@@ -522,16 +557,7 @@ pub fn run_kept(
                 clock = Instant::now();
             }
             Step::Frame { at } => {
-                advance(
-                    &mut e,
-                    t0 + at,
-                    &mut st,
-                    &mut ck,
-                    Stage::Production,
-                    end,
-                    clock,
-                    progress,
-                )?;
+                advance(e, t0 + at, st, ck, Stage::Production, end, clock, progress)?;
                 let (x, y) = e.unwrapped_positions();
                 let (vx, vy) = if cfg.record_velocities {
                     e.velocities()
@@ -547,41 +573,48 @@ pub fn run_kept(
                 });
             }
             Step::End => {
-                advance(
-                    &mut e,
-                    end,
-                    &mut st,
-                    &mut ck,
-                    Stage::Production,
-                    end,
-                    clock,
-                    progress,
-                )?;
+                advance(e, end, st, ck, Stage::Production, end, clock, progress)?;
             }
         }
         st.step += 1;
     }
-    let cpu = ck.cpu;
-    let ProductionStart {
-        stats: before,
-        kinetic_energy: ke0,
-        intruder: intruder0,
-        force_kicks: force_kicks0,
-        relax_samples: n_relax_samples,
-        cpu_seconds: cpu_prod0,
-    } = st
+    Ok(())
+}
+
+/// Mean of `v` (0 if empty).
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Mean of each component over the rows of `rows`.
+fn mean_of<const K: usize>(rows: &[[f64; K]]) -> [f64; K] {
+    std::array::from_fn(|k| mean(&rows.iter().map(|v| v[k]).collect::<Vec<_>>()))
+}
+
+/// The trajectory and summary of a finished run.
+fn summarise(
+    cfg: &SimConfig,
+    drv: &DriveSettings,
+    e: &Engine,
+    st: RunState,
+    cpu: &Cpu,
+) -> (Trajectory, RunSummary) {
+    let n = e.n();
+    let nf = n as f64;
+    let prod = cfg.schedule.end();
+    let start = st
         .production
         .clone()
         .expect("the production step comes before the end");
+    let before = start.stats;
     let (s, frames, compress_time) = (st.sampler, st.frames, st.compress_time);
     let [lx, ly] = cfg.box_size();
-    let cpu_prod = cpu.now() - cpu_prod0;
-    let st = e.stats;
+    let cpu_prod = cpu.now() - start.cpu_seconds;
+    let st = *e.stats();
     let collisions = st.collisions - before.collisions;
 
-    let prod_samples = &s.samples[n_relax_samples..];
+    let prod_samples = &s.samples[start.relax_samples..];
     let temps: Vec<f64> = prod_samples.iter().map(|x| x.temperature).collect();
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let temperature = mean(&temps);
     let temperature_std = (temps.iter().map(|t| (t - temperature).powi(2)).sum::<f64>()
         / temps.len().max(1) as f64)
@@ -600,45 +633,14 @@ pub fn run_kept(
     let friction = st.friction - before.friction;
     let work = st.work - before.work;
     let lifted = st.lifted - before.lifted;
-    let species_prod = &s.species[n_relax_samples..];
+    let masses = cfg.species_masses();
+    let species_prod = &s.species[start.relax_samples..];
     let species_temperature = (0..masses.len())
         .map(|k| mean(&species_prod.iter().map(|v| v[k]).collect::<Vec<_>>()))
         .collect();
-    let drift_prod = &s.drift[n_relax_samples..];
-    let drift = [0, 1].map(|k| mean(&drift_prod.iter().map(|v| v[k]).collect::<Vec<_>>()));
-    let bytes = e.bytes() as f64;
-    let intruder = match (&cfg.intruder, e.intruder(), intruder0) {
-        (Some(intr), Some(k), Some(x0)) => {
-            let x1 = e.particle(k).0;
-            let bath_prod = &s.bath_drift[n_relax_samples..];
-            let calls = st.root_calls - before.root_calls;
-            Some(IntruderSummary {
-                force: intr.force,
-                radius: intr.radius,
-                mass: intr.mass,
-                velocity: [0, 1].map(|a| (x1[a] - x0[a]) / prod),
-                terminal_velocity: intr.force / (cfg.gamma * intr.mass),
-                predicted_drift: intr.force / (cfg.gamma * e.total_mass()),
-                bath_drift: [0, 1]
-                    .map(|a| mean(&bath_prod.iter().map(|v| v[a]).collect::<Vec<_>>())),
-                energy_work: work,
-                root_calls: calls,
-                root_steps_per_call: (st.root_steps - before.root_steps) as f64
-                    / calls.max(1) as f64,
-                repredicts: st.repredicts - before.repredicts,
-                force_mode: intr.force_mode,
-                force_kicks: e.force_kicks() - force_kicks0,
-                force_kick_interval: if intr.force_mode == ForceMode::Kicks {
-                    force_dt
-                } else {
-                    0.0
-                },
-                lifts: st.lifts - before.lifts,
-                energy_lifted: lifted,
-            })
-        }
-        _ => None,
-    };
+    let drift = mean_of(&s.drift[start.relax_samples..]);
+    let intruder = intruder_summary(cfg, drv, e, &start, &s.bath_drift);
+    let force_kicks = e.force_kicks() - start.force_kicks;
     let summary = RunSummary {
         n,
         phi: cfg.phi,
@@ -663,16 +665,17 @@ pub fn run_kept(
         z,
         z_err,
         collision_rate: 2.0 * collisions as f64 / (nf * prod),
-        enskog_collision_rate: enskog_rate(temperature),
-        kick_rate: if kicks == Kicks::Single { 1.0 } else { 2.0 } * e.kick_rate() / nf,
+        enskog_collision_rate: bath_collision_rate(cfg, temperature),
+        kick_rate: if drv.kicks == Kicks::Single { 1.0 } else { 2.0 } * e.kick_rate() / nf,
         energy_injected: injected,
         energy_dissipated: dissipated,
         energy_friction: friction,
-        energy_balance_error: ((ke1 - ke0) - (injected - dissipated - friction + work + lifted))
+        energy_balance_error: ((ke1 - start.kinetic_energy)
+            - (injected - dissipated - friction + work + lifted))
             .abs()
             / ke1,
         gamma: cfg.gamma,
-        kick_amplitude: p_dr,
+        kick_amplitude: drv.p_dr,
         species_temperature,
         drift,
         cpu_seconds: cpu.now(),
@@ -685,24 +688,66 @@ pub fn run_kept(
             st.shell_exits - before.shell_exits,
             st.wall_collisions - before.wall_collisions,
             st.repredicts - before.repredicts,
-            e.force_kicks() - force_kicks0,
+            force_kicks,
         ]
         .iter()
         .sum::<u64>() as f64
             / cpu_prod.max(1e-9),
         peak_rss_bytes: resources::peak_rss_bytes(),
-        bytes_per_particle: bytes / nf,
+        bytes_per_particle: e.bytes() as f64 / nf,
         series: s.samples,
         intruder,
     };
     let traj = Trajectory {
         box_size: [lx, ly],
         periodic: cfg.walls.map(|w| !w),
-        species: e.species.clone(),
-        radii,
+        species: e.species().to_vec(),
+        radii: cfg.radii(),
         masses,
         frames,
         schedule: Some(cfg.schedule.clone()),
     };
-    Ok((traj, summary))
+    (traj, summary)
+}
+
+/// The pulled intruder's part of the summary (none without one): its
+/// velocity over production, the bath's mean drift over production (from
+/// the samples of `bath_drift`), the ledgers and counters of its force.
+fn intruder_summary(
+    cfg: &SimConfig,
+    drv: &DriveSettings,
+    e: &Engine,
+    start: &ProductionStart,
+    bath_drift: &[[f64; 2]],
+) -> Option<IntruderSummary> {
+    let (intr, k, x0) = match (&cfg.intruder, e.intruder(), start.intruder) {
+        (Some(intr), Some(k), Some(x0)) => (intr, k, x0),
+        _ => return None,
+    };
+    let (before, st) = (&start.stats, e.stats());
+    let prod = cfg.schedule.end();
+    let x1 = e.particle(k).0;
+    let calls = st.root_calls - before.root_calls;
+    Some(IntruderSummary {
+        force: intr.force,
+        radius: intr.radius,
+        mass: intr.mass,
+        velocity: [0, 1].map(|a| (x1[a] - x0[a]) / prod),
+        terminal_velocity: intr.force / (cfg.gamma * intr.mass),
+        predicted_drift: intr.force / (cfg.gamma * e.total_mass()),
+        bath_drift: mean_of(&bath_drift[start.relax_samples..]),
+        energy_work: st.work - before.work,
+        root_calls: calls,
+        root_steps_per_call: (st.root_steps - before.root_steps) as f64 / calls.max(1) as f64,
+        repredicts: st.repredicts - before.repredicts,
+        force_mode: intr.force_mode,
+        force_kicks: e.force_kicks() - start.force_kicks,
+        force_kick_interval: if intr.force_mode == ForceMode::Kicks {
+            drv.force_dt
+        } else {
+            0.0
+        },
+        lifts: st.lifts - before.lifts,
+        energy_lifted: st.lifted - before.lifted,
+    })
 }

@@ -1,13 +1,21 @@
 //! Checkpoints: a run stopped at a checkpoint and resumed from its bytes in a
 //! fresh engine gives the same bits as one that passed it without stopping;
-//! a damaged newest checkpoint falls back to the one before. (The clock's
+//! a damaged newest checkpoint falls back to the one before. At the engine's
+//! level: an engine resumed from its state's bytes at every checkpoint ends
+//! with the same state bytes as one that never stopped, so nothing that
+//! determines the future can be left out of the state, nor history kept in
+//! what is rebuilt from it. (The clock's
 //! precision at t ~ 10^7 is tested with the exactness checks, in
 //! `analysis::run_summary`.)
 
 use anyhow::{Result, bail};
 
 use super::intruder::{bath, quiet};
+use crate::sim::engine::Engine;
+use crate::sim::engine::state::EngineState;
+use crate::sim::model::config::ForceMode;
 use crate::sim::run::checkpoint::Keeper;
+use crate::sim::run::engine_for_run;
 use crate::sim::run::simulation::run_kept;
 use crate::sim::{RunSummary, SimConfig, run};
 use crate::traj::{Schedule, Trajectory};
@@ -173,4 +181,82 @@ fn a_truncated_checkpoint_falls_back_to_the_previous_one() {
         "{:?}",
         m2.rejected
     );
+}
+
+/// What a run has produced by now, as bytes: unwrapped positions,
+/// velocities, time and every counter and ledger.
+fn outcome(e: &Engine) -> Vec<u8> {
+    postcard::to_stdvec(&(e.unwrapped_positions(), e.velocities(), e.time(), e.stats())).unwrap()
+}
+
+/// `c`'s engine run for `stops` intervals `dt` from the start of its
+/// relaxation, checkpointing at the end of each; the run `resumed` goes on
+/// from each checkpoint's bytes in a new engine. Returns the bytes of every
+/// checkpoint's state, of the outcome before it and of the state after it,
+/// then of the outcome and the state at the end.
+fn run_in_intervals(c: &SimConfig, dt: f64, stops: usize, resumed: bool) -> Vec<Vec<u8>> {
+    let mut e = engine_for_run::build(c, &quiet).unwrap().0;
+    let t0 = e.time();
+    let mut out = Vec::new();
+    for k in 1..=stops {
+        assert!(e.run_until(t0 + k as f64 * dt, u64::MAX));
+        out.push(outcome(&e));
+        let state = e.checkpoint(true).unwrap().to_bytes().unwrap();
+        if resumed {
+            let back: EngineState = postcard::from_bytes(&state).unwrap();
+            e = Engine::restore(back).unwrap();
+        }
+        out.push(state);
+        // The state the run goes on from (the checkpoint's, with every event
+        // predicted anew).
+        out.push(e.state().to_bytes().unwrap());
+    }
+    // On to a time between checkpoints, with events pending.
+    assert!(e.run_until(t0 + (stops as f64 + 0.5) * dt, u64::MAX));
+    out.push(outcome(&e));
+    out.push(e.state().to_bytes().unwrap());
+    out
+}
+
+/// Resumed at every checkpoint, `c`'s engine gives the bytes of the
+/// uninterrupted run at each checkpoint (its state, the outcome just before,
+/// the state it goes on from) and at the end (the outcome and the whole state), after at least
+/// `min_collisions`.
+fn engine_resumes_bit_identically(c: &SimConfig, dt: f64, min_collisions: u64) {
+    let stops = 4;
+    let whole = run_in_intervals(c, dt, stops, false);
+    let resumed = run_in_intervals(c, dt, stops, true);
+    assert_eq!(whole.len(), resumed.len());
+    for (k, (a, b)) in whole.iter().zip(&resumed).enumerate() {
+        let what = ["outcome", "checkpoint", "state going on"][k % 3];
+        assert!(a == b, "{what} {} differs after resuming", k / 3 + 1);
+    }
+    let last: EngineState = postcard::from_bytes(whole.last().unwrap()).unwrap();
+    let e = Engine::restore(last).unwrap();
+    assert!(
+        e.stats().collisions >= min_collisions,
+        "{} collisions",
+        e.stats().collisions
+    );
+}
+
+#[test]
+fn the_driven_bath_engine_resumes_bit_identically() {
+    engine_resumes_bit_identically(&paper_h(), 0.37, 20_000);
+}
+
+/// The pulled intruder between walls on both axes, with friction.
+#[test]
+fn the_pulled_intruder_engine_resumes_bit_identically() {
+    let mut c = paper_i();
+    c.walls = [true, true];
+    engine_resumes_bit_identically(&c, 0.23, 5_000);
+}
+
+/// The force on the intruder as a train of kicks.
+#[test]
+fn the_force_kick_engine_resumes_bit_identically() {
+    let mut c = paper_i();
+    c.intruder.as_mut().unwrap().force_mode = ForceMode::Kicks;
+    engine_resumes_bit_identically(&c, 0.23, 5_000);
 }

@@ -25,9 +25,9 @@ fn lone_kicks_error(gamma: f64, force: f64, dt: f64, t: f64) -> f64 {
     let (x, _) = e.particle(0);
     let dx = p.displacement(v0, t);
     let gained = e.kinetic_energy() - ke0;
-    let ledger = e.stats.work - e.stats.friction;
+    let ledger = e.stats().work - e.stats().friction;
     assert!(
-        (gained - ledger).abs() < 1e-10 * (ke0 + e.stats.work),
+        (gained - ledger).abs() < 1e-10 * (ke0 + e.stats().work),
         "gamma {gamma} dt {dt}: gained {gained}, ledger {ledger}"
     );
     let kicks = e.force_kicks();
@@ -88,8 +88,7 @@ fn momentum_grows_by_f_dt_per_kick() {
         i.force_mode = ForceMode::Kicks;
     }
     let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    e.eps = c.eps;
-    e.tc = c.collapse_tc;
+    e.set_restitution(c.eps, c.collapse_tc);
     let (kicks, rate, p_dr) = run::drive(&c, 5.0);
     e.set_kicks(kicks, rate, p_dr);
     let dt = 1e-3;
@@ -111,7 +110,7 @@ fn momentum_grows_by_f_dt_per_kick() {
         assert!(e.worst_overlap(1e-10).is_none());
     }
     assert_eq!(e.force_kicks(), 2000);
-    assert!(e.stats.collisions > 3000, "{:?}", e.stats);
+    assert!(e.stats().collisions > 3000, "{:?}", e.stats());
 }
 
 /// In a bath (N = 500, phi = 0.6, gamma = 1, single kicks, F = 30), the

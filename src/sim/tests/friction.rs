@@ -50,11 +50,15 @@ fn free_disk_decays_and_stops_at_v0_over_gamma() {
             "t = {t}: x = {x}, want {want}"
         );
         let lost = ke0 - e.kinetic_energy();
-        assert!((e.stats.friction - lost).abs() < 1e-12 * ke0);
+        assert!((e.stats().friction - lost).abs() < 1e-12 * ke0);
     }
     assert!((e.unwrapped_positions().0[0] - (x0 + v0 / gamma)).abs() < 1e-12 * x0);
-    assert!(e.stats.reanchors >= 20, "re-anchored {}", e.stats.reanchors);
-    assert_eq!(e.stats.collisions, 0);
+    assert!(
+        e.stats().reanchors >= 20,
+        "re-anchored {}",
+        e.stats().reanchors
+    );
+    assert_eq!(e.stats().collisions, 0);
 }
 
 /// Disk 0 approaches disk 1 (at rest) with speed g across a surface gap d:
@@ -67,20 +71,20 @@ fn head_on_pair_just_inside_and_just_outside_reach() {
         let d = rel * g / gamma;
         let mut e = two_disks([30.0, 30.0 + 2.0 + d], [g, 0.0]);
         e.set_friction(gamma);
-        while e.stats.collisions == 0 && e.time() < 60.0 {
+        while e.stats().collisions == 0 && e.time() < 60.0 {
             e.run_until(60.0, 1);
         }
         if hits {
             let want = -(1.0 - gamma * d / g).ln() / gamma;
             assert!((want - 20.72).abs() < 0.01);
-            assert_eq!(e.stats.collisions, 1, "gap {d}: no collision");
+            assert_eq!(e.stats().collisions, 1, "gap {d}: no collision");
             assert!(
                 (e.time() - want).abs() < 1e-3,
                 "collided at {}, want {want}",
                 e.time()
             );
         } else {
-            assert_eq!(e.stats.collisions, 0, "gap {d}: collided at {}", e.time());
+            assert_eq!(e.stats().collisions, 0, "gap {d}: collided at {}", e.time());
             // The gap left is (rel - 1) g / gamma + (g / gamma) exp(-gamma t).
             let (x, _) = e.unwrapped_positions();
             let gap = x[1] - x[0] - 2.0;
@@ -105,7 +109,7 @@ fn undriven_friction_run_is_the_frictionless_run_in_s() {
     let mut a = initial_state::prepare(&c, &quiet).unwrap();
     let mut b = initial_state::prepare(&c, &quiet).unwrap();
     for e in [&mut a, &mut b] {
-        (e.eps, e.tc) = (c.eps, 0.0);
+        e.set_restitution(c.eps, 0.0);
     }
     let t0 = a.time();
     // Anchor both clocks here (s = 0 now), the second with friction.
@@ -116,10 +120,10 @@ fn undriven_friction_run_is_the_frictionless_run_in_s() {
     let t = t0 - (1.0 - gamma * s).ln() / gamma;
     a.run_until(t0 + s, u64::MAX);
     b.run_until(t, u64::MAX);
-    assert_eq!(b.stats.reanchors, 0);
-    assert!(a.stats.collisions > 1000, "{}", a.stats.collisions);
-    assert_eq!(a.stats.collisions, b.stats.collisions);
-    assert_eq!(a.stats.shell_exits, b.stats.shell_exits);
+    assert_eq!(b.stats().reanchors, 0);
+    assert!(a.stats().collisions > 1000, "{}", a.stats().collisions);
+    assert_eq!(a.stats().collisions, b.stats().collisions);
+    assert_eq!(a.stats().shell_exits, b.stats().shell_exits);
     let lam = 1.0 - gamma * s;
     let ((xa, ya), (xb, yb)) = (a.unwrapped_positions(), b.unwrapped_positions());
     let ((ua, wa), (vb, zb)) = (a.velocities(), b.velocities());
@@ -127,8 +131,8 @@ fn undriven_friction_run_is_the_frictionless_run_in_s() {
         assert!((xa[i] - xb[i]).abs() < 1e-9 && (ya[i] - yb[i]).abs() < 1e-9);
         assert!((ua[i] * lam - vb[i]).abs() < 1e-9 && (wa[i] * lam - zb[i]).abs() < 1e-9);
     }
-    let diss = a.stats.dissipated;
-    assert!(b.stats.dissipated < diss && b.stats.dissipated > lam * lam * diss);
+    let diss = a.stats().dissipated;
+    assert!(b.stats().dissipated < diss && b.stats().dissipated > lam * lam * diss);
 }
 
 fn paper_i(n: usize, phi: f64, eps: f64, gamma: f64) -> SimConfig {
@@ -199,7 +203,7 @@ fn dense_driven_run_with_friction_closes_its_energy_ledger() {
 fn momentum_decays_as_eq_11_plus_the_decayed_kicks() {
     let c = paper_i(1000, 0.6, 0.9, 1.0);
     let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    (e.eps, e.tc) = (c.eps, c.collapse_tc);
+    e.set_restitution(c.eps, c.collapse_tc);
     e.set_friction(c.gamma);
     let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 4.9);
     e.set_kicks(kicks, rate, p_dr);
@@ -218,7 +222,7 @@ fn momentum_decays_as_eq_11_plus_the_decayed_kicks() {
             );
         }
     }
-    assert!(e.stats.reanchors >= 4 && e.stats.kicks > 40_000 && e.stats.collisions > 40_000);
+    assert!(e.stats().reanchors >= 4 && e.stats().kicks > 40_000 && e.stats().collisions > 40_000);
 }
 
 #[test]

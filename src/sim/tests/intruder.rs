@@ -42,8 +42,7 @@ pub(crate) fn bath(n: usize, phi: f64, gamma: f64, force: f64) -> SimConfig {
 /// starts it (kicks at the rate of an Enskog frequency of 5 per particle).
 pub(super) fn pulled(c: &SimConfig) -> Engine {
     let mut e = initial_state::prepare(c, &quiet).unwrap();
-    e.eps = c.eps;
-    e.tc = c.collapse_tc;
+    e.set_restitution(c.eps, c.collapse_tc);
     if c.gamma > 0.0 {
         e.set_friction(c.gamma);
     }
@@ -113,9 +112,9 @@ fn lone_intruder_follows_the_analytic_path_to_terminal_velocity() {
                 );
             }
             let gained = e.kinetic_energy() - ke0;
-            let ledger = e.stats.work - e.stats.friction;
+            let ledger = e.stats().work - e.stats().friction;
             assert!(
-                (gained - ledger).abs() < 1e-10 * (ke0 + e.stats.work),
+                (gained - ledger).abs() < 1e-10 * (ke0 + e.stats().work),
                 "gamma {gamma} t {t}: gained {gained}, ledger {ledger}"
             );
         }
@@ -123,10 +122,10 @@ fn lone_intruder_follows_the_analytic_path_to_terminal_velocity() {
             let vt = force / (gamma * 4.0);
             let v = e.particle(0).1;
             assert!((v[0] - vt).abs() < 1e-10 * vt, "{v:?} vs {vt}");
-            assert!(e.stats.reanchors > 5, "{:?}", e.stats);
+            assert!(e.stats().reanchors > 5, "{:?}", e.stats());
         }
-        assert_eq!(e.stats.collisions, 0);
-        assert!(e.stats.shell_exits > 10, "{:?}", e.stats);
+        assert_eq!(e.stats().collisions, 0);
+        assert!(e.stats().shell_exits > 10, "{:?}", e.stats());
     }
 }
 
@@ -158,9 +157,9 @@ fn momentum_grows_as_force_times_time_without_friction() {
         );
     }
     assert!(
-        e.stats.collisions > 3000 && e.stats.kicks > 1000,
+        e.stats().collisions > 3000 && e.stats().kicks > 1000,
         "{:?}",
-        e.stats
+        *e.stats()
     );
 }
 
@@ -192,8 +191,8 @@ fn momentum_follows_eq_11_with_force_and_kicks() {
             );
         }
     }
-    assert!(e.stats.reanchors >= 2, "{:?}", e.stats);
-    assert!(e.stats.kicks > 5000, "{:?}", e.stats);
+    assert!(e.stats().reanchors >= 2, "{:?}", e.stats());
+    assert!(e.stats().kicks > 5000, "{:?}", e.stats());
 }
 
 /// Energy ledger: KE(t) - KE(0) = injected - dissipated - friction + work of F
@@ -204,9 +203,9 @@ fn energy_ledger_with_the_work_of_the_force_closes() {
     for (gamma, force) in [(1.0, 100.0), (0.0, 10.0)] {
         let c = bath(500, 0.6, gamma, force);
         let mut e = pulled(&c);
-        let (t0, ke0, s0) = (e.time(), e.kinetic_energy(), e.stats);
+        let (t0, ke0, s0) = (e.time(), e.kinetic_energy(), *e.stats());
         assert!(e.run_until(t0 + 5.0, 100_000_000));
-        let s = e.stats;
+        let s = *e.stats();
         let ke = e.kinetic_energy();
         let ledger = (s.injected - s0.injected)
             - (s.dissipated - s0.dissipated)
@@ -240,7 +239,7 @@ fn no_overlap_at_large_force() {
         }
         let v = e.particle(0).1[0];
         assert!(v > 1.0, "F = {force}: intruder at {v}");
-        assert!(e.stats.collisions > 5000, "{:?}", e.stats);
+        assert!(e.stats().collisions > 5000, "{:?}", e.stats());
     }
 }
 
@@ -288,14 +287,14 @@ fn compression_with_intruder_and_walls() {
         );
         let (_, y) = e.unwrapped_positions();
         for (i, &yi) in y.iter().enumerate() {
-            let r = e.radii[e.species[i] as usize];
+            let r = e.radii()[e.species()[i] as usize];
             assert!(
                 yi >= r - 1e-9 && yi <= ly - r + 1e-9,
                 "disk {i} at y = {yi}"
             );
         }
     }
-    assert!(e.stats.wall_collisions > 0);
+    assert!(e.stats().wall_collisions > 0);
     assert!(e.particle(0).1[0] > 0.0);
 }
 

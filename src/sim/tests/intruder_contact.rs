@@ -130,7 +130,7 @@ fn lifts_keep_momentum_ledger_and_no_overlap() {
     let mut c = bath(500, 0.75, 0.0, 100.0);
     c.eps = 0.7;
     let mut e = pulled(&c);
-    let (t0, p0, ke0, s0) = (e.time(), e.momentum(), e.kinetic_energy(), e.stats);
+    let (t0, p0, ke0, s0) = (e.time(), e.momentum(), e.kinetic_energy(), *e.stats());
     let mut t = t0;
     for _ in 0..20 {
         t += 0.1;
@@ -145,7 +145,7 @@ fn lifts_keep_momentum_ledger_and_no_overlap() {
         }
         assert_eq!(e.worst_overlap(1e-10), None, "t {t}");
     }
-    let s = e.stats;
+    let s = *e.stats();
     assert!(s.lifts > s0.lifts, "the rule never acted: {s:?}");
     let ledger = (s.injected - s0.injected) - (s.dissipated - s0.dissipated)
         + (s.work - s0.work)

@@ -81,7 +81,7 @@ fn lone_intruder_bounces_on_the_wall_as_the_analytic_solution() {
             // Just before and just after the k-th hit.
             for (t, n) in [(tk - 1e-7 * tk, k), (tk + 1e-7 * tk, k + 1)] {
                 assert!(e.run_until(t, 10_000_000));
-                assert_eq!(e.stats.wall_collisions, n as u64, "gamma {gamma}: t {t}");
+                assert_eq!(e.stats().wall_collisions, n as u64, "gamma {gamma}: t {t}");
             }
             // Midway to the next hit: on the path of the rebound.
             let tm = tk + 0.37 * (hits.get(k + 1).map_or(tk + 1.0, |h| h.0) - tk);
@@ -116,7 +116,7 @@ fn lone_intruder_bounces_on_the_wall_as_the_analytic_solution() {
                 "gamma {gamma}: x {x}"
             );
         }
-        let s = e.stats;
+        let s = *e.stats();
         let ke = e.particle_kinetic_energy(0);
         let ledger = s.work - s.friction - s.dissipated;
         assert!(
@@ -133,11 +133,11 @@ fn lone_intruder_bounces_on_the_wall_as_the_analytic_solution() {
                 s.wall_collisions, s.root_steps
             );
             // Resting, the wall holds F: impulse F per unit time.
-            let (w0, t0) = (e.stats.wall_impulse[0], e.time());
+            let (w0, t0) = (e.stats().wall_impulse[0], e.time());
             assert!(e.run_until(t0 + 10.0, 1_000_000));
-            let held = e.stats.wall_impulse[0] - w0;
+            let held = e.stats().wall_impulse[0] - w0;
             assert!((held - 10.0 * force).abs() < 1e-9 * held, "{held}");
-            assert_eq!(e.stats.work, s.work);
+            assert_eq!(e.stats().work, s.work);
         } else {
             assert!(!e.intruder_resting());
             assert_eq!(s.dissipated, 0.0);
@@ -175,7 +175,7 @@ fn chosen_start_between_four_walls() {
     assert_eq!(e0.particle_kinetic_energy(0), 0.0);
     assert!(e0.worst_overlap(1e-10).is_none());
     let mut e = pulled(&c);
-    let (t0, ke0, s0) = (e.time(), e.kinetic_energy(), e.stats);
+    let (t0, ke0, s0) = (e.time(), e.kinetic_energy(), *e.stats());
     let mut reached = false;
     for k in 0..300 {
         e.run_until(f64::INFINITY, 1000);
@@ -186,7 +186,7 @@ fn chosen_start_between_four_walls() {
         );
         let (x, y) = e.unwrapped_positions();
         for i in 0..x.len() {
-            let r = e.radii[e.species[i] as usize];
+            let r = e.radii()[e.species()[i] as usize];
             assert!(
                 x[i] >= r - 1e-9
                     && x[i] <= lx - r + 1e-9
@@ -204,7 +204,7 @@ fn chosen_start_between_four_walls() {
         "the intruder never reached the right wall: x = {:?}",
         e.particle(0)
     );
-    let s = e.stats;
+    let s = *e.stats();
     let ke = e.kinetic_energy();
     let ledger = (s.injected - s0.injected) - (s.dissipated - s0.dissipated)
         + (s.work - s0.work)

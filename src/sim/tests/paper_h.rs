@@ -36,8 +36,7 @@ fn monodisperse(n: usize, phi: f64) -> SimConfig {
 fn driven_engine(c: &SimConfig) -> Engine {
     let mut e = initial_state::prepare(c, &quiet).unwrap();
     let (kicks, rate, p_dr) = crate::sim::run::drive(c, 15.0);
-    e.eps = c.eps;
-    e.tc = c.collapse_tc;
+    e.set_restitution(c.eps, c.collapse_tc);
     e.set_kicks(kicks, rate, p_dr);
     e
 }
@@ -47,7 +46,7 @@ fn no_overlap_after_any_event_at_phi_0_8() {
     let c = cfg(300, 0.8, 0.9);
     let mut e = driven_engine(&c);
     assert!(e.worst_overlap(1e-9).is_none(), "overlap after compression");
-    let (c0, s0) = (e.stats.collisions, e.stats.shell_exits);
+    let (c0, s0) = (e.stats().collisions, e.stats().shell_exits);
     for ev in 0..100_000 {
         e.run_until(f64::INFINITY, 1);
         if let Some((i, j, ov)) = e.worst_overlap(1e-9) {
@@ -59,12 +58,12 @@ fn no_overlap_after_any_event_at_phi_0_8() {
             panic!("event {ev}: {msg}");
         }
     }
-    let shell_exits = e.stats.shell_exits - s0;
+    let shell_exits = e.stats().shell_exits - s0;
     assert!(
-        e.stats.collisions - c0 > (100_000 - shell_exits) / 2,
+        e.stats().collisions - c0 > (100_000 - shell_exits) / 2,
         "mostly collisions expected"
     );
-    assert!(e.stats.kicks > 1000);
+    assert!(e.stats().kicks > 1000);
     assert!(shell_exits > 1000, "neighbour lists must be rebuilt");
 }
 
@@ -94,11 +93,11 @@ fn elastic_gas_conserves_energy_and_momentum_over_a_million_collisions() {
     c.drive = Drive::None;
     c.collapse_tc = 1e-3; // must never act when eps = 1
     let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    e.tc = c.collapse_tc;
+    e.set_restitution(e.eps(), c.collapse_tc);
     let (ke0, p0) = (e.kinetic_energy(), e.momentum());
     let scale = e.momentum_scale();
-    let c0 = e.stats.collisions;
-    while e.stats.collisions - c0 < 1_000_000 {
+    let c0 = e.stats().collisions;
+    while e.stats().collisions - c0 < 1_000_000 {
         e.run_until(f64::INFINITY, 100_000);
     }
     let (ke1, p1) = (e.kinetic_energy(), e.momentum());
@@ -114,8 +113,8 @@ fn elastic_gas_conserves_energy_and_momentum_over_a_million_collisions() {
             p1[k] - p0[k]
         );
     }
-    assert_eq!(e.stats.guard_activations, 0);
-    assert_eq!(e.stats.dissipated, 0.0);
+    assert_eq!(e.stats().guard_activations, 0);
+    assert_eq!(e.stats().dissipated, 0.0);
 }
 
 #[test]
@@ -160,17 +159,16 @@ fn free_cooling_follows_haff_in_collisions_per_particle() {
     let mut c = monodisperse(4000, 0.05);
     c.eps = eps;
     let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    e.eps = eps;
-    e.tc = 0.0;
+    e.set_restitution(eps, 0.0);
     let n = e.n() as f64;
     let t0 = e.kinetic_energy() / n;
-    let c0 = e.stats.collisions;
+    let c0 = e.stats().collisions;
     for target in [1.0, 2.0, 3.0, 4.0] {
         // tau = collisions per particle = 2 N_c / N.
-        while 2.0 * (e.stats.collisions - c0) as f64 / n < target {
+        while 2.0 * (e.stats().collisions - c0) as f64 / n < target {
             e.run_until(f64::INFINITY, 1);
         }
-        let tau = 2.0 * (e.stats.collisions - c0) as f64 / n;
+        let tau = 2.0 * (e.stats().collisions - c0) as f64 / n;
         let t = e.kinetic_energy() / n;
         let haff = t0 * (-(1.0 - eps * eps) * tau / 2.0).exp();
         assert!(
@@ -178,7 +176,7 @@ fn free_cooling_follows_haff_in_collisions_per_particle() {
             "tau {tau}: T = {t}, Haff {haff}"
         );
     }
-    assert_eq!(e.stats.kicks, 0);
+    assert_eq!(e.stats().kicks, 0);
 }
 
 #[test]

@@ -33,22 +33,23 @@ fn boxed(n: usize, phi: f64, walls: [bool; 2]) -> SimConfig {
 fn closed_elastic_box_obeys_the_virial_theorem_exactly() {
     let c = boxed(800, 0.5, [true, true]);
     let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    e.eps = 1.0;
+    e.set_restitution(1.0, e.tc());
     let g = |e: &crate::sim::engine::Engine| {
         let ((x, y), (vx, vy)) = (e.unwrapped_positions(), e.velocities());
         (0..e.n())
-            .map(|i| e.masses[e.species[i] as usize] * (x[i] * vx[i] + y[i] * vy[i]))
+            .map(|i| e.masses()[e.species()[i] as usize] * (x[i] * vx[i] + y[i] * vy[i]))
             .sum::<f64>()
     };
-    let (g0, k, t0, s0) = (g(&e), e.kinetic_energy(), e.time(), e.stats);
+    let (g0, k, t0, s0) = (g(&e), e.kinetic_energy(), e.time(), *e.stats());
     e.run_until(t0 + 20.0, u64::MAX);
     let t = e.time() - t0;
     let lhs = g(&e) - g0;
-    let rhs = 2.0 * k * t + (e.stats.virial - s0.virial) + (e.stats.wall_virial - s0.wall_virial);
+    let rhs =
+        2.0 * k * t + (e.stats().virial - s0.virial) + (e.stats().wall_virial - s0.wall_virial);
     assert!(
-        e.stats.wall_collisions - s0.wall_collisions > 500,
+        e.stats().wall_collisions - s0.wall_collisions > 500,
         "{} wall collisions",
-        e.stats.wall_collisions - s0.wall_collisions
+        e.stats().wall_collisions - s0.wall_collisions
     );
     assert!(
         (lhs - rhs).abs() < 1e-9 * (2.0 * k * t),
@@ -59,7 +60,7 @@ fn closed_elastic_box_obeys_the_virial_theorem_exactly() {
     // Directions: the walls reflect x and y alike, so the kinetic energy splits
     // evenly (a single snapshot of 800 disks: within 15%).
     let (vx, vy) = e.velocities();
-    let m = |i: usize| e.masses[e.species[i] as usize];
+    let m = |i: usize| e.masses()[e.species()[i] as usize];
     let kx: f64 = (0..e.n()).map(|i| m(i) * vx[i] * vx[i]).sum();
     let ky: f64 = (0..e.n()).map(|i| m(i) * vy[i] * vy[i]).sum();
     assert!((kx / ky - 1.0).abs() < 0.15, "{kx} vs {ky}");
@@ -104,8 +105,7 @@ fn driven_channel_with_friction_keeps_every_disk_between_the_walls() {
         ..boxed(400, 0.8, [false, true])
     };
     let mut e = initial_state::prepare(&c, &quiet).unwrap();
-    e.eps = c.eps;
-    e.tc = c.collapse_tc;
+    e.set_restitution(c.eps, c.collapse_tc);
     e.set_friction(c.gamma);
     let (kicks, rate, p_dr) = crate::sim::run::drive(&c, 20.0);
     e.set_kicks(kicks, rate, p_dr);
@@ -118,7 +118,7 @@ fn driven_channel_with_friction_keeps_every_disk_between_the_walls() {
             }
             let (_, y) = e.unwrapped_positions();
             for (i, &yi) in y.iter().enumerate() {
-                let r = e.radii[e.species[i] as usize];
+                let r = e.radii()[e.species()[i] as usize];
                 assert!(
                     yi >= r * (1.0 - 1e-9) && yi <= ly - r * (1.0 - 1e-9),
                     "event {ev}: disk {i} at y = {yi} outside [{r}, {}]",
@@ -127,7 +127,7 @@ fn driven_channel_with_friction_keeps_every_disk_between_the_walls() {
             }
         }
     }
-    assert!(e.stats.wall_collisions > 500 && e.stats.collisions > 10_000);
+    assert!(e.stats().wall_collisions > 500 && e.stats().collisions > 10_000);
 }
 
 #[test]
