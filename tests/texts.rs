@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use repro::pipeline::references::{prose, references, typed_numbers};
+use repro::table::references::{prose, references, typed_numbers};
 use serde_json::Value;
 
 /// The pipelines whose texts are checked (the others are being rewritten to

@@ -27,7 +27,6 @@ pub mod graph;
 pub mod kinds;
 pub mod progress;
 pub mod publish;
-pub mod references;
 pub mod registry;
 pub mod slurm;
 pub mod spec;

@@ -240,7 +240,7 @@ pub struct StageSpec {
 /// before planning, so a stage's key sees the text it states. An unknown id,
 /// or one no text uses, is an error naming it.
 fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String> {
-    use crate::pipeline::references::expand_reasons;
+    use crate::table::references::expand_reasons;
     fn in_value(
         v: &mut Value,
         expand: &mut dyn FnMut(&str) -> Result<String, String>,
@@ -274,7 +274,7 @@ fn expand_shared_reasons(mut spec: PipelineSpec) -> Result<PipelineSpec, String>
         }
     }
     // Texts that name no build: their quotations are printed once, here.
-    let quoted = |t: &str| crate::pipeline::references::quotations(t).map_err(|e| format!("{e:#}"));
+    let quoted = |t: &str| crate::table::references::quotations(t).map_err(|e| format!("{e:#}"));
     spec.description = quoted(&spec.description)?;
     for st in &mut spec.stages {
         if let Some(d) = &st.value.describes {

@@ -99,7 +99,7 @@ impl StageKind for Compare {
         // Kept verbatim in `reason` and resolved by the report, from the store
         // (docs/spec.md, "Numbers in texts"): only their form is checked here.
         for (q, text) in p.out_of_reach.iter().chain(&p.caveats) {
-            crate::pipeline::references::references(text)
+            crate::table::references::references(text)
                 .with_context(|| format!("compare: the reason of '{q}'"))?;
         }
         for v in &p.paper {

@@ -10,7 +10,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of};
-use crate::pipeline::references::{Lookup, Reference, Resolved, Target, legend_number, render};
+use crate::table::references::{Lookup, Reference, Resolved, Target, legend_number, render};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::plot::{
@@ -47,7 +47,7 @@ impl Lookup for PlotLookup<'_> {
 }
 
 /// A title, legend entry or note with its references resolved
-/// ([`crate::pipeline::references`]).
+/// ([`crate::table::references`]).
 fn fill(text: &str, inputs: &[Artifact], build: &BuildInfo) -> Result<String> {
     render(text, &PlotLookup { inputs, build }).context("plot")
 }

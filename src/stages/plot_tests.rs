@@ -1,5 +1,5 @@
 //! Tests of the `plot` stage kind (src/stages/plot.rs).
-use crate::pipeline::references::{Lookup, Reference, Resolved, Target, value_with_error};
+use crate::table::references::{Lookup, Reference, Resolved, Target, value_with_error};
 
 /// A table every column of `layer` can be read from: three groups of twelve
 /// points along a rising curve inside the panel's axes, errors of 5% of the
@@ -161,7 +161,7 @@ fn every_plot_spec_lays_out_without_defects() {
                     .unwrap();
                 Ok(synthetic(layer, ps, &p.colour_ranges))
             };
-            let fill = |t: &str| crate::pipeline::references::render(t, &Placeholder(profile));
+            let fill = |t: &str| crate::table::references::render(t, &Placeholder(profile));
             let mut fig = super::build(&p, table, fill).unwrap();
             fig.profile = Some(profile.to_string());
             let name = f.file_name().unwrap().to_string_lossy().to_string();
@@ -280,10 +280,10 @@ fn fitted_values_round_to_their_error() {
     assert_eq!(value_with_error(0.6, f64::NAN), "0.60");
     assert_eq!(value_with_error(-1.3521, 0.061), "−1.35 ± 0.06");
     assert_eq!(value_with_error(f64::NAN, f64::NAN), "(no fit)");
-    assert_eq!(crate::pipeline::references::legend_number(29.333), "29");
-    assert_eq!(crate::pipeline::references::legend_number(0.785), "0.785");
-    assert_eq!(crate::pipeline::references::legend_number(7.333), "7.3");
-    assert_eq!(crate::pipeline::references::legend_number(1.4), "1.40");
+    assert_eq!(crate::table::references::legend_number(29.333), "29");
+    assert_eq!(crate::table::references::legend_number(0.785), "0.785");
+    assert_eq!(crate::table::references::legend_number(7.333), "7.3");
+    assert_eq!(crate::table::references::legend_number(1.4), "1.40");
 }
 
 /// `scale: auto` makes the longest arrow 0.9 of the grid step (here the

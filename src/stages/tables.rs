@@ -211,7 +211,7 @@ impl Columns {
         Ok((self.col(VALUE)?[i], self.col(ERROR)?[i]))
     }
     /// The value a text's reference `NAME.FIELD[@COLUMN=VALUE,...]` names
-    /// ([`crate::pipeline::references`]): a fit table's row `field` (in the row
+    /// ([`crate::table::references`]): a fit table's row `field` (in the row
     /// group `row`), or else column `field` at its one row (the row whose
     /// columns equal the values of `row`, within 1e-9 relative), with its
     /// error from `FIELD_err` (NaN without one).

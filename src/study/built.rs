@@ -1,6 +1,6 @@
 //! The values a report's texts name, read back from the store: the compare
 //! reasons of `repro report` and the `error_coverage` of `repro coverage`
-//! resolve their references ([`crate::pipeline::references`]) here. A stage is
+//! resolve their references ([`crate::table::references`]) here. A stage is
 //! looked up under the key the current specs and code give it at that profile,
 //! so a build of other code or parameters reads as not built, never as an old
 //! number.
@@ -13,7 +13,7 @@ use std::rc::Rc;
 use anyhow::{Context, Result, bail};
 
 use crate::pipeline::exec::{State, artifact, status};
-use crate::pipeline::references::{Lookup, Reference, Resolved, Target, render};
+use crate::table::references::{Lookup, Reference, Resolved, Target, render};
 use crate::pipeline::{Catalogue, Graph, Registry, Store, Workspace, needed_nodes};
 use crate::stages::tables::Columns;
 

@@ -6,6 +6,7 @@
 //! same directory, fsync, rename).
 
 pub mod columns;
+pub mod references;
 pub mod replicas;
 pub mod results;
 pub mod trajectory;
