@@ -19,6 +19,7 @@ mod driving;
 mod force_kicks;
 mod neighbour_lists;
 mod observables;
+mod parts;
 mod prefetch_pipeline;
 mod pulled_intruder;
 mod setup;
@@ -26,6 +27,8 @@ mod snapshot;
 
 pub use setup::Setup;
 pub use snapshot::EngineState;
+
+use parts::{Driving, KICKS_AHEAD, Lists, NO_INTRUDER, Pipeline, Pulling, Train};
 
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
@@ -43,9 +46,6 @@ const LIST_CAPACITY: usize = 12;
 /// Shell half-width as a fraction of the smallest radius: wider shells mean fewer
 /// list rebuilds but longer lists (measured in docs/sim.md).
 const SHELL_FRACTION: f64 = 0.3;
-/// First disks of kicks drawn ahead of the pending one: each is fetched from
-/// memory in stages over the kicks before it (docs/sim.md, "Prefetch pipeline").
-const KICKS_AHEAD: usize = 3;
 /// At most this many events of one calendar bucket are fetched ahead (a bucket
 /// holds ~2 on average).
 const BUCKET_PREFETCH_MAX: usize = 8;
@@ -156,7 +156,7 @@ pub struct Engine {
     bk: Vec<Book>,
     calendar: EventCalendar,
     /// The neighbour lists and their shell.
-    lists: neighbour_lists::Lists,
+    lists: Lists,
     /// Largest radius.
     rmax: f64,
     /// Current clock reading: the time without friction, the friction clock s
@@ -180,16 +180,16 @@ pub struct Engine {
     scale_t0: f64,
     growth: f64,
     /// The driving's state: its kicks, their rate and amplitude, the next one.
-    drive: driving::Driving,
+    drive: Driving,
     /// Clock reading of the next kick of either train: the driving's
     /// (`next_drive`) or the force's (`train.next`).
     next_kick: f64,
     /// The force on the intruder as a train of momentum kicks (off: never).
-    train: force_kicks::Train,
+    train: Train,
     /// The prefetch pipeline's state.
-    pipeline: prefetch_pipeline::Pipeline,
+    pipeline: Pipeline,
     /// The intruder's state (paper I).
-    pulling: pulled_intruder::Pulling,
+    pulling: Pulling,
     rng: ChaCha8Rng,
     pub stats: Stats,
 }
@@ -213,7 +213,7 @@ impl Engine {
     pub fn sort_by_cell(&mut self) {
         self.sync_all();
         let mut order: Vec<u32> = (0..self.n() as u32).collect();
-        if self.pulling.intruder == pulled_intruder::NO_INTRUDER {
+        if self.pulling.intruder == NO_INTRUDER {
             order.sort_by_key(|&i| self.cell[i as usize]);
         } else {
             // The intruder keeps its index (the first).
@@ -344,7 +344,7 @@ impl Engine {
     /// either way.
     #[inline]
     fn plain(&self) -> bool {
-        self.pulling.pulled == pulled_intruder::NO_INTRUDER
+        self.pulling.pulled == NO_INTRUDER
             && !self.has_walls
             && self.clock.gamma == 0.0
     }
@@ -432,7 +432,7 @@ impl Engine {
     /// ledgers are then current for the readers).
     #[inline]
     fn sync_pulled(&mut self) {
-        if self.pulling.pulled != pulled_intruder::NO_INTRUDER {
+        if self.pulling.pulled != NO_INTRUDER {
             self.advance_pulled();
         }
     }
@@ -679,7 +679,7 @@ impl Engine {
         let (mut best, mut partner) =
             earliest_pair(&self.d, list, &a, self.now, self.lx, self.ly, shell);
         if !PLAIN
-            && self.pulling.pulled != pulled_intruder::NO_INTRUDER
+            && self.pulling.pulled != NO_INTRUDER
             && list.contains(&(self.pulling.pulled as u32))
         {
             self.earlier_intruder(&a, &mut best, &mut partner);

@@ -4,10 +4,7 @@
 
 use rand_chacha::ChaCha8Rng;
 
-use super::{
-    Book, Engine, LIST_CAPACITY, PREFETCH_MIN_BYTES, SHELL_FRACTION, Stats, driving, force_kicks,
-    neighbour_lists, prefetch_pipeline, pulled_intruder,
-};
+use super::{Book, Engine, LIST_CAPACITY, PREFETCH_MIN_BYTES, SHELL_FRACTION, Stats, parts};
 use crate::sim::big_vec::{big_vec, big_vec_from};
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::{CROSS, Disk, NONE};
@@ -130,7 +127,7 @@ impl Engine {
             last_collision: big_vec(n, f64::NEG_INFINITY),
             bk: big_vec(n, Book::default()),
             calendar: EventCalendar::new(n),
-            lists: neighbour_lists::Lists {
+            lists: parts::Lists {
                 on: false,
                 shell,
                 cap,
@@ -155,14 +152,14 @@ impl Engine {
             scale_t0: 0.0,
             growth: 0.0,
             next_kick: f64::INFINITY,
-            train: force_kicks::Train::OFF,
-            drive: driving::Driving::OFF,
-            pipeline: prefetch_pipeline::Pipeline {
+            train: parts::Train::OFF,
+            drive: parts::Driving::OFF,
+            pipeline: parts::Pipeline {
                 bucket: 0,
                 on: false,
                 min_bytes: PREFETCH_MIN_BYTES,
             },
-            pulling: pulled_intruder::Pulling::NONE,
+            pulling: parts::Pulling::NONE,
             rng,
             stats: Stats::default(),
         };

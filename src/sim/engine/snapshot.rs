@@ -11,7 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Engine, Setup, Stats, driving, force_kicks, pulled_intruder};
+use super::{Engine, Setup, Stats, parts};
 use crate::sim::big_vec::big_vec;
 use crate::sim::events::calendar::EventCalendar;
 use crate::sim::events::disk::NONE;
@@ -51,10 +51,10 @@ pub struct EngineState {
     scale0: f64,
     scale_t0: f64,
     growth: f64,
-    drive: driving::Driving,
+    drive: parts::Driving,
     next_kick: f64,
-    train: force_kicks::Train,
-    pulling: pulled_intruder::Pulling,
+    train: parts::Train,
+    pulling: parts::Pulling,
     rng: ChaCha8Rng,
     stats: Stats,
 }
@@ -165,7 +165,7 @@ impl Engine {
             d.te = f64::INFINITY;
         }
         self.pulling.intruder_te = f64::INFINITY;
-        if self.pulling.pulled != pulled_intruder::NO_INTRUDER {
+        if self.pulling.pulled != parts::NO_INTRUDER {
             self.d[self.pulling.pulled].te = f64::NEG_INFINITY;
         }
     }
