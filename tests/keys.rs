@@ -233,10 +233,11 @@ fn editing_the_framework_leaves_every_stage_of_fig4_cached() {
 }
 
 /// Editing the Parquet column helpers reruns the table stage of fig12, which
-/// writes through them.
+/// writes through them (so do the simulations, which write their
+/// trajectories through them too).
 #[test]
 fn editing_the_table_columns_makes_the_table_stage_of_fig12_stale() {
     let (_, stale) = stale_after("fig12", "table/columns.rs", harmless);
     assert!(stale.iter().any(|k| k == "table"), "{stale:?}");
-    assert!(!stale.iter().any(|k| k == "simulate"), "{stale:?}");
+    assert!(stale.iter().any(|k| k == "simulate"), "{stale:?}");
 }
