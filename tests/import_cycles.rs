@@ -1,14 +1,17 @@
-//! No import cycles: the module graph read from the sources (every `crate::`,
-//! `super::` and `self::` path of non-test code, in `use` lines and inline, a
+//! No import cycles: the module graph read from the sources (every path of
+//! non-test code, in `use` lines and inline, resolved in its module, a
 //! re-export followed to the file defining the name; the same graph the code
 //! fingerprints close over, `repro::pipeline::fingerprint`) is acyclic file by
-//! file, and between the files and subfolders of every folder of `src/`. A
-//! cycle is printed as the chain of modules that closes it.
+//! file, and between the files and subfolders of every folder of `src/`; so is
+//! the graph `syn` reads (tests/syn_graph). A cycle is printed as the chain of
+//! modules that closes it.
+
+mod syn_graph;
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use repro::pipeline::fingerprint::Sources;
+use repro::pipeline::fingerprint::{Sources, find_cycle};
 
 /// The top-level modules whose dependencies must form a DAG.
 const TOP_LEVEL: &[&str] = &[
@@ -34,6 +37,15 @@ fn no_two_files_import_each_other_through_any_chain() {
     let fit = s.closure(&["stages/fit/kind"]).unwrap();
     assert!(fit.contains("fit/uncertainty/replicas"), "{fit:?}");
     assert_acyclic("between files", s.cycle(|m| Some(m.to_string())));
+}
+
+/// The second reading of the sources finds no cycle either (a mod.rs and the
+/// children whose paths it names inline, `columns::f()`, included).
+#[test]
+fn the_graph_syn_reads_has_no_cycle() {
+    let g = syn_graph::syn_graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
+    assert!(g["table"].contains("table/columns"), "{:?}", g["table"]);
+    assert_acyclic("between files (syn)", find_cycle(&g));
 }
 
 /// Every folder of `src/` (and `src/` itself): its files and subfolders, a

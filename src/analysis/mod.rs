@@ -33,17 +33,8 @@ pub mod van_hove;
 pub mod window;
 
 use anyhow::{Result, bail};
-use arrow_array::RecordBatch;
 
 use crate::traj::{Frame, Trajectory};
-
-/// Run the observable `kind` (one of [`observables::OBSERVABLES`]) on one trajectory,
-/// with its parameters given as a JSON/YAML value (unknown keys and wrong types are
-/// errors naming the kind). The same function a pipeline's analysis stage calls on
-/// the replicas it gathers; this returns the main table.
-pub fn run(kind: &str, params: serde_json::Value, traj: &Trajectory) -> Result<RecordBatch> {
-    Ok((observables::find(kind)?.compute)(&[traj], &params)?.main)
-}
 
 /// Default relative tolerance when matching a requested lag to frame time differences.
 pub const DEFAULT_REL_TOL: f64 = 1e-6;

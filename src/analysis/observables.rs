@@ -449,6 +449,14 @@ pub static OBSERVABLES: &[Observable] = &[
     },
 ];
 
+/// Run the observable `kind` (one of [`OBSERVABLES`]) on one trajectory,
+/// with its parameters given as a JSON/YAML value (unknown keys and wrong types are
+/// errors naming the kind). The same function a pipeline's analysis stage calls on
+/// the replicas it gathers; this returns the main table.
+pub fn run(kind: &str, params: Value, traj: &Trajectory) -> Result<RecordBatch> {
+    Ok((find(kind)?.compute)(&[traj], &params)?.main)
+}
+
 /// The observable called `name`, or an error listing them all.
 pub fn find(name: &str) -> Result<&'static Observable> {
     OBSERVABLES.iter().find(|o| o.name == name).ok_or_else(|| {
@@ -466,7 +474,6 @@ pub fn find(name: &str) -> Result<&'static Observable> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::run;
     use crate::analysis::synthetic::{ballistic, independent_slow};
     use crate::analysis::test_support::{col, err_text, schedule_times};
 

@@ -3,11 +3,11 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::pipeline::Registry;
-
 pub mod figs;
 pub mod pipeline;
 pub mod sim;
+
+pub use pipeline::{TOY_KINDS, registry};
 
 /// Regenerate the figures of the driven-granular-fluid papers from YAML specs.
 #[derive(Parser, Debug)]
@@ -29,21 +29,6 @@ pub enum Command {
     Kinds,
 }
 
-/// The registry the command line runs with: every kind of the library
-/// (`stages::registry()`), and the framework's toy kinds when the environment
-/// variable `REPRO_TOY_KINDS` is set (the integration tests' fixtures use them).
-/// A runtime switch rather than a cargo feature: the tests and `make test`'s
-/// figure builds then share one compiled library instead of two.
-pub fn registry() -> Registry {
-    let mut r = crate::stages::registry();
-    if std::env::var_os(TOY_KINDS).is_some() {
-        crate::pipeline::toy::register(&mut r);
-    }
-    r
-}
-
-/// The environment variable that adds the toy kinds to the command line's registry.
-pub const TOY_KINDS: &str = "REPRO_TOY_KINDS";
 
 /// `repro kinds`: one paragraph per registered kind, from the registry itself.
 fn kinds() {

@@ -25,6 +25,22 @@ pub struct RootArgs {
     pub store: Option<PathBuf>,
 }
 
+/// The registry the command line runs with: every kind of the library
+/// (`stages::registry()`), and the framework's toy kinds when the environment
+/// variable `REPRO_TOY_KINDS` is set (the integration tests' fixtures use them).
+/// A runtime switch rather than a cargo feature: the tests and `make test`'s
+/// figure builds then share one compiled library instead of two.
+pub fn registry() -> Registry {
+    let mut r = crate::stages::registry();
+    if std::env::var_os(TOY_KINDS).is_some() {
+        crate::pipeline::toy::register(&mut r);
+    }
+    r
+}
+
+/// The environment variable that adds the toy kinds to the command line's registry.
+pub const TOY_KINDS: &str = "REPRO_TOY_KINDS";
+
 impl RootArgs {
     fn workspace(&self) -> Workspace {
         let root = self
@@ -302,7 +318,7 @@ fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
 }
 
 pub fn run(c: Commands) -> Result<()> {
-    let reg = super::registry();
+    let reg = registry();
     match c {
         Commands::Figure {
             figures,

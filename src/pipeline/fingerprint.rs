@@ -48,6 +48,20 @@ pub struct Sources {
     /// Module key -> module, for every non-test file of the library.
     pub modules: BTreeMap<String, Module>,
     pub lock: Vec<Package>,
+    /// The compiler (`rustc --version`, set by build.rs): in every key, since
+    /// another compiler may round floating point differently.
+    pub rustc: String,
+}
+
+/// Whether module `key` belongs to the harness, which no key covers: the
+/// framework (`src/pipeline`: planner, store, registry, this parser, progress,
+/// canonical parameters, checkpoint plumbing, the stage trait), which hands a
+/// kind its parameters and inputs and stores its output, and the code around it
+/// (`study`, `cli`, the crate root). A kind's key covers its own modules and
+/// what they reach without passing through the harness ([`Sources::closure`]).
+pub fn is_harness(key: &str) -> bool {
+    let top = key.split('/').next().unwrap_or(key);
+    matches!(top, "pipeline" | "study" | "cli" | "lib" | "main")
 }
 
 /// A kind's fingerprint and what it covers.
@@ -248,16 +262,30 @@ fn paths(code: &str, crates: &mut BTreeSet<String>) -> Vec<Named> {
         })
         .collect::<Vec<_>>()
         .join("\n");
+    // Names an inline path may start with: the child modules the file
+    // declares and the names its `use` declarations bring into scope.
+    let mut scope: BTreeMap<String, Vec<String>> = child_modules(code)
+        .into_iter()
+        .map(|c| (c.clone(), vec!["self".to_string(), c]))
+        .collect();
     for (public, decl) in decls {
         for p in expand(&decl) {
             let (path, name) = alias(&p);
             let mut segs: Vec<String> = path.split("::").map(str::to_string).collect();
             if !matches!(segs[0].as_str(), "crate" | "super" | "self") {
-                crates.insert(segs[0].clone());
-                segs.insert(0, "self".into());
+                if let Some(local) = scope.get(&segs[0]) {
+                    // `use columns::f;` of a file declaring `mod columns;`.
+                    segs.splice(0..1, local.clone());
+                } else {
+                    crates.insert(segs[0].clone());
+                    segs.insert(0, "self".into());
+                }
+            }
+            if name != "*" && name != "_" {
+                scope.insert(name.clone(), segs.clone());
             }
             let used = !public || name == "*" || find_word(&own, &name).is_some();
-            let reexport = (public && name != "*").then_some(name);
+            let reexport = public.then_some(name);
             out.push(Named {
                 segs,
                 reexport,
@@ -295,11 +323,36 @@ fn paths(code: &str, crates: &mut BTreeSet<String>) -> Vec<Named> {
                 reexport: None,
                 used: true,
             });
+        } else if let Some(local) = scope.get(&segs[0]) {
+            // `columns::f()` in a file declaring `mod columns;`, `pool::g()`
+            // after `use super::pool;`.
+            let mut full = local.clone();
+            full.extend(segs[1..].iter().cloned());
+            out.push(Named {
+                segs: full,
+                reexport: None,
+                used: true,
+            });
         } else {
             crates.insert(segs[0].clone());
         }
     }
     out
+}
+
+/// The child modules a file declares (`mod x;`, `pub mod x;`, `pub(crate) mod
+/// x;`), test modules already removed by [`non_test_code`].
+fn child_modules(code: &str) -> Vec<String> {
+    code.lines()
+        .filter_map(|l| {
+            let l = l.trim();
+            let w: Vec<&str> = l.split_whitespace().collect();
+            let k = w.iter().position(|x| *x == "mod")?;
+            let visibility = w[..k].iter().all(|x| x.starts_with("pub"));
+            let name = w.get(k + 1)?.trim_end_matches(';');
+            (visibility && l.ends_with(';') && name.chars().all(is_ident)).then(|| name.to_string())
+        })
+        .collect()
 }
 
 /// The first place `word` stands alone in `text`.
@@ -339,7 +392,9 @@ fn key_of(segs: &[String]) -> String {
     }
 }
 
-type Reexports = BTreeMap<Vec<String>, BTreeMap<String, Vec<String>>>;
+/// Per module, its re-exported names to their paths; the globs (`pub use
+/// x::*`) under `*`, each path ending in `*`.
+type Reexports = BTreeMap<Vec<String>, BTreeMap<String, Vec<Vec<String>>>>;
 
 /// The file module `path` (relative to module `m`) lands in: the longest prefix
 /// of its absolute form that is a module, following re-exports (`pub use
@@ -370,12 +425,34 @@ fn resolve(
     let (module, rest) = (abs[..n].to_vec(), &abs[n..]);
     if depth < 8
         && let Some(first) = rest.first()
-        && let Some(target) = reexports.get(&module).and_then(|r| r.get(first))
+        && let Some(named) = reexports.get(&module)
     {
-        let mut p = target.clone();
-        p.extend(rest[1..].iter().cloned());
-        if let Some(r) = resolve(&module, &p, modules, reexports, depth + 1) {
-            return Some(r);
+        // A name re-exported by name, else through the first glob (`pub use
+        // x::*`) that leads further.
+        let targets: Vec<Vec<String>> = match named.get(first) {
+            Some(target) => target
+                .iter()
+                .map(|t| {
+                    let mut p = t.clone();
+                    p.extend(rest[1..].iter().cloned());
+                    p
+                })
+                .collect(),
+            None => named
+                .get("*")
+                .into_iter()
+                .flatten()
+                .map(|glob| {
+                    let mut p = glob[..glob.len() - 1].to_vec();
+                    p.extend(rest.iter().cloned());
+                    p
+                })
+                .collect(),
+        };
+        for p in targets {
+            if let Some(r) = resolve(&module, &p, modules, reexports, depth + 1) {
+                return Some(r);
+            }
         }
     }
     Some(module)
@@ -500,7 +577,9 @@ impl Sources {
                     reexports
                         .entry(p.module.clone())
                         .or_default()
-                        .insert(name.clone(), n.segs.clone());
+                        .entry(name.clone())
+                        .or_default()
+                        .push(n.segs.clone());
                 }
             }
         }
@@ -517,12 +596,16 @@ impl Sources {
             out.insert(key_of(&p.module), Module { hash, deps, crates });
         }
         let lock = parse_lock(&fs::read_to_string(lock).expect("Cargo.lock readable"));
-        Sources { modules: out, lock }
+        Sources {
+            modules: out,
+            lock,
+            rustc: String::new(),
+        }
     }
 
     /// As text, one record a line (what build.rs writes into the binary).
     pub fn to_text(&self) -> String {
-        let mut s = String::new();
+        let mut s = format!("R\t{}\n", self.rustc);
         for (k, m) in &self.modules {
             s.push_str(&format!("M\t{k}\t{}\n", m.hash));
             for d in &m.deps {
@@ -551,6 +634,7 @@ impl Sources {
         for line in text.lines() {
             let f: Vec<&str> = line.split('\t').collect();
             match f.as_slice() {
+                ["R", rustc] => s.rustc = rustc.to_string(),
                 ["M", k, h] => {
                     s.modules.insert(
                         k.to_string(),
@@ -589,8 +673,9 @@ impl Sources {
         s
     }
 
-    /// Every module reachable from `roots` (module keys or `file!()` paths),
-    /// roots included; an error names a root that is no module.
+    /// Every module reachable from `roots` (module keys or `file!()` paths)
+    /// without entering the harness ([`is_harness`]), roots included; an error
+    /// names a root that is no module.
     pub fn closure(&self, roots: &[&str]) -> Result<BTreeSet<String>, String> {
         let mut seen = BTreeSet::new();
         let mut todo: Vec<String> = Vec::new();
@@ -608,7 +693,12 @@ impl Sources {
                 continue;
             }
             if let Some(m) = self.modules.get(&k) {
-                todo.extend(m.deps.iter().filter(|d| !seen.contains(*d)).cloned());
+                todo.extend(
+                    m.deps
+                        .iter()
+                        .filter(|d| !seen.contains(*d) && !is_harness(d))
+                        .cloned(),
+                );
             }
         }
         Ok(seen)
@@ -654,7 +744,10 @@ impl Sources {
             .closure(roots)
             .map_err(|e| format!("stage kind '{name}': {e}"))?;
         let mut h = blake3::Hasher::new();
-        hash_bytes(&mut h, b"repro-code-v2");
+        // v3: the harness left out, inline paths resolved in their module, the
+        // compiler hashed.
+        hash_bytes(&mut h, b"repro-code-v3");
+        hash_bytes(&mut h, self.rustc.as_bytes());
         hash_bytes(&mut h, name.as_bytes());
         for k in &closure {
             hash_bytes(&mut h, k.as_bytes());
@@ -765,6 +858,37 @@ mod tests {
         );
         assert_eq!(module_key("src/stages/fit/mod.rs"), "stages/fit");
         assert_eq!(module_key("stages/simulate"), "stages/simulate");
+    }
+
+    /// `columns::f()` in a file declaring `mod columns;`, `pool::g()` after
+    /// `use super::pool;`, and a name a glob re-exports.
+    #[test]
+    fn inline_paths_resolve_in_their_module() {
+        let mut crates = BTreeSet::new();
+        let code = "pub mod columns;\nuse super::pool;\nuse columns::Cell;\npub use deep::*;\nfn f() -> Cell { columns::g(); pool::h(); Vec::new() }\n";
+        let named = paths(code, &mut crates);
+        let segs: Vec<String> = named.iter().map(|n| n.segs.join("::")).collect();
+        assert_eq!(
+            segs,
+            [
+                "super::pool",
+                "self::columns::Cell",
+                "self::deep::*",
+                "self::columns::g",
+                "super::pool::h"
+            ]
+        );
+        assert!(crates.contains("Vec") && !crates.contains("columns"), "{crates:?}");
+        assert!(is_harness("pipeline/registry") && is_harness("lib") && !is_harness("table"));
+        let v = |s: &str| -> Vec<String> { s.split('/').filter(|x| !x.is_empty()).map(str::to_string).collect() };
+        let modules: BTreeSet<Vec<String>> = ["", "a", "a/deep", "x"].iter().map(|m| v(m)).collect();
+        let mut reexports: Reexports = BTreeMap::new();
+        reexports.entry(v("a")).or_default().insert(
+            "*".into(),
+            vec![vec!["self".into(), "deep".into(), "*".into()]],
+        );
+        let path: Vec<String> = ["crate", "a", "Thing"].map(str::to_string).to_vec();
+        assert_eq!(resolve(&v("x"), &path, &modules, &reexports, 0), Some(v("a/deep")));
     }
 
     #[test]

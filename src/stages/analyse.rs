@@ -201,7 +201,7 @@ fn covered_by_run_length(at: &[f64], u: &TimeUnit, inputs: &[PlannedInput]) -> R
         .iter()
         .filter(|n| n.kind.holds == Holds::Trajectory && n.params.get("lag_max_tau").is_some());
     for n in ruled {
-        let super::simulate::Run { rule, config: cfg } = n.parsed.get()?;
+        let super::run_length::Run { rule, config: cfg } = n.parsed.get()?;
         let reach = cfg.schedule.lags.last().copied().unwrap_or(0.0) / rule.tau_guess.at(cfg.phi);
         if want > reach * (1.0 + 1e-9) {
             let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());

@@ -12,7 +12,7 @@
 //!   `lag_max_tau` x tau_guess;
 //! - optional `overlap_spacing_tau`: the same window with origins every
 //!   `overlap_spacing_tau` x tau_guess (overlapping blocks: more origins for the
-//!   same simulated time, more stored frames; [`Schedule::overlapping`]).
+//!   same simulated time, more stored frames; [`crate::traj::Schedule::overlapping`]).
 //!
 //! Every other parameter is a [`SimConfig`] field (n, phi, eps, seed, ...).
 
@@ -20,9 +20,10 @@ use std::cell::Cell;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use serde::Deserialize;
 use serde_json::{Map, Value};
 
+pub use super::run_length::{Run, RunLength, TauGuess};
+use super::run_length::RULE_KEYS;
 use super::simulate_cost::planned_work;
 use crate::pipeline::canon::{ParamError, param_error};
 use crate::pipeline::checkpoints::{Checkpoints, RunProgress, unix_now};
@@ -31,116 +32,6 @@ use crate::pipeline::stage::{Holds, Work};
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::sim::run::checkpoint::Keeper;
 use crate::sim::{self, SimConfig};
-use crate::traj::Schedule;
-
-/// An estimate of tau_alpha(phi): A exp[B / (phi0 - phi)].
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct TauGuess {
-    #[serde(rename = "A")]
-    pub a: f64,
-    #[serde(rename = "B")]
-    pub b: f64,
-    pub phi0: f64,
-}
-
-impl TauGuess {
-    pub fn at(&self, phi: f64) -> f64 {
-        self.a * (self.b / (self.phi0 - phi)).exp()
-    }
-}
-
-/// The run-length rule (keys of the stage parameters besides the SimConfig ones).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct RunLength {
-    pub tau_guess: TauGuess,
-    pub relax_tau: f64,
-    #[serde(default)]
-    pub relax_min: f64,
-    pub origins: usize,
-    pub spacing_tau: f64,
-    pub lag_min: f64,
-    pub lag_max_tau: f64,
-    pub lags_per_decade: usize,
-    #[serde(default)]
-    pub overlap_spacing_tau: Option<f64>,
-}
-
-const RULE_KEYS: &[&str] = &[
-    "tau_guess",
-    "relax_tau",
-    "relax_min",
-    "origins",
-    "spacing_tau",
-    "lag_min",
-    "lag_max_tau",
-    "lags_per_decade",
-    "overlap_spacing_tau",
-];
-
-impl RunLength {
-    /// Relaxation time and frame schedule at packing fraction `phi`.
-    pub fn schedule(&self, phi: f64) -> (f64, Schedule) {
-        let tau = self.tau_guess.at(phi);
-        let lag_max = (self.lag_max_tau * tau).max(self.lag_min * 10.0);
-        let s = Schedule {
-            start: 0.0,
-            origins: self.origins,
-            origin_spacing: self.spacing_tau * tau,
-            lags: Schedule::log_lags(self.lag_min, lag_max, self.lags_per_decade),
-        };
-        (
-            (self.relax_tau * tau).max(self.relax_min),
-            match self.overlap_spacing_tau {
-                Some(o) => s.overlapping(o * tau),
-                None => s,
-            },
-        )
-    }
-
-    fn check(&self) -> Result<()> {
-        let g = &self.tau_guess;
-        for (name, v) in [
-            ("tau_guess.A", g.a),
-            ("relax_tau", self.relax_tau),
-            ("spacing_tau", self.spacing_tau),
-            ("lag_min", self.lag_min),
-            ("lag_max_tau", self.lag_max_tau),
-            (
-                "overlap_spacing_tau",
-                self.overlap_spacing_tau.unwrap_or(1.0),
-            ),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                let path: Vec<&str> = name.split('.').collect();
-                return Err(param_error(
-                    &path,
-                    format!("simulate: `{name}` = {v} must be a finite number > 0"),
-                ));
-            }
-        }
-        if !(g.b.is_finite() && g.b >= 0.0 && g.phi0.is_finite()) {
-            bail!(
-                "simulate: tau_guess needs B >= 0 and a finite phi0, got B = {}, phi0 = {}",
-                g.b,
-                g.phi0
-            );
-        }
-        for (name, v) in [
-            ("origins", self.origins),
-            ("lags_per_decade", self.lags_per_decade),
-        ] {
-            if v == 0 {
-                return Err(param_error(
-                    &[name],
-                    format!("simulate: `{name}` must be at least 1"),
-                ));
-            }
-        }
-        Ok(())
-    }
-}
 
 /// Split the stage parameters into the run-length rule and the SimConfig.
 /// A flat `force: F` (a grid key: grid values are flat parameters and become table
@@ -174,13 +65,6 @@ fn force_into_intruder(mut rest: Map<String, Value>) -> Result<Map<String, Value
     Ok(rest)
 }
 
-/// A simulation stage's parameters, parsed: its run-length rule and the
-/// configuration the rule resolves to (relaxation and schedule set).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Run {
-    pub rule: RunLength,
-    pub config: SimConfig,
-}
 
 /// Parse a simulation stage's parameters: the run-length rule, and every other
 /// key a [`SimConfig`] field, resolved by the rule and checked.

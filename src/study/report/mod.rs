@@ -17,6 +17,8 @@ pub mod headline;
 pub mod html;
 pub mod markdown;
 
+pub use markdown::{write, write_markdown};
+
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -513,50 +515,6 @@ pub struct Written {
     pub figures: usize,
 }
 
-/// Write `results/REPORT.md` from the figures under `root/results` (profile
-/// `profile`, or the one they share); with `docs`, also `root/docs/report-PROFILE.md`
-/// and the PNGs as `root/docs/img/ID-PROFILE.png`.
-pub fn write(root: &Path, results: &Path, profile: Option<&str>, docs: bool) -> Result<Written> {
-    let report = collect(root, results, profile)?;
-    write_markdown(&report, root, results, docs)
-}
-
-/// Write the Markdown renderings of `report` (see [`write`]).
-pub fn write_markdown(report: &Report, root: &Path, results: &Path, docs: bool) -> Result<Written> {
-    let profile = &report.profile;
-    let mut files = Vec::new();
-    let here = results.join("REPORT.md");
-    let md = markdown::render(report, |id| format!("{id}/figure.png"));
-    crate::table::write_atomic(&here, md.as_bytes())?;
-    files.push(here);
-    let headline = headline::render(report);
-    let here = results.join("HEADLINE.md");
-    crate::table::write_atomic(&here, headline.as_bytes())?;
-    files.push(here);
-    if docs {
-        let img = root.join("docs").join("img");
-        std::fs::create_dir_all(&img).with_context(|| format!("creating {}", img.display()))?;
-        for f in report.built() {
-            if let Some(png) = &f.png {
-                let to = img.join(format!("{}-{profile}.png", f.id));
-                std::fs::copy(png, &to)
-                    .with_context(|| format!("copying {} to {}", png.display(), to.display()))?;
-            }
-        }
-        let doc = root.join("docs").join(format!("report-{profile}.md"));
-        let md = markdown::render(report, |id| format!("img/{id}-{profile}.png"));
-        crate::table::write_atomic(&doc, md.as_bytes())?;
-        files.push(doc);
-        let doc = root.join("docs").join(format!("headline-{profile}.md"));
-        crate::table::write_atomic(&doc, headline.as_bytes())?;
-        files.push(doc);
-    }
-    Ok(Written {
-        profile: profile.clone(),
-        files,
-        figures: report.built().count(),
-    })
-}
 
 #[cfg(test)]
 mod tests {
