@@ -136,33 +136,41 @@ impl RunReport {
     }
 }
 
-/// The parameters a stage's key hashes: its own and, when its kind reads
+/// The parameters a stage's key hashes: its own; when its kind reads
 /// settings of the upstream runs ([`StageKind::reads_run`](super::StageKind::reads_run)),
 /// those settings of each input, so that an edit of one reruns it however
-/// its inputs' files came out.
+/// its inputs' files came out; and what the kind depends on outside the crate
+/// ([`StageKind::keyed_outside`](super::StageKind::keyed_outside): a script's files).
 pub fn keyed_params<'a>(graph: &Graph, reg: &Registry, node: &'a Node) -> Cow<'a, Value> {
-    let keys = reg
-        .get(&node.kind)
-        .map(|k| k.reads_run(&node.parsed))
-        .unwrap_or_default();
-    if keys.is_empty() {
+    let Ok(kind) = reg.get(&node.kind) else {
+        return Cow::Borrowed(&node.params);
+    };
+    let keys = kind.reads_run(&node.parsed);
+    let outside = kind.keyed_outside(&node.parsed, node.root());
+    if keys.is_empty() && outside.is_null() {
         return Cow::Borrowed(&node.params);
     }
-    let runs: Vec<Value> = node
-        .inputs
-        .iter()
-        .map(|&j| {
-            let run = &graph.nodes[j].run;
-            Value::Object(
-                keys.iter()
-                    .filter_map(|k| run.get(k).map(|v| (k.clone(), v.clone())))
-                    .collect(),
-            )
-        })
-        .collect();
     let mut p = node.params.clone();
-    if let Value::Object(m) = &mut p {
+    let Value::Object(m) = &mut p else {
+        return Cow::Borrowed(&node.params);
+    };
+    if !keys.is_empty() {
+        let runs: Vec<Value> = node
+            .inputs
+            .iter()
+            .map(|&j| {
+                let run = &graph.nodes[j].run;
+                Value::Object(
+                    keys.iter()
+                        .filter_map(|k| run.get(k).map(|v| (k.clone(), v.clone())))
+                        .collect(),
+                )
+            })
+            .collect();
         m.insert("(runs read)".into(), Value::Array(runs));
+    }
+    if !outside.is_null() {
+        m.insert("(outside the crate)".into(), outside);
     }
     Cow::Owned(p)
 }
@@ -489,7 +497,8 @@ pub(crate) fn compute(
     };
     let checkpoints = store.checkpoints(&key);
     let ctx = StageCtx::new(node.seed, node.label().to_string(), sink)
-        .with_checkpoints(checkpoints.clone());
+        .with_checkpoints(checkpoints.clone())
+        .with_root(node.root());
     let t0 = Instant::now();
     let cpu0 = thread_cpu_seconds();
     let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.parsed, inputs)));

@@ -55,6 +55,12 @@ impl Node {
         &self.labels[0]
     }
 
+    /// The project root the stage was declared under (its spec file is
+    /// `ROOT/pipelines/ID.yaml` or `ROOT/experiments/NAME.yaml`).
+    pub fn root(&self) -> &Path {
+        self.origin.0.ancestors().nth(2).unwrap_or(Path::new(""))
+    }
+
     /// This node as an input of a stage being planned.
     pub fn planned(&self, reg: &Registry) -> PlannedInput<'_> {
         PlannedInput {
@@ -131,6 +137,32 @@ pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> R
         let fig = p.pipeline(id, file, spec)?;
         p.graph.figures.push(fig);
     }
+    Ok(p.graph)
+}
+
+/// Plan the simulations of experiment `name` at `profile` alone (no figure):
+/// what `repro runs` lists.
+pub fn plan_experiment(cat: &Catalogue, name: &str, profile: &str, reg: &Registry) -> Result<Graph> {
+    if !PROFILES.contains(&profile) {
+        anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
+    }
+    if !cat.experiments.contains_key(name) {
+        anyhow::bail!(
+            "no experiment '{name}' (experiments/{name}.yaml); known: {}",
+            cat.experiments.keys().cloned().collect::<Vec<_>>().join(", ")
+        );
+    }
+    let mut p = Planner {
+        cat,
+        reg,
+        graph: Graph {
+            profile: profile.to_string(),
+            ..Graph::default()
+        },
+        experiments: HashMap::new(),
+        parsed: HashMap::new(),
+    };
+    p.experiment(name)?;
     Ok(p.graph)
 }
 

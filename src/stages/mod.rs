@@ -14,6 +14,7 @@
 //! - [`synthetic`]: synthetic data with known truth (the fits' stability map).
 //! - [`compression`]: how far the initial compression gets (stability maps).
 //! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
+//! - [`script`]: one's own analysis or plot as a command in any language.
 //!
 //! Each kind names its own file (`file!()`); its code fingerprint hashes every
 //! module that file reaches through the import graph, and the lock entries of
@@ -30,6 +31,7 @@ pub mod join;
 pub mod joint_fit;
 pub mod plot;
 pub mod run_summary;
+pub mod script;
 pub mod simulate;
 pub mod simulate_cost;
 pub mod synthetic;
@@ -61,6 +63,7 @@ pub fn register(r: &mut Registry) {
     r.register(synthetic::SyntheticDivergence);
     r.register(run_summary::RunSummary);
     r.register(compression::Compression);
+    r.register(script::Script);
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 pub mod columns;
 pub mod replicas;
 pub mod results;
+pub mod runs;
 pub mod trajectory;
 
 use std::fs::File;
