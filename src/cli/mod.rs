@@ -7,7 +7,9 @@ use crate::pipeline::Registry;
 
 pub mod figs;
 pub mod pipeline;
+pub mod runs;
 pub mod sim;
+pub mod what_if;
 
 /// Regenerate the figures of the driven-granular-fluid papers from YAML specs.
 #[derive(Parser, Debug)]

@@ -467,3 +467,7 @@ fn check_schema(t: &TableSpec, bytes: Vec<u8>) -> Result<()> {
     Ok(())
 }
 
+
+#[cfg(test)]
+#[path = "script_tests.rs"]
+mod tests;
