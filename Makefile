@@ -19,8 +19,10 @@ build:
 # Then the ci profile of the CI-checked figures (`ci: true` in their YAML),
 # their regression check against tests/golden/ci.json (docs/figures.md), and
 # their report, the HTML one checked in headless Chromium (docs/report.md).
-test:
-	$(CARGO) test --release --locked
+# The tutorial's test (tests/tutorial.rs) and `make example` need the Python
+# of `make venv`, installed first.
+test: venv
+	REPRO_REQUIRE_VENV=1 $(CARGO) test --release --locked
 	$(REPRO) figure --ci --profile ci $(JOBS_FLAG)
 	$(MAKE) example
 	$(REPRO) regress --profile ci
