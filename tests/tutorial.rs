@@ -90,12 +90,14 @@ fn the_tutorial_runs_and_shows_what_it_says() {
     // `why --set mine.n=300`: every simulation is stale (2 phi x 2 replicas).
     let what_if = out.iter().find(|b| b.contains("stale by kind") && b.contains("simulate")).expect("why --set");
     assert!(what_if.contains("4 simulate"), "{what_if}");
-    // After the script edit: its two stages only.
+    // After the script edit: its two stages and what reads them (the table
+    // and the figure script), no simulation and no built-in analysis.
     let edited = out
         .iter()
-        .find(|b| b.contains("stale by kind: 2 script\n"))
-        .unwrap_or_else(|| panic!("no `stale by kind: 2 script` after the edit:\n{}", out.join("\n")));
-    assert!(!edited.contains("simulate"), "{edited}");
+        .find(|b| b.contains("stale by kind: 3 script, 1 table\n"))
+        .unwrap_or_else(|| panic!("no `stale by kind: 3 script, 1 table` after the edit:\n{}", out.join("\n")));
+    assert!(!edited.contains("simulate") && !edited.contains("overlap"), "{edited}");
+    assert!(edited.contains("what it reads outside the crate changed"), "{edited}");
     // `runs --where phi=0.7`: its two replicas.
     assert!(block("run(s) of mine").contains("2 run(s) of mine at profile ci"), "{out:?}");
     let runs: Vec<_> = std::fs::read_dir(mine.join("runs")).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();

@@ -684,6 +684,15 @@ pub fn status(
                         }
                     }
                 }
+                let outside = reg
+                    .get(&node.kind)
+                    .map(|k| k.keyed_outside(&node.parsed, node.root()))
+                    .unwrap_or_default();
+                if reasons.is_empty() && !outside.is_null() {
+                    reasons.push(format!(
+                        "what it reads outside the crate changed (now: {outside}), or its cache entry is missing"
+                    ));
+                }
                 if reasons.is_empty() {
                     reasons.push(
                         "cache entry missing or incomplete (removed by gc or an interrupted run)"

@@ -114,24 +114,12 @@ struct Planner<'a> {
 
 /// Plan figures `ids` (all figures if empty) at `profile`.
 pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> Result<Graph> {
-    if !PROFILES.contains(&profile) {
-        anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
-    }
     let ids: Vec<String> = if ids.is_empty() {
         cat.pipelines.keys().cloned().collect()
     } else {
         ids.to_vec()
     };
-    let mut p = Planner {
-        cat,
-        reg,
-        graph: Graph {
-            profile: profile.to_string(),
-            ..Graph::default()
-        },
-        experiments: HashMap::new(),
-        parsed: HashMap::new(),
-    };
+    let mut p = Planner::new(cat, reg, profile)?;
     for id in &ids {
         let (file, spec) = cat.pipeline(id).map_err(anyhow::Error::msg)?;
         let fig = p.pipeline(id, file, spec)?;
@@ -143,25 +131,13 @@ pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> R
 /// Plan the simulations of experiment `name` at `profile` alone (no figure):
 /// what `repro runs` lists.
 pub fn plan_experiment(cat: &Catalogue, name: &str, profile: &str, reg: &Registry) -> Result<Graph> {
-    if !PROFILES.contains(&profile) {
-        anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
-    }
     if !cat.experiments.contains_key(name) {
         anyhow::bail!(
             "no experiment '{name}' (experiments/{name}.yaml); known: {}",
             cat.experiments.keys().cloned().collect::<Vec<_>>().join(", ")
         );
     }
-    let mut p = Planner {
-        cat,
-        reg,
-        graph: Graph {
-            profile: profile.to_string(),
-            ..Graph::default()
-        },
-        experiments: HashMap::new(),
-        parsed: HashMap::new(),
-    };
+    let mut p = Planner::new(cat, reg, profile)?;
     p.experiment(name)?;
     Ok(p.graph)
 }
@@ -210,7 +186,24 @@ fn combinations(lists: &BTreeMap<String, Vec<Value>>) -> Vec<Point> {
     out
 }
 
-impl Planner<'_> {
+impl<'a> Planner<'a> {
+    /// An empty plan at `profile` (an error if no such profile exists).
+    fn new(cat: &'a Catalogue, reg: &'a Registry, profile: &str) -> Result<Self> {
+        if !PROFILES.contains(&profile) {
+            anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
+        }
+        Ok(Planner {
+            cat,
+            reg,
+            graph: Graph {
+                profile: profile.to_string(),
+                ..Graph::default()
+            },
+            experiments: HashMap::new(),
+            parsed: HashMap::new(),
+        })
+    }
+
     /// Add a node unless an identical one exists; returns its index.
     #[allow(clippy::too_many_arguments)]
     fn add(
