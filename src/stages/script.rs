@@ -148,6 +148,8 @@ impl StageKind for Script {
         let root = ctx
             .root()
             .context("script: no project root (a script stage runs inside a planned pipeline)")?;
+        // Absolute: the command runs in another directory (`--root .` is relative).
+        let root = &std::path::absolute(root)?;
         for f in keyed_files(p) {
             let path = root.join(f);
             ensure!(
