@@ -266,7 +266,7 @@ fn write_inputs(work: &Path, p: &Params, inputs: &[Artifact]) -> Result<Vec<Stri
                 "stage": a.ids.first().map(|i| i.stage.clone()),
                 "kind": a.kind.name,
                 "point": a.point,
-                "files": a.files.iter().map(|(ext, (_, path))| (ext.clone(), json!(path))).collect::<serde_json::Map<_, _>>(),
+                "files": a.files.iter().map(|(ext, (_, path))| (ext.clone(), json!(absolute(path)))).collect::<serde_json::Map<_, _>>(),
             })
         })
         .collect();
@@ -294,8 +294,14 @@ pub fn as_run(a: &Artifact) -> Result<Run> {
         point: a.point.clone().into_iter().collect(),
         settings: (*a.run).clone(),
         seed: a.params.get("seed").and_then(Value::as_u64).unwrap_or_default(),
-        path: path.clone(),
+        path: absolute(path),
     })
+}
+
+/// `path` as the command sees it from its own directory (the store of
+/// `--root .` is relative).
+fn absolute(path: &Path) -> PathBuf {
+    std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf())
 }
 
 /// Run the command in `work`, killed after the timeout.
