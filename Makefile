@@ -2,13 +2,14 @@
 #   make all-figures            every figure (profile: small)
 #   make figure FIG=fig19       one figure; PROFILE=ci|small|paper, JOBS=N
 #   make test / test-slurm / bench / ci / report / sensitivity
+#   make example                fig3 by numpy and matplotlib script stages (pipelines/examples/)
 CARGO ?= cargo
 PROFILE ?= small
 JOBS ?=
 REPRO ?= $(CARGO) run --release --locked --quiet --
 JOBS_FLAG = $(if $(JOBS),--jobs $(JOBS),)
 
-.PHONY: convergence build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity coverage-small
+.PHONY: venv example convergence build test test-slurm bench ci ci-figures all-figures figure status gc report sensitivity coverage-small
 
 build:
 	$(CARGO) build --release --locked
@@ -18,9 +19,12 @@ build:
 # Then the ci profile of the CI-checked figures (`ci: true` in their YAML),
 # their regression check against tests/golden/ci.json (docs/figures.md), and
 # their report, the HTML one checked in headless Chromium (docs/report.md).
-test:
-	$(CARGO) test --release --locked
+# The tutorial's test (tests/tutorial.rs) and `make example` need the Python
+# of `make venv`, installed first.
+test: venv
+	REPRO_REQUIRE_VENV=1 $(CARGO) test --release --locked
 	$(REPRO) figure --ci --profile ci $(JOBS_FLAG)
+	$(MAKE) example
 	$(REPRO) regress --profile ci
 	$(REPRO) report --profile ci --html
 	$(CARGO) test --release --locked --test report_html -- --ignored
@@ -31,6 +35,21 @@ test:
 test-slurm:
 	scripts/slurm-local.sh start
 	REPRO_REQUIRE_SLURM=1 $(CARGO) test --release --locked --test slurm -- --include-ignored
+
+# The Python of the script stages (pipelines/examples/requirements.txt) in a
+# virtual environment under the ignored .repro/ (pip reaches PyPI).
+VENV = .repro/venv
+venv: $(VENV)/.installed
+$(VENV)/.installed: pipelines/examples/requirements.txt
+	python3 -m venv $(VENV)
+	$(VENV)/bin/pip install --quiet -r pipelines/examples/requirements.txt
+	touch $@
+
+# Fig. 3's Q(t) computed by a numpy script stage, drawn by a matplotlib one and
+# checked against the built-in kind (its `check` stage fails beyond rounding),
+# at the ci profile: the trajectories are those `make test` built (one store).
+example: venv
+	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" $(REPRO) figure fig3-numpy --root pipelines/examples --store .repro/store --profile ci $(JOBS_FLAG)
 
 bench:
 	$(CARGO) bench --locked

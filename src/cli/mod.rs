@@ -5,7 +5,9 @@ use clap::{Parser, Subcommand};
 
 pub mod figs;
 pub mod pipeline;
+pub mod runs;
 pub mod sim;
+pub mod what_if;
 
 pub use pipeline::{TOY_KINDS, registry};
 

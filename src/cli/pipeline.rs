@@ -9,6 +9,8 @@ use std::collections::BTreeMap;
 
 use crate::pipeline::checkpoints::{Status, unix_now};
 use crate::pipeline::slurm;
+use super::runs::RunsArgs;
+use super::what_if::WhatIf;
 use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
 
 /// Where the specs and the cache are.
@@ -42,7 +44,7 @@ pub fn registry() -> Registry {
 pub const TOY_KINDS: &str = "REPRO_TOY_KINDS";
 
 impl RootArgs {
-    fn workspace(&self) -> Workspace {
+    pub(crate) fn workspace(&self) -> Workspace {
         let root = self
             .root
             .clone()
@@ -64,6 +66,8 @@ pub struct OneFigure {
     pub id: String,
     #[arg(long, default_value = DEFAULT_PROFILE, value_name = "P")]
     pub profile: String,
+    #[command(flatten)]
+    pub what_if: WhatIf,
     #[command(flatten)]
     pub root: RootArgs,
 }
@@ -132,6 +136,8 @@ pub enum Commands {
         #[arg(long, value_enum, default_value_t = Executor::Local)]
         executor: Executor,
         #[command(flatten)]
+        what_if: WhatIf,
+        #[command(flatten)]
         root: RootArgs,
     },
     /// The planned cost of a build: per simulation its work (collisions, kicks,
@@ -161,6 +167,8 @@ pub enum Commands {
         /// simulation configurations and stages lie within the factor.
         #[arg(long, default_value_t = 0.95, value_name = "SHARE")]
         share: f64,
+        #[command(flatten)]
+        what_if: WhatIf,
         #[command(flatten)]
         root: RootArgs,
     },
@@ -194,6 +202,13 @@ pub enum Commands {
     /// Explain why stages of a figure would rerun: which parameter, input or code
     /// fingerprint differs from the cached result.
     Why(OneFigure),
+    /// The built runs of an experiment found by their parameters: grid point,
+    /// replica, seed and trajectory path (Parquet, readable by pyarrow, pandas
+    /// and polars), or copied out with `--export DIR`.
+    ///
+    /// Examples: `repro runs eps09 --profile ci --where phi=0.78`,
+    /// `repro runs eps09 --profile ci --export runs/`.
+    Runs(RunsArgs),
     /// Check every artifact of the cache against its content hash. Damaged ones
     /// are moved to .repro/store/quarantine/ (never deleted) and their stages rerun
     /// on the next `repro figure`; exits non-zero if any was damaged.
@@ -294,6 +309,9 @@ fn print_status(
         .iter()
         .filter(|(_, s)| matches!(s, State::Damaged { .. }))
         .count();
+    if stale > 0 {
+        println!("stale by kind: {}", stale_by_kind(graph, st));
+    }
     println!(
         "{} stage(s): {} cached, {stale} stale{}",
         st.len(),
@@ -306,10 +324,38 @@ fn print_status(
     );
 }
 
+/// Plan figures `ids` (with what-if settings) and the cache state of their stages.
+fn planned_status(
+    ws: &Workspace,
+    reg: &Registry,
+    what_if: &WhatIf,
+    ids: &[String],
+    profile: &str,
+    force: &[String],
+) -> Result<(pipeline::Graph, Vec<(usize, State)>)> {
+    let graph = what_if.plan(ws, reg, ids, profile)?;
+    let store = pipeline::Store::open(&ws.store)?;
+    let st = pipeline::exec::status(&graph, &pipeline::needed_nodes(&graph), reg, &store, force);
+    Ok((graph, st))
+}
+
+/// `48 simulate, 13 overlap, 2 table`: the stale stages counted by kind, most first.
+fn stale_by_kind(graph: &pipeline::Graph, st: &[(usize, State)]) -> String {
+    let mut count: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, s) in st {
+        if matches!(s, State::Stale { .. }) {
+            *count.entry(graph.nodes[*i].kind.as_str()).or_default() += 1;
+        }
+    }
+    let mut v: Vec<(&str, usize)> = count.into_iter().collect();
+    v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    v.iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ")
+}
+
 fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
     let ws = f.root.workspace();
     let (graph, st) =
-        pipeline::figure_status(&ws, reg, std::slice::from_ref(&f.id), &f.profile, &[])?;
+        planned_status(&ws, reg, &f.what_if, std::slice::from_ref(&f.id), &f.profile, &[])?;
     let store = pipeline::Store::open(&ws.store)?;
     let jobs = slurm::job_states(&graph, &st, reg, &store);
     let running = pipeline::exec::running(&graph, &st, reg, &store);
@@ -326,6 +372,7 @@ pub fn run(c: Commands) -> Result<()> {
             dry_run,
             force,
             executor,
+            what_if,
             root,
         } => {
             let ws = root.workspace();
@@ -334,12 +381,17 @@ pub fn run(c: Commands) -> Result<()> {
             for k in &force {
                 reg.get(k)?;
             }
+            if executor == Executor::Slurm && !what_if.is_empty() {
+                bail!(
+                    "--set applies to the local executor: Slurm workers plan the specs as the files say"
+                );
+            }
             if dry_run && executor == Executor::Slurm {
                 print!("{}", slurm::dry_run(&ws, &reg, &ids, &profile, &force)?);
                 return Ok(());
             }
             if dry_run {
-                let (graph, st) = pipeline::figure_status(&ws, &reg, &ids, &profile, &force)?;
+                let (graph, st) = planned_status(&ws, &reg, &what_if, &ids, &profile, &force)?;
                 print_status(&graph, &st, false, &BTreeMap::new(), &BTreeMap::new());
                 return Ok(());
             }
@@ -350,7 +402,8 @@ pub fn run(c: Commands) -> Result<()> {
                         force,
                         progress: true,
                     };
-                    pipeline::run_figures(&ws, &reg, &ids, &profile, &opts)?
+                    let graph = what_if.plan(&ws, &reg, &ids, &profile)?;
+                    pipeline::run_planned(&what_if.workspace(ws.clone()), &reg, graph, &opts)?
                 }
                 Executor::Slurm => {
                     if jobs.is_some() {
@@ -380,7 +433,8 @@ pub fn run(c: Commands) -> Result<()> {
             );
             for f in &run.graph.figures {
                 if run.report.complete(f) {
-                    eprintln!("wrote {}", ws.results.join(&f.id).display());
+                    let results = what_if.workspace(ws.clone()).results;
+                    eprintln!("wrote {}", results.join(&f.id).display());
                 }
             }
             run.check()?;
@@ -405,6 +459,7 @@ pub fn run(c: Commands) -> Result<()> {
             factor,
             min_seconds,
             share,
+            what_if,
             root,
         } => {
             let ws = root.workspace();
@@ -445,7 +500,8 @@ pub fn run(c: Commands) -> Result<()> {
                 factor,
                 min_seconds,
             });
-            let report = crate::study::plan::plan(&ws, &reg, &ids, &profile, check.as_ref())?;
+            let graph = what_if.plan(&ws, &reg, &ids, &profile)?;
+            let report = crate::study::plan::plan(&ws, &reg, &graph, check.as_ref())?;
             print!("{}", report.text);
             if !without.is_empty() {
                 println!(
@@ -528,6 +584,7 @@ pub fn run(c: Commands) -> Result<()> {
             }
             Ok(())
         }
+        Commands::Runs(a) => super::runs::run(&reg, &a),
         Commands::Worker { store, key } => slurm::worker(&store, &reg, &key),
         Commands::Gc { dry_run, root } => {
             let r = pipeline::gc(&root.workspace(), &reg, dry_run)?;

@@ -163,7 +163,9 @@ fn runs_read(graph: &Graph, reg: &Registry, node: &Node) -> Vec<Value> {
 /// The cache key of a stage, given its inputs' digests: the hash of its kind,
 /// its canonical parameters, its code fingerprint, the settings of its
 /// upstream runs it reads (a field of their own, so that an edit of one
-/// reruns it however its inputs' files came out) and the digests.
+/// reruns it however its inputs' files came out), what its kind depends on
+/// outside the crate ([`StageKind::keyed_outside`](super::StageKind::keyed_outside):
+/// a script's files and interpreter; a field of its own too) and the digests.
 pub fn stage_key(graph: &Graph, reg: &Registry, node: &Node, input_digests: &[&str]) -> String {
     let canon = canonical(&node.params);
     let fingerprint = reg.fingerprint(&node.kind);
@@ -177,6 +179,14 @@ pub fn stage_key(graph: &Graph, reg: &Registry, node: &Node, input_digests: &[&s
     if let Some(r) = &runs {
         // A tag no input digest (hex) can equal keeps the fields apart.
         fields.extend([b"runs read".as_slice(), r.as_bytes()]);
+    }
+    let outside = reg
+        .get(&node.kind)
+        .map(|k| k.keyed_outside(&node.parsed, node.root()))
+        .unwrap_or(Value::Null);
+    let outside = (!outside.is_null()).then(|| canonical(&outside));
+    if let Some(o) = &outside {
+        fields.extend([b"outside the crate".as_slice(), o.as_bytes()]);
     }
     fields.extend(input_digests.iter().map(|d| d.as_bytes()));
     hash_fields("repro-stage-v1", &fields).to_hex().to_string()
@@ -485,7 +495,8 @@ pub(crate) fn compute(
     };
     let checkpoints = store.checkpoints(&key);
     let ctx = StageCtx::new(node.seed, node.label().to_string(), sink)
-        .with_checkpoints(checkpoints.clone());
+        .with_checkpoints(checkpoints.clone())
+        .with_root(node.root());
     let t0 = Instant::now();
     let cpu0 = thread_cpu_seconds();
     let out = std::panic::catch_unwind(AssertUnwindSafe(|| kind.run(&ctx, &node.parsed, inputs)));
@@ -670,6 +681,15 @@ pub fn status(
                             _ => {}
                         }
                     }
+                }
+                let outside = reg
+                    .get(&node.kind)
+                    .map(|k| k.keyed_outside(&node.parsed, node.root()))
+                    .unwrap_or_default();
+                if reasons.is_empty() && !outside.is_null() {
+                    reasons.push(format!(
+                        "what it reads outside the crate changed (now: {outside}), or its cache entry is missing"
+                    ));
                 }
                 if reasons.is_empty() {
                     reasons.push(

@@ -55,6 +55,12 @@ impl Node {
         &self.labels[0]
     }
 
+    /// The project root the stage was declared under (its spec file is
+    /// `ROOT/pipelines/ID.yaml` or `ROOT/experiments/NAME.yaml`).
+    pub fn root(&self) -> &Path {
+        self.origin.0.ancestors().nth(2).unwrap_or(Path::new(""))
+    }
+
     /// This node as an input of a stage being planned.
     pub fn planned(&self, reg: &Registry) -> PlannedInput<'_> {
         PlannedInput {
@@ -110,30 +116,31 @@ struct Planner<'a> {
 
 /// Plan figures `ids` (all figures if empty) at `profile`.
 pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> Result<Graph> {
-    if !PROFILES.contains(&profile) {
-        anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
-    }
     let ids: Vec<String> = if ids.is_empty() {
         cat.pipelines.keys().cloned().collect()
     } else {
         ids.to_vec()
     };
-    let mut p = Planner {
-        cat,
-        reg,
-        graph: Graph {
-            profile: profile.to_string(),
-            ..Graph::default()
-        },
-        experiments: HashMap::new(),
-        parsed: HashMap::new(),
-        open: Vec::new(),
-    };
+    let mut p = Planner::new(cat, reg, profile)?;
     for id in &ids {
         let (file, spec) = cat.pipeline(id).map_err(anyhow::Error::msg)?;
         let fig = p.pipeline(id, file, spec)?;
         p.graph.figures.push(fig);
     }
+    Ok(p.graph)
+}
+
+/// Plan the simulations of experiment `name` at `profile` alone (no figure):
+/// what `repro runs` lists.
+pub fn plan_experiment(cat: &Catalogue, name: &str, profile: &str, reg: &Registry) -> Result<Graph> {
+    if !cat.experiments.contains_key(name) {
+        anyhow::bail!(
+            "no experiment '{name}' (experiments/{name}.yaml); known: {}",
+            cat.experiments.keys().cloned().collect::<Vec<_>>().join(", ")
+        );
+    }
+    let mut p = Planner::new(cat, reg, profile)?;
+    p.experiment(name)?;
     Ok(p.graph)
 }
 
@@ -181,7 +188,25 @@ fn combinations(lists: &BTreeMap<String, Vec<Value>>) -> Vec<Point> {
     out
 }
 
-impl Planner<'_> {
+impl<'a> Planner<'a> {
+    /// An empty plan at `profile` (an error if no such profile exists).
+    fn new(cat: &'a Catalogue, reg: &'a Registry, profile: &str) -> Result<Self> {
+        if !PROFILES.contains(&profile) {
+            anyhow::bail!("unknown profile '{profile}'; valid profiles: {PROFILES:?}");
+        }
+        Ok(Planner {
+            cat,
+            reg,
+            graph: Graph {
+                profile: profile.to_string(),
+                ..Graph::default()
+            },
+            experiments: HashMap::new(),
+            parsed: HashMap::new(),
+            open: Vec::new(),
+        })
+    }
+
     /// Add a node unless an identical one exists; returns its index.
     #[allow(clippy::too_many_arguments)]
     fn add(

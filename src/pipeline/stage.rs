@@ -78,6 +78,13 @@ pub trait StageKind: Send + Sync + 'static {
     fn reads_run(&self, _params: &Self::Params) -> Vec<String> {
         Vec::new()
     }
+    /// What a stage's result depends on outside its parameters, its inputs and
+    /// the crate's code (a script kind: the content of the files it runs and
+    /// reads, its interpreter's version), resolved under the project `root`:
+    /// it becomes part of the stage's key. `Null` (nothing) for the built-in kinds.
+    fn keyed_outside(&self, _params: &Self::Params, _root: &Path) -> Value {
+        Value::Null
+    }
     /// Produce this stage's files from its parameters and inputs.
     fn run(&self, ctx: &StageCtx, params: &Self::Params, inputs: &[Artifact]) -> Result<Output>;
 }
@@ -124,6 +131,7 @@ pub trait Kind: Send + Sync {
     fn plan(&self, params: &Parsed) -> Option<Work>;
     fn resolved(&self, params: &Parsed) -> Option<Map<String, Value>>;
     fn reads_run(&self, params: &Parsed) -> Vec<String>;
+    fn keyed_outside(&self, params: &Parsed, root: &Path) -> Value;
     fn run(&self, ctx: &StageCtx, params: &Parsed, inputs: &[Artifact]) -> Result<Output>;
     /// Parse and run (tests and tools that run a kind outside a planned graph).
     fn run_params(&self, ctx: &StageCtx, params: &Value, inputs: &[Artifact]) -> Result<Output> {
@@ -167,6 +175,11 @@ impl<K: StageKind> Kind for K {
             .get::<K::Params>()
             .map(|p| StageKind::reads_run(self, p))
             .unwrap_or_default()
+    }
+    fn keyed_outside(&self, params: &Parsed, root: &Path) -> Value {
+        params
+            .get::<K::Params>()
+            .map_or(Value::Null, |p| StageKind::keyed_outside(self, p, root))
     }
     fn run(&self, ctx: &StageCtx, params: &Parsed, inputs: &[Artifact]) -> Result<Output> {
         StageKind::run(self, ctx, params.get::<K::Params>()?, inputs)
@@ -358,6 +371,7 @@ pub struct StageCtx {
     notes: Mutex<Vec<String>>,
     progress: Option<ProgressSink>,
     checkpoints: Option<Checkpoints>,
+    root: Option<PathBuf>,
 }
 
 impl StageCtx {
@@ -369,7 +383,18 @@ impl StageCtx {
             notes: Mutex::new(Vec::new()),
             progress,
             checkpoints: None,
+            root: None,
         }
+    }
+    /// The same context with the project root the stage was declared under.
+    pub fn with_root(mut self, root: &Path) -> Self {
+        self.root = Some(root.to_path_buf());
+        self
+    }
+    /// The project root (holding `pipelines/`) the stage was declared under;
+    /// `None` for a kind run outside a planned graph.
+    pub fn root(&self) -> Option<&Path> {
+        self.root.as_deref()
     }
     /// The same context with a directory for the stage's checkpoints.
     pub fn with_checkpoints(mut self, c: Checkpoints) -> Self {

@@ -15,6 +15,7 @@
 //! - [`synthetic`]: synthetic data with known truth (the fits' stability map).
 //! - [`compression`]: how far the initial compression gets (stability maps).
 //! - [`run_summary`]: a simulation's own measurements as a row (stability maps).
+//! - [`script`]: one's own analysis or plot as a command in any language.
 //!
 //! Each kind names its own file (`file!()`); its code fingerprint hashes every
 //! module that file reaches through the import graph short of the framework,
@@ -34,6 +35,7 @@ pub mod joint_fit;
 pub mod plot;
 pub mod run_length;
 pub mod run_summary;
+pub mod script;
 pub mod simulate;
 pub mod simulate_cost;
 pub mod synthetic;
@@ -65,4 +67,5 @@ pub fn register(r: &mut Registry) {
     r.register(synthetic::SyntheticDivergence);
     r.register(run_summary::RunSummary);
     r.register(compression::Compression);
+    r.register(script::Script);
 }

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use crate::pipeline::calibration::{Calibration, samples};
 use crate::pipeline::cost::{built_bytes, node_seconds, simulation_seconds};
 use crate::pipeline::stage::Work;
-use crate::pipeline::{Registry, State, Store, Workspace, figure_status};
+use crate::pipeline::{Graph, Registry, State, Store, Workspace, needed_nodes};
 
 /// What `repro plan --check` judges: a recorded run off by more than `factor`
 /// either way, among runs of at least `min_seconds` planned or measured.
@@ -65,7 +65,8 @@ pub fn configuration(label: &str) -> String {
     }
 }
 
-/// The plan of the simulations of `ids` (all figures if empty) at `profile`:
+/// The plan of the simulations of a planned `graph` (figures of the catalogue,
+/// or of a what-if changed in memory):
 /// a line per configuration (its work and planned CPU s per run; with `check`,
 /// the mean and largest recorded CPU s of its built replicas and the ratio of
 /// the mean to the plan), sorted by planned cost, then the totals. A plan
@@ -76,12 +77,11 @@ pub fn configuration(label: &str) -> String {
 pub fn plan(
     ws: &Workspace,
     reg: &Registry,
-    ids: &[String],
-    profile: &str,
+    graph: &Graph,
     check: Option<&Check>,
 ) -> Result<PlanReport> {
-    let (graph, st) = figure_status(ws, reg, ids, profile, &[])?;
     let store = Store::open(&ws.store)?;
+    let st = crate::pipeline::exec::status(graph, &needed_nodes(graph), reg, &store, &[]);
     let cached = |s: &State| match s {
         State::Cached { key } => Some(key.clone()),
         _ => None,

@@ -9,6 +9,7 @@ pub mod columns;
 pub mod references;
 pub mod replicas;
 pub mod results;
+pub mod runs;
 pub mod trajectory;
 
 use std::fs::File;
