@@ -27,6 +27,7 @@ pub(crate) mod linalg;
 pub mod linear;
 pub mod ranges;
 pub mod rescalings;
+pub mod runs;
 mod result;
 pub mod stability;
 pub mod uncertainty;
