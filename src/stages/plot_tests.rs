@@ -548,7 +548,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         [
             "phi_c: paper 0.82; ours 0.805 ± 0.004; out of reach: the box is too small",
             "gamma: paper 1.19; ours 1.01 ± 0.06; disagree: the range is too narrow",
-            "nu: paper 0.55; ours 0.5 ± 0.1; agree",
+            "nu: paper 0.55; ours 0.50 ± 0.10; agree",
         ]
     );
     let c = crate::table::results::Compared {
