@@ -707,14 +707,32 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
     let mut line = format!("{}: {paper}; {ours}; {}", c.quantity, c.verdict.label());
     if c.verdict != Verdict::Agree {
         let why = if short.is_empty() {
-            c.reason.split("; ").next().unwrap_or_default()
+            first_clause(&c.reason)
         } else {
-            short
+            short.to_string()
         };
         line.push_str(": ");
         line.push_str(&cut(why.trim(), SHORT_CHARS));
     }
     line
+}
+
+/// The first clause of a reason: its text up to the first ";" outside
+/// brackets, without the bracketed asides (the commands and details the
+/// report keeps).
+fn first_clause(reason: &str) -> String {
+    let mut out = String::new();
+    let mut depth = 0usize;
+    for ch in reason.chars() {
+        match ch {
+            '(' => depth += 1,
+            ')' => depth = depth.saturating_sub(1),
+            ';' if depth == 0 => break,
+            c if depth == 0 => out.push(c),
+            _ => {}
+        }
+    }
+    out.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// `text` cut to at most `n` characters at a word, ending in "…" if cut.

@@ -526,7 +526,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
          - {quantity: phi_c, value: 0.82, tolerance: 0.01}\n\
          - {quantity: gamma, value: 1.19, tolerance: 0.05}\n\
          - {quantity: nu, value: 0.55, tolerance: 0.1}\n\
-         out_of_reach: {phi_c: the box is too small; and more}\n\
+         out_of_reach: {phi_c: 'the box (N = 1000; see the frontier) is too small; and more'}\n\
          short: {gamma: the range is too narrow}\n",
     );
     let ctx = StageCtx::new(0, "compare".into(), None);
