@@ -939,8 +939,10 @@ fn marker_coverage_is_the_share_of_its_disk_under_later_lines() {
     // (2/pi)(asin(h/r) + (h/r) sqrt(1 - h^2/r^2)) of it.
     let (h, r) = (1.0f64, 4.0f64);
     let exact = 2.0 / std::f64::consts::PI * ((h / r).asin() + (h / r) * (1.0 - (h / r).powi(2)).sqrt());
+    // The quarter-pixel grid counts the band's edge rows in full, which adds
+    // up to an eighth of the band at this radius.
     let c = covered(&dot, &[line(50.0, 2)]);
-    assert!((c - exact).abs() < 0.02, "{c} against {exact}");
+    assert!(c >= exact && c < 1.15 * exact, "{c} against {exact}");
     assert_eq!(covered(&dot, &[line(50.0, 0)]), 0.0);
     assert_eq!(covered(&dot, &[line(60.0, 2)]), 0.0);
 }
