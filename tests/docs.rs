@@ -622,18 +622,33 @@ fn the_spec_examples_are_real_files_that_plan() {
         let body = &spec[at..];
         let start = body.find("```yaml\n").unwrap() + "```yaml\n".len();
         let end = start + body[start..].find("```\n").unwrap();
-        assert_eq!(&body[start..end], example(name), "docs/spec.md's copy of docs/examples/{name}");
+        assert_eq!(
+            &body[start..end],
+            example(name),
+            "docs/spec.md's copy of docs/examples/{name}"
+        );
     }
     let dir = tempfile::tempdir().unwrap();
     fs::create_dir_all(dir.path().join("experiments")).unwrap();
     fs::create_dir_all(dir.path().join("pipelines")).unwrap();
-    fs::write(dir.path().join("experiments/eps09_sweep.yaml"), example("experiment.yaml")).unwrap();
-    fs::write(dir.path().join("pipelines/example.yaml"), example("pipeline.yaml")).unwrap();
+    fs::write(
+        dir.path().join("experiments/eps09_sweep.yaml"),
+        example("experiment.yaml"),
+    )
+    .unwrap();
+    fs::write(
+        dir.path().join("pipelines/example.yaml"),
+        example("pipeline.yaml"),
+    )
+    .unwrap();
     let cat = repro::pipeline::Catalogue::load(dir.path()).unwrap();
     let reg = repro::stages::registry();
     for profile in ["ci", "small", "paper"] {
         let g = repro::pipeline::graph::plan(&cat, &["example".to_string()], profile, &reg)
             .unwrap_or_else(|e| panic!("docs/examples at profile {profile}: {e:#}"));
-        assert!(g.nodes.iter().any(|n| n.kind == "plot"), "{profile}: no plot planned");
+        assert!(
+            g.nodes.iter().any(|n| n.kind == "plot"),
+            "{profile}: no plot planned"
+        );
     }
 }

@@ -108,27 +108,41 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
         assert_eq!(f.hash, reg.fingerprint(name), "{name}");
         assert_eq!(f.modules, reg.modules(name), "{name}");
         let by_syn: Vec<String> = syn_graph::closure(&graph, roots).into_iter().collect();
-        assert_eq!(f.modules, by_syn, "{name}: the key's closure (left) is not syn's (right)");
+        assert_eq!(
+            f.modules, by_syn,
+            "{name}: the key's closure (left) is not syn's (right)"
+        );
         closures.insert(name.clone(), by_syn);
         base.push(f.hash);
     }
     // What the import parser once missed: inline child paths of a mod.rs.
     for (name, _) in &kinds {
         if closures[name].contains(&"table".to_string()) {
-            assert!(closures[name].contains(&"table/columns".to_string()), "{name}");
+            assert!(
+                closures[name].contains(&"table/columns".to_string()),
+                "{name}"
+            );
         }
     }
     assert!(closures["plot"].contains(&"fit/catalogue".to_string()));
     assert!(closures["join"].contains(&"analysis/pool".to_string()));
     assert!(!closures["simulate"].contains(&"plot/palette".to_string()));
-    assert!(!closures["tau_alpha"].iter().any(|m| m.starts_with("sim/engine")));
+    assert!(
+        !closures["tau_alpha"]
+            .iter()
+            .any(|m| m.starts_with("sim/engine"))
+    );
     assert!(closures["tau_alpha"].contains(&"analysis/observables".to_string()));
     let mut files = Vec::new();
     syn_graph::rust_files(&copy.src, &mut files);
     files.sort();
     assert!(files.len() > 150, "{} files", files.len());
     for file in files {
-        let rel = file.strip_prefix(&copy.src).unwrap().to_string_lossy().into_owned();
+        let rel = file
+            .strip_prefix(&copy.src)
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
         let key = module_key(&rel);
         let after = copy.edited(&file, harmless, &kinds);
         let moved: BTreeSet<&str> = kinds
@@ -143,7 +157,10 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
             .filter(|(n, _)| closures[n].contains(&key))
             .map(|(n, _)| n.as_str())
             .collect();
-        assert_eq!(moved, reach, "editing {rel}: kinds whose key moved (left), kinds whose syn closure reaches it (right)");
+        assert_eq!(
+            moved, reach,
+            "editing {rel}: kinds whose key moved (left), kinds whose syn closure reaches it (right)"
+        );
     }
 }
 

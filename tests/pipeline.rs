@@ -1390,7 +1390,12 @@ fn the_documented_reference_to_another_figure_s_stage_is_that_stage() {
     let e = Workspace::new(d.path())
         .plan(&reg(), &ids(&["figref"]), "ci")
         .expect_err("an unknown stage must be refused");
-    assert_located(&format!("{e:#}"), "figref.yaml", 3, &["no stage 'jiont'", "joint", "tau_table"]);
+    assert_located(
+        &format!("{e:#}"),
+        "figref.yaml",
+        3,
+        &["no stage 'jiont'", "joint", "tau_table"],
+    );
 }
 
 /// The repository's experiments and pipelines, copied to a temporary root.
@@ -1413,20 +1418,49 @@ fn repository_specs() -> tempfile::TempDir {
 fn an_intruder_analysis_takes_its_drive_from_the_run_and_refuses_a_wrong_copy() {
     let d = repository_specs();
     let rel = "pipelines/intruder-fig3.yaml";
-    let plan = |d: &tempfile::TempDir| Workspace::new(d.path()).plan(&reg(), &ids(&["intruder-fig3"]), "ci");
+    let plan = |d: &tempfile::TempDir| {
+        Workspace::new(d.path()).plan(&reg(), &ids(&["intruder-fig3"]), "ci")
+    };
     plan(&d).expect("the pipeline without a copy of the drive plans");
     let line = "params: {t_start: 0, blocks: 10}";
-    edit(d.path(), rel, line, "params: {t_start: 0, blocks: 10, drive: {eps: 0.7, gamma: 1.0, temperature: 1.0}, kick_rate_factor: 1000}");
+    edit(
+        d.path(),
+        rel,
+        line,
+        "params: {t_start: 0, blocks: 10, drive: {eps: 0.7, gamma: 1.0, temperature: 1.0}, kick_rate_factor: 1000}",
+    );
     plan(&d).expect("a copy equal to the run's drive is accepted");
     edit(d.path(), rel, "drive: {eps: 0.7,", "drive: {eps: 0.9,");
-    let e = format!("{:#}", plan(&d).expect_err("a copy that disagrees is refused"));
-    for w in ["intruder-fig3.yaml:", "stage 'velocity'", "`drive.eps` = 0.9", "experiment 'intruder_eps07'", "intruder_eps07.yaml", "eps = 0.7"] {
+    let e = format!(
+        "{:#}",
+        plan(&d).expect_err("a copy that disagrees is refused")
+    );
+    for w in [
+        "intruder-fig3.yaml:",
+        "stage 'velocity'",
+        "`drive.eps` = 0.9",
+        "experiment 'intruder_eps07'",
+        "intruder_eps07.yaml",
+        "eps = 0.7",
+    ] {
         assert!(e.contains(w), "expected {w:?} in\n{e}");
     }
     edit(d.path(), rel, "drive: {eps: 0.9,", "drive: {eps: 0.7,");
-    edit(d.path(), rel, "kick_rate_factor: 1000}", "kick_rate_factor: 10000}");
-    let e = format!("{:#}", plan(&d).expect_err("a kick rate that disagrees is refused"));
-    for w in ["`kick_rate_factor` = 10000", "intruder.kick_rate_factor", "intruder_eps07.yaml"] {
+    edit(
+        d.path(),
+        rel,
+        "kick_rate_factor: 1000}",
+        "kick_rate_factor: 10000}",
+    );
+    let e = format!(
+        "{:#}",
+        plan(&d).expect_err("a kick rate that disagrees is refused")
+    );
+    for w in [
+        "`kick_rate_factor` = 10000",
+        "intruder.kick_rate_factor",
+        "intruder_eps07.yaml",
+    ] {
         assert!(e.contains(w), "expected {w:?} in\n{e}");
     }
 }

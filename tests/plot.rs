@@ -94,6 +94,7 @@ fn overlap_figure() -> Figure {
         height: 540,
         colour_ranges: Default::default(),
         profile: None,
+        caption: vec![],
     }
 }
 
@@ -142,6 +143,7 @@ fn finite_size_figure() -> Figure {
         height: 440,
         colour_ranges: Default::default(),
         profile: None,
+        caption: vec![],
     }
 }
 
@@ -414,7 +416,7 @@ mod robustness {
                 .collect();
             let mut p = panel("(a)", axis("x", xlog), axis("y", ylog), series);
             p.legend = legend;
-            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default(), profile: None };
+            let f = Figure { panels: vec![p.clone(), p], columns: Some(1), width: 300, height: 400, title: "t".into(), colour_ranges: Default::default(), profile: None, caption: vec![] };
             let texts = svg_texts(&draw_svg_string(&f).unwrap());
             if legend != Legend::None {
                 for i in 0..data.len() {
@@ -818,4 +820,130 @@ fn a_reference_band_spans_its_tolerance() {
     let mut bad = f.clone();
     bad.panels[0].hlines[0].band = Some(-1.0);
     assert!(draw_svg_string(&bad).is_err() || !defects(&bad).unwrap().is_empty());
+}
+
+/// tau_alpha(phi) points of paper H's Fig. 4 with error bars and the two fits
+/// through them (power law dashed, VFT solid) as the plot stage draws them:
+/// 400-point curves flagged `fit`; `eps` gives one family per value (Fig. 23(a)).
+fn tau_panel(eps: &[f64]) -> Panel {
+    let mut all = vec![];
+    for (k, &e) in eps.iter().enumerate() {
+        let shift = 0.01 * k as f64;
+        let law = |phi: f64| 0.3 * (0.82 - shift - phi).powf(-1.8);
+        let vft = |phi: f64| 0.8 * (0.13 / (0.83 - shift - phi)).exp();
+        let phi: Vec<f64> = PHI.iter().copied().filter(|&p| p < 0.80 - shift).collect();
+        let tau: Vec<f64> = phi.iter().map(|&p| law(p)).collect();
+        let group = (eps.len() > 1).then(|| Group {
+            column: "eps".into(),
+            value: e,
+        });
+        all.push(Series {
+            style: Style::Points,
+            y_err: Some(tau.iter().map(|t| 0.05 * t).collect()),
+            group: group.clone(),
+            ..series("simulation", phi, tau)
+        });
+        let x: Vec<f64> = (0..400).map(|i| 0.58 + 0.2 * i as f64 / 399.0).collect();
+        for (curve, dashed) in [(&law as &dyn Fn(f64) -> f64, true), (&vft, false)] {
+            all.push(Series {
+                fit: true,
+                dashed,
+                group: group.clone(),
+                ..series("", x.clone(), x.iter().map(|&p| curve(p)).collect())
+            });
+        }
+    }
+    Panel {
+        y: Axis {
+            range: Some((0.5, 3000.0)),
+            ..axis("τ_{α}", true)
+        },
+        legend: Legend::None,
+        ..panel("", axis("φ", false), axis("", true), all)
+    }
+}
+
+/// The markers of `lay` more than [`MAX_COVERED`] under lines painted after
+/// them, with the fits painted as before: after every marker, a pixel wider
+/// than now and over a white halo a pixel wider on each side.
+fn hidden_markers(lay: &repro::plot::PanelLayout, fits: &[usize], old: bool) -> usize {
+    let strokes: Vec<repro::plot::Stroke> = lay
+        .strokes
+        .iter()
+        .cloned()
+        .map(|mut s| {
+            if old && fits.contains(&s.series) {
+                s.pass = 3;
+                s.width += 1.0 + 2.0;
+            }
+            s
+        })
+        .collect();
+    lay.dots
+        .iter()
+        .filter(|d| repro::plot::covered(d, &strokes) > repro::plot::MAX_COVERED)
+        .count()
+}
+
+/// Fig. 4 and Fig. 23(a): drawn the old way (fits above the markers over a
+/// white halo) most markers vanish under the fits and the check says so;
+/// drawn now (fits first and thinner, markers last) none is hidden and the
+/// figure has no defect.
+#[test]
+fn markers_are_painted_above_the_fits_through_them() {
+    for (name, eps, most) in [
+        ("fig4", vec![0.9], 7),
+        ("fig23(a)", vec![0.7, 0.8, 0.9, 1.0], 20),
+    ] {
+        let fig = Figure {
+            width: 560,
+            height: 440,
+            panels: vec![tau_panel(&eps)],
+            ..Default::default()
+        };
+        let lay = &layout(&fig).unwrap()[0];
+        let fits: Vec<usize> = (0..fig.panels[0].series.len())
+            .filter(|&i| fig.panels[0].series[i].fit)
+            .collect();
+        let old = hidden_markers(lay, &fits, true);
+        assert!(
+            old >= most,
+            "{name}: only {old} of {} markers hidden the old way",
+            lay.dots.len()
+        );
+        assert_eq!(hidden_markers(lay, &fits, false), 0, "{name}");
+        let d = defects(&fig).unwrap();
+        assert!(d.is_empty(), "{name}: {d:?}");
+    }
+}
+
+/// The coverage of a marker is the share of its disk under later strokes:
+/// a line through its centre covers width / (pi r / 2) of it, one painted
+/// before it nothing, one beside it nothing.
+#[test]
+fn marker_coverage_is_the_share_of_its_disk_under_later_lines() {
+    use repro::plot::{Dot, Stroke, covered};
+    let dot = Dot {
+        series: 0,
+        at: (50.0, 50.0),
+        radius: 4.0,
+        pass: 1,
+    };
+    let line = |y: f64, pass: u8| Stroke {
+        series: 1,
+        line: vec![(0.0, y), (100.0, y)],
+        width: 2.0,
+        pass,
+    };
+    // A band of half-width h through the centre of a disk of radius r covers
+    // (2/pi)(asin(h/r) + (h/r) sqrt(1 - h^2/r^2)) of it.
+    let (h, r) = (1.0f64, 4.0f64);
+    let exact =
+        2.0 / std::f64::consts::PI * ((h / r).asin() + (h / r) * (1.0 - (h / r).powi(2)).sqrt());
+    // The quarter-pixel grid counts the band's edge rows in full, which adds
+    // up to an eighth of the band at this radius.
+    let c = covered(&dot, &[line(50.0, 2)]);
+    assert!(c >= exact && c < 1.15 * exact, "{c} against {exact}");
+    assert_eq!(covered(&dot, &[line(50.0, 0)]), 0.0);
+    assert_eq!(covered(&dot, &[line(60.0, 2)]), 0.0);
 }

@@ -31,7 +31,6 @@ pub enum Command {
     Kinds,
 }
 
-
 /// `repro kinds`: one paragraph per registered kind, from the registry itself.
 fn kinds() {
     let reg = registry();

@@ -7,10 +7,10 @@ use clap::{Args, Subcommand};
 
 use std::collections::BTreeMap;
 
-use crate::pipeline::checkpoints::{Status, unix_now};
-use crate::pipeline::slurm;
 use super::runs::RunsArgs;
 use super::what_if::WhatIf;
+use crate::pipeline::checkpoints::{Status, unix_now};
+use crate::pipeline::slurm;
 use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
 
 /// Where the specs and the cache are.
@@ -349,13 +349,22 @@ fn stale_by_kind(graph: &pipeline::Graph, st: &[(usize, State)]) -> String {
     }
     let mut v: Vec<(&str, usize)> = count.into_iter().collect();
     v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
-    v.iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ")
+    v.iter()
+        .map(|(k, n)| format!("{n} {k}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
     let ws = f.root.workspace();
-    let (graph, st) =
-        planned_status(&ws, reg, &f.what_if, std::slice::from_ref(&f.id), &f.profile, &[])?;
+    let (graph, st) = planned_status(
+        &ws,
+        reg,
+        &f.what_if,
+        std::slice::from_ref(&f.id),
+        &f.profile,
+        &[],
+    )?;
     let store = pipeline::Store::open(&ws.store)?;
     let jobs = slurm::job_states(&graph, &st, reg, &store);
     let running = pipeline::exec::running(&graph, &st, reg, &store);

@@ -58,7 +58,10 @@ fn built(reg: &Registry, a: &RunsArgs) -> Result<(Vec<Run>, usize)> {
             continue;
         };
         let Some(hash) = entry.files.get("parquet") else {
-            bail!("{}: its stored result has no trajectory (a kind that is no simulation?)", node.label());
+            bail!(
+                "{}: its stored result has no trajectory (a kind that is no simulation?)",
+                node.label()
+            );
         };
         found.push(Run {
             experiment: a.experiment.clone(),
@@ -72,24 +75,40 @@ fn built(reg: &Registry, a: &RunsArgs) -> Result<(Vec<Run>, usize)> {
 }
 
 pub fn run(reg: &Registry, a: &RunsArgs) -> Result<()> {
-    let filters: Vec<(String, Value)> = a.filters.iter().map(|f| parse_setting(f)).collect::<Result<_>>()?;
+    let filters: Vec<(String, Value)> = a
+        .filters
+        .iter()
+        .map(|f| parse_setting(f))
+        .collect::<Result<_>>()?;
     let (all, missing) = built(reg, a)?;
     if let Some(first) = all.first() {
         for (k, _) in &filters {
             if !first.point.contains_key(k) && !first.settings.contains_key(k) {
-                let mut known: Vec<&String> = first.point.keys().chain(first.settings.keys()).collect();
+                let mut known: Vec<&String> =
+                    first.point.keys().chain(first.settings.keys()).collect();
                 known.sort();
-                bail!("--where {k}=...: the runs of '{}' have no parameter '{k}'; they have: {}", a.experiment,
-                    known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", "));
+                bail!(
+                    "--where {k}=...: the runs of '{}' have no parameter '{k}'; they have: {}",
+                    a.experiment,
+                    known
+                        .iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
             }
         }
     }
-    let mut chosen: Vec<Run> = all.into_iter().filter(|r| filters.iter().all(|(k, v)| has(r, k, v))).collect();
+    let mut chosen: Vec<Run> = all
+        .into_iter()
+        .filter(|r| filters.iter().all(|(k, v)| has(r, k, v)))
+        .collect();
     if let Some(dir) = &a.export {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for r in &mut chosen {
             let to = dir.join(r.file_name());
-            std::fs::copy(&r.path, &to).with_context(|| format!("copying {} to {}", r.path.display(), to.display()))?;
+            std::fs::copy(&r.path, &to)
+                .with_context(|| format!("copying {} to {}", r.path.display(), to.display()))?;
             r.path = std::path::absolute(&to)?;
         }
         let table = dir.join("runs.parquet");
@@ -104,8 +123,15 @@ pub fn run(reg: &Registry, a: &RunsArgs) -> Result<()> {
         chosen.len(),
         a.experiment,
         a.profile,
-        if missing > 0 { format!("; {missing} not built yet (a figure that gathers it builds them)") } else { String::new() },
-        a.export.as_ref().map_or(String::new(), |d| format!("; copied to {} with their table runs.parquet", d.display()))
+        if missing > 0 {
+            format!("; {missing} not built yet (a figure that gathers it builds them)")
+        } else {
+            String::new()
+        },
+        a.export.as_ref().map_or(String::new(), |d| format!(
+            "; copied to {} with their table runs.parquet",
+            d.display()
+        ))
     );
     Ok(())
 }

@@ -44,7 +44,13 @@ impl WhatIf {
 
     /// Plan figures `ids` (all if empty) at `profile` from the catalogue
     /// under `ws.root` with these settings applied.
-    pub fn plan(&self, ws: &Workspace, reg: &Registry, ids: &[String], profile: &str) -> Result<Graph> {
+    pub fn plan(
+        &self,
+        ws: &Workspace,
+        reg: &Registry,
+        ids: &[String],
+        profile: &str,
+    ) -> Result<Graph> {
         if self.is_empty() {
             return ws.plan(reg, ids, profile);
         }
@@ -78,13 +84,24 @@ mod tests {
     #[test]
     fn settings_name_their_experiment() {
         let w = WhatIf {
-            set: vec!["eps09.eps=0.88".into(), "eps09.grid.phi=[0.7, 0.78]".into(), "eps07.n=500".into()],
+            set: vec![
+                "eps09.eps=0.88".into(),
+                "eps09.grid.phi=[0.7, 0.78]".into(),
+                "eps07.n=500".into(),
+            ],
         };
         let by = w.by_experiment().unwrap();
         assert_eq!(by["eps09"]["eps"], serde_json::json!(0.88));
         assert_eq!(by["eps09"]["grid.phi"], serde_json::json!([0.7, 0.78]));
         assert_eq!(by["eps07"]["n"], serde_json::json!(500));
-        let e = WhatIf { set: vec!["eps=0.88".into()] }.by_experiment().unwrap_err();
-        assert!(format!("{e:#}").contains("name the experiment, e.g. --set eps09.eps="), "{e:#}");
+        let e = WhatIf {
+            set: vec!["eps=0.88".into()],
+        }
+        .by_experiment()
+        .unwrap_err();
+        assert!(
+            format!("{e:#}").contains("name the experiment, e.g. --set eps09.eps="),
+            "{e:#}"
+        );
     }
 }

@@ -28,6 +28,7 @@ pub mod linear;
 pub mod ranges;
 pub mod rescalings;
 mod result;
+pub mod runs;
 pub mod stability;
 pub mod uncertainty;
 

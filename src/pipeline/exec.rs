@@ -728,10 +728,7 @@ pub fn stale_keys(
             .map(|j| digest.get(j).map(|s| s.as_str()))
             .collect();
         if let Some(d) = known {
-            out.push((
-                *i,
-                stage_key(graph, reg, node, &d),
-            ));
+            out.push((*i, stage_key(graph, reg, node, &d)));
         }
     }
     out

@@ -878,17 +878,29 @@ mod tests {
                 "super::pool::h"
             ]
         );
-        assert!(crates.contains("Vec") && !crates.contains("columns"), "{crates:?}");
+        assert!(
+            crates.contains("Vec") && !crates.contains("columns"),
+            "{crates:?}"
+        );
         assert!(is_harness("pipeline/registry") && is_harness("lib") && !is_harness("table"));
-        let v = |s: &str| -> Vec<String> { s.split('/').filter(|x| !x.is_empty()).map(str::to_string).collect() };
-        let modules: BTreeSet<Vec<String>> = ["", "a", "a/deep", "x"].iter().map(|m| v(m)).collect();
+        let v = |s: &str| -> Vec<String> {
+            s.split('/')
+                .filter(|x| !x.is_empty())
+                .map(str::to_string)
+                .collect()
+        };
+        let modules: BTreeSet<Vec<String>> =
+            ["", "a", "a/deep", "x"].iter().map(|m| v(m)).collect();
         let mut reexports: Reexports = BTreeMap::new();
         reexports.entry(v("a")).or_default().insert(
             "*".into(),
             vec![vec!["self".into(), "deep".into(), "*".into()]],
         );
         let path: Vec<String> = ["crate", "a", "Thing"].map(str::to_string).to_vec();
-        assert_eq!(resolve(&v("x"), &path, &modules, &reexports, 0), Some(v("a/deep")));
+        assert_eq!(
+            resolve(&v("x"), &path, &modules, &reexports, 0),
+            Some(v("a/deep"))
+        );
     }
 
     #[test]

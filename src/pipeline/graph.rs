@@ -132,11 +132,20 @@ pub fn plan(cat: &Catalogue, ids: &[String], profile: &str, reg: &Registry) -> R
 
 /// Plan the simulations of experiment `name` at `profile` alone (no figure):
 /// what `repro runs` lists.
-pub fn plan_experiment(cat: &Catalogue, name: &str, profile: &str, reg: &Registry) -> Result<Graph> {
+pub fn plan_experiment(
+    cat: &Catalogue,
+    name: &str,
+    profile: &str,
+    reg: &Registry,
+) -> Result<Graph> {
     if !cat.experiments.contains_key(name) {
         anyhow::bail!(
             "no experiment '{name}' (experiments/{name}.yaml); known: {}",
-            cat.experiments.keys().cloned().collect::<Vec<_>>().join(", ")
+            cat.experiments
+                .keys()
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     let mut p = Planner::new(cat, reg, profile)?;
@@ -470,9 +479,10 @@ impl<'a> Planner<'a> {
                 st.name
             )));
         };
-        let (file, spec) = self.cat.pipeline(fig).map_err(|e| {
-            site.err(format!("stage '{}': `from: {target}`: {e}", st.name))
-        })?;
+        let (file, spec) = self
+            .cat
+            .pipeline(fig)
+            .map_err(|e| site.err(format!("stage '{}': `from: {target}`: {e}", st.name)))?;
         if !spec.stages.iter().any(|x| x.value.name == stage) {
             let known: Vec<&str> = spec.stages.iter().map(|x| x.value.name.as_str()).collect();
             return Err(site.err(format!(
@@ -509,7 +519,11 @@ impl<'a> Planner<'a> {
 
     /// The instances of a stage declared with its kind: one per group of its
     /// inputs and per combination of its sweep.
-    fn declared(&mut self, site: Site, planned: &HashMap<String, Vec<usize>>) -> Result<Vec<usize>> {
+    fn declared(
+        &mut self,
+        site: Site,
+        planned: &HashMap<String, Vec<usize>>,
+    ) -> Result<Vec<usize>> {
         let st = &site.stage.value;
         if st.kind.is_empty() {
             return Err(site.err(format!(
@@ -540,7 +554,11 @@ impl<'a> Planner<'a> {
 
     /// Groups of input nodes, each with the point it carries downstream: one
     /// per source instance (`map`), or per equal `by` values (`gather`).
-    fn input_groups(&self, site: Site, src_nodes: &[Vec<usize>]) -> Result<Vec<(Point, Vec<usize>)>> {
+    fn input_groups(
+        &self,
+        site: Site,
+        src_nodes: &[Vec<usize>],
+    ) -> Result<Vec<(Point, Vec<usize>)>> {
         let st = &site.stage.value;
         if st.map.is_some() {
             return Ok(src_nodes[0]
@@ -617,7 +635,16 @@ impl<'a> Planner<'a> {
             point: point.clone(),
         };
         let origin = (site.file.to_path_buf(), site.stage.referenced.line());
-        Ok(self.add(&st.kind, sid, p, parsed, point, inputs.to_vec(), None, origin))
+        Ok(self.add(
+            &st.kind,
+            sid,
+            p,
+            parsed,
+            point,
+            inputs.to_vec(),
+            None,
+            origin,
+        ))
     }
 }
 
@@ -1015,7 +1042,13 @@ mod tests {
     fn a_stage_from_another_figure_is_its_node_and_a_wrong_reference_is_located() {
         let a = "description: a\nstages:\n  - name: s\n    kind: toy_analyse\n    map: e\n    params: {a: 1.0}\n  - name: t\n    kind: table\n    gather: [s]\n";
         let b = "description: b\nstages:\n  - name: mine\n    from: a/t\n  - name: u\n    kind: table\n    gather: [mine]\n";
-        let g = plan(&catalogue(&[("a", a), ("b", b)]), &["b".into()], "ci", &registry()).unwrap();
+        let g = plan(
+            &catalogue(&[("a", a), ("b", b)]),
+            &["b".into()],
+            "ci",
+            &registry(),
+        )
+        .unwrap();
         // Only what b reads of a is planned, once: one table node that is both stages.
         let tables: Vec<&Node> = g.nodes.iter().filter(|n| n.kind == "table").collect();
         assert_eq!(tables.len(), 2);
@@ -1026,7 +1059,13 @@ mod tests {
         let fig = &g.figures[0];
         assert!(fig.publish.iter().any(|(name, _)| name == "mine"));
         // Planning a too gives the very same node.
-        let both = plan(&catalogue(&[("a", a), ("b", b)]), &["a".into(), "b".into()], "ci", &registry()).unwrap();
+        let both = plan(
+            &catalogue(&[("a", a), ("b", b)]),
+            &["a".into(), "b".into()],
+            "ci",
+            &registry(),
+        )
+        .unwrap();
         let recipe = |g: &Graph, fig: &str, stage: &str| {
             let f = g.figures.iter().find(|f| f.id == fig).unwrap();
             let (_, n) = f.publish.iter().find(|(s, _)| s == stage).unwrap();
@@ -1036,21 +1075,50 @@ mod tests {
         assert_eq!(recipe(&both, "a", "t"), t.recipe);
 
         let wrong = |b: &str| {
-            let e = plan(&catalogue(&[("a", a), ("b", b)]), &["b".into()], "ci", &registry()).unwrap_err();
+            let e = plan(
+                &catalogue(&[("a", a), ("b", b)]),
+                &["b".into()],
+                "ci",
+                &registry(),
+            )
+            .unwrap_err();
             format!("{e:#}")
         };
         let m = wrong("description: b\nstages:\n  - name: mine\n    from: a/nope\n");
-        assert!(m.starts_with("pipelines/b.yaml:3:") && m.contains("no stage 'nope'") && m.contains("its stages: s, t"), "{m}");
+        assert!(
+            m.starts_with("pipelines/b.yaml:3:")
+                && m.contains("no stage 'nope'")
+                && m.contains("its stages: s, t"),
+            "{m}"
+        );
         let m = wrong("description: b\nstages:\n  - name: mine\n    from: z/t\n");
-        assert!(m.starts_with("pipelines/b.yaml:3:") && m.contains("'z'") && m.contains("known figures: a, b"), "{m}");
+        assert!(
+            m.starts_with("pipelines/b.yaml:3:")
+                && m.contains("'z'")
+                && m.contains("known figures: a, b"),
+            "{m}"
+        );
         let m = wrong("description: b\nstages:\n  - name: mine\n    from: a/t\n    kind: table\n");
-        assert!(m.contains("takes only `name`, `publish` and `describes`"), "{m}");
+        assert!(
+            m.contains("takes only `name`, `publish` and `describes`"),
+            "{m}"
+        );
         let m = wrong("description: b\nstages:\n  - name: mine\n    map: e\n");
         assert!(m.contains("has no `kind`"), "{m}");
         // Figures reading each other's stages in a circle.
         let a2 = "description: a\nstages:\n  - name: t\n    from: b/mine\n";
-        let e = plan(&catalogue(&[("a", a2), ("b", b)]), &["b".into()], "ci", &registry()).unwrap_err();
-        assert!(format!("{e:#}").contains("cycle of figures") && format!("{e:#}").contains("b -> a -> b"), "{e:#}");
+        let e = plan(
+            &catalogue(&[("a", a2), ("b", b)]),
+            &["b".into()],
+            "ci",
+            &registry(),
+        )
+        .unwrap_err();
+        assert!(
+            format!("{e:#}").contains("cycle of figures")
+                && format!("{e:#}").contains("b -> a -> b"),
+            "{e:#}"
+        );
     }
 
     #[test]

@@ -5,11 +5,13 @@
 //! a single error bar or with fewer than two tick labels, axes squeezed by a
 //! legend beside them, two series a reader cannot tell apart (colours closer
 //! than CIEDE2000 10 and one marker and dash), a legend sample unlike its
-//! series, a text naming a profile other than the one drawn.
+//! series, a text naming a profile other than the one drawn, markers hidden
+//! under lines painted over them.
 
 use anyhow::Result;
 
-use super::render::{PanelLayout, spans};
+use super::geometry::P;
+use super::render::{Dot, PanelLayout, Stroke, spans};
 use super::spec::{Figure, Group, Series, Style};
 // The profile names a note may mention: the specs' own list.
 use crate::pipeline::spec::PROFILES;
@@ -17,6 +19,10 @@ use crate::pipeline::spec::PROFILES;
 /// Two series of one panel closer in colour than this (CIEDE2000) must
 /// differ in marker or dash.
 pub const MIN_DELTA_E: f64 = 10.0;
+
+/// A marker more than this fraction of whose disk lies under lines painted
+/// after it is hidden (a fit over a white halo erased most of fig4's points).
+pub const MAX_COVERED: f64 = 0.25;
 
 /// Every defect of `fig` as laid out, one sentence each; empty when none.
 pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
@@ -77,6 +83,7 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
                 None => seen.push((g, c)),
             }
         }
+        out.extend(hidden(p, lay).map(|d| format!("{name}: {d}")));
         out.extend(alike(p, lay).into_iter().map(|d| format!("{name}: {d}")));
         out.extend(
             legend_unlike(p, lay)
@@ -102,7 +109,8 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
         }
     }
     if let Some(drawn) = &fig.profile {
-        for text in labels(fig) {
+        let caption = fig.caption.iter().map(String::as_str);
+        for text in labels(fig).into_iter().chain(caption) {
             for w in profile_words(text) {
                 if w != drawn.as_str() {
                     out.push(format!(
@@ -113,6 +121,77 @@ pub fn defects(fig: &Figure, layout: &[PanelLayout]) -> Result<Vec<String>> {
         }
     }
     Ok(out)
+}
+
+/// The markers of `lay` hidden under lines painted over them, if any: how
+/// many of how many, and of which series.
+fn hidden(p: &super::Panel, lay: &PanelLayout) -> Option<String> {
+    let under: Vec<&Dot> = lay
+        .dots
+        .iter()
+        .filter(|d| covered(d, &lay.strokes) > MAX_COVERED)
+        .collect();
+    let first = under.first()?;
+    Some(format!(
+        "{} of {} markers lie more than {:.0}% under lines painted over them (first of series {} {:?})",
+        under.len(),
+        lay.dots.len(),
+        100.0 * MAX_COVERED,
+        first.series + 1,
+        p.series[first.series].label
+    ))
+}
+
+/// The fraction of the disk of `dot` under the strokes painted after it,
+/// counted on a grid of a quarter pixel.
+pub fn covered(dot: &Dot, strokes: &[Stroke]) -> f64 {
+    let r = dot.radius;
+    let (cx, cy) = dot.at;
+    // Segments painted later that come within reach of the disk.
+    let near: Vec<(P, P, f64)> = strokes
+        .iter()
+        .filter(|s| s.pass > dot.pass)
+        .flat_map(|s| s.line.windows(2).map(move |w| (w[0], w[1], 0.5 * s.width)))
+        .filter(|&(a, b, h)| {
+            let reach = r + h;
+            a.0.min(b.0) <= cx + reach
+                && a.0.max(b.0) >= cx - reach
+                && a.1.min(b.1) <= cy + reach
+                && a.1.max(b.1) >= cy - reach
+        })
+        .collect();
+    if near.is_empty() {
+        return 0.0;
+    }
+    let step = 0.25;
+    let k = (r / step).ceil() as i32;
+    let (mut inside, mut under) = (0usize, 0usize);
+    for i in -k..=k {
+        for j in -k..=k {
+            let (dx, dy) = (i as f64 * step, j as f64 * step);
+            if dx.hypot(dy) > r {
+                continue;
+            }
+            inside += 1;
+            let q = (cx + dx, cy + dy);
+            if near.iter().any(|&(a, b, h)| distance(q, a, b) <= h) {
+                under += 1;
+            }
+        }
+    }
+    under as f64 / inside.max(1) as f64
+}
+
+/// The distance from `q` to the segment a-b.
+fn distance(q: P, a: P, b: P) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 {
+        (((q.0 - a.0) * dx + (q.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (q.0 - a.0 - t * dx).hypot(q.1 - a.1 - t * dy)
 }
 
 /// What a series is told apart by besides colour: its marker (none for a
@@ -357,6 +436,7 @@ mod tests {
             height: 400,
             colour_ranges: Default::default(),
             profile: None,
+            caption: vec![],
         };
         let mut lay = crate::plot::layout(&fig).unwrap();
         assert!(super::defects(&fig, &lay).unwrap().is_empty());

@@ -19,11 +19,11 @@ use std::path::Path;
 use anyhow::{Context, Result, anyhow};
 use plotters::prelude::*;
 
-pub use check::{profile_words, typeset};
+pub use check::{MAX_COVERED, covered, profile_words, typeset};
 pub use colour::{ciede2000, delta_e, lab};
 pub use geometry::{P, Rect};
 pub use palette::viridis;
-pub use render::PanelLayout;
+pub use render::{Dot, PanelLayout, Stroke};
 pub use scale::{Scale, Tick};
 pub use spec::{
     Axis, Color, Figure, Group, Legend, Marker, Palette, Panel, RefLine, Series, Style,
@@ -35,6 +35,15 @@ pub fn layout(fig: &Figure) -> Result<Vec<PanelLayout>> {
     let mut svg = String::new();
     let root = SVGBackend::with_string(&mut svg, (fig.width, fig.height)).into_drawing_area();
     render::lay_out(&root, fig)
+}
+
+/// The height in pixels the caption of `fig` takes under its panels (its
+/// lines wrapped to the figure's width): what to add to a figure's height
+/// to give it a caption without shrinking the panels.
+pub fn caption_height(fig: &Figure) -> Result<f64> {
+    let mut svg = String::new();
+    let root = SVGBackend::with_string(&mut svg, (fig.width, fig.height)).into_drawing_area();
+    Ok(render::caption(&root, fig)?.height)
 }
 
 /// The figure as SVG text. Deterministic: the same figure gives the same bytes.

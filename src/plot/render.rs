@@ -12,7 +12,7 @@ use plotters::style::Color as _;
 use plotters::style::FontTransform;
 use plotters::style::text_anchor::{HPos, VPos};
 
-use super::geometry::{P, Rect, clip_polyline};
+use super::geometry::{P, Rect};
 use super::palette;
 use super::scale::Scale;
 use super::spec::{Color, Figure, Legend, Marker, Palette, Panel, Series, Style};
@@ -20,14 +20,17 @@ use super::spec::{Color, Figure, Legend, Marker, Palette, Panel, Series, Style};
 mod ink;
 mod labels;
 mod legend;
+mod paint;
 pub(super) use ink::spans;
 use ink::{
     Area, Dash, Frame, GREY, INK, NOTE, Sizes, arrow, draw_text, err, marker, polyline, px, rgb,
-    stroke, stroke_over, text_size, text_style,
+    stroke, stroke_dashed, text_size, text_style,
 };
 pub(super) use labels::labelled_lines;
 use labels::{fill_rect, marks, ref_labels};
 use legend::{LegendBox, draw_legend, free_corner, measure_legend, outside_legend};
+pub use paint::{Dot, Stroke};
+use paint::{Part, line_pieces, line_width, marker_points, pass};
 
 /// Draw the whole figure on `root` (already sized to the figure).
 pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
@@ -43,7 +46,51 @@ pub fn render<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<()> {
     for (panel, lay) in fig.panels.iter().zip(&laid) {
         draw_panel(root, panel, lay)?;
     }
+    let cap = caption(root, fig)?;
+    let style = text_style(cap.size, NOTE, HPos::Left, VPos::Top);
+    for (k, line) in cap.lines.iter().enumerate() {
+        let y = fig.height as f64 - cap.height + cap.pad + k as f64 * cap.row;
+        draw_text(root, line, &style, (cap.pad, y))?;
+    }
     root.present().map_err(err)
+}
+
+/// The caption under the panels as laid out: text size, lines wrapped to
+/// the figure's width, row and margin, and the height it takes.
+pub struct Caption {
+    pub size: f64,
+    pub lines: Vec<String>,
+    pub row: f64,
+    pub pad: f64,
+    pub height: f64,
+}
+
+/// The caption of `fig` as laid out. Its text size follows the width of a
+/// panel only, so adding its height to the figure's keeps the panels'.
+pub fn caption<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<Caption> {
+    super::font::register()?;
+    let cols = fig
+        .columns
+        .unwrap_or(fig.panels.len())
+        .clamp(1, fig.panels.len().max(1));
+    let size = (fig.width as f64 / cols as f64 / 40.0).clamp(11.0, 14.0);
+    let (row, pad) = (1.3 * size, 0.6 * size);
+    let mut lines = vec![];
+    for text in &fig.caption {
+        lines.extend(wrap(root, text, size, fig.width as f64 - 2.0 * pad)?);
+    }
+    let height = if lines.is_empty() {
+        0.0
+    } else {
+        lines.len() as f64 * row + 2.0 * pad
+    };
+    Ok(Caption {
+        size,
+        lines,
+        row,
+        pad,
+        height,
+    })
 }
 
 /// Where every part of every panel goes, as drawing puts it: what a test checks
@@ -63,7 +110,8 @@ pub fn lay_out<DB: DrawingBackend>(root: &Area<DB>, fig: &Figure) -> Result<Vec<
         .unwrap_or(fig.panels.len())
         .min(fig.panels.len());
     let rows = fig.panels.len().div_ceil(cols);
-    let (cw, ch) = (w / cols as f64, (h - top) / rows as f64);
+    let bottom = caption(root, fig)?.height;
+    let (cw, ch) = (w / cols as f64, (h - top - bottom) / rows as f64);
     let colors = series_colors(fig);
     let markers = series_markers(fig);
     let mut out = Vec::new();
@@ -200,14 +248,6 @@ fn family_line(s: &Series) -> bool {
     s.style == Style::Line && (s.group.is_some() || s.color.is_none()) && !s.fit && !s.legend_ink
 }
 
-/// The points of a line that carry its markers: about eight, shifted by
-/// `phase` so that curves running together do not stack them.
-fn sparse_points(n: usize, phase: usize) -> impl Iterator<Item = usize> {
-    let step = (n / 8).max(1);
-    let first = (phase * step.div_ceil(3)) % step;
-    (first..n).step_by(step)
-}
-
 /// Axis scales of a panel: the given ranges, or ranges fitted to its values.
 /// Error bars widen a fitted range by at most a quarter of the values' span on
 /// each side (in decades on a log axis), so one long bar cannot squeeze the
@@ -302,6 +342,11 @@ pub struct PanelLayout {
     pub colors: Vec<Color>,
     /// The marker each series draws (`None`: none, e.g. a fitted line).
     pub markers: Vec<Option<Marker>>,
+    /// Every line and error bar as painted (pixels, width, pass).
+    pub strokes: Vec<Stroke>,
+    /// Every marker as painted: what [`crate::plot::defects`] checks the
+    /// strokes painted after it do not hide.
+    pub dots: Vec<Dot>,
     /// The notes above the axes, the panel's and the plotter's.
     pub notes: Vec<String>,
     /// The notes wrapped to the frame width, as drawn.
@@ -507,6 +552,7 @@ fn lay_out_panel<DB: DrawingBackend>(
         }
     };
     let marks = marks(&frame, p);
+    let (strokes, dots) = paint::plan(&frame, p, &markers, sz);
     let mut labels = vec![];
     let mut label_colors = vec![];
     let placed = ref_labels(root, &frame, p, sz, &marks, &crowded)?;
@@ -531,6 +577,8 @@ fn lay_out_panel<DB: DrawingBackend>(
         label_colors,
         colors,
         markers,
+        strokes,
+        dots,
         notes,
         lines,
         sz,
@@ -613,8 +661,9 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
         }
     }
 
-    // The data first, then fits and guides above their markers.
-    for fits in [false, true] {
+    // Fits and guides first, then the data's lines and bars, then every
+    // marker: no line hides a point (paint::pass).
+    for now in paint::PASSES {
         for (i, ((s, &c), &m)) in p
             .series
             .iter()
@@ -622,9 +671,7 @@ fn draw_panel<DB: DrawingBackend>(root: &Area<DB>, p: &Panel, lay: &PanelLayout)
             .zip(&lay.markers)
             .enumerate()
         {
-            if s.fit == fits {
-                draw_series(root, &frame, s, rgb(c), m, i, sz)?;
-            }
+            draw_series(root, &frame, s, rgb(c), m, i, sz, now)?;
         }
     }
 
@@ -673,8 +720,9 @@ fn noise(s: &Series, i: usize, y_log: bool) -> bool {
     y_log && e.is_some_and(|e| e.is_finite() && e > s.y[i].abs())
 }
 
-/// A series: error bars, line (a fit's over a white halo, so that it reads
-/// above the markers it crosses), markers (open where the point is noise).
+/// The parts of a series painted in pass `now` (see [`paint::pass`]): error
+/// bars and line, or markers (open where the point is noise).
+#[allow(clippy::too_many_arguments)]
 fn draw_series<DB: DrawingBackend>(
     area: &Area<DB>,
     f: &Frame,
@@ -683,24 +731,54 @@ fn draw_series<DB: DrawingBackend>(
     shape: Option<Marker>,
     phase: usize,
     sz: Sizes,
+    now: u8,
 ) -> Result<()> {
     let r = f.rect;
-    let cap = 0.6 * sz.marker + 1.0;
-    for (a, b, a_end, b_end) in f.bars(s) {
-        polyline(area, &[a, b], color, 1)?;
-        // A cap only where the bar ends, none where the frame cuts it.
-        for (end, shown) in [(a, a_end), (b, b_end)] {
-            if shown {
-                polyline(
-                    area,
-                    &[(end.0 - cap, end.1), (end.0 + cap, end.1)],
-                    color,
-                    1,
-                )?;
+    if pass(s, Part::Line) == now {
+        let cap = 0.6 * sz.marker + 1.0;
+        for (a, b, a_end, b_end) in f.bars(s) {
+            polyline(area, &[a, b], color, 1)?;
+            // A cap only where the bar ends, none where the frame cuts it.
+            for (end, shown) in [(a, a_end), (b, b_end)] {
+                if shown {
+                    polyline(
+                        area,
+                        &[(end.0 - cap, end.1), (end.0 + cap, end.1)],
+                        color,
+                        1,
+                    )?;
+                }
             }
         }
+        draw_shapes(area, f, s, color, sz)?;
+        for piece in line_pieces(f, s) {
+            stroke_dashed(area, &piece, color, line_width(s, sz), Dash::of(s), sz)?;
+        }
     }
-    let pts = f.points(s);
+    let Some(shape) = shape.filter(|_| pass(s, Part::Marker) == now) else {
+        return Ok(());
+    };
+    for (i, q) in marker_points(f, s, phase) {
+        let m = if noise(s, i, f.y.log) {
+            shape.hollow()
+        } else {
+            shape
+        };
+        debug_assert!(r.contains(q));
+        marker(area, m, q, sz.marker, color)?;
+    }
+    Ok(())
+}
+
+/// The disks of style `disks` and the arrows of style `arrows`.
+fn draw_shapes<DB: DrawingBackend>(
+    area: &Area<DB>,
+    f: &Frame,
+    s: &Series,
+    color: RGBColor,
+    sz: Sizes,
+) -> Result<()> {
+    let r = f.rect;
     if s.style == Style::Disks {
         // Radius in pixels from the x scale: to scale when the panel's data
         // aspect matches its frame (a square box in a square frame).
@@ -715,7 +793,6 @@ fn draw_series<DB: DrawingBackend>(
                     .map_err(err)?;
             }
         }
-        return Ok(());
     }
     if s.style == Style::Arrows {
         let vectors = s.arrows.as_deref().unwrap_or(&[]);
@@ -726,29 +803,6 @@ fn draw_series<DB: DrawingBackend>(
                 arrow(area, a, b, color, sz)?;
             }
         }
-        return Ok(());
-    }
-    if s.style != Style::Points {
-        for piece in clip_polyline(&pts, &r) {
-            stroke_over(area, &piece, color, sz.line, Dash::of(s), s.fit, sz)?;
-        }
-    }
-    let Some(shape) = shape else { return Ok(()) };
-    let at: Vec<usize> = if s.style == Style::Line {
-        sparse_points(pts.len(), phase).collect()
-    } else {
-        (0..pts.len()).collect()
-    };
-    for i in at {
-        let Some(q) = pts[i].filter(|&q| r.contains(q)) else {
-            continue;
-        };
-        let m = if noise(s, i, f.y.log) {
-            shape.hollow()
-        } else {
-            shape
-        };
-        marker(area, m, q, sz.marker, color)?;
     }
     Ok(())
 }

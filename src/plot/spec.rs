@@ -31,6 +31,28 @@ pub struct Figure {
     /// a text naming another profile is a defect ([`crate::plot::defects`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub profile: Option<String>,
+    /// Lines printed under the panels, across the figure (each compared
+    /// number's verdict, put there by the plot stage), wrapped to its
+    /// width and printed as written (no markup: quantity names keep their
+    /// `_`). They take [`crate::plot::caption_height`] of the height.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub caption: Vec<String>,
+}
+
+impl Default for Figure {
+    /// No panels (add some), default size, no title.
+    fn default() -> Figure {
+        Figure {
+            title: String::new(),
+            panels: vec![],
+            columns: None,
+            width: default_width(),
+            height: default_height(),
+            colour_ranges: BTreeMap::new(),
+            profile: None,
+            caption: vec![],
+        }
+    }
 }
 
 fn default_width() -> u32 {
@@ -117,8 +139,8 @@ pub struct Series {
     /// circle for a series without a group.
     #[serde(default)]
     pub marker: Marker,
-    /// A fit or guide line: drawn above the data's markers, over a thin white
-    /// halo, so no marker hides it.
+    /// A fit or guide line: painted before the data, a pixel thinner, so
+    /// that it hides none of their markers.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub fit: bool,
     /// Per-point radius in data units (style `disks`: disks drawn to scale).

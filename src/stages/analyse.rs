@@ -251,7 +251,10 @@ impl RunDrive {
 
     /// The one drive of every run gathered (`runs`: where each is declared,
     /// and its configuration); `None` without runs.
-    fn shared(name: &str, runs: impl IntoIterator<Item = (String, SimConfig)>) -> Result<Option<(String, Self)>> {
+    fn shared(
+        name: &str,
+        runs: impl IntoIterator<Item = (String, SimConfig)>,
+    ) -> Result<Option<(String, Self)>> {
         let mut first: Option<(String, Self)> = None;
         for (source, cfg) in runs {
             let d = Self::of(&cfg);
@@ -270,8 +273,12 @@ impl RunDrive {
     /// accepted only when it equals the run's (`source` says where that is).
     fn check_copy(&self, observable: &Value, source: &str) -> Result<()> {
         if let Some(v) = observable.get("drive") {
-            let copy: DriveParams = serde_json::from_value(v.clone())
-                .map_err(|e| param_error(&["drive"], format!("`drive` wants {{eps, gamma, temperature}}: {e}")))?;
+            let copy: DriveParams = serde_json::from_value(v.clone()).map_err(|e| {
+                param_error(
+                    &["drive"],
+                    format!("`drive` wants {{eps, gamma, temperature}}: {e}"),
+                )
+            })?;
             let pairs = [
                 ("eps", copy.eps, self.drive.eps),
                 ("gamma", copy.gamma, self.drive.gamma),
@@ -291,8 +298,11 @@ impl RunDrive {
         if let Some(k) = observable.get("kick_rate_factor").and_then(Value::as_f64) {
             let run = match self.kick_rate_factor {
                 Some(r) if r.to_bits() == k.to_bits() => return Ok(()),
-                Some(r) => format!("kicks at kick_rate_factor = {r} (its `intruder.kick_rate_factor`)"),
-                None => "applies the force exactly (its `intruder.force_mode` is not `kicks`)".to_string(),
+                Some(r) => {
+                    format!("kicks at kick_rate_factor = {r} (its `intruder.kick_rate_factor`)")
+                }
+                None => "applies the force exactly (its `intruder.force_mode` is not `kicks`)"
+                    .to_string(),
             };
             return Err(param_error(
                 &["kick_rate_factor"],
@@ -309,7 +319,8 @@ impl RunDrive {
         let mut obs = observable.clone();
         if let Value::Object(m) = &mut obs {
             let d = &self.drive;
-            let drive = serde_json::json!({"eps": d.eps, "gamma": d.gamma, "temperature": d.temperature});
+            let drive =
+                serde_json::json!({"eps": d.eps, "gamma": d.gamma, "temperature": d.temperature});
             m.insert("drive".into(), drive);
             match self.kick_rate_factor {
                 Some(k) => m.insert("kick_rate_factor".into(), Value::from(k)),
@@ -327,7 +338,10 @@ fn planned_drive(name: &str, observable: &Value, inputs: &[PlannedInput]) -> Res
     for n in inputs.iter().filter(|n| n.kind.holds == Holds::Trajectory) {
         let super::simulate::Run { config, .. } = n.parsed.get()?;
         let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());
-        runs.push((format!("experiment '{experiment}' ({})", n.file.display()), config.clone()));
+        runs.push((
+            format!("experiment '{experiment}' ({})", n.file.display()),
+            config.clone(),
+        ));
     }
     match RunDrive::shared(name, runs)? {
         Some((source, d)) => d.check_copy(observable, &source),

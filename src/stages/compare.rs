@@ -58,7 +58,15 @@ pub struct CompareParams {
     /// `out_of_reach`: appended to the reason.
     #[serde(default)]
     caveats: std::collections::BTreeMap<String, String>,
+    /// A short form of a quantity's reason (quantity -> text), set per
+    /// profile like `out_of_reach`: what the figure's verdict line prints
+    /// (column `short`; docs/plot.md).
+    #[serde(default)]
+    short: std::collections::BTreeMap<String, String>,
 }
+
+/// The column of the short reasons (empty where none is given).
+pub const SHORT: &str = "short";
 
 /// A column of `b` as f64 or strings, with a clear error.
 fn f64_col<'a>(b: &'a RecordBatch, name: &str, label: &str) -> Result<&'a Float64Array> {
@@ -91,6 +99,7 @@ impl StageKind for Compare {
             .keys()
             .map(|q| ("out_of_reach", q))
             .chain(p.caveats.keys().map(|q| ("caveats", q)))
+            .chain(p.short.keys().map(|q| ("short", q)))
         {
             if !p.paper.iter().any(|v| &v.quantity == q) {
                 bail!("compare: {field} names '{q}', which is not one of the paper values");
@@ -245,6 +254,23 @@ impl StageKind for Compare {
             source,
         }
         .batch()?;
+        let short: Vec<String> = p
+            .paper
+            .iter()
+            .map(|v| p.short.get(&v.quantity).cloned().unwrap_or_default())
+            .collect();
+        let mut fields: Vec<_> = b.schema().fields().iter().cloned().collect();
+        fields.push(std::sync::Arc::new(arrow_schema::Field::new(
+            SHORT,
+            arrow_schema::DataType::Utf8,
+            false,
+        )));
+        let mut columns = b.columns().to_vec();
+        columns.push(std::sync::Arc::new(StringArray::from(short)));
+        let b = RecordBatch::try_new(
+            std::sync::Arc::new(arrow_schema::Schema::new(fields)),
+            columns,
+        )?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
     }
 }

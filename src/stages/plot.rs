@@ -10,11 +10,13 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, Where, inputs_of};
-use crate::table::references::{Lookup, Reference, Resolved, Target, legend_number, render};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::plot::{
     Axis, Color, Figure, Group, Legend, Marker, Palette, Panel, RefLine, Series, Style,
+};
+use crate::table::references::{
+    Lookup, Reference, Resolved, Target, legend_number, render, value_with_error,
 };
 
 /// The values a plot's texts name: its gathered tables and its build (the
@@ -87,7 +89,7 @@ pub struct Layer {
     /// Marker shape; `auto` (default): one shape per group value.
     #[serde(default)]
     pub marker: Marker,
-    /// A fitted line, drawn above the data over a white halo; default: a
+    /// A fitted line, painted under the data, thinner; default: a
     /// layer of a fit's `curve.parquet` or `lines.parquet`.
     #[serde(default)]
     pub fit: Option<bool>,
@@ -499,11 +501,203 @@ fn missing(layer: &Layer, heading: &str, drawn: &[Series]) -> Option<String> {
     ))
 }
 
-/// The figure from the parameters and the inputs.
+/// A fit whose residual signs form fewer runs than this level allows
+/// (Wald-Wolfowitz, one-sided) misses its points systematically.
+const RUNS_LEVEL: f64 = 0.01;
+
+/// The signs (true: above) of the points of `data` inside the x range of
+/// the curve `fit`, against the curve interpolated in the panel's axes
+/// (log where they are), with their x, in order of x.
+fn residual_signs(fit: &Series, data: &[&Series], ps: &PanelSpec) -> Vec<(f64, bool)> {
+    let tx = |v: f64| if ps.x.log { v.ln() } else { v };
+    let ty = |v: f64| if ps.y.log { v.ln() } else { v };
+    let curve: Vec<(f64, f64)> = fit
+        .x
+        .iter()
+        .zip(&fit.y)
+        .map(|(&x, &y)| (tx(x), ty(y)))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    let at = |x: f64| -> Option<f64> {
+        let w = curve
+            .windows(2)
+            .find(|w| (w[0].0.min(w[1].0)..=w[0].0.max(w[1].0)).contains(&x))?;
+        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+        Some(if x1 == x0 {
+            y0
+        } else {
+            y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+        })
+    };
+    let mut out: Vec<(f64, bool)> = data
+        .iter()
+        .flat_map(|s| s.x.iter().zip(&s.y))
+        .filter_map(|(&x, &y)| {
+            let (u, v) = (tx(x), ty(y));
+            let r = v - at(u)?;
+            // A point on the curve is on neither side.
+            (r.is_finite() && r.abs() > 1e-12 * v.abs().max(1e-300)).then_some((x, r > 0.0))
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
+/// A note for each fitted curve of a panel whose points lie on one side of
+/// it in runs too long for chance ([`RUNS_LEVEL`]): its form misses their
+/// shape (a straight line through a curve that turns). A curve is judged
+/// against the marked points of its own group value (or the ungrouped ones).
+fn systematic(all: &[Series], ps: &PanelSpec) -> Vec<String> {
+    let axis = if ps.x.label.is_empty() {
+        "x"
+    } else {
+        &ps.x.label
+    };
+    let mut out = vec![];
+    for fit in all.iter().filter(|s| s.fit) {
+        let data: Vec<&Series> = all
+            .iter()
+            .filter(|s| !s.fit && matches!(s.style, Style::Points | Style::LinePoints))
+            .filter(|s| s.group == fit.group)
+            .collect();
+        let signs = residual_signs(fit, &data, ps);
+        let above: Vec<bool> = signs.iter().map(|s| s.1).collect();
+        let Some(r) = crate::fit::runs::runs(&above).filter(|r| r.p < RUNS_LEVEL) else {
+            continue;
+        };
+        let name = fit.label.split(':').next().unwrap_or_default().trim();
+        let name = if name.is_empty() { "A fit" } else { name };
+        let at = fit.group.as_ref().map_or(String::new(), |g| {
+            let head = if ps.legend_title.is_empty() {
+                &g.column
+            } else {
+                &ps.legend_title
+            };
+            format!(" at {head} = {}", legend_number(g.value))
+        });
+        let (a, b) = (signs[r.longest.0].0, signs[r.longest.1].0);
+        out.push(format!(
+            "{name}{at} misses its points systematically over {axis} in [{}, {}]: {} runs of residual signs in {} points (p = {} < {RUNS_LEVEL}).",
+            super::compare::digits(a, 3),
+            super::compare::digits(b, 3),
+            r.runs,
+            signs.len(),
+            super::compare::digits(r.p, 2),
+        ));
+    }
+    out
+}
+
+/// The figure from the parameters and the inputs, with the verdict of each
+/// number of a gathered `compare` stage under its panels.
 pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
     let table =
         |layer: &Layer| Columns::read_file(&inputs_of("plot", inputs, &layer.from)?, &layer.file);
-    build(p, table, |text| fill(text, inputs, &p.build))
+    let fig = build(p, table, |text| fill(text, inputs, &p.build))?;
+    with_caption(fig, verdicts(inputs)?)
+}
+
+/// `fig` with `lines` under its panels, its height grown by theirs so that
+/// the panels keep their size.
+fn with_caption(mut fig: Figure, lines: Vec<String>) -> Result<Figure> {
+    fig.caption = lines;
+    fig.height += crate::plot::caption_height(&fig)?.ceil() as u32;
+    Ok(fig)
+}
+
+/// The longest short reason a verdict line prints, in characters; a longer
+/// first clause is cut at a word and ends in "…".
+const SHORT_CHARS: usize = 90;
+
+/// One verdict line per row of every gathered `compare` stage (docs/plot.md).
+fn verdicts(inputs: &[Artifact]) -> Result<Vec<String>> {
+    let mut out = vec![];
+    for a in inputs.iter().filter(|a| a.kind.name == "compare") {
+        let (batches, _) = crate::table::read_parquet_bytes(a.read("parquet")?)?;
+        for b in &batches {
+            let text = |name: &str, i: usize| -> String {
+                b.column_by_name(name)
+                    .and_then(|c| c.as_any().downcast_ref::<arrow_array::StringArray>())
+                    .filter(|c| arrow_array::Array::is_valid(c, i))
+                    .map_or(String::new(), |c| c.value(i).to_string())
+            };
+            let rows = crate::table::results::read_compare(b)
+                .with_context(|| format!("plot: the compare table of {}", a.label))?;
+            for (i, c) in rows.iter().enumerate() {
+                out.push(verdict_line(
+                    c,
+                    &text(super::compare::SHORT, i),
+                    provenance(c.source),
+                ));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Where a paper value comes from, as a verdict line says it: measured in one
+/// of paper H's figures, or quoted there from its reference 12.
+fn provenance(source: crate::table::results::Source) -> &'static str {
+    match source {
+        crate::table::results::Source::Figure => "measured",
+        crate::table::results::Source::Ref12 => "quoted, ref. 12",
+    }
+}
+
+/// `quantity: paper P (provenance); ours V ± E; verdict[: short reason]`,
+/// the reason only where the verdict is not `agree`: the given short form,
+/// else the reason's first clause (up to "; "), cut to [`SHORT_CHARS`].
+fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &str) -> String {
+    use crate::table::results::Verdict;
+    let paper = if provenance.is_empty() {
+        format!("paper {}", c.paper)
+    } else {
+        format!("paper {} ({provenance})", c.paper)
+    };
+    let ours = if c.ours.is_finite() {
+        format!("ours {}", value_with_error(c.ours, c.ours_err))
+    } else {
+        "ours: none".to_string()
+    };
+    let mut line = format!("{}: {paper}; {ours}; {}", c.quantity, c.verdict.label());
+    if c.verdict != Verdict::Agree {
+        let why = if short.is_empty() {
+            first_clause(&c.reason)
+        } else {
+            short.to_string()
+        };
+        line.push_str(": ");
+        line.push_str(&cut(why.trim(), SHORT_CHARS));
+    }
+    line
+}
+
+/// The first clause of a reason: its text up to the first ";" outside
+/// brackets, without the bracketed asides (the commands and details the
+/// report keeps).
+fn first_clause(reason: &str) -> String {
+    let mut out = String::new();
+    let mut depth = 0usize;
+    for ch in reason.chars() {
+        match ch {
+            '(' => depth += 1,
+            ')' => depth = depth.saturating_sub(1),
+            ';' if depth == 0 => break,
+            c if depth == 0 => out.push(c),
+            _ => {}
+        }
+    }
+    out.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// `text` cut to at most `n` characters at a word, ending in "…" if cut.
+fn cut(text: &str, n: usize) -> String {
+    if text.chars().count() <= n {
+        return text.to_string();
+    }
+    let head: String = text.chars().take(n).collect();
+    let at = head.rfind(' ').unwrap_or(head.len());
+    format!("{}…", head[..at].trim_end_matches([',', ':', ' ']))
 }
 
 /// The figure from the parameters, each layer's table and the filling of
@@ -560,6 +754,8 @@ fn build(
             notes.extend(arrow_key(&layer, &c)?);
             all.extend(drawn);
         }
+        // Fitted layers only: a guide of the paper (`curves`) is not ours to judge.
+        notes.extend(systematic(&all, ps));
         for c in &ps.curves {
             // A fitted value at full precision: `fill` with a `:value` key.
             let value = |t: &str| -> Result<f64> {
@@ -610,6 +806,7 @@ fn build(
         height: p.height.unwrap_or(440 * rows),
         colour_ranges: p.colour_ranges.clone(),
         profile: (!p.build.profile.is_empty()).then(|| p.build.profile.clone()),
+        caption: vec![],
     };
     fig.validate()?;
     Ok(fig)

@@ -92,7 +92,9 @@ impl ColumnType {
             ColumnType::F64 => *t == DataType::Float64,
             ColumnType::I64 => *t == DataType::Int64,
             ColumnType::U64 => *t == DataType::UInt64,
-            ColumnType::String => matches!(t, DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View),
+            ColumnType::String => {
+                matches!(t, DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View)
+            }
             ColumnType::Bool => *t == DataType::Boolean,
         }
     }
@@ -188,7 +190,8 @@ impl StageKind for Script {
                 stray.join(", ")
             ));
         }
-        collect_outputs(p, &out).map(|o| o.with_side(json!({"interpreter": interpreter_version(&p.interpreter)})))
+        collect_outputs(p, &out)
+            .map(|o| o.with_side(json!({"interpreter": interpreter_version(&p.interpreter)})))
     }
 }
 
@@ -202,11 +205,13 @@ fn keyed_files(p: &Params) -> Vec<&Path> {
 
 /// Plan-time checks of the parameters; each error names the key.
 fn check(p: &Params) -> Result<()> {
-    ensure!(!p.interpreter.trim().is_empty(), "script: `interpreter` is empty (e.g. python3)");
+    ensure!(
+        !p.interpreter.trim().is_empty(),
+        "script: `interpreter` is empty (e.g. python3)"
+    );
     for f in keyed_files(p) {
         ensure!(
-            !f.as_os_str().is_empty()
-                && f.components().all(|c| matches!(c, Component::Normal(_))),
+            !f.as_os_str().is_empty() && f.components().all(|c| matches!(c, Component::Normal(_))),
             "script: '{}' must be a path relative to the project root, without `..`",
             f.display()
         );
@@ -222,20 +227,42 @@ fn check(p: &Params) -> Result<()> {
     );
     let mut names = BTreeSet::new();
     for t in &p.tables {
-        ensure!(plain_name(&t.name), "script: table name '{}' must be a plain file stem (letters, digits, _ and -)", t.name);
-        ensure!(!t.columns.is_empty(), "script: table '{}' declares no column", t.name);
-        ensure!(names.insert(format!("{}.parquet", t.name)), "script: table '{}' is declared twice", t.name);
+        ensure!(
+            plain_name(&t.name),
+            "script: table name '{}' must be a plain file stem (letters, digits, _ and -)",
+            t.name
+        );
+        ensure!(
+            !t.columns.is_empty(),
+            "script: table '{}' declares no column",
+            t.name
+        );
+        ensure!(
+            names.insert(format!("{}.parquet", t.name)),
+            "script: table '{}' is declared twice",
+            t.name
+        );
     }
     for i in &p.images {
-        let ok = i.rsplit_once('.').is_some_and(|(stem, ext)| plain_name(stem) && IMAGE_FORMATS.contains(&ext));
-        ensure!(ok, "script: image '{i}' must be NAME.EXT with EXT one of {IMAGE_FORMATS:?}");
-        ensure!(names.insert(i.clone()), "script: image '{i}' is declared twice");
+        let ok = i
+            .rsplit_once('.')
+            .is_some_and(|(stem, ext)| plain_name(stem) && IMAGE_FORMATS.contains(&ext));
+        ensure!(
+            ok,
+            "script: image '{i}' must be NAME.EXT with EXT one of {IMAGE_FORMATS:?}"
+        );
+        ensure!(
+            names.insert(i.clone()),
+            "script: image '{i}' is declared twice"
+        );
     }
     Ok(())
 }
 
 fn plain_name(s: &str) -> bool {
-    !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
 /// `INTERPRETER --version` (once per interpreter and process), or why not.
@@ -243,20 +270,26 @@ fn interpreter_version(interpreter: &str) -> String {
     static SEEN: OnceLock<Mutex<BTreeMap<String, String>>> = OnceLock::new();
     let mut seen = SEEN.get_or_init(Mutex::default).lock().unwrap();
     seen.entry(interpreter.to_string())
-        .or_insert_with(|| match Command::new(interpreter).arg("--version").output() {
-            Ok(o) => {
-                let text = [o.stdout, o.stderr].concat();
-                String::from_utf8_lossy(&text).trim().to_string()
-            }
-            Err(e) => format!("not found: {e}"),
-        })
+        .or_insert_with(
+            || match Command::new(interpreter).arg("--version").output() {
+                Ok(o) => {
+                    let text = [o.stdout, o.stderr].concat();
+                    String::from_utf8_lossy(&text).trim().to_string()
+                }
+                Err(e) => format!("not found: {e}"),
+            },
+        )
         .clone()
 }
 
 /// Write the script's inputs into `work`: params.json, inputs.json, runs.parquet.
 /// Returns their names (the files of `work` that are no output of the script).
 fn write_inputs(work: &Path, p: &Params, inputs: &[Artifact]) -> Result<Vec<String>> {
-    let args = if p.args.is_null() { json!({}) } else { p.args.clone() };
+    let args = if p.args.is_null() {
+        json!({})
+    } else {
+        p.args.clone()
+    };
     std::fs::write(work.join("params.json"), serde_json::to_vec_pretty(&args)?)?;
     let listed: Vec<Value> = inputs
         .iter()
@@ -270,7 +303,10 @@ fn write_inputs(work: &Path, p: &Params, inputs: &[Artifact]) -> Result<Vec<Stri
             })
         })
         .collect();
-    std::fs::write(work.join("inputs.json"), serde_json::to_vec_pretty(&listed)?)?;
+    std::fs::write(
+        work.join("inputs.json"),
+        serde_json::to_vec_pretty(&listed)?,
+    )?;
     let runs: Vec<Run> = inputs
         .iter()
         .filter(|a| a.kind.holds == Holds::Trajectory)
@@ -278,9 +314,16 @@ fn write_inputs(work: &Path, p: &Params, inputs: &[Artifact]) -> Result<Vec<Stri
         .collect::<Result<_>>()?;
     let bytes = crate::table::to_parquet_bytes(&[runs::batch(&runs)?], &[])?;
     std::fs::write(work.join("runs.parquet"), bytes)?;
-    Ok(["params.json", "inputs.json", "runs.parquet", "stdout.txt", "stderr.txt", "out"]
-        .map(String::from)
-        .to_vec())
+    Ok([
+        "params.json",
+        "inputs.json",
+        "runs.parquet",
+        "stdout.txt",
+        "stderr.txt",
+        "out",
+    ]
+    .map(String::from)
+    .to_vec())
 }
 
 /// A simulation input as a row of the runs table.
@@ -293,7 +336,11 @@ pub fn as_run(a: &Artifact) -> Result<Run> {
         experiment: a.ids.first().map(|i| i.stage.clone()).unwrap_or_default(),
         point: a.point.clone().into_iter().collect(),
         settings: (*a.run).clone(),
-        seed: a.params.get("seed").and_then(Value::as_u64).unwrap_or_default(),
+        seed: a
+            .params
+            .get("seed")
+            .and_then(Value::as_u64)
+            .unwrap_or_default(),
         path: absolute(path),
     })
 }
@@ -364,7 +411,9 @@ fn snapshot(root: &Path) -> BTreeMap<PathBuf, (u64, Option<SystemTime>)> {
     let mut out = BTreeMap::new();
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
         for e in entries.flatten() {
             let path = e.path();
             let Ok(meta) = e.metadata() else { continue };
@@ -425,18 +474,31 @@ fn collect_outputs(p: &Params, out: &Path) -> Result<Output> {
     for (i, t) in p.tables.iter().enumerate() {
         let file = format!("{}.parquet", t.name);
         let bytes = std::fs::read(out.join(&file)).with_context(|| {
-            format!("script: declared table '{}' missing: the script wrote no $REPRO_OUT/{file}", t.name)
+            format!(
+                "script: declared table '{}' missing: the script wrote no $REPRO_OUT/{file}",
+                t.name
+            )
         })?;
         check_schema(t, bytes.clone())?;
         o = o.with(if i == 0 { "parquet" } else { &file }, bytes);
     }
     let mut first_of = BTreeSet::new();
     for name in &p.images {
-        let bytes = std::fs::read(out.join(name))
-            .with_context(|| format!("script: declared image '{name}' missing: the script wrote no $REPRO_OUT/{name}"))?;
-        ensure!(!bytes.is_empty(), "script: declared image '{name}' is empty");
+        let bytes = std::fs::read(out.join(name)).with_context(|| {
+            format!(
+                "script: declared image '{name}' missing: the script wrote no $REPRO_OUT/{name}"
+            )
+        })?;
+        ensure!(
+            !bytes.is_empty(),
+            "script: declared image '{name}' is empty"
+        );
         let ext = name.rsplit_once('.').map_or("", |(_, e)| e).to_string();
-        let key = if first_of.insert(ext.clone()) { ext } else { name.clone() };
+        let key = if first_of.insert(ext.clone()) {
+            ext
+        } else {
+            name.clone()
+        };
         o = o.with(&key, bytes);
     }
     Ok(o)
@@ -455,9 +517,10 @@ fn check_schema(t: &TableSpec, bytes: Vec<u8>) -> Result<()> {
     for (name, ty) in &t.columns {
         match schema.column_with_name(name) {
             None => problems.push(format!("column '{name}' missing")),
-            Some((_, f)) if !ty.matches(f.data_type()) => {
-                problems.push(format!("column '{name}' is {} (declared {ty:?})", f.data_type()))
-            }
+            Some((_, f)) if !ty.matches(f.data_type()) => problems.push(format!(
+                "column '{name}' is {} (declared {ty:?})",
+                f.data_type()
+            )),
             Some(_) => {}
         }
     }
@@ -474,7 +537,6 @@ fn check_schema(t: &TableSpec, bytes: Vec<u8>) -> Result<()> {
     );
     Ok(())
 }
-
 
 #[cfg(test)]
 #[path = "script_tests.rs"]

@@ -52,7 +52,8 @@ fn at_root(root: &Path, body: &str) -> String {
 #[test]
 fn a_declared_table_is_the_stage_s_parquet_and_strays_are_reported() {
     let dir = root("");
-    let body = at_root(dir.path(), COPY) + "echo scratch > notes.txt\necho extra > \"$REPRO_OUT/extra.csv\"\n";
+    let body = at_root(dir.path(), COPY)
+        + "echo scratch > notes.txt\necho extra > \"$REPRO_OUT/extra.csv\"\n";
     std::fs::write(dir.path().join("scripts/s.sh"), body).unwrap();
     let ctx = StageCtx::new(7, "s".into(), None).with_root(dir.path());
     let out = Script.run_params(&ctx, &yaml(PARAMS), &[]).unwrap();
@@ -62,7 +63,10 @@ fn a_declared_table_is_the_stage_s_parquet_and_strays_are_reported() {
     );
     assert_eq!(out.files.len(), 1);
     let notes = ctx.take_notes().join("\n");
-    assert!(notes.contains("$REPRO_OUT/extra.csv") && notes.contains("./notes.txt"), "{notes}");
+    assert!(
+        notes.contains("$REPRO_OUT/extra.csv") && notes.contains("./notes.txt"),
+        "{notes}"
+    );
     // Nothing the script did touched the root.
     assert!(!dir.path().join("notes.txt").exists());
 }
@@ -71,7 +75,9 @@ fn a_declared_table_is_the_stage_s_parquet_and_strays_are_reported() {
 /// whose rows carry their parameters and trajectory paths.
 #[test]
 fn the_script_receives_args_seed_and_its_runs_as_a_table() {
-    let dir = root("cp \"$REPRO_RUNS\" \"$REPRO_OUT/runs.parquet\"\ncp \"$REPRO_PARAMS\" \"$REPRO_OUT/args.svg\"\necho \"$REPRO_SEED\" >> \"$REPRO_OUT/args.svg\"\n");
+    let dir = root(
+        "cp \"$REPRO_RUNS\" \"$REPRO_OUT/runs.parquet\"\ncp \"$REPRO_PARAMS\" \"$REPRO_OUT/args.svg\"\necho \"$REPRO_SEED\" >> \"$REPRO_OUT/args.svg\"\n",
+    );
     let traj = dir.path().join("data/q.parquet");
     let sim = |phi: f64, replica: u64, seed: u64| Artifact {
         label: format!("e[phi={phi},replica={replica}]"),
@@ -84,7 +90,12 @@ fn the_script_receives_args_seed_and_its_runs_as_a_table() {
             name: "simulate".into(),
             holds: Holds::Trajectory,
         },
-        point: json!({"phi": phi, "replica": replica}).as_object().unwrap().clone().into_iter().collect(),
+        point: json!({"phi": phi, "replica": replica})
+            .as_object()
+            .unwrap()
+            .clone()
+            .into_iter()
+            .collect(),
         params: json!({"seed": seed}),
         run: std::sync::Arc::new(json!({"n": 100, "eps": 0.9}).as_object().unwrap().clone()),
         digest: String::new(),
@@ -101,16 +112,26 @@ fn the_script_receives_args_seed_and_its_runs_as_a_table() {
     .unwrap();
     // The same columns (the written file adds each known column's unit and meaning).
     let names = |b: &arrow_array::RecordBatch| -> Vec<String> {
-        b.schema().fields().iter().map(|f| f.name().clone()).collect()
+        b.schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect()
     };
     assert_eq!(names(&b[0]), names(&want));
     assert_eq!(b[0].columns(), want.columns());
     let seed = want.column_by_name("seed").unwrap();
-    let seed = seed.as_any().downcast_ref::<arrow_array::UInt64Array>().unwrap();
+    let seed = seed
+        .as_any()
+        .downcast_ref::<arrow_array::UInt64Array>()
+        .unwrap();
     assert_eq!(seed.values().to_vec(), vec![11, 12]);
     let args = String::from_utf8(out.files["svg"].clone()).unwrap();
     let (json_part, seed_line) = args.trim().rsplit_once('\n').unwrap();
-    assert_eq!(serde_json::from_str::<Value>(json_part).unwrap(), json!({"a": 0.6}));
+    assert_eq!(
+        serde_json::from_str::<Value>(json_part).unwrap(),
+        json!({"a": 0.6})
+    );
     assert_eq!(seed_line, "7");
 }
 
@@ -125,7 +146,10 @@ fn the_key_holds_the_script_what_it_reads_and_its_requirements() {
     let p = StageKind::parse(&Script, &yaml(&params)).unwrap();
     let key = || StageKind::keyed_outside(&Script, &p, dir.path());
     let base = key();
-    assert!(base["interpreter"].as_str().is_some_and(|v| !v.is_empty()), "{base}");
+    assert!(
+        base["interpreter"].as_str().is_some_and(|v| !v.is_empty()),
+        "{base}"
+    );
     let edit = |rel: &str, text: &str| std::fs::write(dir.path().join(rel), text).unwrap();
     edit("other.py", "x = 2\n");
     assert_eq!(key(), base, "an unrelated file moved the key");
@@ -152,8 +176,17 @@ fn a_non_zero_exit_fails_with_the_end_of_stderr() {
 fn a_declared_output_missing_is_named() {
     let dir = root("true\n");
     let e = err(dir.path(), PARAMS);
-    assert!(e.contains("declared table 'q' missing") && e.contains("$REPRO_OUT/q.parquet"), "{e}");
-    let e = err(dir.path(), &format!("{}images: [q.png]\n", PARAMS.replace("tables: [{name: q, columns: {t: f64, Q: f64}}]\n", "")));
+    assert!(
+        e.contains("declared table 'q' missing") && e.contains("$REPRO_OUT/q.parquet"),
+        "{e}"
+    );
+    let e = err(
+        dir.path(),
+        &format!(
+            "{}images: [q.png]\n",
+            PARAMS.replace("tables: [{name: q, columns: {t: f64, Q: f64}}]\n", "")
+        ),
+    );
     assert!(e.contains("declared image 'q.png' missing"), "{e}");
 }
 
@@ -165,30 +198,62 @@ fn a_table_of_another_schema_is_refused_with_each_difference() {
     let e = err(dir.path(), &params);
     assert!(e.contains("table 'q' is not the declared one"), "{e}");
     assert!(e.contains("column 't' is Float64 (declared I64)"), "{e}");
-    assert!(e.contains("column 'chi4' missing") && e.contains("column 'Q' not declared"), "{e}");
-    std::fs::write(dir.path().join("scripts/s.sh"), "echo text > \"$REPRO_OUT/q.parquet\"\n").unwrap();
+    assert!(
+        e.contains("column 'chi4' missing") && e.contains("column 'Q' not declared"),
+        "{e}"
+    );
+    std::fs::write(
+        dir.path().join("scripts/s.sh"),
+        "echo text > \"$REPRO_OUT/q.parquet\"\n",
+    )
+    .unwrap();
     let e = err(dir.path(), PARAMS);
-    assert!(e.contains("table 'q' is not a readable Parquet file"), "{e}");
+    assert!(
+        e.contains("table 'q' is not a readable Parquet file"),
+        "{e}"
+    );
 }
 
 #[test]
 fn a_write_under_the_project_root_fails_the_stage() {
     let dir = root("");
-    let body = at_root(dir.path(), COPY) + &at_root(dir.path(), "echo 1 > \"$OLDPWD/data/new.csv\"\n");
+    let body =
+        at_root(dir.path(), COPY) + &at_root(dir.path(), "echo 1 > \"$OLDPWD/data/new.csv\"\n");
     std::fs::write(dir.path().join("scripts/s.sh"), body).unwrap();
     let e = err(dir.path(), PARAMS);
-    assert!(e.contains("wrote outside its output directory") && e.contains("data/new.csv"), "{e}");
+    assert!(
+        e.contains("wrote outside its output directory") && e.contains("data/new.csv"),
+        "{e}"
+    );
 }
 
 #[test]
 fn a_script_not_found_is_named_with_the_root() {
     let dir = root("true\n");
-    let e = err(dir.path(), &PARAMS.replace("scripts/s.sh", "scripts/missing.sh"));
-    assert!(e.contains("scripts/missing.sh not found") && e.contains("relative to the project root"), "{e}");
-    let e = format!("{:#}", StageKind::parse(&Script, &yaml(&PARAMS.replace("scripts/s.sh", "../s.sh"))).unwrap_err());
-    assert!(e.contains("'../s.sh' must be a path relative to the project root"), "{e}");
-    let e = err(dir.path(), &PARAMS.replace("interpreter: sh", "interpreter: no-such-interpreter"));
-    assert!(e.contains("cannot start the interpreter 'no-such-interpreter'"), "{e}");
+    let e = err(
+        dir.path(),
+        &PARAMS.replace("scripts/s.sh", "scripts/missing.sh"),
+    );
+    assert!(
+        e.contains("scripts/missing.sh not found") && e.contains("relative to the project root"),
+        "{e}"
+    );
+    let e = format!(
+        "{:#}",
+        StageKind::parse(&Script, &yaml(&PARAMS.replace("scripts/s.sh", "../s.sh"))).unwrap_err()
+    );
+    assert!(
+        e.contains("'../s.sh' must be a path relative to the project root"),
+        "{e}"
+    );
+    let e = err(
+        dir.path(),
+        &PARAMS.replace("interpreter: sh", "interpreter: no-such-interpreter"),
+    );
+    assert!(
+        e.contains("cannot start the interpreter 'no-such-interpreter'"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -204,9 +269,18 @@ fn a_script_past_its_timeout_is_killed() {
 #[test]
 fn parameters_are_checked_before_anything_runs() {
     for (edit, words) in [
-        (PARAMS.replace("tables: [{name: q, columns: {t: f64, Q: f64}}]\n", ""), "at least one output"),
-        (PARAMS.replace("{t: f64, Q: f64}", "{t: float}"), "unknown variant `float`"),
-        (format!("{PARAMS}images: [q.gif]\n"), "one of [\"png\", \"svg\", \"pdf\"]"),
+        (
+            PARAMS.replace("tables: [{name: q, columns: {t: f64, Q: f64}}]\n", ""),
+            "at least one output",
+        ),
+        (
+            PARAMS.replace("{t: f64, Q: f64}", "{t: float}"),
+            "unknown variant `float`",
+        ),
+        (
+            format!("{PARAMS}images: [q.gif]\n"),
+            "one of [\"png\", \"svg\", \"pdf\"]",
+        ),
         (PARAMS.replace("name: q", "name: ../q"), "plain file stem"),
         (format!("{PARAMS}timeout_s: 0\n"), "`timeout_s` = 0"),
         (format!("{PARAMS}comand: x\n"), "unknown field `comand`"),

@@ -22,8 +22,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use serde_json::{Map, Value};
 
-pub use super::run_length::{Run, RunLength, TauGuess};
 use super::run_length::RULE_KEYS;
+pub use super::run_length::{Run, RunLength, TauGuess};
 use super::simulate_cost::planned_work;
 use crate::pipeline::canon::{ParamError, param_error};
 use crate::pipeline::checkpoints::{Checkpoints, RunProgress, unix_now};
@@ -64,7 +64,6 @@ fn force_into_intruder(mut rest: Map<String, Value>) -> Result<Map<String, Value
     }
     Ok(rest)
 }
-
 
 /// Parse a simulation stage's parameters: the run-length rule, and every other
 /// key a [`SimConfig`] field, resolved by the rule and checked.

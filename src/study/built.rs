@@ -13,9 +13,9 @@ use std::rc::Rc;
 use anyhow::{Context, Result, bail};
 
 use crate::pipeline::exec::{State, artifact, status};
-use crate::table::references::{Lookup, Reference, Resolved, Target, render};
 use crate::pipeline::{Catalogue, Graph, Registry, Store, Workspace, needed_nodes};
 use crate::stages::tables::Columns;
+use crate::table::references::{Lookup, Reference, Resolved, Target, render};
 
 /// The builds in a workspace's store, seen from one profile.
 pub struct Built<'a> {

@@ -389,6 +389,7 @@ fn chart(id: &str, rows: &[FrontierRow]) -> crate::plot::Figure {
         height: 400,
         colour_ranges: Default::default(),
         profile: None,
+        caption: vec![],
     }
 }
 

@@ -8,7 +8,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::Result;
-use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_array::{
+    ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array,
+};
 use serde_json::{Map, Value};
 
 /// One built simulation.
@@ -53,13 +55,18 @@ pub fn batch(runs: &[Run]) -> Result<RecordBatch> {
         .collect();
     let mut cols: Vec<(String, ArrayRef)> = vec![(
         "experiment".into(),
-        Arc::new(StringArray::from_iter_values(runs.iter().map(|r| r.experiment.as_str()))),
+        Arc::new(StringArray::from_iter_values(
+            runs.iter().map(|r| r.experiment.as_str()),
+        )),
     )];
     for k in &point {
         cols.push(((*k).clone(), column(runs.iter().map(|r| r.point.get(*k)))));
     }
     for k in &settings {
-        cols.push(((*k).clone(), column(runs.iter().map(|r| r.settings.get(*k)))));
+        cols.push((
+            (*k).clone(),
+            column(runs.iter().map(|r| r.settings.get(*k))),
+        ));
     }
     cols.push((
         "seed".into(),
@@ -78,11 +85,17 @@ pub fn batch(runs: &[Run]) -> Result<RecordBatch> {
 fn column<'a>(values: impl Iterator<Item = Option<&'a Value>> + Clone) -> ArrayRef {
     let present = || values.clone().flatten();
     if present().all(|v| v.is_boolean()) {
-        Arc::new(BooleanArray::from_iter(values.map(|v| v.and_then(Value::as_bool))))
+        Arc::new(BooleanArray::from_iter(
+            values.map(|v| v.and_then(Value::as_bool)),
+        ))
     } else if present().all(|v| v.is_i64()) {
-        Arc::new(Int64Array::from_iter(values.map(|v| v.and_then(Value::as_i64))))
+        Arc::new(Int64Array::from_iter(
+            values.map(|v| v.and_then(Value::as_i64)),
+        ))
     } else if present().all(|v| v.is_number()) {
-        Arc::new(Float64Array::from_iter(values.map(|v| v.and_then(Value::as_f64))))
+        Arc::new(Float64Array::from_iter(
+            values.map(|v| v.and_then(Value::as_f64)),
+        ))
     } else {
         Arc::new(StringArray::from_iter(values.map(|v| {
             v.map(|v| match v {
@@ -102,7 +115,10 @@ mod tests {
     fn run(phi: Value, replica: u64, seed: u64) -> Run {
         Run {
             experiment: "eps09".into(),
-            point: json!({"phi": phi, "replica": replica}).as_object().unwrap().clone(),
+            point: json!({"phi": phi, "replica": replica})
+                .as_object()
+                .unwrap()
+                .clone(),
             settings: json!({"n": 1000, "eps": 0.9, "phi": 0.5, "tau_guess": {"A": 1}, "seed": 3})
                 .as_object()
                 .unwrap()
@@ -118,8 +134,16 @@ mod tests {
     fn rows_carry_their_parameters_seed_and_path() {
         let runs = [run(json!(0.78), 2, 11), run(json!(0.8), 0, 12)];
         let b = batch(&runs).unwrap();
-        let names: Vec<String> = b.schema().fields().iter().map(|f| f.name().clone()).collect();
-        assert_eq!(names, ["experiment", "phi", "replica", "eps", "n", "seed", "path"]);
+        let names: Vec<String> = b
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(
+            names,
+            ["experiment", "phi", "replica", "eps", "n", "seed", "path"]
+        );
         let phi = b.column(1).as_any().downcast_ref::<Float64Array>().unwrap();
         assert_eq!((phi.value(0), phi.value(1)), (0.78, 0.8));
         let replica = b.column(2).as_any().downcast_ref::<Int64Array>().unwrap();

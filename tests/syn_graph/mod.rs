@@ -30,7 +30,10 @@ pub fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 
 fn is_cfg_test(attrs: &[syn::Attribute]) -> bool {
     attrs.iter().any(|a| {
-        a.path().is_ident("cfg") && a.meta.require_list().is_ok_and(|l| l.tokens.to_string() == "test")
+        a.path().is_ident("cfg")
+            && a.meta
+                .require_list()
+                .is_ok_and(|l| l.tokens.to_string() == "test")
     })
 }
 
@@ -100,7 +103,8 @@ fn token_paths(tokens: TokenStream, out: &mut Vec<Vec<String>>, names: &mut BTre
                 }
             }
             TokenTree::Ident(id) => {
-                let after_colons = i >= 1 && matches!(&tts[i - 1], TokenTree::Punct(p) if p.as_char() == ':');
+                let after_colons =
+                    i >= 1 && matches!(&tts[i - 1], TokenTree::Punct(p) if p.as_char() == ':');
                 names.insert(id.to_string());
                 let mut segs = vec![id.to_string()];
                 let mut j = i + 1;
@@ -178,7 +182,9 @@ impl<'ast> Visit<'ast> for Visitor<'_> {
             self.0.names.insert(first.ident.to_string());
         }
         if p.segments.len() > 1 {
-            self.0.paths.push(p.segments.iter().map(|s| s.ident.to_string()).collect());
+            self.0
+                .paths
+                .push(p.segments.iter().map(|s| s.ident.to_string()).collect());
         }
         syn::visit::visit_path(self, p);
     }
@@ -216,11 +222,19 @@ pub fn syn_graph(src: &Path) -> Graph {
     rust_files(src, &mut files);
     let mut parsed: BTreeMap<Vec<String>, File> = BTreeMap::new();
     for f in files {
-        let rel = f.strip_prefix(src).unwrap().to_string_lossy().replace('\\', "/");
+        let rel = f
+            .strip_prefix(src)
+            .unwrap()
+            .to_string_lossy()
+            .replace('\\', "/");
         if rel == "main.rs" {
             continue;
         }
-        let mut module: Vec<String> = rel.trim_end_matches(".rs").split('/').map(str::to_string).collect();
+        let mut module: Vec<String> = rel
+            .trim_end_matches(".rs")
+            .split('/')
+            .map(str::to_string)
+            .collect();
         if module.last().is_some_and(|l| l == "mod") || module == ["lib"] {
             module.pop();
         }
@@ -246,7 +260,13 @@ pub fn syn_graph(src: &Path) -> Graph {
         .collect();
     parsed.retain(|m, _| !(1..=m.len()).any(|n| tests.contains(&m[..n])));
     let modules: BTreeSet<Vec<String>> = parsed.keys().cloned().collect();
-    let key = |m: &[String]| if m.is_empty() { "lib".to_string() } else { m.join("/") };
+    let key = |m: &[String]| {
+        if m.is_empty() {
+            "lib".to_string()
+        } else {
+            m.join("/")
+        }
+    };
     let mut graph = Graph::new();
     for (m, f) in &parsed {
         let mut deps = BTreeSet::new();
@@ -304,7 +324,9 @@ fn resolve(
             abs.push(s.clone());
         }
     }
-    let n = (0..=abs.len()).rev().find(|&n| modules.contains(&abs[..n]))?;
+    let n = (0..=abs.len())
+        .rev()
+        .find(|&n| modules.contains(&abs[..n]))?;
     let (module, rest) = (abs[..n].to_vec(), &abs[n..]);
     if depth < 8
         && let Some(first) = rest.first()

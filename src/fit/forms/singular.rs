@@ -115,7 +115,11 @@ impl DivergenceShape {
         };
         let vft_shaped = power.chi2 - chi2_vft >= AIC_MARGIN && phi_0 > phi_c;
         DivergenceShape {
-            shape: if vft_shaped { Shape::VftShaped } else { Shape::Unlocated },
+            shape: if vft_shaped {
+                Shape::VftShaped
+            } else {
+                Shape::Unlocated
+            },
             chi2_power: power.chi2,
             chi2_vft,
             phi_c,
@@ -127,7 +131,9 @@ impl DivergenceShape {
 impl std::fmt::Display for DivergenceShape {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let what = match self.shape {
-            Shape::VftShaped => "VFT-shaped: phi_c of a free power law lands between the last point and phi_0",
+            Shape::VftShaped => {
+                "VFT-shaped: phi_c of a free power law lands between the last point and phi_0"
+            }
             Shape::Unlocated => "cannot locate phi_c",
         };
         write!(
@@ -400,10 +406,12 @@ mod tests {
 
     /// Paper H's packing fractions (Fig. 3) from 0.60 up to `phi_max`.
     fn paper_grid(phi_max: f64) -> Vec<f64> {
-        [0.60, 0.65, 0.70, 0.72, 0.74, 0.76, 0.77, 0.78, 0.785, 0.79, 0.795, 0.80, 0.805]
-            .into_iter()
-            .filter(|&p| p <= phi_max + 1e-12)
-            .collect()
+        [
+            0.60, 0.65, 0.70, 0.72, 0.74, 0.76, 0.77, 0.78, 0.785, 0.79, 0.795, 0.80, 0.805,
+        ]
+        .into_iter()
+        .filter(|&p| p <= phi_max + 1e-12)
+        .collect()
     }
 
     /// Exact tau(phi) on the paper's grid up to `phi_max`, with 2% errors.
@@ -436,7 +444,10 @@ mod tests {
             let c = f.value("phi_c");
             assert!(hi < c && c < PHI_0, "phi_c {c} over 0.60-{hi}");
             assert!(c - hi < STEP, "on the last point: {c}");
-            assert!((c - landing).abs() < STEP / 10.0, "phi_c {c} over 0.60-{hi}");
+            assert!(
+                (c - landing).abs() < STEP / 10.0,
+                "phi_c {c} over 0.60-{hi}"
+            );
             let shape = DivergenceShape::of(d, &f);
             assert_eq!(shape.shape, Shape::VftShaped, "{shape}");
             // Exact VFT data: the VFT fits them to rounding, the power law does not.
@@ -478,7 +489,10 @@ mod tests {
         let f = power_law_offset(d, &[]).unwrap();
         let shape = DivergenceShape::of(d, &f);
         assert_eq!(shape.shape, Shape::Unlocated, "{shape}");
-        assert!(shape.chi2_power < 1e-3 && !(shape.chi2_vft <= AIC_MARGIN), "{shape}");
+        assert!(
+            shape.chi2_power < 1e-3 && !(shape.chi2_vft <= AIC_MARGIN),
+            "{shape}"
+        );
         let w = f.warnings.join("; ");
         assert!(w.contains("cannot locate phi_c (chi^2"), "{w}");
     }

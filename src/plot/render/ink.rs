@@ -264,7 +264,7 @@ pub(super) fn stroke<DB: DrawingBackend>(
     sz: Sizes,
 ) -> Result<()> {
     let dash = if dashed { Dash::Dashed } else { Dash::Solid };
-    stroke_over(area, line, color, width, dash, false, sz)
+    stroke_dashed(area, line, color, width, dash, sz)
 }
 
 /// The dash and gap lengths of a dashed line `width` pixels wide.
@@ -312,23 +312,16 @@ pub(super) fn pieces(line: &[P], dash: Dash, width: u32, sz: Sizes) -> Vec<Vec<P
     }
 }
 
-/// A solid or dashed polyline, with `halo` over a white one a pixel wider
-/// on each side (a fit above the markers it crosses).
-pub(super) fn stroke_over<DB: DrawingBackend>(
+/// A solid, dashed or dotted polyline.
+pub(super) fn stroke_dashed<DB: DrawingBackend>(
     area: &Area<DB>,
     line: &[P],
     color: RGBColor,
     width: u32,
     dash: Dash,
-    halo: bool,
     sz: Sizes,
 ) -> Result<()> {
     let pieces = pieces(line, dash, width, sz);
-    if halo {
-        for d in &pieces {
-            polyline(area, d, WHITE, width + 2)?;
-        }
-    }
     for d in &pieces {
         polyline(area, d, color, width)?;
     }

@@ -8,6 +8,7 @@ use plotters::style::text_anchor::{HPos, VPos};
 
 use super::ink::*;
 use super::labels::labelled_lines;
+use super::paint::line_width;
 use crate::plot::geometry::{P, Rect};
 use crate::plot::spec::{Color, Legend, Marker, Panel, Style};
 
@@ -233,11 +234,12 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         });
         if let Some(&i) = line {
             let s = &p.series[i];
+            let width = line_width(s, sz);
             let ends = [(x_sample, row_y), (x_sample + lb.sample, row_y)];
             let pieces = if Dash::of(s) == Dash::Dashed {
                 // Half a dash, a gap, a dash (under the marker), a gap, half
                 // a dash: both gaps show beside the marker.
-                let (on, off) = dash_pattern(sz.line, sz);
+                let (on, off) = dash_pattern(width, sz);
                 let at = |d: f64| (x_sample + d.min(lb.sample), row_y);
                 let (a, b) = (0.5 * on, 0.5 * on + off);
                 vec![
@@ -246,7 +248,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                     vec![at(b + on + off), at(lb.sample)],
                 ]
             } else if Dash::of(s) == Dash::Dotted {
-                pieces(&ends, Dash::Dotted, sz.line, sz)
+                pieces(&ends, Dash::Dotted, width, sz)
             } else if shades.len() > 1 {
                 let n = shades.len() as f64;
                 (0..shades.len())
@@ -264,7 +266,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                 } else {
                     rgb(colors[i])
                 };
-                stroke_over(area, d, c, sz.line, Dash::Solid, s.fit, sz)?;
+                stroke_dashed(area, d, c, width, Dash::Solid, sz)?;
             }
         }
         let arrows = e

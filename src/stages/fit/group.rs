@@ -153,7 +153,15 @@ pub(super) fn fit_group(
             let pts = (x.as_slice(), y.as_slice(), s.as_slice());
             let max_leverage =
                 leverage_floor(ctx, p, form, &f, pts, &fixed_ref, &mut rows, &mut method);
-            held_errors(p, &f, pts, &fixed_ref, &from_other.held, &mut rows, &mut method);
+            held_errors(
+                p,
+                &f,
+                pts,
+                &fixed_ref,
+                &from_other.held,
+                &mut rows,
+                &mut method,
+            );
             if let Some(r) = &replicated.refits {
                 jackknife = Some(jackknife_table(group, &rows, r)?);
             }
@@ -272,9 +280,8 @@ fn leverage_floor(
         return f64::NAN;
     };
     let max_leverage = h.iter().copied().fold(f64::NAN, f64::max);
-    let refit = |x: &[f64], y: &[f64], s: &[f64]| {
-        fit_form(p, x, y, s, fixed_ref).ok().map(|f| f.params)
-    };
+    let refit =
+        |x: &[f64], y: &[f64], s: &[f64]| fit_form(p, x, y, s, fixed_ref).ok().map(|f| f.params);
     let n_free = free.iter().filter(|b| **b).count();
     match carried_errors(x, y, s, &h, n_free, refit) {
         Carried::No => {}

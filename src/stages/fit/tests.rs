@@ -56,7 +56,11 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
     let n = b[0].column_by_name("n_points").unwrap();
     assert_eq!(n.data_type(), &arrow_schema::DataType::Int64);
     let c = Columns::from_batch(&b[0]).unwrap();
-    assert_eq!(c.rows, 4 * 3, "four windows, two parameters and the reduced chi^2 each");
+    assert_eq!(
+        c.rows,
+        4 * 3,
+        "four windows, two parameters and the reduced chi^2 each"
+    );
     let (lo, hi, np) = (
         c.col("x_min").unwrap(),
         c.col("x_max").unwrap(),
@@ -77,7 +81,12 @@ fn range_scan_reports_every_window_and_the_spread_of_each_parameter() {
         let i = (0..c.rows).find(|&i| lo[i] == lo_ && hi[i] == hi_ && q[i] == "reduced_chi2");
         v[i.unwrap()]
     };
-    assert!(chi2(1.0, 100.0) > 10.0 * chi2(1.0, 10.0), "{} {}", chi2(1.0, 100.0), chi2(1.0, 10.0));
+    assert!(
+        chi2(1.0, 100.0) > 10.0 * chi2(1.0, 10.0),
+        "{} {}",
+        chi2(1.0, 100.0),
+        chi2(1.0, 10.0)
+    );
     let narrow: Vec<usize> = (0..c.rows).filter(|&i| lo[i] == 50.0).collect();
     assert_eq!(narrow.len(), 3);
     for i in narrow {

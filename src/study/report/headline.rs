@@ -28,16 +28,28 @@ const HEADLINES: [Headline; 16] = [
     h("φ_c (free power law of τ_α, Fig. 4)", "fig4", "phi_c"),
     h("φ_c (joint fit of τ_α, χ4, ξ)", "fig4", "phi_c_joint"),
     h("φ_c (free power law of ξ alone)", "fig4", "phi_c_free_xi"),
-    h("φ_c (free power law of χ4(τ_α) alone)", "fig4", "phi_c_free_chi4"),
+    h(
+        "φ_c (free power law of χ4(τ_α) alone)",
+        "fig4",
+        "phi_c_free_chi4",
+    ),
     h("φ_0 (VFT of τ_α, Fig. 4)", "fig4", "phi_0"),
     h("γ_τ (free power law of τ_α)", "fig4", "gamma_tau"),
-    h("γ_τ (φ_c = 0.82 held, top points)", "fig4", "gamma_tau_held"),
+    h(
+        "γ_τ (φ_c = 0.82 held, top points)",
+        "fig4",
+        "gamma_tau_held",
+    ),
     h("γ_χ (φ_c of the joint fit)", "fig15", "gamma_chi"),
     h("γ_χ (φ_c = 0.82 held)", "fig15", "gamma_chi_held"),
     h("γ_ξ (φ_c of the joint fit)", "fig17", "gamma_xi"),
     h("γ_ξ (φ_c = 0.82 held)", "fig17", "gamma_xi_held"),
     h("d_f′ (χ4 ∝ ξ^d_f′, Fig. 18)", "fig18", "d_f"),
-    h("τ4 exponent (τ4 ∝ τ_α^x, Fig. 15 inset)", "fig15", "tau4_exponent"),
+    h(
+        "τ4 exponent (τ4 ∝ τ_α^x, Fig. 15 inset)",
+        "fig15",
+        "tau4_exponent",
+    ),
     h("κ (P(N_c) ∝ N_c^−κ, Fig. 13)", "fig13", "kappa"),
     h("ρ (N* ∝ (φ_c − φ)^−1/ρ, Fig. 13)", "fig13", "rho"),
     h("−θ (Fig. 9)", "fig9", "minus_theta"),
@@ -61,7 +73,13 @@ fn row(figs: &[&FigureReport], hl: &Headline) -> String {
     let compared = fig.and_then(|f| f.compared.iter().find(|c| c.quantity == hl.quantity));
     let other = fig.and_then(|f| f.others.iter().find(|(q, _)| q == hl.quantity));
     let cells = match (fig, compared, other) {
-        (None, ..) => ["—".into(), "—".into(), "—".into(), "not built".into(), String::new()],
+        (None, ..) => [
+            "—".into(),
+            "—".into(),
+            "—".into(),
+            "not built".into(),
+            String::new(),
+        ],
         (Some(_), Some(c), _) => [
             format!("{} ({})", number(c.ours, c.ours_err), error(c.ours_err)),
             plain(c.paper),

@@ -515,7 +515,6 @@ pub struct Written {
     pub figures: usize,
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -553,7 +552,9 @@ mod tests {
         assert_eq!((w.profile.as_str(), w.figures), ("ci", 1));
         let md = std::fs::read_to_string(results.join("REPORT.md")).unwrap();
         assert!(
-            md.contains("| fig4 | phi_0 | 0.8123 | 0.0021 | 0.83 | measured (figure) | 0.01 | agree |"),
+            md.contains(
+                "| fig4 | phi_0 | 0.8123 | 0.0021 | 0.83 | measured (figure) | 0.01 | agree |"
+            ),
             "{md}"
         );
         assert!(md.contains("`0123456789ab`"), "commit: {md}");
@@ -566,7 +567,10 @@ mod tests {
             hl.contains("| fig4 | `phi_0` | 0.8123 (0.0021) | 0.83 | measured (figure) | agree |"),
             "{hl}"
         );
-        assert!(hl.contains("| fig9 | `minus_theta` | — | — | — | not built |"), "{hl}");
+        assert!(
+            hl.contains("| fig9 | `minus_theta` | — | — | — | not built |"),
+            "{hl}"
+        );
         assert!(hl.contains("fig4 reports no 'phi_c'"), "{hl}");
 
         // Change the number in the compare table: the report follows.
