@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 
 pub mod figs;
 pub mod pipeline;
+pub mod root;
 pub mod runs;
 pub mod sim;
 pub mod what_if;

@@ -7,25 +7,12 @@ use clap::{Args, Subcommand};
 
 use std::collections::BTreeMap;
 
+use super::root::RootArgs;
 use super::runs::RunsArgs;
 use super::what_if::WhatIf;
 use crate::pipeline::checkpoints::{Status, unix_now};
 use crate::pipeline::slurm;
 use crate::pipeline::{self, DEFAULT_PROFILE, Outcome, Registry, RunOptions, State, Workspace};
-
-/// Where the specs and the cache are.
-#[derive(Args, Debug, Clone)]
-pub struct RootArgs {
-    /// Project directory holding experiments/ and pipelines/; results/ and the
-    /// cache (.repro/store) are written beside them. Default: $REPRO_ROOT, else
-    /// the current directory.
-    #[arg(long, value_name = "DIR")]
-    pub root: Option<PathBuf>,
-    /// The cache directory (default: ROOT/.repro/store). With `--executor slurm`
-    /// it must be on a filesystem the compute nodes share.
-    #[arg(long, value_name = "PATH")]
-    pub store: Option<PathBuf>,
-}
 
 /// The registry the command line runs with: every kind of the library
 /// (`stages::registry()`), and the framework's toy kinds when the environment
@@ -42,21 +29,6 @@ pub fn registry() -> Registry {
 
 /// The environment variable that adds the toy kinds to the command line's registry.
 pub const TOY_KINDS: &str = "REPRO_TOY_KINDS";
-
-impl RootArgs {
-    pub(crate) fn workspace(&self) -> Workspace {
-        let root = self
-            .root
-            .clone()
-            .or_else(|| std::env::var_os("REPRO_ROOT").map(PathBuf::from))
-            .unwrap_or_else(|| PathBuf::from("."));
-        let mut ws = Workspace::new(&root);
-        if let Some(s) = &self.store {
-            ws.store = s.clone();
-        }
-        ws
-    }
-}
 
 /// One figure at one profile.
 #[derive(Args, Debug, Clone)]

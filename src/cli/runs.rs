@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde_json::Value;
 
-use super::pipeline::RootArgs;
+use super::root::RootArgs;
 use crate::pipeline::exec::stage_key;
 use crate::pipeline::{Catalogue, DEFAULT_PROFILE, Registry, Store, graph};
 use crate::study::variant::parse_setting;
