@@ -336,7 +336,7 @@ impl RunDrive {
 fn planned_drive(name: &str, observable: &Value, inputs: &[PlannedInput]) -> Result<()> {
     let mut runs = Vec::new();
     for n in inputs.iter().filter(|n| n.kind.holds == Holds::Trajectory) {
-        let super::simulate::Run { config, .. } = n.parsed.get()?;
+        let super::run_length::Run { config, .. } = n.parsed.get()?;
         let experiment = n.ids.first().map_or("?", |id| id.stage.as_str());
         runs.push((
             format!("experiment '{experiment}' ({})", n.file.display()),
@@ -358,7 +358,7 @@ fn with_run_drive(obs: &Observable, observable: &Value, inputs: &[Artifact]) -> 
     let runs = inputs
         .iter()
         .filter(|a| a.kind.holds == Holds::Trajectory)
-        .map(|a| Ok((a.label.clone(), super::simulate::run_config(a)?)))
+        .map(|a| Ok((a.label.clone(), super::run_length::run_config(a)?)))
         .collect::<Result<Vec<_>>>()?;
     match RunDrive::shared(obs.name, runs)? {
         Some((source, d)) => {

@@ -635,11 +635,11 @@ fn verdicts(inputs: &[Artifact]) -> Result<Vec<String>> {
     Ok(out)
 }
 
-/// Where a paper value comes from, as a verdict line says it: measured in one
-/// of paper H's figures, or quoted there from its reference 12.
+/// Where a paper value comes from, as a verdict line says it: quoted in paper
+/// H from its reference 12; nothing for a value it measures in a figure.
 fn provenance(source: crate::table::results::Source) -> &'static str {
     match source {
-        crate::table::results::Source::Figure => "measured",
+        crate::table::results::Source::Figure => "",
         crate::table::results::Source::Ref12 => "quoted, ref. 12",
     }
 }

@@ -3,9 +3,11 @@
 //! configuration it resolves to. Below the engine, so that a stage that reads a
 //! run's parameters (an analysis checking its lags) does not run the simulator.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
+use serde_json::Value;
 use serde::Deserialize;
 
+use crate::pipeline::Artifact;
 use crate::pipeline::canon::param_error;
 use crate::sim::SimConfig;
 use crate::traj::Schedule;
@@ -125,4 +127,11 @@ impl RunLength {
 pub struct Run {
     pub rule: RunLength,
     pub config: SimConfig,
+}
+
+/// The configuration of the run a simulation artifact comes from, as it
+/// travelled with its output.
+pub fn run_config(sim: &Artifact) -> Result<SimConfig> {
+    serde_json::from_value(Value::Object((*sim.run).clone()))
+        .with_context(|| format!("the resolved configuration of {}", sim.label))
 }

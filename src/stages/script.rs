@@ -290,7 +290,10 @@ fn write_inputs(work: &Path, p: &Params, inputs: &[Artifact]) -> Result<Vec<Stri
     } else {
         p.args.clone()
     };
-    std::fs::write(work.join("params.json"), serde_json::to_vec_pretty(&args)?)?;
+    // A text file ends in a newline, so that a script may append to a copy.
+    let mut json = serde_json::to_vec_pretty(&args)?;
+    json.push(b'\n');
+    std::fs::write(work.join("params.json"), json)?;
     let listed: Vec<Value> = inputs
         .iter()
         .map(|a| {

@@ -23,7 +23,7 @@ use anyhow::{Context, Result, bail};
 use serde_json::{Map, Value};
 
 use super::run_length::RULE_KEYS;
-pub use super::run_length::{Run, RunLength, TauGuess};
+pub use super::run_length::{Run, RunLength, TauGuess, run_config};
 use super::simulate_cost::planned_work;
 use crate::pipeline::canon::{ParamError, param_error};
 use crate::pipeline::checkpoints::{Checkpoints, RunProgress, unix_now};
@@ -135,13 +135,6 @@ pub fn resolved(cfg: &SimConfig) -> Result<Map<String, Value>> {
         Value::Object(m) => Ok(m),
         other => bail!("internal: a SimConfig serialised to {other}"),
     }
-}
-
-/// The configuration of the run a simulation artifact comes from, as it
-/// travelled with its output.
-pub fn run_config(sim: &Artifact) -> Result<SimConfig> {
-    serde_json::from_value(Value::Object((*sim.run).clone()))
-        .with_context(|| format!("the resolved configuration of {}", sim.label))
 }
 
 /// Summary fields that measure the machine rather than the physics.

@@ -304,6 +304,16 @@ const COLUMNS: &[(&str, &str, &str)] = &[
     ),
     (results::REASON, "", "why the verdict"),
     (
+        results::SOURCE,
+        "",
+        "where the paper's value comes from: figure (measured in paper H) or ref12 (quoted from its reference 12)",
+    ),
+    (
+        "short",
+        "",
+        "the short reason a figure's verdict line prints (empty: the reason's first clause)",
+    ),
+    (
         "x_min",
         "as the fitted x",
         "lower end of the fit window of a range scan",
