@@ -1,9 +1,9 @@
-//! What the engine derives from its state ([`EngineState`](super::state::EngineState)): the padded box
-//! and its cell grid, the cell list, neighbour lists, pending events and
-//! their calendar, the prefetch pipeline. `Engine::from_state` (in setup.rs)
-//! builds all of it from the state alone, the same way for a new engine and a
-//! resumed one: a resume continues bit for bit only if nothing here carries
-//! history.
+//! What the engine derives from its state
+//! ([`EngineState`](super::state::EngineState)): the padded box and its cell
+//! grid, the cell list, neighbour lists, pending events and their calendar,
+//! the prefetch pipeline. `Engine::from_state` (in setup.rs) builds all of it
+//! from the state alone, the same way for a new engine and a resumed one: a
+//! resume continues bit for bit only if nothing here carries history.
 
 use super::parts::{Book, Lists, Pipeline, SHELL_FRACTION};
 use crate::sim::events::calendar::EventCalendar;
