@@ -1,14 +1,12 @@
-//! What the engine derives from its state ([`EngineState`]): the padded box
-//! and its cell grid, the cell list, neighbour lists, pending events and
-//! their calendar, the prefetch pipeline. [`Engine::from_state`] builds all of
-//! it from the state alone, the same way for a new engine and a resumed one:
-//! a resume continues bit for bit only if nothing here carries history.
+//! What the engine derives from its state
+//! ([`EngineState`](super::state::EngineState)): the padded box and its cell
+//! grid, the cell list, neighbour lists, pending events and their calendar,
+//! the prefetch pipeline. `Engine::from_state` (in setup.rs) builds all of it
+//! from the state alone, the same way for a new engine and a resumed one: a
+//! resume continues bit for bit only if nothing here carries history.
 
-use super::state::EngineState;
-use super::{Book, Engine, PREFETCH_MIN_BYTES, SHELL_FRACTION, neighbour_lists, prefetch_pipeline};
-use crate::sim::big_vec::big_vec;
+use super::parts::{Book, Lists, Pipeline, SHELL_FRACTION};
 use crate::sim::events::calendar::EventCalendar;
-use crate::sim::events::disk::{CROSS, NONE};
 use crate::sim::model::walls;
 
 /// Everything rebuilt from the state.
@@ -39,24 +37,24 @@ pub(super) struct Derived {
     pub(super) bk: Vec<Book>,
     pub(super) calendar: EventCalendar,
     /// The neighbour lists and their shell.
-    pub(super) lists: neighbour_lists::Lists,
+    pub(super) lists: Lists,
     /// The prefetch pipeline's state.
-    pub(super) pipeline: prefetch_pipeline::Pipeline,
+    pub(super) pipeline: Pipeline,
 }
 
 /// The box and cell grid of a state, and the neighbour lists' dimensions.
 pub(super) struct Geometry {
     pub(super) lx: f64,
     pub(super) ly: f64,
-    wall_len: [f64; 2],
-    ncx: usize,
-    ncy: usize,
-    rmax: f64,
-    shell: f64,
+    pub(super) wall_len: [f64; 2],
+    pub(super) ncx: usize,
+    pub(super) ncy: usize,
+    pub(super) rmax: f64,
+    pub(super) shell: f64,
     /// A packing bound on a neighbour list's length.
     pub(super) cap_max: usize,
     /// The box holds 5x5 cells: neighbour lists can be used.
-    lists_fit: bool,
+    pub(super) lists_fit: bool,
 }
 
 impl Geometry {
@@ -105,74 +103,5 @@ impl Geometry {
             cap_max,
             lists_fit: ncx >= 5 && ncy >= 5,
         })
-    }
-}
-
-impl Engine {
-    /// The engine of state `s`: radii of the disks from their species, the
-    /// cell list, the neighbour lists and every pending event built anew.
-    /// Fails on a state that does not hold together (arrays of different
-    /// lengths, a species without radius or mass, a box too small).
-    pub(super) fn from_state(mut s: EngineState) -> anyhow::Result<Engine> {
-        let n = s.n();
-        anyhow::ensure!(n >= 2, "need at least 2 particles, got {n}");
-        anyhow::ensure!(n < CROSS as usize, "too many particles: {n}");
-        anyhow::ensure!(
-            [s.d.len(), s.imx.len(), s.imy.len(), s.last_collision.len()]
-                .iter()
-                .all(|&len| len == n),
-            "particle arrays of different lengths ({n} species for {} disks)",
-            s.d.len()
-        );
-        anyhow::ensure!(
-            s.species
-                .iter()
-                .all(|&k| (k as usize) < s.radii.len().min(s.masses.len())),
-            "a species without a radius or mass ({} radii, {} masses)",
-            s.radii.len(),
-            s.masses.len()
-        );
-        let g = Geometry::of(s.box_size, s.walls, &s.radii)?;
-        for (d, &k) in s.d.iter_mut().zip(&s.species) {
-            d.radius = s.radii[k as usize];
-        }
-        let nb = if g.lists_fit {
-            big_vec(n * s.list_capacity, NONE)
-        } else {
-            Vec::new()
-        };
-        let derived = Derived {
-            lx: g.lx,
-            ly: g.ly,
-            wall_len: g.wall_len,
-            has_walls: g.wall_len.iter().any(|l| l.is_finite()),
-            ncx: g.ncx,
-            ncy: g.ncy,
-            wx: g.lx / g.ncx as f64,
-            wy: g.ly / g.ncy as f64,
-            rmax: g.rmax,
-            head: big_vec(g.ncx * g.ncy, NONE),
-            occupancy: big_vec(g.ncx * g.ncy, 0),
-            prev: big_vec(n, NONE),
-            cell: big_vec(n, 0),
-            bk: big_vec(n, Book::default()),
-            calendar: EventCalendar::new(n),
-            lists: neighbour_lists::Lists {
-                on: false,
-                shell: g.shell,
-                cap_max: g.cap_max,
-                overflow: false,
-                nb,
-            },
-            pipeline: prefetch_pipeline::Pipeline {
-                bucket: 0,
-                on: false,
-                min_bytes: PREFETCH_MIN_BYTES,
-            },
-        };
-        let mut e = Engine { state: s, derived };
-        e.forget_events();
-        e.reschedule_all();
-        Ok(e)
     }
 }

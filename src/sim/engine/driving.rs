@@ -1,43 +1,11 @@
 //! Driving: when the next kick comes, which particles it moves, and the
 //! momentum it gives them (the amplitude rule is in [`crate::sim::kicks`]).
 
-use super::{Engine, KICKS_AHEAD};
+use super::Engine;
+use super::parts::KICKS_AHEAD;
 use crate::sim::model::kicks::Kicks;
 use rand::RngExt;
 use rand_distr::{Distribution, Exp, StandardNormal};
-
-/// The driving's state, owned by this module.
-#[derive(Clone, serde::Serialize, serde::Deserialize)]
-pub(super) struct Driving {
-    pub(super) kicks: Kicks,
-    /// Pair kicks per unit time, whole system.
-    pub(super) kick_rate: f64,
-    /// Clock reading of the driving's next kick.
-    pub(super) next_drive: f64,
-    /// The first disk of the next kick, drawn [`KICKS_AHEAD`] kicks before it so
-    /// that its data is fetched from memory while the events before it run.
-    pub(super) kick_next: usize,
-    /// The first disks of the kicks after `kick_next`: the `m`-th next one
-    /// (from 0) is `kick_ring[(kick_pos + m) % KICKS_AHEAD]`; empty (`None`)
-    /// until driving starts.
-    pub(super) kick_ring: Option<[u32; KICKS_AHEAD]>,
-    pub(super) kick_pos: usize,
-    /// Kick amplitude p_dr.
-    pub(super) p_dr: f64,
-}
-
-impl Driving {
-    /// No driving.
-    pub(super) const OFF: Driving = Driving {
-        kicks: Kicks::Off,
-        kick_rate: 0.0,
-        next_drive: f64::INFINITY,
-        kick_next: 0,
-        kick_ring: None,
-        kick_pos: 0,
-        p_dr: 0.0,
-    };
-}
 
 impl Engine {
     /// Start (or stop) driving: `rate` kicks per unit time in the whole

@@ -7,38 +7,7 @@
 //! (no random numbers): the bath's draws are those of the exact mode.
 
 use super::Engine;
-use crate::sim::model::friction::Clock;
-
-/// A regular train of force kicks.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
-pub(super) struct Train {
-    /// Real time between kicks (infinity: off).
-    dt: f64,
-    /// Real time the train starts.
-    t0: f64,
-    /// Kicks given so far.
-    k: u64,
-    /// Clock reading of the next kick (infinity: off).
-    pub(super) next: f64,
-}
-
-impl Train {
-    pub(super) const OFF: Train = Train {
-        dt: f64::INFINITY,
-        t0: 0.0,
-        k: 0,
-        next: f64::INFINITY,
-    };
-
-    /// Clock reading of the next kick on `clock` (infinity when off).
-    pub(super) fn reading(&self, clock: &Clock) -> f64 {
-        if self.dt.is_finite() {
-            clock.s(self.t0 + (self.k as f64 + 0.5) * self.dt)
-        } else {
-            f64::INFINITY
-        }
-    }
-}
+use super::parts::{NO_INTRUDER, Train};
 
 impl Engine {
     /// Push the intruder with force `force` along +x as a train of kicks
@@ -46,7 +15,7 @@ impl Engine {
     /// moves straight between kicks; [`Self::set_force`] is the exact mode).
     pub fn set_force_kicks(&mut self, force: f64, dt: f64) -> anyhow::Result<()> {
         anyhow::ensure!(
-            self.state.pulling.intruder != super::pulled_intruder::NO_INTRUDER,
+            self.state.pulling.intruder != NO_INTRUDER,
             "no intruder to push"
         );
         anyhow::ensure!(

@@ -23,9 +23,13 @@
 //!
 //! - this file: the event loop (events in order, collisions, cell crossings,
 //!   predictions, the cell list, velocity and radius scaling, friction clock);
-//! - `state.rs`: the state; `derived.rs`: what is rebuilt from it and how
-//!   (`Engine::from_state`); `setup.rs`: a new engine from a [`Setup`];
-//!   `snapshot.rs`: checkpoints and resuming from one;
+//! - `parts.rs`: the constants and data types the state and the derived part
+//!   are made of (counters, per-disk bookkeeping, the drive's, the force's,
+//!   the lists', the pipeline's and the intruder's state), below the engine;
+//! - `state.rs`: the state; `derived.rs`: what is rebuilt from it;
+//!   `setup.rs`: a new engine from a [`Setup`], and how the derived part is
+//!   rebuilt from a state (`Engine::from_state`); `snapshot.rs`: checkpoints
+//!   and resuming from one;
 //! - `neighbour_lists.rs`: the lists and their shell; `driving.rs`: the kicks
 //!   of the drive; `force_kicks.rs`: the force on the intruder as kicks;
 //!   `pulled_intruder.rs`: the intruder's curved path, walls and rebounds;
@@ -37,13 +41,17 @@ mod driving;
 mod force_kicks;
 mod neighbour_lists;
 mod observables;
+mod parts;
 mod prefetch_pipeline;
 mod pulled_intruder;
 mod setup;
 mod snapshot;
 pub mod state;
 
+pub use parts::Stats;
 pub use setup::Setup;
+
+use parts::NO_INTRUDER;
 
 use crate::sim::events::disk::{CROSS, Disk, NONE, REPREDICT, SHELL, WALL};
 use crate::sim::events::pair_scan::{earliest_pair, nearest_image};
@@ -53,95 +61,6 @@ use crate::sim::model::restitution;
 use crate::sim::model::walls;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
-/// Starting list capacity per disk: lists hold 5-6 disks on average at
-/// phi = 0.78-0.84 and at most 8 were seen; a longer list doubles the capacity.
-const LIST_CAPACITY: usize = 12;
-/// Shell half-width as a fraction of the smallest radius: wider shells mean fewer
-/// list rebuilds but longer lists (measured in docs/sim.md).
-const SHELL_FRACTION: f64 = 0.3;
-/// First disks of kicks drawn ahead of the pending one: each is fetched from
-/// memory in stages over the kicks before it (docs/sim.md, "Prefetch pipeline").
-const KICKS_AHEAD: usize = 3;
-/// At most this many events of one calendar bucket are fetched ahead (a bucket
-/// holds ~2 on average).
-const BUCKET_PREFETCH_MAX: usize = 8;
-/// The prefetch pipeline runs when the engine's arrays exceed this (~200 bytes
-/// per disk): below, they are served fast enough by the caches (L2 512 KiB per
-/// core, L3 32 MiB here) that its instructions and mispredicted loop exits cost
-/// more than they save (measured in docs/sim.md: -8% at N = 10^4, +7% at
-/// 2 x 10^4).
-const PREFETCH_MIN_BYTES: usize = 3 << 20;
-
-/// Counters of everything the loop did, and the energy and virial ledgers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Stats {
-    pub collisions: u64,
-    pub kicks: u64,
-    /// Collisions made elastic by the collapse guard.
-    pub guard_activations: u64,
-    pub cell_crossings: u64,
-    /// Events popped whose partner had changed velocity meanwhile.
-    pub stale_events: u64,
-    /// Kinetic energy added by kicks (exact, summed per kick).
-    pub injected: f64,
-    /// Kinetic energy removed by inelastic collisions (exact, summed per collision).
-    pub dissipated: f64,
-    /// Collisional virial sum over collisions of r_ij . dp_i (for the pressure).
-    pub virial: f64,
-    /// Neighbour lists rebuilt because a disk left its shell.
-    pub shell_exits: u64,
-    /// Kinetic energy removed by viscous friction (exact, summed between events).
-    pub friction: f64,
-    /// Re-anchorings of the friction clock.
-    pub reanchors: u64,
-    /// Collisions with the walls.
-    pub wall_collisions: u64,
-    /// Momentum transferred to the walls of each axis (sum of |dp|).
-    pub wall_impulse: [f64; 2],
-    /// Virial of the wall forces, sum of r . dp at each wall collision.
-    pub wall_virial: f64,
-    /// Work done by the force pulling the intruder (exact, per advance).
-    pub work: f64,
-    /// Calls of the intruder's root finder and the steps they took.
-    pub root_calls: u64,
-    pub root_steps: u64,
-    /// Re-prediction events (the root finder gave up, or nothing happened
-    /// within the intruder's horizon).
-    pub repredicts: u64,
-    /// Intruder-disk rebounds lifted to the minimum separation speed
-    /// ([`pulled_intruder::WALL_REST_TIME`]'s rule on disks) and the kinetic energy
-    /// the lifts added (exact, summed per lift).
-    pub lifts: u64,
-    pub lifted: f64,
-}
-
-/// A disk's pending event partner and its neighbour-list bookkeeping.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-struct Book {
-    /// List centre (the wrapped position at the last rebuild).
-    ox: f64,
-    oy: f64,
-    /// Partner of the pending event (a disk, or a CROSS/SHELL code).
-    ev_p: u32,
-    /// The partner's velocity-change counter when the event was predicted.
-    ev_c: u32,
-    /// Length of the neighbour list.
-    nn: u32,
-}
-
-impl Default for Book {
-    fn default() -> Self {
-        Book {
-            ox: 0.0,
-            oy: 0.0,
-            ev_p: NONE,
-            ev_c: 0,
-            nn: 0,
-        }
-    }
-}
 
 /// The event-driven engine: its state (one value, everything that determines
 /// the run's future: what a checkpoint saves) and what is derived from it
@@ -170,7 +89,7 @@ impl Engine {
     pub fn sort_by_cell(&mut self) {
         self.sync_all();
         let mut order: Vec<u32> = (0..self.n() as u32).collect();
-        if self.state.pulling.intruder == pulled_intruder::NO_INTRUDER {
+        if self.state.pulling.intruder == NO_INTRUDER {
             order.sort_by_key(|&i| self.derived.cell[i as usize]);
         } else {
             // The intruder keeps its index (the first).
@@ -318,7 +237,7 @@ impl Engine {
     /// either way.
     #[inline]
     fn plain(&self) -> bool {
-        self.state.pulling.pulled == pulled_intruder::NO_INTRUDER
+        self.state.pulling.pulled == NO_INTRUDER
             && !self.derived.has_walls
             && self.state.clock.gamma == 0.0
     }
@@ -406,7 +325,7 @@ impl Engine {
     /// ledgers are then current for the readers).
     #[inline]
     fn sync_pulled(&mut self) {
-        if self.state.pulling.pulled != pulled_intruder::NO_INTRUDER {
+        if self.state.pulling.pulled != NO_INTRUDER {
             self.advance_pulled();
         }
     }
@@ -664,7 +583,7 @@ impl Engine {
             shell,
         );
         if !PLAIN
-            && self.state.pulling.pulled != pulled_intruder::NO_INTRUDER
+            && self.state.pulling.pulled != NO_INTRUDER
             && list.contains(&(self.state.pulling.pulled as u32))
         {
             self.earlier_intruder(&a, &mut best, &mut partner);

@@ -7,23 +7,6 @@ use crate::sim::big_vec::big_vec;
 use crate::sim::events::disk::{Disk, NONE};
 use crate::sim::events::pair_scan::nearest_image;
 
-/// The neighbour lists, owned by this module.
-pub(super) struct Lists {
-    /// Neighbour lists are used (radii fixed and a box of at least 5x5 cells);
-    /// otherwise every prediction scans the 3x3 cells.
-    pub(super) on: bool,
-    /// Shell half-width: how far a disk may move from its list centre.
-    pub(super) shell: f64,
-    /// A packing bound on the list length: lists never exceed it. (The
-    /// capacity per disk, which doubles when a list overflows up to this, is
-    /// state: `EngineState::list_capacity`.)
-    pub(super) cap_max: usize,
-    /// A list was full when a disk had to be added: grow and rebuild.
-    pub(super) overflow: bool,
-    /// Neighbour list of disk `i`: `nb[i cap .. i cap + bk[i].nn]` (cap: the list capacity).
-    pub(super) nb: Vec<u32>,
-}
-
 impl Engine {
     /// Time from now until disk `a` (= disk `i` at the current time) is `shell`
     /// away from its list centre.

@@ -3,7 +3,8 @@
 //! (with the single kicks' share of paper I's Eq. (11)), its memory, and the
 //! worst overlap of two disks (the exactness checks).
 
-use super::{Book, Engine, Stats};
+use super::Engine;
+use super::parts::{Book, Stats};
 use crate::sim::events::disk::Disk;
 use crate::sim::events::pair_scan::nearest_image;
 

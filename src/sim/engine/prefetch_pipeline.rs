@@ -2,18 +2,9 @@
 //! is requested stages ahead (docs/sim.md, "Prefetch pipeline"). Only hints:
 //! no result depends on it.
 
-use super::{BUCKET_PREFETCH_MAX, Engine, KICKS_AHEAD};
+use super::Engine;
+use super::parts::{BUCKET_PREFETCH_MAX, KICKS_AHEAD};
 use crate::sim::events::cache_hints::{prefetch, prefetch_index};
-
-/// The pipeline's state, owned by this module.
-pub(super) struct Pipeline {
-    /// The calendar bucket up to which the pipeline has run.
-    pub(super) bucket: u64,
-    /// The pipeline is on (lists in use, arrays over `min_bytes`).
-    pub(super) on: bool,
-    /// [`super::PREFETCH_MIN_BYTES`] (a test forces the pipeline on in small systems).
-    pub(super) min_bytes: usize,
-}
 
 impl Engine {
     /// One stage of fetching for each kick drawn ahead: the disk line, list

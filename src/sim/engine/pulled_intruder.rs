@@ -33,52 +33,11 @@
 //!   then; the energy this adds is booked in `Stats::lifted`.
 
 use super::Engine;
+use super::parts::NO_INTRUDER;
 use crate::sim::events::disk::{Disk, REPREDICT, SHELL, WALL};
 use crate::sim::events::pair_scan::nearest_image;
 use crate::sim::model::intruder_path::{Pull, Root};
 use crate::sim::model::walls;
-
-/// The intruder's state, owned by this module.
-#[derive(Clone, serde::Serialize, serde::Deserialize)]
-pub(super) struct Pulling {
-    /// The intruder's index ([`NO_INTRUDER`] if none), and the same while a
-    /// force pulls it (its events then come from the root finder).
-    pub(super) intruder: usize,
-    pub(super) pulled: usize,
-    /// The force on the intruder and its motion law.
-    pub(super) force: f64,
-    pub(super) pull: Pull,
-    /// The pulled intruder's pending event (its `Disk::te` reads minus
-    /// infinity so that the bath's pair scan skips it); rebuilt, not saved.
-    #[serde(skip, default = "unknown_event")]
-    pub(super) intruder_te: f64,
-    /// The pulled intruder rests on the x wall the force presses it on (the
-    /// wall holds F; see the module doc).
-    pub(super) resting: bool,
-}
-
-impl Pulling {
-    /// No intruder.
-    pub(super) const NONE: Pulling = Pulling {
-        intruder: NO_INTRUDER,
-        pulled: NO_INTRUDER,
-        force: 0.0,
-        pull: Pull {
-            gamma: 0.0,
-            accel: 0.0,
-        },
-        intruder_te: f64::INFINITY,
-        resting: false,
-    };
-}
-
-/// A pending event not yet predicted.
-fn unknown_event() -> f64 {
-    f64::INFINITY
-}
-
-/// No intruder (or one the force does not pull): its index.
-pub(super) const NO_INTRUDER: usize = usize::MAX;
 
 /// A rebound off the wall F presses on that would return within this time
 /// (2 v / (F/m0)) leaves the intruder resting on the wall.

@@ -1,13 +1,19 @@
 //! Building an engine: the box, species and particles it starts from
-//! ([`Setup`]), made into a state at time 0 and everything derived from it.
+//! ([`Setup`]), made into a state at time 0, and the engine of a state
+//! ([`Engine::from_state`], for a new engine and a resumed one alike):
+//! everything derived from it ([`Derived`]) built from the state alone.
 
 use rand_chacha::ChaCha8Rng;
 
-use super::derived::Geometry;
+use super::Engine;
+use super::derived::{Derived, Geometry};
+use super::parts::{
+    Book, Driving, LIST_CAPACITY, Lists, PREFETCH_MIN_BYTES, Pipeline, Pulling, Stats, Train,
+};
 use super::state::EngineState;
-use super::{Engine, LIST_CAPACITY, Stats, driving, force_kicks, pulled_intruder};
 use crate::sim::big_vec::{big_vec, big_vec_from};
-use crate::sim::events::disk::{Disk, NONE};
+use crate::sim::events::calendar::EventCalendar;
+use crate::sim::events::disk::{CROSS, Disk, NONE};
 use crate::sim::model::friction::Clock;
 
 /// Everything the engine needs to start: box, species table, particles.
@@ -89,12 +95,81 @@ impl Engine {
             scale0: 1.0,
             scale_t0: 0.0,
             growth: 0.0,
-            drive: driving::Driving::OFF,
+            drive: Driving::OFF,
             next_kick: f64::INFINITY,
-            train: force_kicks::Train::OFF,
-            pulling: pulled_intruder::Pulling::NONE,
+            train: Train::OFF,
+            pulling: Pulling::NONE,
             rng,
             stats: Stats::default(),
         })
+    }
+}
+
+impl Engine {
+    /// The engine of state `s`: radii of the disks from their species, the
+    /// cell list, the neighbour lists and every pending event built anew.
+    /// Fails on a state that does not hold together (arrays of different
+    /// lengths, a species without radius or mass, a box too small).
+    pub(super) fn from_state(mut s: EngineState) -> anyhow::Result<Engine> {
+        let n = s.n();
+        anyhow::ensure!(n >= 2, "need at least 2 particles, got {n}");
+        anyhow::ensure!(n < CROSS as usize, "too many particles: {n}");
+        anyhow::ensure!(
+            [s.d.len(), s.imx.len(), s.imy.len(), s.last_collision.len()]
+                .iter()
+                .all(|&len| len == n),
+            "particle arrays of different lengths ({n} species for {} disks)",
+            s.d.len()
+        );
+        anyhow::ensure!(
+            s.species
+                .iter()
+                .all(|&k| (k as usize) < s.radii.len().min(s.masses.len())),
+            "a species without a radius or mass ({} radii, {} masses)",
+            s.radii.len(),
+            s.masses.len()
+        );
+        let g = Geometry::of(s.box_size, s.walls, &s.radii)?;
+        for (d, &k) in s.d.iter_mut().zip(&s.species) {
+            d.radius = s.radii[k as usize];
+        }
+        let nb = if g.lists_fit {
+            big_vec(n * s.list_capacity, NONE)
+        } else {
+            Vec::new()
+        };
+        let derived = Derived {
+            lx: g.lx,
+            ly: g.ly,
+            wall_len: g.wall_len,
+            has_walls: g.wall_len.iter().any(|l| l.is_finite()),
+            ncx: g.ncx,
+            ncy: g.ncy,
+            wx: g.lx / g.ncx as f64,
+            wy: g.ly / g.ncy as f64,
+            rmax: g.rmax,
+            head: big_vec(g.ncx * g.ncy, NONE),
+            occupancy: big_vec(g.ncx * g.ncy, 0),
+            prev: big_vec(n, NONE),
+            cell: big_vec(n, 0),
+            bk: big_vec(n, Book::default()),
+            calendar: EventCalendar::new(n),
+            lists: Lists {
+                on: false,
+                shell: g.shell,
+                cap_max: g.cap_max,
+                overflow: false,
+                nb,
+            },
+            pipeline: Pipeline {
+                bucket: 0,
+                on: false,
+                min_bytes: PREFETCH_MIN_BYTES,
+            },
+        };
+        let mut e = Engine { state: s, derived };
+        e.forget_events();
+        e.reschedule_all();
+        Ok(e)
     }
 }

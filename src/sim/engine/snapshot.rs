@@ -9,8 +9,9 @@
 //! forgotten first (the pair scan skips partners by them) and the calendar
 //! starts new (its heap's capacity counts in [`Engine::bytes`]).
 
+use super::Engine;
+use super::parts::NO_INTRUDER;
 use super::state::EngineState;
-use super::{Engine, pulled_intruder};
 use crate::sim::big_vec::big_vec_from;
 use crate::sim::events::calendar::EventCalendar;
 
@@ -51,7 +52,7 @@ impl Engine {
             d.te = f64::INFINITY;
         }
         self.state.pulling.intruder_te = f64::INFINITY;
-        if self.state.pulling.pulled != pulled_intruder::NO_INTRUDER {
+        if self.state.pulling.pulled != NO_INTRUDER {
             self.state.d[self.state.pulling.pulled].te = f64::NEG_INFINITY;
         }
     }

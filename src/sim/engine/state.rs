@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Stats, driving, force_kicks, pulled_intruder};
+use super::parts::{Driving, Pulling, Stats, Train};
 use crate::sim::events::disk::Disk;
 use crate::sim::model::friction::Clock;
 use rand_chacha::ChaCha8Rng;
@@ -57,14 +57,14 @@ pub struct EngineState {
     pub(super) scale_t0: f64,
     pub(super) growth: f64,
     /// The driving's state: its kicks, their rate and amplitude, the next one.
-    pub(super) drive: driving::Driving,
+    pub(super) drive: Driving,
     /// Clock reading of the next kick of either train: the driving's
     /// (`next_drive`) or the force's (`train.next`).
     pub(super) next_kick: f64,
     /// The force on the intruder as a train of momentum kicks (off: never).
-    pub(super) train: force_kicks::Train,
+    pub(super) train: Train,
     /// The intruder's state (paper I).
-    pub(super) pulling: pulled_intruder::Pulling,
+    pub(super) pulling: Pulling,
     pub(super) rng: ChaCha8Rng,
     pub(super) stats: Stats,
 }
