@@ -4,8 +4,8 @@
 //! run's parameters (an analysis checking its lags) does not run the simulator.
 
 use anyhow::{Context, Result, bail};
-use serde_json::Value;
 use serde::Deserialize;
+use serde_json::Value;
 
 use crate::pipeline::Artifact;
 use crate::pipeline::canon::param_error;
