@@ -18,7 +18,7 @@ REL_TOL = 1e-6  # matching a lag to frame time differences
 def frames(path):
     """Frame times, positions (frames x disks x 2) and the recording schedule."""
     table = pq.read_table(path, columns=["frame", "t", "id", "x", "y"])
-    meta = json.loads(pq.read_schema(path).metadata[b"repro.trajectory"])
+    meta = json.loads(pq.read_metadata(path).metadata[b"repro.trajectory"])
     n = meta["particles"]
     t = table.column("t").to_numpy()[::n]
     xy = np.stack([table.column("x").to_numpy(), table.column("y").to_numpy()], axis=-1)
