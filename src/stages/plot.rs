@@ -650,9 +650,9 @@ fn provenance(source: crate::table::results::Source) -> &'static str {
 fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &str) -> String {
     use crate::table::results::Verdict;
     let paper = if provenance.is_empty() {
-        format!("paper {}", c.paper)
+        format!("paper {}", legend_number(c.paper))
     } else {
-        format!("paper {} ({provenance})", c.paper)
+        format!("paper {} ({provenance})", legend_number(c.paper))
     };
     let ours = if c.ours.is_finite() {
         format!("ours {}", value_with_error(c.ours, c.ours_err))
@@ -667,7 +667,7 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
             short.to_string()
         };
         line.push_str(": ");
-        line.push_str(&cut(why.trim(), SHORT_CHARS));
+        line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));
     }
     line
 }
@@ -691,6 +691,18 @@ fn first_clause(reason: &str) -> String {
 }
 
 /// `text` cut to at most `n` characters at a word, ending in "…" if cut.
+/// A reason with its quotations of the paper printed and cut before its first
+/// reference to a build (`{=...}`: the report resolves those, a figure's face
+/// must not show them raw).
+fn before_reference(text: &str) -> String {
+    let (head, cut) = match text.find("{=") {
+        Some(k) => (text[..k].trim_end_matches([',', ':', ' ', '(']), true),
+        None => (text, false),
+    };
+    let head = crate::table::references::quotations(head).unwrap_or_else(|_| head.to_string());
+    if cut { format!("{head}…") } else { head }
+}
+
 fn cut(text: &str, n: usize) -> String {
     if text.chars().count() <= n {
         return text.to_string();
