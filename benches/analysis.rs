@@ -25,6 +25,7 @@ fn chi4_one_pair_1e6(b: divan::Bencher) {
         n: vec![100.0],
         lags: Some(vec![1.0]),
         rel_tol: 1e-6,
+        variance: chi4::Variance::default(),
     };
     b.bench(|| chi4::compute(divan::black_box(&traj), &p).unwrap());
 }

@@ -28,8 +28,7 @@ fn driven_events(bencher: divan::Bencher, n: usize) {
         1.0,
     );
     let (kicks, rate, p_dr) = run::drive(&cfg, omega);
-    e.eps = cfg.eps;
-    e.tc = cfg.collapse_tc;
+    e.set_restitution(cfg.eps, cfg.collapse_tc);
     // The balanced rule settles at 1.18 x Enskog at phi = 0.78 (docs/sim.md).
     e.set_kicks(kicks, rate * 1.18, p_dr);
     e.run_until(e.time() + 2.0, u64::MAX);

@@ -146,7 +146,13 @@ fn planned(profile: &str, want: &str) -> f64 {
         .iter()
         .find(|n| configuration(n.label()) == want)
         .unwrap_or_else(|| panic!("{want} is not a simulation of the {profile} profile"));
-    reg.work(&node.kind, &node.parsed).unwrap().collisions
+    let planned = reg.planned(&node.kind, &node.parsed).unwrap();
+    planned
+        .counts
+        .iter()
+        .find(|(c, _)| *c == "collisions")
+        .unwrap()
+        .1
 }
 
 #[test]

@@ -43,7 +43,7 @@ pub use exec::{Outcome, RunOptions, RunReport, State};
 pub use graph::Graph;
 pub use registry::Registry;
 pub use spec::{Catalogue, DEFAULT_PROFILE, SpecError};
-pub use stage::{Artifact, Kind, Output, Parsed, StageCtx, StageKind};
+pub use stage::{Artifact, Kind, Output, Parsed, Planned, StageCtx, StageKind};
 pub use store::{GcReport, Store, VerifyReport};
 
 /// Where specs, results and the store live.

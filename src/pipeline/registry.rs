@@ -14,7 +14,7 @@ use serde_json::Value;
 
 use super::canon::ParamError;
 use super::fingerprint::{Fingerprint, Sources};
-use super::stage::{Holds, Kind, Parsed, StageKind, Work};
+use super::stage::{Holds, Kind, Parsed, Planned, StageKind};
 
 /// Deserialize a kind's parameters into a typed struct (use
 /// `#[serde(deny_unknown_fields)]` on it). The error is a [`ParamError`] naming the
@@ -69,9 +69,14 @@ pub fn param_keys(validate: impl Fn(&Value) -> Result<()>) -> Vec<String> {
         .unwrap_or_default()
 }
 
+/// A kind's cost model: its parameters, parsed, to what one stage is planned to
+/// cost (`None` when they are not this kind's).
+type PlanFn = Box<dyn Fn(&Parsed) -> Option<Planned> + Send + Sync>;
+
 struct Registered {
     kind: Arc<dyn Kind>,
     fingerprint: Fingerprint,
+    plan: Option<PlanFn>,
 }
 
 /// The stage kinds the planner and executor know, with their code fingerprints.
@@ -116,8 +121,24 @@ impl Registry {
             Registered {
                 kind: Arc::new(kind),
                 fingerprint,
+                plan: None,
             },
         );
+    }
+
+    /// [`Registry::register`] a kind of long stages (simulations) with the
+    /// model of what one costs, from its parameters: the executors size their
+    /// requests by it, and such stages checkpoint. The model is registered here
+    /// and not called by the kind, so that its file is in no key: a
+    /// recalibrated cost reruns nothing.
+    pub fn register_planned<K: StageKind>(&mut self, kind: K, plan: fn(&K::Params) -> Planned) {
+        let name = StageKind::name(&kind).to_string();
+        self.register(kind);
+        if let Some(r) = self.kinds.get_mut(&name) {
+            r.plan = Some(Box::new(move |p: &Parsed| {
+                p.get::<K::Params>().ok().map(plan)
+            }));
+        }
     }
 
     /// Override a kind's code fingerprint (tests simulate a code edit this way).
@@ -173,16 +194,17 @@ impl Registry {
     }
 
     /// What a stage of kind `name` with parameters `params` (parsed by that
-    /// kind) is planned to do (`None` if the kind plans nothing or is unknown).
-    pub fn work(&self, name: &str, params: &Parsed) -> Option<Work> {
-        self.kinds.get(name)?.kind.plan(params)
+    /// kind) is planned to cost ([`Registry::register_planned`]); `None` if
+    /// the kind has no cost model (its stages are short) or is unknown.
+    pub fn planned(&self, name: &str, params: &Parsed) -> Option<Planned> {
+        (self.kinds.get(name)?.plan.as_ref()?)(params)
     }
 
-    /// [`Registry::work`] of parameters not yet parsed (a recorded stage's);
+    /// [`Registry::planned`] of parameters not yet parsed (a recorded stage's);
     /// `None` also when they no longer parse.
-    pub fn work_of_raw(&self, name: &str, params: &Value) -> Option<Work> {
-        let k = &self.kinds.get(name)?.kind;
-        k.plan(&k.parse(params).ok()?)
+    pub fn planned_raw(&self, name: &str, params: &Value) -> Option<Planned> {
+        let r = self.kinds.get(name)?;
+        (r.plan.as_ref()?)(&r.kind.parse(params).ok()?)
     }
 
     /// Names of all registered kinds.

@@ -1,6 +1,6 @@
 //! What a stage kind is and what it sees: the [`StageKind`] trait, a stage's
 //! [`Output`], its inputs as [`Artifact`]s when it runs and as [`PlannedInput`]s
-//! when it is planned, the [`StageCtx`] it runs in, and the [`Work`] a kind plans.
+//! when it is planned, the [`StageCtx`] it runs in, and the [`Planned`] cost of a long one.
 //!
 //! A kind is a pure function of (its canonical parameters, its input artifacts, the
 //! seed): the cache relies on that. Each kind names its own source file; the
@@ -61,11 +61,6 @@ pub trait StageKind: Send + Sync + 'static {
     /// What this kind's output holds, for consumers that need a kind of content.
     fn holds(&self) -> Holds {
         Holds::Results
-    }
-    /// What one stage with these parameters is planned to do, for the
-    /// executors' resource requests; `None` for a stage too small to plan.
-    fn plan(&self, _params: &Self::Params) -> Option<Work> {
-        None
     }
     /// The configuration a run resolves from its parameters (a simulation's
     /// every setting, defaults and run-length rule applied), which travels to
@@ -128,7 +123,6 @@ pub trait Kind: Send + Sync {
         self.parse(params).map(drop)
     }
     fn check_inputs(&self, params: &Parsed, inputs: &[PlannedInput]) -> Result<()>;
-    fn plan(&self, params: &Parsed) -> Option<Work>;
     fn resolved(&self, params: &Parsed) -> Option<Map<String, Value>>;
     fn reads_run(&self, params: &Parsed) -> Vec<String>;
     fn keyed_outside(&self, params: &Parsed, root: &Path) -> Value;
@@ -164,9 +158,6 @@ impl<K: StageKind> Kind for K {
     fn check_inputs(&self, params: &Parsed, inputs: &[PlannedInput]) -> Result<()> {
         StageKind::check_inputs(self, params.get::<K::Params>()?, inputs)
     }
-    fn plan(&self, params: &Parsed) -> Option<Work> {
-        StageKind::plan(self, params.get::<K::Params>().ok()?)
-    }
     fn resolved(&self, params: &Parsed) -> Option<Map<String, Value>> {
         StageKind::resolved(self, params.get::<K::Params>().ok()?)
     }
@@ -198,31 +189,34 @@ pub enum Holds {
     Trajectory,
 }
 
-/// What one stage is planned to do (from its parameters, before it runs): what
-/// the executors size its resources by (Slurm's memory and time limit).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Work {
-    /// Disks.
-    pub n: u64,
-    /// Packing fraction (a collision costs more near jamming).
-    pub phi: f64,
-    /// Planned collisions (compression, relaxation and production), with the
-    /// bath's heating by a pulling force.
-    pub collisions: f64,
-    /// The part of `collisions` that a pulling force adds by heating the bath:
-    /// they happen in the hot, compacted layer around the intruder, where a
-    /// collision costs what one at 0.65-0.805 does whatever the mean packing.
-    pub forced_collisions: f64,
-    /// The part of `forced_collisions` in a collapsing layer ahead of the
-    /// intruder (inelastic baths): repeated collisions among a few disks, which
-    /// cost half a dense collision.
-    pub layer_collisions: f64,
-    /// Kicks of the drive (single disks or pairs).
-    pub drive_kicks: f64,
-    /// Momentum kicks of a pulled intruder (`force_mode: kicks`).
-    pub force_kicks: f64,
-    /// Frames the trajectory keeps in memory until it is written.
-    pub frames: u64,
+/// What one long stage (a simulation) is planned to cost, as the function its
+/// kind registered with ([`super::Registry::register_planned`]) estimates it
+/// from its parameters before it runs: what the executors size their requests
+/// by. The framework knows no physics: the model lives beside the kind
+/// (`stages::simulate_cost`), outside its key, since it changes no output.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Planned {
+    /// CPU seconds.
+    pub cpu_seconds: f64,
+    /// Peak memory beyond the process's baseline, bytes.
+    pub memory_bytes: f64,
+    /// Bytes of its output a stage downstream reads (a trajectory's positions).
+    pub output_bytes: u64,
+    /// What the estimate counts, for listings (`N`, `collisions`, ...), in
+    /// the order the kind gives them.
+    pub counts: Vec<(&'static str, f64)>,
+}
+
+impl Planned {
+    /// A count as listings print it: a whole number below 10^6 as it is
+    /// (`2000`), anything else in three significant digits (`3.142e8`).
+    pub fn count_text(v: f64) -> String {
+        if v.fract() == 0.0 && v.abs() < 1e6 {
+            format!("{v}")
+        } else {
+            format!("{v:.3e}")
+        }
+    }
 }
 
 /// Which declared stage an instance is: a stage of a figure's pipeline at one

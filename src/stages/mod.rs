@@ -3,7 +3,7 @@
 //! - [`simulate`]: one seeded simulation (one replica at one packing fraction) with
 //!   run lengths set in units of an estimated tau_alpha(phi) ([`run_length`],
 //!   what downstream stages read of a run); [`simulate_cost`] what one is
-//!   planned to cost.
+//!   planned to cost (registered beside the kind, outside its key).
 //! - [`analyse`]: every observable of `src/analysis` (Q(t), tau_alpha, aging, chi4,
 //!   S4, MSD, van Hove, g_ab, clusters, intruder, ...) as a stage kind of its name,
 //!   pooling the gathered replicas.
@@ -55,7 +55,7 @@ pub fn registry() -> Registry {
 
 /// Register every real stage kind.
 pub fn register(r: &mut Registry) {
-    r.register(simulate::Simulate);
+    r.register_planned(simulate::Simulate, simulate_cost::planned);
     analyse::register(r);
     r.register(fit::Fit);
     r.register(fit::Collapse);

@@ -24,11 +24,10 @@ use serde_json::{Map, Value};
 
 use super::run_length::RULE_KEYS;
 pub use super::run_length::{Run, RunLength, TauGuess, run_config};
-use super::simulate_cost::planned_work;
 use crate::pipeline::canon::{ParamError, param_error};
 use crate::pipeline::checkpoints::{Checkpoints, RunProgress, unix_now};
 use crate::pipeline::registry::typed;
-use crate::pipeline::stage::{Holds, Work};
+use crate::pipeline::stage::Holds;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::sim::run::checkpoint::Keeper;
 use crate::sim::{self, SimConfig};
@@ -164,9 +163,6 @@ impl StageKind for Simulate {
     }
     fn holds(&self) -> Holds {
         Holds::Trajectory
-    }
-    fn plan(&self, run: &Run) -> Option<Work> {
-        Some(planned_work(&run.config))
     }
     fn resolved(&self, run: &Run) -> Option<Map<String, Value>> {
         resolved(&run.config).ok()

@@ -1,5 +1,6 @@
 //! `repro plan`: the planned cost of a build, per simulation configuration, from
-//! the cost model ([`crate::pipeline::cost`]), and with `--check` beside the CPU
+//! the simulate kind's cost model (`stages::simulate_cost`, through
+//! [`crate::pipeline::cost`]), and with `--check` beside the CPU
 //! time its built replicas took in the store.
 
 use anyhow::{Context, Result};
@@ -7,9 +8,8 @@ use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 
 use crate::pipeline::calibration::{Calibration, samples};
-use crate::pipeline::cost::{built_bytes, node_seconds, simulation_seconds};
-use crate::pipeline::stage::Work;
-use crate::pipeline::{Graph, Registry, State, Store, Workspace, needed_nodes};
+use crate::pipeline::cost::{built_bytes, node_seconds};
+use crate::pipeline::{Graph, Planned, Registry, State, Store, Workspace, needed_nodes};
 
 /// What `repro plan --check` judges: a recorded run off by more than `factor`
 /// either way, among runs of at least `min_seconds` planned or measured.
@@ -32,7 +32,7 @@ pub struct PlanReport {
 /// so they share one plan) with the CPU times of those built.
 struct Row {
     label: String,
-    work: Work,
+    work: Planned,
     planned: f64,
     replicas: usize,
     measured: Vec<f64>,
@@ -99,7 +99,7 @@ pub fn plan(
     let mut at = std::collections::HashMap::new();
     for (i, s) in &st {
         let node = &graph.nodes[*i];
-        let Some(work) = reg.work(&node.kind, &node.parsed) else {
+        let Some(work) = reg.planned(&node.kind, &node.parsed) else {
             let k = others.entry(node.kind.clone()).or_default();
             k.stages += 1;
             k.planned += planned[*i];
@@ -113,7 +113,7 @@ pub fn plan(
         let k = *at.entry(label.clone()).or_insert_with(|| {
             rows.push(Row {
                 label,
-                planned: simulation_seconds(&work),
+                planned: work.cpu_seconds,
                 work,
                 replicas: 0,
                 measured: Vec::new(),
@@ -125,14 +125,19 @@ pub fn plan(
     }
     rows.sort_by(|a, b| b.planned.total_cmp(&a.planned));
     let mut r = PlanReport::default();
+    // The counts the cost model gives (N, collisions, kicks, force kicks).
+    let counted: Vec<&str> = rows
+        .first()
+        .map(|r| r.work.counts.iter().map(|(name, _)| *name).collect())
+        .unwrap_or_default();
     let mut out = format!(
-        "{:<56} {:>4} {:>6} {:>10} {:>10} {:>10} {:>10}{}\n",
+        "{:<56} {:>4} {}{:>10}{}\n",
         "simulation (per run)",
         "runs",
-        "N",
-        "collisions",
-        "kicks",
-        "force kicks",
+        counted
+            .iter()
+            .map(|c| format!("{c:>10} "))
+            .collect::<String>(),
         "planned s",
         if check.is_some() {
             "  built  mean s   max s  mean/plan"
@@ -146,10 +151,15 @@ pub fn plan(
     for row in &rows {
         planned_all += row.planned * row.replicas as f64;
         runs += row.replicas;
-        let w = &row.work;
+        let counts: String = row
+            .work
+            .counts
+            .iter()
+            .map(|(_, v)| format!("{:>10} ", Planned::count_text(*v)))
+            .collect();
         let mut line = format!(
-            "{:<56} {:>4} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.1}",
-            row.label, row.replicas, w.n, w.collisions, w.drive_kicks, w.force_kicks, row.planned
+            "{:<56} {:>4} {counts}{:>10.1}",
+            row.label, row.replicas, row.planned
         );
         if let Some(c) = check
             && !row.measured.is_empty()
@@ -274,7 +284,7 @@ pub fn calibrate(
 ) -> Result<String> {
     let store = Store::open(&ws.store)?;
     let samples = samples(&store, |kind, params| {
-        reg.work_of_raw(kind, params).is_some()
+        reg.planned_raw(kind, params).is_some()
     });
     if samples.is_empty() {
         anyhow::bail!(

@@ -30,6 +30,7 @@ use super::graph::{Graph, Node};
 use super::progress::{self, Progress};
 use super::registry::Registry;
 use super::spec::Catalogue;
+use super::stage::Planned;
 use super::store::{Entry, Found, Store};
 use super::{FigureRun, Workspace, needed_nodes, publish};
 use plan::{Resources, Settings};
@@ -203,7 +204,7 @@ impl Driver<'_> {
                             "{}: Slurm job {} hit its time limit ({w}); resubmitting once with {f}x the limit{}",
                             rec.label,
                             rec.job_id,
-                            if self.reg.work(&rec.kind, &g.nodes[i].parsed).is_some() {
+                            if self.reg.planned(&rec.kind, &g.nodes[i].parsed).is_some() {
                                 ", resuming from its last checkpoint"
                             } else {
                                 ""
@@ -378,7 +379,7 @@ impl Driver<'_> {
                         &g.nodes[*i].kind,
                         &g.nodes[*i].params,
                         self.reg
-                            .work(&g.nodes[*i].kind, &g.nodes[*i].parsed)
+                            .planned(&g.nodes[*i].kind, &g.nodes[*i].parsed)
                             .as_ref(),
                         (input_bytes(self.store, inputs), inputs.len()),
                         settings,
@@ -386,10 +387,10 @@ impl Driver<'_> {
                 })
                 .collect();
             let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
-            // Only simulations (kinds that plan work) checkpoint.
+            // Only simulations (kinds with a cost model) checkpoint.
             let resumable = self
                 .reg
-                .work(&kind, &g.nodes[ready[members[0]].0].parsed)
+                .planned(&kind, &g.nodes[ready[members[0]].0].parsed)
                 .is_some();
             // Short stages share a task (one after the other); a stage that
             // ran out of time once goes alone.
@@ -674,7 +675,7 @@ pub fn dry_run(
     let store = Store::open(&ws.store)?;
     let mut groups: BTreeMap<(String, String), Vec<(usize, Resources)>> = BTreeMap::new();
     let mut cached = 0;
-    let work = |n: &Node| reg.work(&n.kind, &n.parsed);
+    let planned = |n: &Node| reg.planned(&n.kind, &n.parsed);
     for (i, s) in &st {
         let node = &graph.nodes[*i];
         let key = match s {
@@ -696,14 +697,14 @@ pub fn dry_run(
                 };
                 match d {
                     Some(e) => store.entry_bytes(&e),
-                    None => work(&graph.nodes[j]).map_or(0, |w| cost::trajectory_bytes(&w)),
+                    None => planned(&graph.nodes[j]).map_or(0, |p| p.output_bytes),
                 }
             })
             .sum();
         let r = plan::resources(
             &node.kind,
             &node.params,
-            work(node).as_ref(),
+            planned(node).as_ref(),
             (bytes, node.inputs.len()),
             &settings[*i],
         );
@@ -716,7 +717,7 @@ pub fn dry_run(
     for ((kind, sargs), members) in &groups {
         let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
         let first = members[0].0;
-        let resumable = work(&graph.nodes[first]).is_some();
+        let resumable = planned(&graph.nodes[first]).is_some();
         // As submitted: short stages share a task.
         let res: Vec<Resources> = members.iter().map(|(_, r)| r.clone()).collect();
         let plan::JobTasks {
@@ -748,9 +749,12 @@ pub fn dry_run(
             }
         );
         for (m, (i, r)) in members.iter().enumerate() {
-            let w = work(&graph.nodes[*i]);
-            let work = w.map_or(String::new(), |w| {
-                format!("N = {}, {:.3e} collisions, ", w.n, w.collisions)
+            let work = planned(&graph.nodes[*i]).map_or(String::new(), |p| {
+                p.counts
+                    .iter()
+                    .take(2)
+                    .map(|(name, v)| format!("{name} = {}, ", Planned::count_text(*v)))
+                    .collect()
             });
             let cpu = if r.expected_s < 3600.0 {
                 format!("{:.1} CPU s", r.expected_s)

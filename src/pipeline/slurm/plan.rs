@@ -1,5 +1,6 @@
-//! Resources of a Slurm job from the planned work: memory from the measured bytes
-//! per disk times N, the time limit from the planned CPU seconds
+//! Resources of a Slurm job from the planned cost: memory from a long stage's
+//! cost model (a simulation's bytes per disk times N) or from the bytes an
+//! analysis reads, the time limit from the planned CPU seconds
 //! ([`cost`](super::super::cost)), one CPU per stage; each times a margin from the profile's
 //! `slurm:` settings.
 
@@ -10,14 +11,8 @@ use serde::{Deserialize, Serialize};
 use super::super::cost;
 use super::super::graph::Graph;
 use super::super::spec::{Catalogue, SlurmSpec, SpecError};
-use super::super::stage::Work;
+use super::super::stage::Planned;
 
-/// Engine memory per disk, measured at N = 10^4 to 4 x 10^6: 195-198 bytes
-/// (docs/measurements.md, 2026-11-22).
-pub const ENGINE_BYTES_PER_DISK: f64 = 198.0;
-/// A stored frame holds x and y (f64) per disk; writing the Parquet holds a
-/// second, encoded copy of about the same size.
-pub const FRAME_BYTES_PER_DISK: f64 = 2.0 * 16.0;
 /// Process baseline (binary, allocator, Parquet writer), MiB.
 pub const BASE_MIB: f64 = 64.0;
 
@@ -187,20 +182,20 @@ pub const ANALYSIS_MEM_PER_INPUT_BYTE: f64 = 6.0;
 /// Start-up of a job that runs an analysis, seconds (on a busy node).
 pub const JOB_START_S: f64 = 10.0;
 
-/// Resources of a stage with planned `work` (simulations) or of `kind` with
+/// Resources of a stage with a `planned` cost (simulations) or of `kind` with
 /// `params` reading `input_bytes` from `inputs` inputs (everything else).
 pub fn resources(
     kind: &str,
     params: &serde_json::Value,
-    work: Option<&Work>,
+    planned: Option<&Planned>,
     (input_bytes, inputs): (u64, usize),
     s: &Settings,
 ) -> Resources {
-    let mem_bytes = match work {
-        Some(w) => w.n as f64 * (ENGINE_BYTES_PER_DISK + w.frames as f64 * FRAME_BYTES_PER_DISK),
+    let mem_bytes = match planned {
+        Some(p) => p.memory_bytes,
         None => input_bytes as f64 * ANALYSIS_MEM_PER_INPUT_BYTE,
     };
-    let secs = cost::seconds(work, kind, params, input_bytes, inputs);
+    let secs = cost::seconds(planned, kind, params, input_bytes, inputs);
     let mem_mib = (BASE_MIB + mem_bytes / (1024.0 * 1024.0)) * s.mem_margin;
     let mut r = Resources {
         cpus: 1,
@@ -208,7 +203,7 @@ pub fn resources(
         time_min: 0,
         expected_s: secs,
     };
-    r.time_min = task_minutes(&[&r], work.is_some(), s);
+    r.time_min = task_minutes(&[&r], planned.is_some(), s);
     r
 }
 
@@ -433,20 +428,16 @@ mod tests {
     }
 
     #[test]
-    fn resources_scale_with_n_and_collisions_with_margins() {
+    fn resources_scale_with_the_plan_with_margins() {
         let s = Settings::default();
-        let w = Work {
-            n: 1_000_000,
-            phi: 0.78,
-            collisions: 0.46e6 * 3600.0,
-            forced_collisions: 0.0,
-            layer_collisions: 0.0,
-            drive_kicks: 0.0,
-            force_kicks: 0.0,
-            frames: 0,
+        let w = Planned {
+            cpu_seconds: 3600.0,
+            memory_bytes: 1e6 * 198.0,
+            output_bytes: 0,
+            counts: Vec::new(),
         };
         let r = resources("simulate", &serde_json::Value::Null, Some(&w), (0, 0), &s);
-        // One hour of work at 0.46e6 collisions/s, times the margin 2.5.
+        // One planned hour, times the margin 2.5.
         assert!((r.expected_s - 3600.0).abs() < 1e-6);
         assert_eq!(r.time_min, 150);
         let mib: f64 = (64.0 + 1e6 * 198.0 / 1048576.0) * 1.5;
