@@ -631,3 +631,88 @@ fn a_run_longer_than_the_partition_limit_finishes_through_a_chain() {
         "the chain's trajectory differs from the local build's"
     );
 }
+
+/// A toy sweep (two simulations) read by a `script` stage: a python3 script of
+/// the standard library alone that lists its inputs in an SVG.
+fn script_catalogue(root: &Path) {
+    slow_catalogue(root, 0, "");
+    std::fs::create_dir_all(root.join("scripts")).unwrap();
+    std::fs::write(
+        root.join("scripts/count.py"),
+        "import json, os\n\
+         inputs = json.load(open(os.environ['REPRO_INPUTS']))\n\
+         args = json.load(open(os.environ['REPRO_PARAMS']))\n\
+         labels = sorted(i['label'] for i in inputs)\n\
+         text = args['title'] + ': ' + ', '.join(labels)\n\
+         svg = '<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"600\" height=\"40\"><text x=\"5\" y=\"20\">' + text + '</text></svg>'\n\
+         open(os.path.join(os.environ['REPRO_OUT'], 'count.svg'), 'w').write(svg)\n",
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("pipelines/figscript.yaml"),
+        "description: a script stage over a toy sweep\nstages:\n  - name: count\n    kind: script\n    gather: [slow]\n    params:\n      interpreter: python3\n      script: scripts/count.py\n      args: {title: runs}\n      images: [count.svg]\n",
+    )
+    .unwrap();
+}
+
+fn script_figure(root: &Path, executor: &str) -> Output {
+    run(repro()
+        .args([
+            "figure",
+            "figscript",
+            "--profile",
+            "ci",
+            "--executor",
+            executor,
+            "--root",
+        ])
+        .arg(root))
+}
+
+/// A script stage runs under `--executor slurm` as any stage does: the same
+/// outputs under the same keys as a local build, and an edit of the script
+/// submits that stage alone.
+#[test]
+fn a_script_stage_runs_through_slurm_as_locally() {
+    if !slurm_available("a_script_stage_runs_through_slurm_as_locally") {
+        return;
+    }
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let tmp = tempfile::tempdir().unwrap();
+    let (local, remote) = (tmp.path().join("local"), tmp.path().join("slurm"));
+    for r in [&local, &remote] {
+        script_catalogue(r);
+    }
+    assert!(script_figure(&local, "local").status.success());
+    let o = script_figure(&remote, "slurm");
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains(": 1 script stage(s)"), "{t}");
+    let svg = std::fs::read_to_string(remote.join("results/figscript/count.svg")).unwrap();
+    assert!(svg.contains("runs: slow[phi=0.7"), "{svg}");
+    for d in ["objects", "entries"] {
+        let a = files(&local.join(".repro/store").join(d));
+        let b = files(&remote.join(".repro/store").join(d));
+        assert_eq!(
+            a.keys().collect::<Vec<_>>(),
+            b.keys().collect::<Vec<_>>(),
+            "{d}"
+        );
+        if d == "objects" {
+            assert!(a == b, "artifact bytes differ");
+        }
+    }
+    // The script edited: its stage alone is submitted, the simulations stay.
+    let script = remote.join("scripts/count.py");
+    let edited = std::fs::read_to_string(&script)
+        .unwrap()
+        .replace("': ' + ', '", "' - ' + ' ; '");
+    std::fs::write(&script, edited).unwrap();
+    let o = script_figure(&remote, "slurm");
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains(": 1 script stage(s)"), "{t}");
+    assert!(!t.contains("toy_simulate stage(s)"), "{t}");
+    let svg = std::fs::read_to_string(remote.join("results/figscript/count.svg")).unwrap();
+    assert!(svg.contains("runs - slow[phi=0.7"), "{svg}");
+}
