@@ -880,7 +880,7 @@ fn the_spec_documents_every_kind_parameter_and_form() {
         );
     }
     for o in repro::analysis::observables::OBSERVABLES {
-        let keys = param_keys(o.validate);
+        let keys = o.param_keys();
         assert!(!keys.is_empty(), "no parameters read for {}", o.name);
         let name = format!("`{}`", o.name);
         let row = doc

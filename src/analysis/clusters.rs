@@ -26,7 +26,9 @@ pub struct Params {
     /// Fast: |dr| > fast_factor * a.
     #[serde(default = "default_fast_factor")]
     pub fast_factor: f64,
-    /// Lags t (e.g. [tau_alpha]).
+    /// Lags t (e.g. [tau_alpha]); required, here or by the analysis stage's
+    /// `at:` (the parse checks it).
+    #[serde(default)]
     pub lags: Vec<f64>,
     /// Neighbour cut-offs r_ab (species x species); first minima of g_ab(r) if absent.
     #[serde(default)]

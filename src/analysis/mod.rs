@@ -19,6 +19,7 @@ pub mod intruder;
 pub mod lags;
 pub mod msd;
 pub mod neighbours;
+pub mod observable_params;
 pub mod observables;
 pub mod overlap;
 pub mod pool;

@@ -1,7 +1,7 @@
 //! The observables a pipeline can ask for, by name: one line each in [`OBSERVABLES`]
-//! (name, what it computes, its function). The generic
+//! (name, what it computes, its function of its typed parameters). The generic
 //! analysis stage (`stages::analyse`) turns every line into a stage kind, and
-//! [`super::run`] calls the same line on one trajectory: a name means one thing.
+//! [`run`] calls the same line on one trajectory: a name means one thing.
 //!
 //! Each function gets every trajectory gathered into the stage (replicas of one
 //! state point) and pools them: observables built on blocks pool (replica, time
@@ -9,16 +9,18 @@
 //! seed to seed ([`pool::seed_to_seed`]); lists of objects (clusters, paths) are
 //! concatenated with a `replica` column. The table's metadata says which.
 
+use std::any::Any;
 use std::sync::Arc;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use arrow_array::{ArrayRef, Int64Array, RecordBatch};
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 
+use super::observable_params::{Lags, LagsFrom, ObservableParams, checked};
 use super::pool::{self, Errors};
 use super::{chi4, clusters, front, gr, intruder, lags, msd, overlap, s4, van_hove};
-use crate::pipeline::registry::typed;
+use crate::pipeline::registry::{param_keys, typed};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
 
@@ -51,38 +53,86 @@ pub struct Observable {
     pub name: &'static str,
     /// One line: what it computes and its columns.
     pub describe: &'static str,
-    /// Check parameters (typed; unknown keys and wrong types are errors).
-    pub validate: fn(&Value) -> Result<()>,
-    /// Compute it from the gathered trajectories.
-    pub compute: fn(&[&Trajectory], &Value) -> Result<Tables>,
     /// How `at` (times in units of a measured time) reads it between lags.
     pub at: lags::AtLag,
     /// Whether it takes the drive of its runs (`drive`, `kick_rate_factor`):
     /// the analysis stage reads them from the runs it analyses.
     pub takes_drive: bool,
+    /// Its parameters' type and its function of them.
+    typed: &'static dyn TypedCompute,
 }
 
-/// The lags realised by every time origin when none are requested.
-fn overlap_params(name: &str, trajs: &[&Trajectory], v: &Value) -> Result<overlap::Params> {
-    let mut p: overlap::Params = typed(name, v)?;
-    p.lags = lags::every_origin(trajs, p.lags.take(), p.rel_tol)?;
-    Ok(p)
+impl Observable {
+    /// Parse its parameters into their type, once (unknown keys and wrong types
+    /// are errors naming the kind and the key); `lags` says whether they give
+    /// the lags or `at:` sets them after.
+    pub fn parse(&self, params: &Value, lags: LagsFrom) -> Result<Box<dyn ObservableParams>> {
+        self.typed.parse(self.name, params, lags)
+    }
+
+    /// Compute it from the gathered trajectories, with parameters from [`Self::parse`].
+    pub fn compute(&self, trajs: &[&Trajectory], params: &dyn ObservableParams) -> Result<Tables> {
+        self.typed.compute(self.name, trajs, params)
+    }
+
+    /// The keys its parameters accept, read from their type ([`param_keys`]).
+    pub fn param_keys(&self) -> Vec<String> {
+        param_keys(|v| self.parse(v, LagsFrom::Params).map(drop))
+    }
 }
 
-fn chi4_params(name: &str, v: &Value) -> Result<chi4::Params> {
-    let p: chi4::Params = typed(name, v)?;
-    if p.n.is_empty() {
-        bail!(
-            "parameters of analysis `{name}`: `n` (sub-box particle numbers) is empty; give at least one, e.g. n: [100, 400]"
-        );
+/// An observable's function of its own parameters type `P`: the parse into `P`
+/// and the one way back from [`ObservableParams`] for every observable.
+struct Typed<P>(fn(&[&Trajectory], &P) -> Result<Tables>);
+
+/// [`Typed`] with its parameters type erased, as an [`Observable`] holds it.
+trait TypedCompute: Sync {
+    fn parse(&self, kind: &str, v: &Value, lags: LagsFrom) -> Result<Box<dyn ObservableParams>>;
+    fn compute(
+        &self,
+        kind: &str,
+        trajs: &[&Trajectory],
+        p: &dyn ObservableParams,
+    ) -> Result<Tables>;
+}
+
+impl<P: ObservableParams + DeserializeOwned> TypedCompute for Typed<P> {
+    fn parse(&self, kind: &str, v: &Value, lags: LagsFrom) -> Result<Box<dyn ObservableParams>> {
+        let mut p: P = typed(kind, v)?;
+        checked(kind, &mut p, lags)?;
+        Ok(Box::new(p))
+    }
+
+    fn compute(
+        &self,
+        kind: &str,
+        trajs: &[&Trajectory],
+        p: &dyn ObservableParams,
+    ) -> Result<Tables> {
+        let any: &dyn Any = p;
+        let p = any.downcast_ref::<P>().with_context(|| {
+            format!("internal: analysis `{kind}` given parameters parsed by another kind")
+        })?;
+        (self.0)(trajs, p)
+    }
+}
+
+/// `p` at every lag each time origin realises, unless it gives its lags.
+fn at_every_origin<P: ObservableParams + Clone>(trajs: &[&Trajectory], p: &P) -> Result<P> {
+    let mut p = p.clone();
+    if let Some(Lags::Optional {
+        lags: given,
+        rel_tol,
+    }) = p.lags()
+    {
+        *given = lags::every_origin(trajs, given.take(), rel_tol)?;
     }
     Ok(p)
 }
 
-fn chi4_pooled(name: &str, trajs: &[&Trajectory], v: &Value) -> Result<chi4::Params> {
-    let mut p = chi4_params(name, v)?;
+fn chi4_pooled(trajs: &[&Trajectory], p: &chi4::Params) -> Result<chi4::Params> {
+    let mut p = at_every_origin(trajs, p)?;
     chi4::clamp_sizes(&mut p, trajs.first().map_or(0, |t| t.n()));
-    p.lags = lags::every_origin(trajs, p.lags.take(), p.rel_tol)?;
     Ok(p)
 }
 
@@ -93,29 +143,26 @@ fn jackknife(trajs: &[&Trajectory]) -> Errors {
 }
 
 /// Per replica, then pooled seed to seed.
-fn per_replica<P: DeserializeOwned>(
-    name: &str,
+fn per_replica<P>(
     trajs: &[&Trajectory],
-    v: &Value,
+    p: &P,
     f: fn(&Trajectory, &P) -> Result<RecordBatch>,
 ) -> Result<Tables> {
-    let p: P = typed(name, v)?;
-    let tables = trajs.iter().map(|t| f(t, &p)).collect::<Result<Vec<_>>>()?;
+    let tables = trajs.iter().map(|t| f(t, p)).collect::<Result<Vec<_>>>()?;
     let (main, errors) = pool::seed_to_seed(&tables)?;
     Ok(Tables::one(main, errors))
 }
 
 /// Per replica, rows concatenated with a `replica` column first.
-fn concat<P: DeserializeOwned>(
+fn concat<P>(
     name: &str,
     trajs: &[&Trajectory],
-    v: &Value,
+    p: &P,
     f: fn(&Trajectory, &P) -> Result<RecordBatch>,
 ) -> Result<RecordBatch> {
-    let p: P = typed(name, v)?;
     let mut out = Vec::new();
     for (r, t) in trajs.iter().enumerate() {
-        let b = f(t, &p)?;
+        let b = f(t, p)?;
         let mut cols: Vec<(String, ArrayRef)> = vec![(
             "replica".into(),
             Arc::new(Int64Array::from(vec![r as i64; b.num_rows()])),
@@ -178,16 +225,16 @@ fn concat_arrays(parts: &[&dyn arrow_array::Array]) -> Result<ArrayRef> {
 }
 
 /// Every observable, one line each. A new observable is one function in its module
-/// of `src/analysis` and one line here.
+/// of `src/analysis`, its parameters type made an [`ObservableParams`]
+/// (`observable_params.rs`), and one line here.
 pub static OBSERVABLES: &[Observable] = &[
     Observable {
         name: "overlap",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
-        validate: |v| typed::<overlap::Params>("overlap", v).map(drop),
-        compute: |t, v| {
-            let p = overlap_params("overlap", t, v)?;
+        typed: &Typed(|t, p: &overlap::Params| {
+            let p = at_every_origin(t, p)?;
             let (lag, q, n) = overlap::q_curve(t, &p)?;
             let b = f64_batch(&[
                 ("t", lag),
@@ -196,16 +243,15 @@ pub static OBSERVABLES: &[Observable] = &[
                 ("n_origins", n.iter().map(|&k| k as f64).collect()),
             ])?;
             Ok(Tables::one(b, jackknife(t)))
-        },
+        }),
     },
     Observable {
         name: "tau_alpha",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
-        validate: |v| typed::<overlap::Params>("tau_alpha", v).map(drop),
-        compute: |t, v| {
-            let p = overlap_params("tau_alpha", t, v)?;
+        typed: &Typed(|t, p: &overlap::Params| {
+            let p = at_every_origin(t, p)?;
             let tau = overlap::tau_alpha(t, &p)?;
             let b = f64_batch(&[
                 ("tau_alpha", vec![tau.value]),
@@ -213,28 +259,25 @@ pub static OBSERVABLES: &[Observable] = &[
                 ("replicas", vec![t.len() as f64]),
             ])?;
             Ok(Tables::one(b, jackknife(t)))
-        },
+        }),
     },
     Observable {
         name: "q_levels",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
-        validate: |v| typed::<overlap::LevelParams>("q_levels", v).map(drop),
-        compute: |t, v| {
-            let mut p: overlap::LevelParams = typed("q_levels", v)?;
-            p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
+        typed: &Typed(|t, p: &overlap::LevelParams| {
+            let p = at_every_origin(t, p)?;
             Ok(Tables::one(overlap::q_levels(t, &p)?, jackknife(t)))
-        },
+        }),
     },
     Observable {
         name: "aging",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
-        validate: |v| typed::<overlap::Params>("aging", v).map(drop),
-        compute: |t, v| {
-            let p = overlap_params("aging", t, v)?;
+        typed: &Typed(|t, p: &overlap::Params| {
+            let p = at_every_origin(t, p)?;
             let (main, tau) = overlap::aging(t, &p)?;
             Ok(Tables {
                 main,
@@ -242,210 +285,188 @@ pub static OBSERVABLES: &[Observable] = &[
                 errors: Errors::Mean { replicas: t.len() },
                 left_out: Vec::new(),
             })
-        },
+        }),
     },
     Observable {
         name: "chi4",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "chi4(t) (paper H, Eq. 14) per sub-box size N, pooled replicas: N, t, Q, chi4, chi4_err, n_origins",
-        validate: |v| chi4_params("chi4", v).map(drop),
-        compute: |t, v| {
-            let p = chi4_pooled("chi4", t, v)?;
+        typed: &Typed(|t, p: &chi4::Params| {
+            let p = chi4_pooled(t, p)?;
             Ok(Tables::one(chi4::compute_pooled(t, &p)?, jackknife(t)))
-        },
+        }),
     },
     Observable {
         name: "chi4_peaks",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "chi4 peak per sub-box size with tau_alpha and chi4(tau_alpha): N, tau4, chi4P, tau_alpha, chi4_tau_alpha (+ _err)",
-        validate: |v| chi4_params("chi4_peaks", v).map(drop),
-        compute: |t, v| {
-            let p = chi4_pooled("chi4_peaks", t, v)?;
+        typed: &Typed(|t, p: &chi4::Params| {
+            let p = chi4_pooled(t, p)?;
             Ok(Tables::one(chi4::peaks_table(t, &p)?, jackknife(t)))
-        },
+        }),
     },
     Observable {
         name: "s4",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
-        validate: |v| typed::<s4::Params>("s4", v).map(drop),
-        compute: |t, v| {
-            let p: s4::Params = typed("s4", v)?;
-            let b = s4::compute_pooled(t, &p)?;
+        typed: &Typed(|t, p: &s4::Params| {
+            let b = s4::compute_pooled(t, p)?;
             Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
-        },
+        }),
     },
     Observable {
         name: "msd",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
-        validate: |v| typed::<msd::Params>("msd", v).map(drop),
-        compute: |t, v| {
-            let mut p: msd::Params = typed("msd", v)?;
-            p.lags = lags::every_origin(t, p.lags.take(), p.rel_tol)?;
+        typed: &Typed(|t, p: &msd::Params| {
+            let p = at_every_origin(t, p)?;
             let tables = t
                 .iter()
                 .map(|x| msd::compute(x, &p))
                 .collect::<Result<Vec<_>>>()?;
             let (main, errors) = pool::seed_to_seed(&tables)?;
             Ok(Tables::one(main, errors))
-        },
+        }),
     },
     Observable {
         name: "diffusion",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "D from the long-time MSD slope over [fit_min_tau, fit_max_tau] x tau_alpha (Fig. 9), one jackknife: D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points",
-        validate: |v| typed::<msd::DiffusionParams>("diffusion", v).map(drop),
-        compute: |t, v| {
-            let p: msd::DiffusionParams = typed("diffusion", v)?;
-            Ok(Tables::one(msd::diffusion(t, &p)?, jackknife(t)))
-        },
+        typed: &Typed(|t, p: &msd::DiffusionParams| {
+            Ok(Tables::one(msd::diffusion(t, p)?, jackknife(t)))
+        }),
     },
     Observable {
         name: "van_hove",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
-        validate: |v| typed::<van_hove::Params>("van_hove", v).map(drop),
-        compute: |t, v| per_replica("van_hove", t, v, van_hove::compute),
+        typed: &Typed(|t, p: &van_hove::Params| per_replica(t, p, van_hove::compute)),
     },
     Observable {
         name: "gr",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
-        validate: |v| typed::<gr::Params>("gr", v).map(drop),
-        compute: |t, v| per_replica("gr", t, v, gr::compute),
+        typed: &Typed(|t, p: &gr::Params| per_replica(t, p, gr::compute)),
     },
     Observable {
         name: "clusters",
         at: lags::AtLag::Nearest,
         takes_drive: false,
         describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
-        validate: |v| typed::<clusters::Params>("clusters", v).map(drop),
-        compute: |t, v| {
-            let b = concat("clusters", t, v, clusters::compute)?;
+        typed: &Typed(|t, p: &clusters::Params| {
+            let b = concat("clusters", t, p, clusters::compute)?;
             // Nc is a particle count here (a bin centre in `cluster_sizes`).
             let b = crate::table::integer_columns(&b, |c| c == "Nc")?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
-        },
+        }),
     },
     Observable {
         name: "cluster_sizes",
         at: lags::AtLag::Nearest,
         takes_drive: false,
         describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
-        validate: |v| typed::<clusters::Params>("cluster_sizes", v).map(drop),
-        compute: |t, v| {
-            let p: clusters::Params = typed("cluster_sizes", v)?;
-            let rows = concat("cluster_sizes", t, v, clusters::compute)?;
-            let b = clusters::sizes_table(&rows, &p)?;
+        typed: &Typed(|t, p: &clusters::Params| {
+            let rows = concat("cluster_sizes", t, p, clusters::compute)?;
+            let b = clusters::sizes_table(&rows, p)?;
             // Clusters of one time origin, and of overlapping origins, are not
             // independent: the fits of P(Nc) take their errors from the replicas.
             let left_out = if t.len() >= 2 {
-                clusters::sizes_left_out(&rows, &p, &b)?
+                clusters::sizes_left_out(&rows, p, &b)?
             } else {
                 Vec::new()
             };
             let mut tables = Tables::one(b, Errors::Rows { replicas: t.len() });
             tables.left_out = left_out;
             Ok(tables)
-        },
+        }),
     },
     Observable {
         name: "mobility_snapshot",
         at: lags::AtLag::Nearest,
         takes_drive: false,
         describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
-        validate: |v| typed::<clusters::Params>("mobility_snapshot", v).map(drop),
-        compute: |t, v| {
-            let b = concat("mobility_snapshot", t, v, clusters::compute_snapshot)?;
+        typed: &Typed(|t, p: &clusters::Params| {
+            let b = concat("mobility_snapshot", t, p, clusters::compute_snapshot)?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
-        },
+        }),
     },
     Observable {
         name: "intruder_velocity",
         at: lags::AtLag::Interpolate,
         takes_drive: true,
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
-        validate: |v| typed::<intruder::VelocityParams>("intruder_velocity", v).map(drop),
-        compute: |t, v| {
-            let p: intruder::VelocityParams = typed("intruder_velocity", v)?;
-            let b = intruder::velocity_table(t, &p)?;
+        typed: &Typed(|t, p: &intruder::VelocityParams| {
+            let b = intruder::velocity_table(t, p)?;
             Ok(Tables::one(b, Errors::TimeBlocks { replicas: t.len() }))
-        },
+        }),
     },
     Observable {
         name: "intruder_path",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
-        validate: |v| typed::<intruder::VelocityParams>("intruder_path", v).map(drop),
-        compute: |t, v| {
-            let b = concat("intruder_path", t, v, intruder::compute_path)?;
+        typed: &Typed(|t, p: &intruder::VelocityParams| {
+            let b = concat("intruder_path", t, p, intruder::compute_path)?;
             Ok(Tables::one(b, Errors::Rows { replicas: t.len() }))
-        },
+        }),
     },
     Observable {
         name: "intruder_diffusion",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
-        validate: |v| typed::<intruder::DiffusionParams>("intruder_diffusion", v).map(drop),
-        compute: |t, v| {
-            let p: intruder::DiffusionParams = typed("intruder_diffusion", v)?;
+        typed: &Typed(|t, p: &intruder::DiffusionParams| {
             Ok(Tables::one(
-                intruder::diffusion_table(t, &p)?,
+                intruder::diffusion_table(t, p)?,
                 Errors::Rows { replicas: t.len() },
             ))
-        },
+        }),
     },
     Observable {
         name: "momentum_profile",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
-        validate: |v| typed::<intruder::ProfileParams>("momentum_profile", v).map(drop),
-        compute: |t, v| per_replica("momentum_profile", t, v, intruder::compute_profile),
+        typed: &Typed(|t, p: &intruder::ProfileParams| {
+            per_replica(t, p, intruder::compute_profile)
+        }),
     },
     Observable {
         name: "velocity_field",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
-        validate: |v| typed::<front::FieldParams>("velocity_field", v).map(drop),
-        compute: |t, v| {
-            let p: front::FieldParams = typed("velocity_field", v)?;
-            let (main, intruder) = front::velocity_field(t, &p)?;
+        typed: &Typed(|t, p: &front::FieldParams| {
+            let (main, intruder) = front::velocity_field(t, p)?;
             Ok(Tables {
                 main,
                 extra: vec![("intruder.parquet", intruder)],
                 errors: Errors::Mean { replicas: t.len() },
                 left_out: Vec::new(),
             })
-        },
+        }),
     },
     Observable {
         name: "front",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
         describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
-        validate: |v| typed::<front::FrontParams>("front", v).map(drop),
-        compute: |t, v| {
-            let p: front::FrontParams = typed("front", v)?;
-            let [main, positions, lines] = front::front(t, &p)?;
+        typed: &Typed(|t, p: &front::FrontParams| {
+            let [main, positions, lines] = front::front(t, p)?;
             Ok(Tables {
                 main,
                 extra: vec![("positions.parquet", positions), ("lines.parquet", lines)],
                 errors: Errors::ReplicaJackknife { replicas: t.len() },
                 left_out: Vec::new(),
             })
-        },
+        }),
     },
 ];
 
@@ -454,7 +475,9 @@ pub static OBSERVABLES: &[Observable] = &[
 /// errors naming the kind). The same function a pipeline's analysis stage calls on
 /// the replicas it gathers; this returns the main table.
 pub fn run(kind: &str, params: Value, traj: &Trajectory) -> Result<RecordBatch> {
-    Ok((find(kind)?.compute)(&[traj], &params)?.main)
+    let obs = find(kind)?;
+    let p = obs.parse(&params, LagsFrom::Params)?;
+    Ok(obs.compute(&[traj], p.as_ref())?.main)
 }
 
 /// The observable called `name`, or an error listing them all.
@@ -536,6 +559,54 @@ mod tests {
             );
             assert!(e.contains(&format!("'{kind}'")), "{kind}: {e}");
         }
+    }
+
+    /// Lags set on the parsed parameters (as `at:` sets them) give the table
+    /// of the same lags in the parameters; the lags' checks name the key.
+    #[test]
+    fn lags_set_after_the_parse_equal_lags_given() {
+        use serde_json::json;
+        let traj = ballistic(400, [30.0, 30.0], &schedule_times(4, 20.0, 0.1, 10.0), 8);
+        for (kind, rest) in [("overlap", json!({})), ("s4", json!({"q_max": 1.0}))] {
+            let obs = find(kind).unwrap();
+            let mut p = obs.parse(&rest, LagsFrom::At).unwrap();
+            let mut other = p.clone();
+            p.set_lags(vec![1.0]);
+            other.set_lags(vec![0.1]);
+            let mut given = rest.clone();
+            given["lags"] = json!([1.0]);
+            let set = obs.compute(&[&traj], p.as_ref()).unwrap().main;
+            assert_eq!(set, run(kind, given, &traj).unwrap(), "{kind}");
+            assert_ne!(set, obs.compute(&[&traj], other.as_ref()).unwrap().main);
+        }
+        let s4 = find("s4").unwrap();
+        let e = err_text(s4.parse(&json!({"q_max": 1.0}), LagsFrom::Params));
+        assert!(e.contains("'s4'") && e.contains("`lags`"), "{e}");
+        let e = err_text(
+            find("overlap")
+                .unwrap()
+                .parse(&json!({"lags": [1.0]}), LagsFrom::At),
+        );
+        assert!(e.contains("`at` or `lags`, not both"), "{e}");
+        let e = err_text(find("gr").unwrap().parse(&json!({}), LagsFrom::At));
+        assert!(e.contains("`gr` is not computed at lags"), "{e}");
+    }
+
+    #[test]
+    fn the_drive_is_set_typed() {
+        use crate::analysis::intruder::DriveParams;
+        let obs = find("intruder_velocity").unwrap();
+        let mut p = obs
+            .parse(&serde_json::json!({"blocks": 2}), LagsFrom::Params)
+            .unwrap();
+        assert_eq!(p.drive(), (None, None));
+        let drive = DriveParams {
+            eps: 0.7,
+            gamma: 1.0,
+            temperature: 1.0,
+        };
+        p.set_drive(drive.clone(), Some(1000.0));
+        assert_eq!(p.drive(), (Some(&drive), Some(1000.0)));
     }
 
     #[test]

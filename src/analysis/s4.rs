@@ -53,7 +53,9 @@ pub struct Params {
     /// Mobility cut-off a (units r1).
     #[serde(default = "default_a")]
     pub a: f64,
-    /// Lags t at which to evaluate S4 (e.g. [tau_alpha]).
+    /// Lags t at which to evaluate S4 (e.g. [tau_alpha]); required, here or
+    /// by the analysis stage's `at:` (the parse checks it).
+    #[serde(default)]
     pub lags: Vec<f64>,
     /// Mean particle number N of the sub-boxes B_r (Eqs. 15-16); the whole periodic
     /// box if absent.

@@ -21,7 +21,9 @@ fn default_range() -> f64 {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// Lags t (e.g. fractions of tau_alpha).
+    /// Lags t (e.g. fractions of tau_alpha); required, here or by the analysis
+    /// stage's `at:` (the parse checks it).
+    #[serde(default)]
     pub lags: Vec<f64>,
     /// Histogram bin width in dx (units r1).
     #[serde(default = "default_bin")]

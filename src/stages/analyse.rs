@@ -7,7 +7,8 @@
 //! Times in units of a measured time: `time_unit: {from: tau}` names the stage
 //! (gathered too) whose table holds it (column `tau_alpha` unless `column` says
 //! otherwise); the main table then gets `t_over_tau_alpha`, and `at: [0.01, 1, 8.5]`
-//! reads the observable at those multiples: a curve of t is computed at the two
+//! reads the observable at those multiples (the lags it sets on the parsed
+//! parameters, [`ObservableParams::set_lags`]): a curve of t is computed at the two
 //! recorded lags around each and interpolated linearly in ln t; a configuration
 //! (clusters, a mobility snapshot) at the nearest recorded lag ([`lags::AtLag`]).
 //! The lags and weights are listed in `at.parquet`; a request past the last lag
@@ -25,9 +26,10 @@ use serde_json::Value;
 
 use super::tables::{Columns, inputs_of, trajectories};
 use crate::analysis::intruder::DriveParams;
-use crate::analysis::lags;
+use crate::analysis::observable_params::{LagsFrom, ObservableParams};
 use crate::analysis::observables::{OBSERVABLES, Observable};
 use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
+use crate::analysis::{DEFAULT_REL_TOL, lags};
 use crate::pipeline::canon::param_error;
 use crate::pipeline::stage::{Holds, PlannedInput};
 use crate::pipeline::{Artifact, Output, Registry, StageCtx, StageKind};
@@ -50,33 +52,36 @@ fn tau_alpha() -> String {
     "tau_alpha".into()
 }
 
-/// The stage's own parameters, split from the observable's.
+/// The stage's own parameters, split from the observable's (parsed into its type).
 pub struct Split {
-    observable: Value,
+    observable: Box<dyn ObservableParams>,
     unit: Option<TimeUnit>,
     at: Option<Vec<f64>>,
     /// Fraction of the time origins, earliest first, left out of the analysis.
     skip_origins: Option<f64>,
 }
 
-fn split(name: &str, params: &Value) -> Result<Split> {
-    let mut obs = params.clone();
-    let map = obs
-        .as_object_mut()
+/// The keys of every analysis stage; the others are the observable's.
+const STAGE_KEYS: &[&str] = &["time_unit", "at", "skip_origins"];
+
+fn split(obs: &Observable, params: &Value) -> Result<Split> {
+    let name = obs.name;
+    let map = params
+        .as_object()
         .with_context(|| format!("parameters of analysis `{name}` must be a mapping"))?;
     let unit: Option<TimeUnit> = map
-        .remove("time_unit")
-        .map(serde_json::from_value)
+        .get("time_unit")
+        .map(TimeUnit::deserialize)
         .transpose()
         .with_context(|| format!("parameters of analysis `{name}`: `time_unit` wants {{from: STAGE, column: tau_alpha}}"))?;
     let at: Option<Vec<f64>> = map
-        .remove("at")
-        .map(serde_json::from_value)
+        .get("at")
+        .map(Vec::deserialize)
         .transpose()
         .with_context(|| format!("parameters of analysis `{name}`: `at` wants a list of multiples, e.g. [0.01, 1, 8.5]"))?;
     let skip_origins: Option<f64> = map
-        .remove("skip_origins")
-        .map(serde_json::from_value)
+        .get("skip_origins")
+        .map(f64::deserialize)
         .transpose()
         .with_context(|| format!("parameters of analysis `{name}`: `skip_origins` wants a fraction in [0, 1), e.g. 0.5"))?;
     if let Some(f) = skip_origins
@@ -86,20 +91,23 @@ fn split(name: &str, params: &Value) -> Result<Split> {
             "parameters of analysis `{name}`: `skip_origins` is the fraction of time origins left out, in [0, 1); got {f}"
         );
     }
-    if at.is_some() {
-        if unit.is_none() {
-            bail!(
-                "parameters of analysis `{name}`: `at` needs `time_unit: {{from: STAGE}}`, the stage that measured the time it is in units of"
-            );
-        }
-        if map.contains_key("lags") {
-            bail!(
-                "parameters of analysis `{name}`: give `at` or `lags`, not both (`at` sets the lags)"
-            );
-        }
+    if at.is_some() && unit.is_none() {
+        bail!(
+            "parameters of analysis `{name}`: `at` needs `time_unit: {{from: STAGE}}`, the stage that measured the time it is in units of"
+        );
     }
+    let own: serde_json::Map<String, Value> = map
+        .iter()
+        .filter(|(k, _)| !STAGE_KEYS.contains(&k.as_str()))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    let lags = if at.is_some() {
+        LagsFrom::At
+    } else {
+        LagsFrom::Params
+    };
     Ok(Split {
-        observable: obs,
+        observable: obs.parse(&Value::Object(own), lags)?,
         unit,
         at,
         skip_origins,
@@ -271,14 +279,9 @@ impl RunDrive {
 
     /// A copy of the drive in the pipeline (`drive`, `kick_rate_factor`) is
     /// accepted only when it equals the run's (`source` says where that is).
-    fn check_copy(&self, observable: &Value, source: &str) -> Result<()> {
-        if let Some(v) = observable.get("drive") {
-            let copy: DriveParams = serde_json::from_value(v.clone()).map_err(|e| {
-                param_error(
-                    &["drive"],
-                    format!("`drive` wants {{eps, gamma, temperature}}: {e}"),
-                )
-            })?;
+    fn check_copy(&self, observable: &dyn ObservableParams, source: &str) -> Result<()> {
+        let (drive, kick_rate_factor) = observable.drive();
+        if let Some(copy) = drive {
             let pairs = [
                 ("eps", copy.eps, self.drive.eps),
                 ("gamma", copy.gamma, self.drive.gamma),
@@ -295,7 +298,7 @@ impl RunDrive {
                 }
             }
         }
-        if let Some(k) = observable.get("kick_rate_factor").and_then(Value::as_f64) {
+        if let Some(k) = kick_rate_factor {
             let run = match self.kick_rate_factor {
                 Some(r) if r.to_bits() == k.to_bits() => return Ok(()),
                 Some(r) => {
@@ -313,27 +316,15 @@ impl RunDrive {
         }
         Ok(())
     }
-
-    /// The observable's parameters with the run's drive.
-    fn into_params(self, observable: &Value) -> Value {
-        let mut obs = observable.clone();
-        if let Value::Object(m) = &mut obs {
-            let d = &self.drive;
-            let drive =
-                serde_json::json!({"eps": d.eps, "gamma": d.gamma, "temperature": d.temperature});
-            m.insert("drive".into(), drive);
-            match self.kick_rate_factor {
-                Some(k) => m.insert("kick_rate_factor".into(), Value::from(k)),
-                None => m.remove("kick_rate_factor"),
-            };
-        }
-        obs
-    }
 }
 
 /// Plan-time check of an intruder analysis: its runs share one drive, and a
 /// copy of it in the pipeline equals theirs.
-fn planned_drive(name: &str, observable: &Value, inputs: &[PlannedInput]) -> Result<()> {
+fn planned_drive(
+    name: &str,
+    observable: &dyn ObservableParams,
+    inputs: &[PlannedInput],
+) -> Result<()> {
     let mut runs = Vec::new();
     for n in inputs.iter().filter(|n| n.kind.holds == Holds::Trajectory) {
         let super::run_length::Run { config, .. } = n.parsed.get()?;
@@ -349,24 +340,25 @@ fn planned_drive(name: &str, observable: &Value, inputs: &[PlannedInput]) -> Res
     }
 }
 
-/// The observable's parameters for this run: with the drive of the gathered
-/// runs when the observable takes one.
-fn with_run_drive(obs: &Observable, observable: &Value, inputs: &[Artifact]) -> Result<Value> {
+/// An observable that takes one reads the drive of the gathered runs.
+fn take_run_drive(
+    obs: &Observable,
+    observable: &mut dyn ObservableParams,
+    inputs: &[Artifact],
+) -> Result<()> {
     if !obs.takes_drive {
-        return Ok(observable.clone());
+        return Ok(());
     }
     let runs = inputs
         .iter()
         .filter(|a| a.kind.holds == Holds::Trajectory)
         .map(|a| Ok((a.label.clone(), super::run_length::run_config(a)?)))
         .collect::<Result<Vec<_>>>()?;
-    match RunDrive::shared(obs.name, runs)? {
-        Some((source, d)) => {
-            d.check_copy(observable, &source)?;
-            Ok(d.into_params(observable))
-        }
-        None => Ok(observable.clone()),
+    if let Some((source, d)) = RunDrive::shared(obs.name, runs)? {
+        d.check_copy(observable, &source)?;
+        observable.set_drive(d.drive, d.kick_rate_factor);
     }
+    Ok(())
 }
 
 /// Observables with time-block errors that also get replica samples: S4, whose
@@ -387,7 +379,7 @@ fn replica_samples(
     ctx: &StageCtx,
     obs: &Observable,
     refs: &[&Trajectory],
-    params: &[Value],
+    params: &[Box<dyn ObservableParams>],
     unit: f64,
     tables: &mut crate::analysis::observables::Tables,
     read_off: &dyn Fn(Option<usize>, &RecordBatch) -> Result<RecordBatch>,
@@ -410,7 +402,7 @@ fn replica_samples(
                 .filter(|&j| j != k)
                 .map(|j| refs[j])
                 .collect();
-            let mut t = (obs.compute)(&others, &params[k.min(params.len() - 1)])?;
+            let mut t = obs.compute(&others, params[k.min(params.len() - 1)].as_ref())?;
             // At `at`'s requests for this replica's measured time (the full
             // table's when there is one set of lags for all).
             let key = (params.len() > 1).then_some(k);
@@ -465,7 +457,7 @@ impl Analyse {
 impl Analyse {
     /// The observable's own parameters, from its typed parameters.
     pub fn params(&self) -> Vec<String> {
-        crate::pipeline::registry::param_keys(self.obs.validate)
+        self.obs.param_keys()
     }
 }
 
@@ -501,21 +493,11 @@ impl StageKind for Analyse {
         &[file!()]
     }
     fn parse(&self, params: &Value) -> Result<Split> {
-        let s = split(self.obs.name, params)?;
-        let mut obs = s.observable.clone();
-        if s.at.is_some() {
-            // The lags come from `at`; check the rest with a placeholder.
-            obs["lags"] = Value::from(vec![1.0]);
-            (self.obs.validate)(&obs)
-                .with_context(|| format!("`at` sets the lags of analysis `{}`", self.obs.name))?;
-        } else {
-            (self.obs.validate)(&obs)?;
-        }
-        Ok(s)
+        split(self.obs, params)
     }
     fn check_inputs(&self, s: &Split, inputs: &[PlannedInput]) -> Result<()> {
         if self.obs.takes_drive {
-            planned_drive(self.obs.name, &s.observable, inputs)?;
+            planned_drive(self.obs.name, s.observable.as_ref(), inputs)?;
         }
         match (&s.at, &s.unit) {
             (Some(at), Some(u)) => covered_by_run_length(at, u, inputs),
@@ -545,7 +527,8 @@ impl StageKind for Analyse {
             .as_ref()
             .map(|u| measured(name, u, inputs).map(|v| (v, u)))
             .transpose()?;
-        let mut obs = with_run_drive(self.obs, &s.observable, inputs)?;
+        let mut obs = s.observable.clone();
+        take_run_drive(self.obs, obs.as_mut(), inputs)?;
         let mut at_table = None;
         let jk_unit = replica_unit(inputs);
         let mut sample_obs = Vec::new();
@@ -553,10 +536,7 @@ impl StageKind for Analyse {
         let mut requests: Option<Vec<lags::InUnits>> = None;
         let mut sample_requests: Vec<Vec<lags::InUnits>> = Vec::new();
         if let (Some(at), Some((unit, u))) = (&s.at, unit) {
-            let rel_tol = obs
-                .get("rel_tol")
-                .and_then(Value::as_f64)
-                .unwrap_or(crate::analysis::DEFAULT_REL_TOL);
+            let rel_tol = obs.lags().map_or(DEFAULT_REL_TOL, |l| l.rel_tol());
             let recorded = lags::every_origin(&refs, None, rel_tol)?.unwrap_or_default();
             let nearest = self.obs.at == lags::AtLag::Nearest;
             let at_lags = |unit: f64| -> Result<Vec<lags::InUnits>> {
@@ -586,7 +566,7 @@ impl StageKind for Analyse {
                     )
                 });
             }
-            obs["lags"] = Value::from(lags::bracketing_lags(&r));
+            obs.set_lags(lags::bracketing_lags(&r));
             at_table = Some(f64_batch(&[
                 ("multiple", r.iter().map(|x| x.multiple).collect()),
                 ("requested", r.iter().map(|x| x.requested).collect()),
@@ -604,7 +584,7 @@ impl StageKind for Analyse {
                     .iter()
                     .map(|r| {
                         let mut o = obs.clone();
-                        o["lags"] = Value::from(lags::bracketing_lags(r));
+                        o.set_lags(lags::bracketing_lags(r));
                         o
                     })
                     .collect();
@@ -625,7 +605,7 @@ impl StageKind for Analyse {
                 (None, None) => Ok(b.clone()),
             }
         };
-        let mut tables = (self.obs.compute)(&refs, &obs)?;
+        let mut tables = self.obs.compute(&refs, obs.as_ref())?;
         tables.main = read_off(None, &tables.main)?;
         for (_, b) in tables.extra.iter_mut() {
             *b = read_off(None, b)?;
