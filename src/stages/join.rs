@@ -16,17 +16,37 @@ use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::table::results::{ERROR, NOTE, QUANTITY, VALUE, value_jk};
 use crate::table::to_parquet_bytes;
 
-/// A column computed from two others of the joined row.
+/// A column computed from two others of the joined row (or from one and a
+/// number).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Derived {
     pub name: String,
     pub op: Op,
-    pub a: String,
+    pub a: Operand,
     #[serde(default)]
-    pub b: String,
+    pub b: Option<Operand>,
     #[serde(default)]
     pub propagate_errors: bool,
+}
+
+/// An input of a derived column: a column of the joined row, or a number
+/// (exact: no error, no replica samples), e.g. the 1 of 1/((t/tau0)^beta + 1).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Operand {
+    Number(f64),
+    Column(String),
+}
+
+impl Operand {
+    /// The column's name; None for a number.
+    fn column(&self) -> Option<&str> {
+        match self {
+            Operand::Column(c) => Some(c),
+            Operand::Number(_) => None,
+        }
+    }
 }
 
 /// How a derived column is computed from `a` (and `b`).
@@ -37,6 +57,12 @@ pub enum Op {
     Divide,
     /// a b
     Multiply,
+    /// a + b: a curve shifted by a number, a sum of two columns
+    Add,
+    /// a - b: a residual against a model column
+    Subtract,
+    /// a^b: a model's power of a rescaled time, (t/tau0)^beta
+    Power,
     /// sqrt(a) / b
     SqrtDivide,
     /// b ln a: Fig. 6's x = beta ln(t/tau0)
@@ -54,11 +80,19 @@ impl Op {
         matches!(self, Op::Reciprocal | Op::Ln)
     }
 
+    /// Can carry first-order errors of independent inputs (`propagate_errors`).
+    fn propagates(self) -> bool {
+        matches!(self, Op::Divide | Op::Multiply | Op::Add | Op::Subtract)
+    }
+
     /// The op applied to one row's inputs (`b` unused by a unary op).
     fn apply(self, a: f64, b: f64) -> f64 {
         match self {
             Op::Divide => a / b,
             Op::Multiply => a * b,
+            Op::Add => a + b,
+            Op::Subtract => a - b,
+            Op::Power => a.powf(b),
             Op::SqrtDivide => a.sqrt() / b,
             Op::LnTimes => b * a.ln(),
             Op::Reciprocal => 1.0 / a,
@@ -72,6 +106,19 @@ impl Op {
         match self {
             Op::Ln => a_err / a.abs(),
             _ => a_err / (a * a),
+        }
+    }
+
+    /// The first-order error of independent a and b (`propagate_errors`):
+    /// absolute errors in quadrature for a sum or difference, relative ones
+    /// for a product or ratio.
+    fn binary_error(self, a: f64, a_err: f64, b: f64, b_err: f64) -> f64 {
+        match self {
+            Op::Add | Op::Subtract => a_err.hypot(b_err),
+            _ => {
+                let rel = |x: f64, e: f64| if e == 0.0 { 0.0 } else { e / x };
+                self.apply(a, b).abs() * rel(a, a_err).hypot(rel(b, b_err))
+            }
         }
     }
 }
@@ -191,11 +238,9 @@ fn derived_samples(
     let Some(unit) = f64s.get(pool::JK_UNIT) else {
         return Vec::new();
     };
-    let inputs: Vec<&str> = if d.op.unary() {
-        vec![d.a.as_str()]
-    } else {
-        vec![d.a.as_str(), d.b.as_str()]
-    };
+    let operands: Vec<&Operand> = std::iter::once(&d.a).chain(d.b.as_ref()).collect();
+    // A number has no samples: exact, like a key column.
+    let inputs: Vec<&str> = operands.iter().filter_map(|o| o.column()).collect();
     let count = |n: &str| {
         (0..pool::MAX_JK_REPLICAS)
             .take_while(|&k| f64s.contains_key(&pool::jk_column(n, k)))
@@ -229,22 +274,31 @@ fn derived_samples(
     {
         return Vec::new();
     }
-    let column = |n: &str, k: usize| -> Option<&Vec<f64>> {
-        f64s.get(&pool::jk_column(n, k)).or_else(|| f64s.get(n))
+    // Row i of operand o in sample k (a number is the same in every row).
+    let value = |o: Option<&Operand>, k: usize, i: usize| -> f64 {
+        match o {
+            Some(Operand::Number(v)) => *v,
+            Some(Operand::Column(n)) => f64s
+                .get(&pool::jk_column(n, k))
+                .or_else(|| f64s.get(n))
+                .map_or(f64::NAN, |v| v[i]),
+            None => f64::NAN,
+        }
     };
     (0..r)
         .map(|k| {
-            let a = column(inputs[0], k);
-            let b = inputs.get(1).and_then(|n| column(n, k));
             (0..unit.len())
                 .map(|i| {
-                    let a = a.map_or(f64::NAN, |v| v[i]);
-                    let b = b.map_or(f64::NAN, |v| v[i]);
-                    d.op.apply(a, b)
+                    d.op.apply(value(Some(&d.a), k, i), value(d.b.as_ref(), k, i))
                 })
                 .collect()
         })
         .collect()
+}
+
+/// The number of rows of the joined table (that of any of its columns).
+fn unit_rows(f64s: &std::collections::BTreeMap<String, Vec<f64>>) -> usize {
+    f64s.values().next().map_or(0, Vec::len)
 }
 
 fn same(a: f64, b: f64) -> bool {
@@ -260,7 +314,7 @@ impl StageKind for Join {
         "rows of `left` with the matching row of `right` by key columns `on`, plus derived columns"
     }
     fn details(&self) -> String {
-        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|sqrt_divide|ln_times, a, b} or {name, op: reciprocal|ln, a}]; with divide or multiply, propagate_errors: true adds NAME_err from a_err, b_err (independent, first order)\n\
+        "parameters: left (stage), right (stage), on: [phi, ...], derive: [{name, op: divide|multiply|add|subtract|power|sqrt_divide|ln_times, a, b} or {name, op: reciprocal|ln, a}], a and b a column or a number; with divide, multiply, add or subtract, propagate_errors: true adds NAME_err from a_err, b_err (independent, first order)\n\
          example: {name: d_vs_tau, kind: join, gather: [msd_fit, tau_table], params: {left: msd_fit, right: tau_table, on: [phi], derive: [{name: t_over_tau, op: divide, a: t, b: tau_alpha}]}}"
             .into()
     }
@@ -273,23 +327,30 @@ impl StageKind for Join {
             bail!("join: `on` is empty; give the key columns, e.g. on: [phi]");
         }
         for d in &p.derive {
-            if d.propagate_errors && !matches!(d.op, Op::Divide | Op::Multiply) {
+            if d.propagate_errors && !d.op.propagates() {
                 bail!(
-                    "join: derived column '{}': `propagate_errors` works with op divide or multiply, not {:?}",
+                    "join: derived column '{}': `propagate_errors` works with op divide, multiply, add or subtract, not {:?}",
                     d.name,
                     d.op
                 );
             }
-            if d.op.unary() != d.b.is_empty() {
+            if d.op.unary() != d.b.is_none() {
                 bail!(
                     "join: derived column '{}': op {:?} {}",
                     d.name,
                     d.op,
-                    if d.b.is_empty() {
-                        "needs `b` (the second column)"
+                    if d.b.is_none() {
+                        "needs `b` (the second column, or a number)"
                     } else {
                         "reads only `a`; remove `b`"
                     }
+                );
+            }
+            if d.a.column().is_none() && d.b.as_ref().is_none_or(|b| b.column().is_none()) {
+                bail!(
+                    "join: derived column '{}': op {:?} reads no column, only numbers; give a column as `a` or `b`",
+                    d.name,
+                    d.op
                 );
             }
         }
@@ -351,21 +412,30 @@ impl StageKind for Join {
             for (k, v) in samples.into_iter().enumerate() {
                 f64s.insert(pool::jk_column(&d.name, k), v);
             }
-            let get = |n: &str| {
-                f64s.get(n).cloned().ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "join: derived column '{}' reads '{n}', which neither table has (columns: {})",
-                        d.name,
-                        f64s.keys().cloned().collect::<Vec<_>>().join(", ")
-                    )
-                })
+            let rows = unit_rows(&f64s);
+            // An operand's values in every row (a number repeated), and its
+            // errors (none for a number or a column without `_err`).
+            let get = |o: &Operand| -> Result<(Vec<f64>, Option<Vec<f64>>)> {
+                match o {
+                    Operand::Number(v) => Ok((vec![*v; rows], None)),
+                    Operand::Column(n) => {
+                        let v = f64s.get(n).cloned().ok_or_else(|| {
+                            anyhow::anyhow!(
+                                "join: derived column '{}' reads '{n}', which neither table has (columns: {})",
+                                d.name,
+                                f64s.keys().cloned().collect::<Vec<_>>().join(", ")
+                            )
+                        })?;
+                        Ok((v, f64s.get(&format!("{n}_err")).cloned()))
+                    }
+                }
             };
-            if d.op.unary() {
-                let a = get(&d.a)?;
-                if let Some(e) = f64s.get(&format!("{}_err", d.a)) {
+            let (a, a_err) = get(&d.a)?;
+            let Some(b) = &d.b else {
+                if let Some(e) = a_err {
                     let err = a
                         .iter()
-                        .zip(e)
+                        .zip(&e)
                         .map(|(&x, &e)| d.op.unary_error(x, e))
                         .collect();
                     f64s.insert(format!("{}_err", d.name), err);
@@ -375,19 +445,17 @@ impl StageKind for Join {
                     a.iter().map(|&x| d.op.apply(x, f64::NAN)).collect(),
                 );
                 continue;
-            }
-            let (a, b) = (get(&d.a)?, get(&d.b)?);
+            };
+            let (b, b_err) = get(b)?;
             let v: Vec<f64> = a.iter().zip(&b).map(|(x, y)| d.op.apply(*x, *y)).collect();
             if d.propagate_errors {
-                let rel = |col: &str, vals: &[f64]| -> Vec<f64> {
-                    match f64s.get(&format!("{col}_err")) {
-                        Some(e) => vals.iter().zip(e).map(|(x, e)| e / x).collect(),
-                        None => vec![0.0; vals.len()],
-                    }
-                };
-                let (ra, rb) = (rel(&d.a, &a), rel(&d.b, &b));
+                let zeros = vec![0.0; v.len()];
+                let (ea, eb) = (
+                    a_err.as_ref().unwrap_or(&zeros),
+                    b_err.as_ref().unwrap_or(&zeros),
+                );
                 let err = (0..v.len())
-                    .map(|i| v[i].abs() * ra[i].hypot(rb[i]))
+                    .map(|i| d.op.binary_error(a[i], ea[i], b[i], eb[i]))
                     .collect();
                 f64s.insert(format!("{}_err", d.name), err);
             }
@@ -582,5 +650,89 @@ mod tests {
         assert_eq!(c.col("d_f").unwrap(), &[1.2, 1.3]);
         assert_eq!(c.col("x").unwrap(), &[0.8, 0.9]);
         assert_eq!(c.col("d_f_err").unwrap(), &[0.1, 0.1]);
+    }
+
+    /// Sums, differences and powers, with a number as either operand: Eq. 8
+    /// evaluated on the joined rows, Q_fit = 1/((t/tau0)^beta + 1), and the
+    /// residual Q - Q_fit. At t/tau0 = 2 and beta = 1/2, Q_fit = 1/(sqrt 2 + 1)
+    /// = sqrt 2 - 1. A number is exact: no error, no replica samples, so a
+    /// shifted column keeps its own error and samples.
+    #[test]
+    fn sums_differences_powers_and_numbers() {
+        let dir = tempfile::tempdir().unwrap();
+        let left = f64_batch(&[
+            ("phi", vec![0.6, 0.7]),
+            ("t", vec![2.0, 8.0]),
+            ("Q", vec![0.5, 0.2]),
+            ("Q_err", vec![0.01, 0.02]),
+            ("Q_jk0", vec![0.4, 0.1]),
+            ("Q_jk1", vec![0.6, 0.3]),
+            ("jk_unit", vec![1.0, 2.0]),
+        ])
+        .unwrap();
+        let right = f64_batch(&[
+            ("phi", vec![0.7, 0.6]),
+            ("tau0", vec![4.0, 2.0]),
+            ("beta", vec![0.5, 2.0]),
+            ("beta_err", vec![0.05, 0.1]),
+        ])
+        .unwrap();
+        let inputs = [
+            artifact(dir.path(), "q", left),
+            artifact(dir.path(), "fit", right),
+        ];
+        let params: Value = serde_saphyr::from_str(
+            "{left: q, right: fit, on: [phi], derive: [\
+             {name: tq, op: divide, a: t, b: tau0}, \
+             {name: pw, op: power, a: tq, b: beta}, \
+             {name: den, op: add, a: pw, b: 1}, \
+             {name: q_fit, op: reciprocal, a: den}, \
+             {name: resid, op: subtract, a: Q, b: q_fit, propagate_errors: true}, \
+             {name: two_beta, op: power, a: 2, b: beta}, \
+             {name: shifted, op: add, a: Q, b: 0.25, propagate_errors: true}, \
+             {name: gap, op: subtract, a: 1, b: beta, propagate_errors: true}]}",
+        )
+        .unwrap();
+        Join.validate(&params).unwrap();
+        let ctx = StageCtx::new(0, "join".into(), None);
+        let out = Join.run_params(&ctx, &params, &inputs).unwrap();
+        let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        let col = |n: &str| c.col(n).unwrap().to_vec();
+        let close = |got: Vec<f64>, want: &[f64]| {
+            assert!(
+                got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-12),
+                "{got:?} against {want:?}"
+            )
+        };
+        let r2 = 2f64.sqrt();
+        // phi 0.6: t/tau0 = 1, Q_fit = 1/2; phi 0.7: t/tau0 = 2, beta = 1/2.
+        close(col("q_fit"), &[0.5, r2 - 1.0]);
+        close(col("resid"), &[0.0, 0.2 - (r2 - 1.0)]);
+        // Q_fit has no error column: the residual's error is Q's.
+        close(col("resid_err"), &[0.01, 0.02]);
+        close(col("two_beta"), &[4.0, r2]);
+        close(col("shifted"), &[0.75, 0.45]);
+        close(col("shifted_err"), &[0.01, 0.02]);
+        close(col("shifted_jk0"), &[0.65, 0.35]);
+        close(col("shifted_jk1"), &[0.85, 0.55]);
+        close(col("gap"), &[-1.0, 0.5]);
+        close(col("gap_err"), &[0.1, 0.05]);
+        // An op reading only numbers, and an error through a power, are refused.
+        for (bad, says) in [
+            ("{name: s, op: add, a: 1, b: 2}", "only numbers"),
+            (
+                "{name: s, op: power, a: t, b: 2, propagate_errors: true}",
+                "propagate_errors",
+            ),
+            ("{name: s, op: subtract, a: t}", "needs `b`"),
+        ] {
+            let p: Value = serde_saphyr::from_str(&format!(
+                "{{left: q, right: fit, on: [phi], derive: [{bad}]}}"
+            ))
+            .unwrap();
+            let e = format!("{:#}", Join.validate(&p).unwrap_err());
+            assert!(e.contains(says), "{bad}: {e}");
+        }
     }
 }
