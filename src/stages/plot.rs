@@ -110,6 +110,22 @@ pub struct Layer {
     /// point but the layer leaves it out (e.g. its fit is unreliable).
     #[serde(default)]
     pub absent: Option<String>,
+    /// A grouped layer's curves stacked apart: see [`Offset`].
+    #[serde(default)]
+    pub offset: Option<Offset>,
+}
+
+/// Curves of one quantity that overlap (P(t)/P̄ of every phi about 1) drawn
+/// apart: the series of the k-th group value (ascending, from 0) shifted by
+/// k `step` in y (a negative step puts the first value on top, in the
+/// legend's order); with `line`, a dotted line of each group's colour at its
+/// shifted `line` marks the level each curve is read against.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Offset {
+    pub step: f64,
+    #[serde(default)]
+    pub line: Option<f64>,
 }
 
 /// The legend entries of a layer.
@@ -433,23 +449,52 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
         }
     }
     groups.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if layer.offset.is_some() && g.is_none() {
+        anyhow::bail!(
+            "plot: layer from '{}': `offset` stacks the curves of a `group` column apart; the layer has none",
+            layer.from
+        );
+    }
     let mut out = Vec::new();
+    let mut rank = 0.0;
     for (key, mut idx) in groups {
         // A group without one finite point (a phi whose fit failed) draws
         // nothing, so it gets no series and no legend entry.
         if !idx.iter().any(|&i| x[i].is_finite() && y[i].is_finite()) {
             continue;
         }
+        let shift = layer.offset.as_ref().map_or(0.0, |o| rank * o.step);
+        rank += 1.0;
         idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let label = match (&layer.group, layer.legend) {
             (_, LayerLegend::None) => String::new(),
             (Some(_), LayerLegend::Each) => format!("{}{}", layer.label, legend_number(key)),
             _ => layer.label.clone(),
         };
+        let group = layer.group.as_ref().map(|column| Group {
+            column: column.clone(),
+            value: key,
+        });
+        if let Some(level) = layer.offset.as_ref().and_then(|o| o.line) {
+            let xs = idx.iter().map(|&i| x[i]).filter(|v| v.is_finite());
+            let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+            out.push(Series {
+                x: vec![lo, hi],
+                y: vec![level + shift; 2],
+                style: Style::Line,
+                dotted: true,
+                color: layer.color,
+                fit: true,
+                group: group.clone(),
+                ..Default::default()
+            });
+        }
         out.push(Series {
             label,
             x: idx.iter().map(|&i| x[i]).collect(),
-            y: idx.iter().map(|&i| y[i]).collect(),
+            y: idx.iter().map(|&i| y[i] + shift).collect(),
             y_err: e.map(|e| idx.iter().map(|&i| e[i]).collect()),
             style: layer.style,
             dashed: layer.dashed,
@@ -462,10 +507,7 @@ fn series(layer: &Layer, c: &Columns) -> Result<Vec<Series>> {
             )),
             radius: rad.map(|r| idx.iter().map(|&i| r[i]).collect()),
             arrows: arrows.map(|(dx, dy, k)| idx.iter().map(|&i| [k * dx[i], k * dy[i]]).collect()),
-            group: layer.group.as_ref().map(|column| Group {
-                column: column.clone(),
-                value: key,
-            }),
+            group,
             legend_ink: layer.group.is_some() && layer.legend == LayerLegend::Once,
         });
     }

@@ -593,3 +593,70 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         "{line}"
     );
 }
+
+/// `offset`: the k-th group value's curve (ascending) drawn k steps apart,
+/// each with a dotted, unlabelled line of its colour at its shifted level;
+/// a layer without a group column is refused.
+#[test]
+fn an_offset_stacks_the_groups_apart() {
+    let yaml = r#"
+panels:
+  - x: {label: "t"}
+    y: {label: "P"}
+    legend_title: "φ"
+    layers:
+      - {from: t, x: t, y: p, group: phi, style: line, offset: {step: -0.5, line: 1.0}}
+"#;
+    // Listed out of order: the rank is that of the value, not of the row.
+    let fig = figure_of(yaml, |_| {
+        vec![
+            ("t", vec![0.0, 1.0, 0.0, 1.0, 0.0, 2.0]),
+            ("p", vec![1.0, 1.5, 2.0, 2.5, 3.0, 3.5]),
+            ("phi", vec![0.78, 0.78, 0.60, 0.60, 0.70, 0.70]),
+        ]
+    });
+    let s = &fig.panels[0].series;
+    let data: Vec<(&str, Vec<f64>)> = s
+        .iter()
+        .filter(|s| !s.fit)
+        .map(|s| (s.label.as_str(), s.y.clone()))
+        .collect();
+    assert_eq!(
+        data,
+        vec![
+            ("0.60", vec![2.0, 2.5]),
+            ("0.70", vec![2.5, 3.0]),
+            ("0.78", vec![0.0, 0.5]),
+        ]
+    );
+    let lines: Vec<(Vec<f64>, Vec<f64>, f64)> = s
+        .iter()
+        .filter(|s| s.fit)
+        .map(|s| {
+            assert!(s.dotted && s.label.is_empty());
+            (s.x.clone(), s.y.clone(), s.group.as_ref().unwrap().value)
+        })
+        .collect();
+    assert_eq!(
+        lines,
+        vec![
+            (vec![0.0, 1.0], vec![1.0, 1.0], 0.60),
+            (vec![0.0, 2.0], vec![0.5, 0.5], 0.70),
+            (vec![0.0, 1.0], vec![0.0, 0.0], 0.78),
+        ]
+    );
+    let v: serde_json::Value = serde_saphyr::from_str(
+        "panels: [{x: {}, y: {}, layers: [{from: t, x: t, y: p, offset: {step: 1}}]}]",
+    )
+    .unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let table = |_: &super::Layer| {
+        let mut c = super::Columns::default();
+        c.f64.insert("t".into(), vec![0.0]);
+        c.f64.insert("p".into(), vec![1.0]);
+        c.rows = 1;
+        Ok(c)
+    };
+    let e = super::build(&p, table, |t| Ok(t.to_string())).unwrap_err();
+    assert!(format!("{e:#}").contains("offset"), "{e:#}");
+}
