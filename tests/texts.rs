@@ -24,6 +24,7 @@ const ENFORCED: &[&str] = &[
     "fig11",
     "fig12",
     "fig13",
+    "fig21",
     "stationarity",
     "method-cutoff",
     "method-drive",
