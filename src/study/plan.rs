@@ -125,7 +125,7 @@ fn planned_stages(ws: &Workspace, reg: &Registry, graph: &Graph) -> Result<Plann
             _ => None,
         }),
     );
-    let planned = node_seconds(&graph, reg, &built);
+    let planned = node_seconds(graph, reg, &built);
     let mut rows: Vec<Row> = Vec::new();
     let mut others: BTreeMap<String, KindRow> = BTreeMap::new();
     let mut at = std::collections::HashMap::new();
