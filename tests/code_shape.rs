@@ -1,6 +1,6 @@
 //! The shape of the code a reader has to hold in their head: no function of
 //! the library or the binary (tests aside) is longer than [`MAX_LINES`] lines,
-//! signature to closing brace, but those still listed in [`NOT_YET_SPLIT`].
+//! signature to closing brace.
 //! Cargo.toml's `[lints]` table asks clippy for `too_many_lines` at the same
 //! bound (clippy.toml), for editors; this test holds it in CI, where clippy
 //! does not run.
@@ -9,20 +9,6 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 const MAX_LINES: usize = 150;
-
-/// Functions still over the bound, to be split (the list only shrinks: a
-/// function not on it that grows past the bound fails, and so does an entry
-/// that is no longer long, so that it is taken off).
-const NOT_YET_SPLIT: &[&str] = &[
-    "src/cli/figs.rs coverage",
-    "src/cli/pipeline.rs run",
-    "src/pipeline/slurm/mod.rs run",
-    "src/pipeline/slurm/mod.rs submit",
-    "src/stages/fit/collapse.rs collapse_group",
-    "src/stages/fit/group.rs fit_group",
-    "src/stages/fit/rescaled.rs run_named",
-    "src/study/plan.rs plan",
-];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for e in fs::read_dir(dir).unwrap().flatten() {
@@ -119,7 +105,6 @@ fn no_production_function_is_longer_than_the_bound() {
     rust_files(&src, &mut files);
     files.sort();
     let mut long = Vec::new();
-    let mut still = Vec::new();
     for f in &files {
         let rel = f.strip_prefix(&src).unwrap().display().to_string();
         // Files that only hold tests.
@@ -128,25 +113,12 @@ fn no_production_function_is_longer_than_the_bound() {
             continue;
         }
         for (line, name, n) in long_functions(&fs::read_to_string(f).unwrap(), MAX_LINES) {
-            let id = format!("src/{rel} {name}");
-            if NOT_YET_SPLIT.contains(&id.as_str()) {
-                still.push(id);
-            } else {
-                long.push(format!("src/{rel}:{line} {name}: {n} lines"));
-            }
+            long.push(format!("src/{rel}:{line} {name}: {n} lines"));
         }
     }
     assert!(
         long.is_empty(),
         "functions over {MAX_LINES} lines (split them by job):\n{}",
         long.join("\n")
-    );
-    let done: Vec<&&str> = NOT_YET_SPLIT
-        .iter()
-        .filter(|id| !still.iter().any(|s| s == **id))
-        .collect();
-    assert!(
-        done.is_empty(),
-        "no longer over {MAX_LINES} lines: take them off NOT_YET_SPLIT: {done:?}"
     );
 }

@@ -9,29 +9,25 @@ use std::path::PathBuf;
 use repro::table::references::{prose, references, typed_numbers};
 use serde_json::Value;
 
-/// The pipelines whose texts are checked (the others are being rewritten to
-/// references; each joins this list when it passes).
-const ENFORCED: &[&str] = &[
-    "fig2",
-    "fig3",
-    "fig4",
-    "fig5",
-    "fig6",
-    "fig7",
-    "fig8",
-    "fig9",
-    "fig10",
-    "fig11",
-    "fig12",
-    "fig13",
-    "fig21",
-    "stationarity",
-    "method-cutoff",
-    "method-drive",
-    "method-front",
-    "method-intruder-heating",
-    "method-s4",
-];
+/// The pipelines whose texts are checked: every file of `pipelines/`, so a new
+/// pipeline is checked too.
+fn enforced() -> Vec<String> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    let mut ids: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("a directory entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .map(|p| {
+            p.file_stem()
+                .expect("a file name")
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    ids.sort();
+    assert!(!ids.is_empty(), "no pipeline in {}", dir.display());
+    ids
+}
 
 fn pipeline(id: &str) -> Value {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -56,7 +52,7 @@ fn typed(doc: &Value) -> Vec<(String, String, String)> {
 #[test]
 fn no_enforced_pipeline_types_a_number_into_its_texts() {
     let mut bad = Vec::new();
-    for id in ENFORCED {
+    for id in &enforced() {
         for (path, n, text) in typed(&pipeline(id)) {
             let head: String = text.chars().take(100).collect();
             bad.push(format!(
@@ -97,7 +93,7 @@ fn the_check_finds_a_typed_number_in_a_pipeline_text() {
 #[test]
 fn every_reference_parses_and_a_plot_names_only_its_own_build() {
     let mut bad = Vec::new();
-    for id in ENFORCED {
+    for id in &enforced() {
         let doc = pipeline(id);
         for (path, text) in prose(&doc) {
             match references(&text) {

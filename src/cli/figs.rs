@@ -10,8 +10,9 @@ use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 
 use crate::pipeline::{RunOptions, Workspace};
+use crate::study::coverage::{self, Coverage};
 use crate::study::frontier::{self, Frontier};
-use crate::study::golden::{self, GoldenFile, Recording};
+use crate::study::golden::{self, GoldenFile, Recording, SeedCheck};
 use crate::study::report;
 use crate::study::results::{Tally, read_compare};
 use crate::study::variant::{self, Variant};
@@ -213,97 +214,128 @@ fn coverage(a: CoverageArgs) -> Result<()> {
         .join("tests")
         .join("golden")
         .join(format!("{}.json", a.profile));
-    let mut checks = Vec::new();
-    // Each key number's value and quoted error per seed (NaN written as null),
-    // so a survey can be read again without rebuilding it.
-    let mut per_seed_json = serde_json::Map::new();
-    let mut stored_seeds: Option<Vec<u64>> = None;
-    // The commits a stored survey was built at.
-    let mut built: Vec<String> = Vec::new();
-    let (rows, gates_from): (Vec<crate::study::coverage::Coverage>, Option<GoldenFile>) =
-        if let Some(path) = &a.golden {
-            let g = GoldenFile::read(path)?;
-            (crate::study::coverage::from_golden(&g, &a.ids), Some(g))
-        } else if !a.stored.is_empty() {
-            let results = Workspace::new(&a.variant.root).results;
-            let files: Vec<PathBuf> = a
-                .stored
-                .iter()
-                .map(|l| results.join(format!("coverage-{}-{l}.json", a.profile)))
-                .collect();
-            let (seeds, per_seed, commits) = crate::study::coverage::read_stored(&files)?;
-            built = commits;
-            let g = golden_path
-                .exists()
-                .then(|| GoldenFile::read(&golden_path))
-                .transpose()?;
-            if let Some(g) = g
-                .as_ref()
-                .filter(|g| !seeds.iter().any(|s| g.seeds.contains(s)))
-            {
-                checks = crate::study::coverage::check_stored(g, &seeds, &per_seed, &a.ids);
-            }
-            stored_seeds = Some(seeds);
-            per_seed_json = crate::study::coverage::per_seed_json(&per_seed);
-            (
-                per_seed
-                    .iter()
-                    .filter(|((f, _), _)| a.ids.is_empty() || a.ids.contains(f))
-                    .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
-                    .collect(),
-                g,
-            )
-        } else {
-            let ids = or_ci_figures(&a.variant.root, &a.ids)?;
-            // Each seed's build checked against the goldens as CI would, when
-            // the profile has them and the seeds are not the recorded ones.
-            let g = golden_path
-                .exists()
-                .then(|| GoldenFile::read(&golden_path))
-                .transpose()?;
-            let gate = g
-                .as_ref()
-                .filter(|g| !a.seeds.iter().any(|s| g.seeds.contains(s)));
-            let (per_seed, c) = golden::seed_numbers(
-                &a.variant.root,
-                &a.variant.experiment,
-                &a.profile,
-                &ids,
-                &a.seeds,
-                &Variant {
-                    set: settings(&a.variant.set)?,
-                    ..Variant::default()
-                },
-                gate,
-                &options(a.variant.jobs),
-            )?;
-            checks = c;
-            per_seed_json = crate::study::coverage::per_seed_json(&per_seed);
-            (
-                per_seed
-                    .iter()
-                    .filter_map(|((f, q), v)| crate::study::coverage::coverage(f, q, v))
-                    .collect(),
-                g,
-            )
-        };
-    // Each number's gate in the golden file, for the Markdown table.
-    let mut gates = std::collections::BTreeMap::new();
-    if let Some(g) = &gates_from {
-        for q in &g.quantities {
-            gates.insert((q.figure.clone(), q.quantity.clone()), q.gate.to_string());
-        }
-        for fq in g.ungated.keys() {
-            if let Some((f, q)) = fq.split_once(':') {
-                gates.insert((f.to_string(), q.to_string()), "ungated".to_string());
-            }
-        }
-    }
+    let survey = if let Some(path) = &a.golden {
+        recorded_survey(&a, path)?
+    } else if !a.stored.is_empty() {
+        stored_survey(&a, &golden_path)?
+    } else {
+        built_survey(&a, &golden_path)?
+    };
+    print_survey(&survey);
+    write_survey(&a, &survey)
+}
+
+/// A coverage survey's numbers, from whichever source `repro coverage` reads.
+struct Survey {
+    /// Each key number's coverage over the seeds.
+    rows: Vec<Coverage>,
+    /// The golden file whose gates the Markdown table shows.
+    golden: Option<GoldenFile>,
+    /// Each fresh seed checked against the goldens as CI would.
+    checks: Vec<SeedCheck>,
+    /// Each key number's value and quoted error per seed (NaN written as
+    /// null), so a survey can be read again without rebuilding it.
+    per_seed_json: serde_json::Map<String, serde_json::Value>,
+    /// The master seeds.
+    seeds: Vec<u64>,
+    /// The commits a stored survey was built at (empty otherwise).
+    built: Vec<String>,
+}
+
+/// The golden file at `path` if it exists.
+fn golden_if_any(path: &std::path::Path) -> Result<Option<GoldenFile>> {
+    path.exists().then(|| GoldenFile::read(path)).transpose()
+}
+
+/// `--golden`: the per-seed values and quoted errors recorded in a golden
+/// file, at the seeds it was recorded at.
+fn recorded_survey(a: &CoverageArgs, path: &std::path::Path) -> Result<Survey> {
+    let g = GoldenFile::read(path)?;
+    Ok(Survey {
+        rows: coverage::from_golden(&g, &a.ids),
+        seeds: g.seeds.clone(),
+        golden: Some(g),
+        checks: Vec::new(),
+        per_seed_json: serde_json::Map::new(),
+        built: Vec::new(),
+    })
+}
+
+/// `--stored`: the per-seed values of earlier surveys, each seed checked
+/// against the golden file as it is now when the seeds are not its own.
+fn stored_survey(a: &CoverageArgs, golden_path: &std::path::Path) -> Result<Survey> {
+    let results = Workspace::new(&a.variant.root).results;
+    let files: Vec<PathBuf> = a
+        .stored
+        .iter()
+        .map(|l| results.join(format!("coverage-{}-{l}.json", a.profile)))
+        .collect();
+    let (seeds, per_seed, built) = coverage::read_stored(&files)?;
+    let g = golden_if_any(golden_path)?;
+    let checks = match g
+        .as_ref()
+        .filter(|g| !seeds.iter().any(|s| g.seeds.contains(s)))
+    {
+        Some(g) => coverage::check_stored(g, &seeds, &per_seed, &a.ids),
+        None => Vec::new(),
+    };
+    Ok(Survey {
+        rows: per_seed
+            .iter()
+            .filter(|((f, _), _)| a.ids.is_empty() || a.ids.contains(f))
+            .filter_map(|((f, q), v)| coverage::coverage(f, q, v))
+            .collect(),
+        golden: g,
+        checks,
+        per_seed_json: coverage::per_seed_json(&per_seed),
+        seeds,
+        built,
+    })
+}
+
+/// The figures built at each of `--seeds`; each seed's build checked against
+/// the goldens as CI would, when the profile has them and the seeds are not
+/// the recorded ones.
+fn built_survey(a: &CoverageArgs, golden_path: &std::path::Path) -> Result<Survey> {
+    let ids = or_ci_figures(&a.variant.root, &a.ids)?;
+    let g = golden_if_any(golden_path)?;
+    let gate = g
+        .as_ref()
+        .filter(|g| !a.seeds.iter().any(|s| g.seeds.contains(s)));
+    let (per_seed, checks) = golden::seed_numbers(
+        &a.variant.root,
+        &a.variant.experiment,
+        &a.profile,
+        &ids,
+        &a.seeds,
+        &Variant {
+            set: settings(&a.variant.set)?,
+            ..Variant::default()
+        },
+        gate,
+        &options(a.variant.jobs),
+    )?;
+    Ok(Survey {
+        rows: per_seed
+            .iter()
+            .filter_map(|((f, q), v)| coverage::coverage(f, q, v))
+            .collect(),
+        golden: g,
+        checks,
+        per_seed_json: coverage::per_seed_json(&per_seed),
+        seeds: a.seeds.clone(),
+        built: Vec::new(),
+    })
+}
+
+/// The survey's table on standard output, and how often `repro regress`
+/// fired at the fresh seeds.
+fn print_survey(survey: &Survey) {
     println!(
         "| figure | quantity | seeds | mean | seed-to-seed spread | rms quoted error | quoted / spread | median quoted / spread | coverage | max distance from the median / quoted |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
-    for c in &rows {
+    for c in &survey.rows {
         println!(
             "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.2} | {:.2} | {:.0}% | {:.1} |",
             c.figure,
@@ -318,6 +350,7 @@ fn coverage(a: CoverageArgs) -> Result<()> {
             c.max_from_median
         );
     }
+    let checks = &survey.checks;
     if !checks.is_empty() {
         let fired = checks.iter().filter(|c| !c.failures.is_empty()).count();
         println!(
@@ -325,6 +358,28 @@ fn coverage(a: CoverageArgs) -> Result<()> {
             checks.len()
         );
     }
+}
+
+/// Each number's gate in the golden file, for the Markdown table.
+fn gates(g: Option<&GoldenFile>) -> std::collections::BTreeMap<(String, String), String> {
+    let mut gates = std::collections::BTreeMap::new();
+    if let Some(g) = g {
+        for q in &g.quantities {
+            gates.insert((q.figure.clone(), q.quantity.clone()), q.gate.to_string());
+        }
+        for fq in g.ungated.keys() {
+            if let Some((f, q)) = fq.split_once(':') {
+                gates.insert((f.to_string(), q.to_string()), "ungated".to_string());
+            }
+        }
+    }
+    gates
+}
+
+/// The survey as results/coverage-PROFILE[-LABEL].json and its Markdown table
+/// (in docs/ with `--docs`).
+fn write_survey(a: &CoverageArgs, survey: &Survey) -> Result<()> {
+    let gates = gates(survey.golden.as_ref());
     let stem = if a.label.is_empty() {
         format!("coverage-{}", a.profile)
     } else {
@@ -333,12 +388,14 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     let results = Workspace::new(&a.variant.root).results;
     let out = results.join(format!("{stem}.json"));
     std::fs::create_dir_all(&results)?;
-    // With --golden the seeds are the ones the file was recorded at.
-    let seeds = match (&a.golden, &gates_from, stored_seeds) {
-        (Some(_), Some(g), _) => g.seeds.clone(),
-        (_, _, Some(s)) => s,
-        _ => a.seeds.clone(),
-    };
+    let Survey {
+        rows,
+        checks,
+        per_seed_json,
+        seeds,
+        built,
+        ..
+    } = survey;
     let commit = crate::pipeline::publish::git_commit(&a.variant.root);
     let json = serde_json::json!({
         "commits": if built.is_empty() { commit.iter().cloned().collect() } else { built.clone() },
@@ -352,15 +409,15 @@ fn coverage(a: CoverageArgs) -> Result<()> {
     let command = std::env::args()
         .skip(1)
         .fold("repro".to_string(), |acc, x| acc + " " + &x);
-    let md = crate::study::coverage::markdown(
+    let md = coverage::markdown(
         &command,
         commit.as_deref(),
-        &built,
-        &seeds,
-        &rows,
+        built,
+        seeds,
+        rows,
         &gates,
-        &crate::study::coverage::reasons(&a.variant.root, &a.profile)?,
-        &checks,
+        &coverage::reasons(&a.variant.root, &a.profile)?,
+        checks,
     );
     let md_path = if a.docs {
         a.variant.root.join("docs").join(format!("{stem}.md"))

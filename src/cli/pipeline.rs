@@ -82,6 +82,59 @@ pub enum Executor {
     Slurm,
 }
 
+/// What `repro figure` builds, and how.
+#[derive(Args, Debug)]
+pub struct FigureArgs {
+    #[command(flatten)]
+    figures: Figures,
+    /// Stages run at once (default: all cores). Results are identical for any value.
+    #[arg(long, value_name = "N")]
+    jobs: Option<usize>,
+    /// Print what would run, and why, without running anything.
+    #[arg(long)]
+    dry_run: bool,
+    /// Rerun every stage of this kind even if cached (e.g. `--force plot`);
+    /// repeatable. Dependents rerun only if the output bytes change.
+    #[arg(long, value_name = "STAGE-KIND")]
+    force: Vec<String>,
+    /// Where stages run: `local` (threads of this process) or `slurm` (one
+    /// job per ready stage, a job array per sweep; docs/slurm.md). With
+    /// `--dry-run`, `slurm` prints the jobs, their resources and core-hours.
+    #[arg(long, value_enum, default_value_t = Executor::Local)]
+    executor: Executor,
+    #[command(flatten)]
+    what_if: WhatIf,
+    #[command(flatten)]
+    root: RootArgs,
+}
+
+/// What `repro plan` plans, and how it judges the plan.
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    #[command(flatten)]
+    figures: Figures,
+    /// Compare the plan with the recorded CPU time of every built simulation.
+    #[arg(long)]
+    check: bool,
+    /// With `--check`: the largest accepted ratio of measured to planned (or
+    /// planned to measured).
+    #[arg(long, default_value_t = 2.0, value_name = "X")]
+    factor: f64,
+    /// With `--check`: runs whose planned and measured CPU times are both
+    /// below this many seconds are listed but not judged (a Slurm time limit
+    /// is two minutes at least; start-up dominates there).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    min_seconds: f64,
+    /// With `--check`: fail when fewer than this share of the judged
+    /// simulation configurations and stages lie within the factor.
+    #[arg(long, default_value_t = 0.95, value_name = "SHARE")]
+    share: f64,
+    #[command(flatten)]
+    what_if: WhatIf,
+    #[command(flatten)]
+    root: RootArgs,
+}
+
 #[derive(Subcommand, Debug)]
 pub enum Commands {
     /// Build figures: simulate, analyse, fit and plot what is not cached, then
@@ -89,29 +142,7 @@ pub enum Commands {
     ///
     /// Examples: `repro figure fig19`, `repro figure fig19 --profile ci`,
     /// `repro figure --all --jobs 2`, `repro figure fig19 --dry-run`.
-    Figure {
-        #[command(flatten)]
-        figures: Figures,
-        /// Stages run at once (default: all cores). Results are identical for any value.
-        #[arg(long, value_name = "N")]
-        jobs: Option<usize>,
-        /// Print what would run, and why, without running anything.
-        #[arg(long)]
-        dry_run: bool,
-        /// Rerun every stage of this kind even if cached (e.g. `--force plot`);
-        /// repeatable. Dependents rerun only if the output bytes change.
-        #[arg(long, value_name = "STAGE-KIND")]
-        force: Vec<String>,
-        /// Where stages run: `local` (threads of this process) or `slurm` (one
-        /// job per ready stage, a job array per sweep; docs/slurm.md). With
-        /// `--dry-run`, `slurm` prints the jobs, their resources and core-hours.
-        #[arg(long, value_enum, default_value_t = Executor::Local)]
-        executor: Executor,
-        #[command(flatten)]
-        what_if: WhatIf,
-        #[command(flatten)]
-        root: RootArgs,
-    },
+    Figure(FigureArgs),
     /// The planned cost of a build: per simulation its work (collisions, kicks,
     /// force kicks, frames) and planned CPU time, the total and the longest.
     /// With `--check`, beside each the CPU time its recorded run took (cached
@@ -120,30 +151,7 @@ pub enum Commands {
     /// the others.
     ///
     /// Examples: `repro plan --all --profile small`, `repro plan --all --check`.
-    Plan {
-        #[command(flatten)]
-        figures: Figures,
-        /// Compare the plan with the recorded CPU time of every built simulation.
-        #[arg(long)]
-        check: bool,
-        /// With `--check`: the largest accepted ratio of measured to planned (or
-        /// planned to measured).
-        #[arg(long, default_value_t = 2.0, value_name = "X")]
-        factor: f64,
-        /// With `--check`: runs whose planned and measured CPU times are both
-        /// below this many seconds are listed but not judged (a Slurm time limit
-        /// is two minutes at least; start-up dominates there).
-        #[arg(long, default_value_t = 1.0, value_name = "S")]
-        min_seconds: f64,
-        /// With `--check`: fail when fewer than this share of the judged
-        /// simulation configurations and stages lie within the factor.
-        #[arg(long, default_value_t = 0.95, value_name = "SHARE")]
-        share: f64,
-        #[command(flatten)]
-        what_if: WhatIf,
-        #[command(flatten)]
-        root: RootArgs,
-    },
+    Plan(PlanArgs),
     /// Fit the planned cost of analyses, fits, plots and tables to every stage
     /// recorded in the store, write it to PATH as JSON and say how close it
     /// comes per kind. The calibration `repro plan`, the progress estimate and
@@ -347,80 +355,7 @@ fn status(reg: &Registry, f: &OneFigure, only_stale: bool) -> Result<()> {
 pub fn run(c: Commands) -> Result<()> {
     let reg = registry();
     match c {
-        Commands::Figure {
-            figures,
-            jobs,
-            dry_run,
-            force,
-            executor,
-            what_if,
-            root,
-        } => {
-            let ws = root.workspace();
-            let ids = figures.ids(&ws)?;
-            let profile = figures.profile;
-            for k in &force {
-                reg.get(k)?;
-            }
-            if executor == Executor::Slurm && !what_if.is_empty() {
-                bail!(
-                    "--set applies to the local executor: Slurm workers plan the specs as the files say"
-                );
-            }
-            if dry_run && executor == Executor::Slurm {
-                print!("{}", slurm::dry_run(&ws, &reg, &ids, &profile, &force)?);
-                return Ok(());
-            }
-            if dry_run {
-                let (graph, st) = planned_status(&ws, &reg, &what_if, &ids, &profile, &force)?;
-                print_status(&graph, &st, false, &BTreeMap::new(), &BTreeMap::new());
-                return Ok(());
-            }
-            let run = match executor {
-                Executor::Local => {
-                    let opts = RunOptions {
-                        jobs: jobs.unwrap_or(RunOptions::default().jobs),
-                        force,
-                        progress: true,
-                    };
-                    let graph = what_if.plan(&ws, &reg, &ids, &profile)?;
-                    pipeline::run_planned(&what_if.workspace(ws.clone()), &reg, graph, &opts)?
-                }
-                Executor::Slurm => {
-                    if jobs.is_some() {
-                        bail!(
-                            "--jobs applies to the local executor; Slurm runs every ready stage at once"
-                        );
-                    }
-                    let opts = slurm::SlurmOptions::new(force, true)?;
-                    slurm::run_figures(&ws, &reg, &ids, &profile, &opts)?
-                }
-            };
-            let count = |f: fn(&Outcome) -> bool| {
-                run.report
-                    .results
-                    .values()
-                    .filter(|r| f(&r.outcome))
-                    .count()
-            };
-            for d in &run.report.damaged {
-                eprintln!("warning: {d}");
-            }
-            eprintln!(
-                "{} stage(s): {} executed, {} cached",
-                run.report.results.len(),
-                count(|o| *o == Outcome::Executed),
-                count(|o| *o == Outcome::Cached)
-            );
-            for f in &run.graph.figures {
-                if run.report.complete(f) {
-                    let results = what_if.workspace(ws.clone()).results;
-                    eprintln!("wrote {}", results.join(&f.id).display());
-                }
-            }
-            run.check()?;
-            Ok(())
-        }
+        Commands::Figure(a) => figure(&reg, a),
         Commands::Calibrate {
             path,
             factor,
@@ -434,137 +369,11 @@ pub fn run(c: Commands) -> Result<()> {
             );
             Ok(())
         }
-        Commands::Plan {
-            figures,
-            check,
-            factor,
-            min_seconds,
-            share,
-            what_if,
-            root,
-        } => {
-            let ws = root.workspace();
-            if !(share > 0.0 && share <= 1.0) {
-                bail!(
-                    "--share {share}: the share of judged stages that must lie within the factor is a number in (0, 1]"
-                );
-            }
-            let mut ids = figures.ids(&ws)?;
-            let profile = figures.profile;
-            // `--all`: every figure that the profile reaches, the others listed
-            // (a figure whose experiments have no `paper` profile, say).
-            let mut without = Vec::new();
-            if figures.all {
-                for id in pipeline::Catalogue::load(&ws.root)?.pipelines.keys() {
-                    match pipeline::figure_status(
-                        &ws,
-                        &reg,
-                        std::slice::from_ref(id),
-                        &profile,
-                        &[],
-                    ) {
-                        Ok(_) => ids.push(id.clone()),
-                        Err(e) if format!("{e:#}").contains(&format!("no profile '{profile}'")) => {
-                            without.push(format!("{id}: {e:#}"))
-                        }
-                        Err(e) => return Err(e),
-                    }
-                }
-                if ids.is_empty() {
-                    bail!(
-                        "no figure can be planned at profile '{profile}':\n  {}",
-                        without.join("\n  ")
-                    );
-                }
-            }
-            let check = check.then_some(crate::study::plan::Check {
-                factor,
-                min_seconds,
-            });
-            let graph = what_if.plan(&ws, &reg, &ids, &profile)?;
-            let report = crate::study::plan::plan(&ws, &reg, &graph, check.as_ref())?;
-            print!("{}", report.text);
-            if !without.is_empty() {
-                println!(
-                    "\nnot planned at profile '{profile}' ({} figure(s)):",
-                    without.len()
-                );
-                for w in &without {
-                    println!("  {w}");
-                }
-            }
-            if let Some(c) = &check
-                && ((report.judged - report.outside) as f64) < share * report.judged as f64
-            {
-                bail!(
-                    "{} of {} judged (simulation configurations by the mean of their built runs, other stages one by one) have a recorded CPU time more than {}x or less than 1/{}x the planned: more than {:.0}% of them",
-                    report.outside,
-                    report.judged,
-                    c.factor,
-                    c.factor,
-                    100.0 * (1.0 - share)
-                );
-            }
-            Ok(())
-        }
-        Commands::List { profile, root } => {
-            let ws = root.workspace();
-            let cat = pipeline::Catalogue::load(&ws.root)?;
-            if cat.pipelines.is_empty() {
-                bail!(
-                    "no figures: {} has no pipelines/*.yaml (use --root or REPRO_ROOT)",
-                    ws.root.display()
-                );
-            }
-            for (id, (_, spec)) in &cat.pipelines {
-                let state = match pipeline::figure_status(
-                    &ws,
-                    &reg,
-                    std::slice::from_ref(id),
-                    &profile,
-                    &[],
-                ) {
-                    Ok((_, st)) => {
-                        let stale = st
-                            .iter()
-                            .filter(|(_, s)| !matches!(s, State::Cached { .. }))
-                            .count();
-                        if stale == 0 {
-                            "cached".to_string()
-                        } else {
-                            format!("{stale}/{} stages to run", st.len())
-                        }
-                    }
-                    Err(e) => format!("cannot plan: {e:#}"),
-                };
-                println!("{id:<16} {:<60} [{profile}: {state}]", spec.description);
-            }
-            Ok(())
-        }
+        Commands::Plan(a) => plan(&reg, a),
+        Commands::List { profile, root } => list(&reg, &profile, &root),
         Commands::Status(f) => status(&reg, &f, false),
         Commands::Why(f) => status(&reg, &f, true),
-        Commands::Verify { root } => {
-            let ws = root.workspace();
-            let store = pipeline::Store::open(&ws.store)?;
-            let r = store.verify()?;
-            for d in &r.damaged {
-                println!("{d}");
-            }
-            println!(
-                "checked {} artifacts ({:.1} MB) in {}: {} damaged",
-                r.objects,
-                r.bytes as f64 / 1e6,
-                ws.store.display(),
-                r.damaged.len()
-            );
-            if !r.damaged.is_empty() {
-                bail!(
-                    "{} damaged artifact(s) quarantined; `repro figure` recomputes their stages",
-                    r.damaged.len()
-                );
-            }
-            Ok(())
-        }
+        Commands::Verify { root } => verify(&root),
         Commands::Runs(a) => super::runs::run(&reg, &a),
         Commands::Worker { store, key } => slurm::worker(&store, &reg, &key),
         Commands::Gc { dry_run, root } => {
@@ -580,4 +389,220 @@ pub fn run(c: Commands) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `repro figure`: build the figures (or with `--dry-run` say what would run)
+/// on the executor asked for, then say what ran and which figures were written.
+fn figure(reg: &Registry, a: FigureArgs) -> Result<()> {
+    let FigureArgs {
+        figures,
+        jobs,
+        dry_run,
+        force,
+        executor,
+        what_if,
+        root,
+    } = a;
+    let ws = root.workspace();
+    let ids = figures.ids(&ws)?;
+    let profile = figures.profile;
+    for k in &force {
+        reg.get(k)?;
+    }
+    if executor == Executor::Slurm && !what_if.is_empty() {
+        bail!("--set applies to the local executor: Slurm workers plan the specs as the files say");
+    }
+    if dry_run && executor == Executor::Slurm {
+        print!("{}", slurm::dry_run(&ws, reg, &ids, &profile, &force)?);
+        return Ok(());
+    }
+    if dry_run {
+        let (graph, st) = planned_status(&ws, reg, &what_if, &ids, &profile, &force)?;
+        print_status(&graph, &st, false, &BTreeMap::new(), &BTreeMap::new());
+        return Ok(());
+    }
+    let run = match executor {
+        Executor::Local => {
+            let opts = RunOptions {
+                jobs: jobs.unwrap_or(RunOptions::default().jobs),
+                force,
+                progress: true,
+            };
+            let graph = what_if.plan(&ws, reg, &ids, &profile)?;
+            pipeline::run_planned(&what_if.workspace(ws.clone()), reg, graph, &opts)?
+        }
+        Executor::Slurm => {
+            if jobs.is_some() {
+                bail!("--jobs applies to the local executor; Slurm runs every ready stage at once");
+            }
+            let opts = slurm::SlurmOptions::new(force, true)?;
+            slurm::run_figures(&ws, reg, &ids, &profile, &opts)?
+        }
+    };
+    print_run(&run, &what_if.workspace(ws).results);
+    run.check()?;
+    Ok(())
+}
+
+/// What `repro figure` says once its stages ended: the damaged artifacts it
+/// met, how many stages were executed and cached, and the figures written
+/// (under `results`).
+fn print_run(run: &pipeline::FigureRun, results: &std::path::Path) {
+    let count = |f: fn(&Outcome) -> bool| {
+        run.report
+            .results
+            .values()
+            .filter(|r| f(&r.outcome))
+            .count()
+    };
+    for d in &run.report.damaged {
+        eprintln!("warning: {d}");
+    }
+    eprintln!(
+        "{} stage(s): {} executed, {} cached",
+        run.report.results.len(),
+        count(|o| *o == Outcome::Executed),
+        count(|o| *o == Outcome::Cached)
+    );
+    for f in &run.graph.figures {
+        if run.report.complete(f) {
+            eprintln!("wrote {}", results.join(&f.id).display());
+        }
+    }
+}
+
+/// `repro plan`: the planned cost of the figures' build and, with `--check`,
+/// the recorded CPU times against it, failing when too few lie within the
+/// factor.
+fn plan(reg: &Registry, a: PlanArgs) -> Result<()> {
+    let PlanArgs {
+        figures,
+        check,
+        factor,
+        min_seconds,
+        share,
+        what_if,
+        root,
+    } = a;
+    let ws = root.workspace();
+    if !(share > 0.0 && share <= 1.0) {
+        bail!(
+            "--share {share}: the share of judged stages that must lie within the factor is a number in (0, 1]"
+        );
+    }
+    let mut ids = figures.ids(&ws)?;
+    let profile = figures.profile;
+    let mut without = Vec::new();
+    if figures.all {
+        (ids, without) = plannable(&ws, reg, &profile)?;
+    }
+    let check = check.then_some(crate::study::plan::Check {
+        factor,
+        min_seconds,
+    });
+    let graph = what_if.plan(&ws, reg, &ids, &profile)?;
+    let report = crate::study::plan::plan(&ws, reg, &graph, check.as_ref())?;
+    print!("{}", report.text);
+    if !without.is_empty() {
+        println!(
+            "\nnot planned at profile '{profile}' ({} figure(s)):",
+            without.len()
+        );
+        for w in &without {
+            println!("  {w}");
+        }
+    }
+    if let Some(c) = &check
+        && ((report.judged - report.outside) as f64) < share * report.judged as f64
+    {
+        bail!(
+            "{} of {} judged (simulation configurations by the mean of their built runs, other stages one by one) have a recorded CPU time more than {}x or less than 1/{}x the planned: more than {:.0}% of them",
+            report.outside,
+            report.judged,
+            c.factor,
+            c.factor,
+            100.0 * (1.0 - share)
+        );
+    }
+    Ok(())
+}
+
+/// `repro plan --all`: every figure that `profile` reaches, and why each of
+/// the others is not planned (a figure whose experiments have no `paper`
+/// profile, say); an error when none is reached.
+fn plannable(ws: &Workspace, reg: &Registry, profile: &str) -> Result<(Vec<String>, Vec<String>)> {
+    let (mut ids, mut without) = (Vec::new(), Vec::new());
+    for id in pipeline::Catalogue::load(&ws.root)?.pipelines.keys() {
+        match pipeline::figure_status(ws, reg, std::slice::from_ref(id), profile, &[]) {
+            Ok(_) => ids.push(id.clone()),
+            Err(e) if format!("{e:#}").contains(&format!("no profile '{profile}'")) => {
+                without.push(format!("{id}: {e:#}"))
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    if ids.is_empty() {
+        bail!(
+            "no figure can be planned at profile '{profile}':\n  {}",
+            without.join("\n  ")
+        );
+    }
+    Ok((ids, without))
+}
+
+/// `repro list`: each figure with its description and its cache state at
+/// `profile`.
+fn list(reg: &Registry, profile: &str, root: &RootArgs) -> Result<()> {
+    let ws = root.workspace();
+    let cat = pipeline::Catalogue::load(&ws.root)?;
+    if cat.pipelines.is_empty() {
+        bail!(
+            "no figures: {} has no pipelines/*.yaml (use --root or REPRO_ROOT)",
+            ws.root.display()
+        );
+    }
+    for (id, (_, spec)) in &cat.pipelines {
+        let state = match pipeline::figure_status(&ws, reg, std::slice::from_ref(id), profile, &[])
+        {
+            Ok((_, st)) => {
+                let stale = st
+                    .iter()
+                    .filter(|(_, s)| !matches!(s, State::Cached { .. }))
+                    .count();
+                if stale == 0 {
+                    "cached".to_string()
+                } else {
+                    format!("{stale}/{} stages to run", st.len())
+                }
+            }
+            Err(e) => format!("cannot plan: {e:#}"),
+        };
+        println!("{id:<16} {:<60} [{profile}: {state}]", spec.description);
+    }
+    Ok(())
+}
+
+/// `repro verify`: check every artifact of the store against its hash; an
+/// error when any was damaged (and quarantined).
+fn verify(root: &RootArgs) -> Result<()> {
+    let ws = root.workspace();
+    let store = pipeline::Store::open(&ws.store)?;
+    let r = store.verify()?;
+    for d in &r.damaged {
+        println!("{d}");
+    }
+    println!(
+        "checked {} artifacts ({:.1} MB) in {}: {} damaged",
+        r.objects,
+        r.bytes as f64 / 1e6,
+        ws.store.display(),
+        r.damaged.len()
+    );
+    if !r.damaged.is_empty() {
+        bail!(
+            "{} damaged artifact(s) quarantined; `repro figure` recomputes their stages",
+            r.damaged.len()
+        );
+    }
+    Ok(())
 }

@@ -795,6 +795,7 @@ fn build(
                 .with_context(|| format!("plot: panel {} layer from '{}'", k + 1, layer.from))?;
             let mut layer = layer.clone();
             layer.label = fill(&layer.label)?;
+            layer.absent = layer.absent.as_deref().map(&fill).transpose()?;
             if let (Some(a), Some(k)) = (layer.arrows.as_mut(), shared_scale)
                 && a.scale == ArrowScale::Named(AutoScale::Auto)
             {

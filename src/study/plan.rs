@@ -80,6 +80,38 @@ pub fn plan(
     graph: &Graph,
     check: Option<&Check>,
 ) -> Result<PlanReport> {
+    let stages = planned_stages(ws, reg, graph)?;
+    let mut r = PlanReport::default();
+    let simulations = simulation_lines(&stages.configurations, check, &mut r);
+    let (other_stages, other_planned) = other_lines(&stages.others, check, &mut r);
+    r.text += &format!(
+        "{other_stages} other stage(s): {:.2} core-hours planned; the build {:.2} core-hours in all\n",
+        other_planned / 3600.0,
+        (simulations + other_planned) / 3600.0
+    );
+    if let Some(c) = check {
+        r.text += &format!(
+            "judged in all (simulation configurations and other stages >= {} CPU s): {}, outside a factor {}: {} ({:.1}% inside)\n",
+            c.min_seconds,
+            r.judged,
+            c.factor,
+            r.outside,
+            100.0 * (r.judged - r.outside) as f64 / r.judged.max(1) as f64
+        );
+    }
+    Ok(r)
+}
+
+/// The stages of a graph as the plan lists them: the simulations by
+/// configuration, most expensive first, and the other stages by kind.
+struct PlannedStages {
+    configurations: Vec<Row>,
+    others: BTreeMap<String, KindRow>,
+}
+
+/// The planned CPU s of every needed stage of `graph` and the recorded CPU s
+/// of those built in the store of `ws`.
+fn planned_stages(ws: &Workspace, reg: &Registry, graph: &Graph) -> Result<PlannedStages> {
     let store = Store::open(&ws.store)?;
     let st = crate::pipeline::exec::status(graph, &needed_nodes(graph), reg, &store, &[]);
     let cached = |s: &State| match s {
@@ -93,7 +125,7 @@ pub fn plan(
             _ => None,
         }),
     );
-    let planned = node_seconds(&graph, reg, &built);
+    let planned = node_seconds(graph, reg, &built);
     let mut rows: Vec<Row> = Vec::new();
     let mut others: BTreeMap<String, KindRow> = BTreeMap::new();
     let mut at = std::collections::HashMap::new();
@@ -124,7 +156,16 @@ pub fn plan(
         rows[k].measured.extend(measured);
     }
     rows.sort_by(|a, b| b.planned.total_cmp(&a.planned));
-    let mut r = PlanReport::default();
+    Ok(PlannedStages {
+        configurations: rows,
+        others,
+    })
+}
+
+/// The simulations' table of the plan, written to `r.text`: a line per
+/// configuration, then the totals and, with `check`, what was recorded and
+/// judged (counted in `r`). Returns the CPU s planned for all of them.
+fn simulation_lines(rows: &[Row], check: Option<&Check>, r: &mut PlanReport) -> f64 {
     // The counts the cost model gives (N, collisions, kicks, force kicks).
     let counted: Vec<&str> = rows
         .first()
@@ -148,7 +189,7 @@ pub fn plan(
     let (mut planned_all, mut measured_all, mut planned_built) = (0.0, 0.0, 0.0);
     let (mut runs, mut built) = (0, 0);
     let mut worst: Option<(f64, &str)> = None;
-    for row in &rows {
+    for row in rows {
         planned_all += row.planned * row.replicas as f64;
         runs += row.replicas;
         let counts: String = row
@@ -210,9 +251,20 @@ pub fn plan(
             worst.map_or(String::new(), |(w, l)| format!("; the worst {w:.2}x ({l})"))
         );
     }
-    // Analyses, fits, plots and tables, per kind: judged stage by stage, as
-    // simulations are (their Slurm time limits come from the same plan).
-    out += &format!(
+    r.text += &out;
+    planned_all
+}
+
+/// The other stages' table of the plan, written to `r.text`: a line per kind,
+/// most expensive first; with `check`, its built stages judged one by one, as
+/// simulations are (their Slurm time limits come from the same plan), and
+/// counted in `r`. Returns how many stages there are and their planned CPU s.
+fn other_lines(
+    others: &BTreeMap<String, KindRow>,
+    check: Option<&Check>,
+    r: &mut PlanReport,
+) -> (usize, f64) {
+    let mut out = format!(
         "\n{:<24} {:>6} {:>10}{}\n",
         "other stages (per kind)",
         "stages",
@@ -252,23 +304,8 @@ pub fn plan(
         out += &line;
         out += "\n";
     }
-    out += &format!(
-        "{other_stages} other stage(s): {:.2} core-hours planned; the build {:.2} core-hours in all\n",
-        other_planned / 3600.0,
-        (planned_all + other_planned) / 3600.0
-    );
-    if let Some(c) = check {
-        out += &format!(
-            "judged in all (simulation configurations and other stages >= {} CPU s): {}, outside a factor {}: {} ({:.1}% inside)\n",
-            c.min_seconds,
-            r.judged,
-            c.factor,
-            r.outside,
-            100.0 * (r.judged - r.outside) as f64 / r.judged.max(1) as f64
-        );
-    }
-    r.text = out;
-    Ok(r)
+    r.text += &out;
+    (other_stages, other_planned)
 }
 
 /// Fit the cost of every kind that is not a simulation to the stages recorded

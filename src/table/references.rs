@@ -333,16 +333,23 @@ pub const PROSE_KEYS: &[&str] = &[
 /// Words after which numbers name a part of a paper, not a measurement.
 const PART_WORDS: &[&str] = &["Eq", "Eqs", "Fig", "Figs", "Sec", "Section", "Table", "Ref"];
 
+/// Part words whose numbers may have decimal parts: a subsection (`Sec. 4.1`).
+const SECTION_WORDS: &[&str] = &["Sec", "Section"];
+
 /// The numbers typed by hand into `text`: after removing `{=...}`,
 /// `{paper:...}`, `{reason:...}` and code spans in backticks, every number
 /// that is not part of a word, except single digits, the numbers of
-/// [`PART_WORDS`] (`Eqs. 14 and 15`) and a year in parentheses (docs/spec.md).
+/// [`PART_WORDS`] (`Eqs. 14 and 15`; a subsection after [`SECTION_WORDS`],
+/// `Sec. 4.1`) and a year in parentheses (docs/spec.md).
 pub fn typed_numbers(text: &str) -> Vec<String> {
     let c: Vec<char> = strip_marked(text).chars().collect();
     let is_word = |ch: char| ch.is_alphanumeric() || ch == '_';
     let mut out = Vec::new();
     // Inside the list of numbers after a part word (`Figs. 4, 5 and 7`).
     let mut in_parts = false;
+    // Inside the list after a section word, where a subsection is a part too
+    // (`Section 3.2 and 4.1`).
+    let mut in_sections = false;
     let mut i = 0;
     while i < c.len() {
         let ch = c[i];
@@ -384,7 +391,8 @@ pub fn typed_numbers(text: &str) -> Vec<String> {
                 && i > 0
                 && c[i - 1] == '('
                 && c.get(j) == Some(&')');
-            let allowed = (plain_integer && (token.len() == 1 || in_parts)) || year;
+            let section = in_sections && !token.contains(['e', 'E']);
+            let allowed = (plain_integer && (token.len() == 1 || in_parts)) || section || year;
             if !allowed {
                 out.push(token);
             }
@@ -396,11 +404,13 @@ pub fn typed_numbers(text: &str) -> Vec<String> {
             }
             let w: String = c[i..j].iter().collect();
             in_parts = PART_WORDS.contains(&w.as_str()) || (in_parts && w == "and");
+            in_sections = SECTION_WORDS.contains(&w.as_str()) || (in_sections && w == "and");
             i = j;
         } else {
             // Separators continue a list of parts; anything else ends it.
             if !(ch.is_whitespace() || matches!(ch, '.' | ',' | '-' | '–' | '(' | ')')) {
                 in_parts = false;
+                in_sections = false;
             }
             i += 1;
         }

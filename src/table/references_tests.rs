@@ -135,11 +135,17 @@ fn a_typed_number_is_found_and_references_parts_and_years_are_not() {
     // parts of the paper and a year: none is typed.
     let clean = "phi_c = {=joint.phi_c} against {paper:0.82} (`repro frontier fig4 --n 16000`); \
                  eps09, tau_070, chi4, x0, 2D, c716756 and 5c3aeba; 1/e, 3 replicas; \
-                 Eq. 14, Eqs. 14 and 15, Figs. 4-6, Fig. 4a, Sec. 3, Table 2; Berthier (2011); \
+                 Eq. 14, Eqs. 14 and 15, Figs. 4-6, Fig. 4a, Sec. 3, Sec. 4.1, Section 3.2 and 4.2.1, \
+                 Table 2; Berthier (2011); \
                  {reason:shared}";
     assert_eq!(typed_numbers(clean), Vec::<String>::new());
     // A list of parts ends at the first other word.
     assert_eq!(typed_numbers("Fig. 4 shows 12 points"), ["12"]);
+    // Only a section's number has a decimal part: a figure's or equation's does not.
+    assert_eq!(
+        typed_numbers("Fig. 4.1, Eq. 0.82, Sec. 4.1 at 0.82"),
+        ["4.1", "0.82", "0.82"]
+    );
     // A year only in parentheses: bare it is a number like any other.
     assert_eq!(typed_numbers("N = 2000"), ["2000"]);
 }

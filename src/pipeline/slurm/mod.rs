@@ -18,7 +18,7 @@
 pub mod plan;
 pub mod state;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -145,17 +145,138 @@ fn describe(s: &JobState) -> String {
     }
 }
 
+/// A stage ready to be submitted: its node, its cache key and its inputs'
+/// entries.
+struct Ready {
+    node: usize,
+    key: String,
+    inputs: Vec<Entry>,
+}
+
+/// What the driver knows of the stages between two polls of Slurm.
+struct Tracking {
+    /// Each node's result, once resolved.
+    results: Vec<Option<StageResult>>,
+    /// Stages whose job is queued or running, with its record.
+    watching: BTreeMap<usize, JobRecord>,
+    /// Stages resubmitted once after their time limit, with the factor on it.
+    longer: BTreeMap<usize, f64>,
+    /// Stages to submit again with the next wave (after their time limit).
+    retry: Vec<Ready>,
+    /// The damaged artifacts met, quarantined.
+    damaged: Vec<String>,
+}
+
+impl Tracking {
+    fn new(nodes: usize) -> Self {
+        Tracking {
+            results: vec![None; nodes],
+            watching: BTreeMap::new(),
+            longer: BTreeMap::new(),
+            retry: Vec::new(),
+            damaged: Vec::new(),
+        }
+    }
+
+    /// Stage `i` is resolved with `r`: record it and say so.
+    fn finish(&mut self, progress: &Progress, g: &Graph, i: usize, r: StageResult) {
+        let what = match &r.outcome {
+            Outcome::Cached => "cached".to_string(),
+            Outcome::Executed => "executed".to_string(),
+            Outcome::Failed { error, .. } => format!("FAILED ({error})"),
+            Outcome::Skipped { failed_input } => {
+                format!("skipped (input {failed_input} failed)")
+            }
+        };
+        progress.finish(i, g.nodes[i].label(), &g.nodes[i].kind, &what);
+        self.results[i] = Some(r);
+    }
+}
+
+/// A stage's inputs as the driver finds them.
+enum Inputs {
+    /// Every input is in the store: their entries.
+    Done(Vec<Entry>),
+    /// An input failed (or was skipped): its label.
+    Failed(String),
+    /// Some input is not resolved yet.
+    Waiting,
+}
+
+/// One Slurm job of stages of one kind and one `slurm:` setting, as it is
+/// submitted: an array when it has several tasks, a chain of `links` jobs when
+/// it runs past the partition's limit and can resume.
+struct Job<'r> {
+    kind: String,
+    /// The members' stages (indices into the wave's ready stages).
+    members: Vec<usize>,
+    /// Each member's resources.
+    res: Vec<Resources>,
+    /// The memory each task asks for: the largest member's.
+    mem: u64,
+    /// The members of each task (run one after the other), and each member's task.
+    tasks: Vec<Vec<usize>>,
+    task_of: Vec<usize>,
+    /// Each job's time limit in minutes, and how many jobs the chain has.
+    time: u64,
+    links: u64,
+    /// The members' cache keys.
+    keys: Vec<&'r str>,
+    /// Whether a member is resubmitted after its time limit.
+    resubmitted: bool,
+}
+
+impl Job<'_> {
+    fn array(&self) -> bool {
+        self.tasks.len() > 1
+    }
+}
+
 impl Driver<'_> {
     fn run(&self, nodes: &[usize]) -> Result<RunReport> {
+        let progress = self.progress(nodes);
+        let mut t = Tracking::new(self.graph.nodes.len());
+        loop {
+            let jobs = state::query()?;
+            self.collect_ended(&jobs, &progress, &mut t);
+            let ready = self.next_wave(nodes, &jobs, &progress, &mut t);
+            if !ready.is_empty() {
+                for rec in self.submit(&ready, &t.longer)? {
+                    let i = ready
+                        .iter()
+                        .find(|r| r.key == rec.key)
+                        .map(|r| r.node)
+                        .expect("submitted key is ready");
+                    t.watching.insert(i, rec);
+                }
+            }
+            if t.watching.is_empty() {
+                break;
+            }
+            progress.beat(super::progress::heartbeat());
+            std::thread::sleep(self.opts.poll);
+        }
+        progress.done();
+        let mut out = BTreeMap::new();
+        for &i in nodes {
+            out.insert(i, t.results[i].take().expect("every node was resolved"));
+        }
+        Ok(RunReport {
+            results: out,
+            damaged: t.damaged,
+        })
+    }
+
+    /// The progress report of a build of `nodes`, logged beside the store.
+    /// Slurm runs every ready stage at once: the end is the longest chain's.
+    fn progress(&self, nodes: &[usize]) -> Progress {
         let g = self.graph;
-        let n = g.nodes.len();
         let log = self
             .store
             .dir
             .parent()
             .map(|d| d.join("log").join("LAST-RUN.log"));
         let progress = Progress::new(self.opts.progress, nodes.len(), log.as_deref());
-        // Slurm runs every ready stage at once: the end is the longest chain's.
         let classes: Vec<String> = g
             .nodes
             .iter()
@@ -167,353 +288,220 @@ impl Driver<'_> {
             &classes,
             nodes.len(),
         );
-        let mut results: Vec<Option<StageResult>> = vec![None; n];
-        let mut watching: BTreeMap<usize, JobRecord> = BTreeMap::new();
-        // Stages resubmitted once after their time limit, with the factor on it.
-        let mut longer: BTreeMap<usize, f64> = BTreeMap::new();
-        let mut retry: Vec<(usize, String, Vec<Entry>)> = Vec::new();
-        let mut damaged = Vec::new();
-        let finish = |results: &mut Vec<Option<StageResult>>, i: usize, r: StageResult| {
-            let what = match &r.outcome {
-                Outcome::Cached => "cached".to_string(),
-                Outcome::Executed => "executed".to_string(),
-                Outcome::Failed { error, .. } => format!("FAILED ({error})"),
-                Outcome::Skipped { failed_input } => {
-                    format!("skipped (input {failed_input} failed)")
+        progress
+    }
+
+    /// The watched stages whose job ended: the store says whether they
+    /// delivered. One that hit its time limit without a result goes to
+    /// `t.retry` once, with a longer limit; the others are resolved, executed
+    /// or failed.
+    fn collect_ended(
+        &self,
+        jobs: &HashMap<String, JobState>,
+        progress: &Progress,
+        t: &mut Tracking,
+    ) {
+        let g = self.graph;
+        for (i, rec) in t.watching.clone() {
+            let st = jobs.get(&rec.job_id).cloned().unwrap_or(JobState::Unknown);
+            if st.is_active() {
+                continue;
+            }
+            t.watching.remove(&i);
+            // A forced stage had an entry before: only a completed job counts.
+            let entry = self.store.lookup(&rec.key);
+            let why = || state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
+            if entry.is_none() && !rec.force {
+                let w = why();
+                if let Some(f) = resubmit_after_time_limit(&st, &w, t.longer.contains_key(&i)) {
+                    progress.line(&format!(
+                        "{}: Slurm job {} hit its time limit ({w}); resubmitting once with {f}x the limit{}",
+                        rec.label,
+                        rec.job_id,
+                        if self.reg.planned(&rec.kind, &g.nodes[i].parsed).is_some() {
+                            ", resuming from its last checkpoint"
+                        } else {
+                            ""
+                        }
+                    ));
+                    t.longer.insert(i, f);
+                    let inputs = rec
+                        .inputs
+                        .iter()
+                        .filter_map(|k| self.store.lookup(k))
+                        .collect();
+                    t.retry.push(Ready {
+                        node: i,
+                        key: rec.key.clone(),
+                        inputs,
+                    });
+                    continue;
+                }
+            }
+            let r = match entry {
+                Some(e) if !rec.force || st == JobState::Completed => StageResult {
+                    outcome: Outcome::Executed,
+                    entry: Some(e),
+                },
+                _ => {
+                    let why = why();
+                    StageResult {
+                        outcome: Outcome::Failed {
+                            error: format!(
+                                "Slurm job {} ended without a result: {why}; log {}",
+                                rec.job_id,
+                                rec.log.display()
+                            ),
+                            log: state::log_tail(&rec.log, 15),
+                        },
+                        entry: None,
+                    }
                 }
             };
-            progress.finish(i, g.nodes[i].label(), &g.nodes[i].kind, &what);
-            results[i] = Some(r);
-        };
-        loop {
-            let jobs = state::query()?;
-            // Jobs that ended: the store says whether they delivered.
-            for (i, rec) in watching.clone() {
-                let st = jobs.get(&rec.job_id).cloned().unwrap_or(JobState::Unknown);
-                if st.is_active() {
-                    continue;
-                }
-                watching.remove(&i);
-                // A forced stage had an entry before: only a completed job counts.
-                let entry = self.store.lookup(&rec.key);
-                let why = || state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
-                if entry.is_none() && !rec.force {
-                    let w = why();
-                    if let Some(f) = resubmit_after_time_limit(&st, &w, longer.contains_key(&i)) {
-                        progress.line(&format!(
-                            "{}: Slurm job {} hit its time limit ({w}); resubmitting once with {f}x the limit{}",
-                            rec.label,
-                            rec.job_id,
-                            if self.reg.planned(&rec.kind, &g.nodes[i].parsed).is_some() {
-                                ", resuming from its last checkpoint"
-                            } else {
-                                ""
-                            }
-                        ));
-                        longer.insert(i, f);
-                        let inputs = rec
-                            .inputs
-                            .iter()
-                            .filter_map(|k| self.store.lookup(k))
-                            .collect();
-                        retry.push((i, rec.key.clone(), inputs));
-                        continue;
-                    }
-                }
-                let r = match entry {
-                    Some(e) if !rec.force || st == JobState::Completed => StageResult {
-                        outcome: Outcome::Executed,
-                        entry: Some(e),
-                    },
-                    _ => {
-                        let why = why();
-                        StageResult {
-                            outcome: Outcome::Failed {
-                                error: format!(
-                                    "Slurm job {} ended without a result: {why}; log {}",
-                                    rec.job_id,
-                                    rec.log.display()
-                                ),
-                                log: state::log_tail(&rec.log, 15),
-                            },
-                            entry: None,
-                        }
-                    }
-                };
-                finish(&mut results, i, r);
+            t.finish(progress, g, i, r);
+        }
+    }
+
+    /// The next wave: the stages of `nodes` whose inputs are all done and
+    /// that are neither resolved nor watched. Those with a failed input are
+    /// skipped, those in the store cached, those whose earlier job is still
+    /// queued or running watched; the others, with the stages to retry, are
+    /// returned to be submitted.
+    fn next_wave(
+        &self,
+        nodes: &[usize],
+        jobs: &HashMap<String, JobState>,
+        progress: &Progress,
+        t: &mut Tracking,
+    ) -> Vec<Ready> {
+        let g = self.graph;
+        let mut ready: Vec<Ready> = std::mem::take(&mut t.retry);
+        for &i in nodes {
+            if t.results[i].is_some()
+                || t.watching.contains_key(&i)
+                || ready.iter().any(|r| r.node == i)
+            {
+                continue;
             }
-            // Stages whose inputs are all done: cached, adopted or ready.
-            let mut ready: Vec<(usize, String, Vec<Entry>)> = std::mem::take(&mut retry);
-            for &i in nodes {
-                if results[i].is_some()
-                    || watching.contains_key(&i)
-                    || ready.iter().any(|(j, _, _)| *j == i)
-                {
-                    continue;
-                }
-                let node = &g.nodes[i];
-                let mut inputs = Vec::new();
-                let mut failed = None;
-                let mut waiting = false;
-                for &j in &node.inputs {
-                    match &results[j] {
-                        Some(StageResult { entry: Some(e), .. }) => inputs.push(e.clone()),
-                        Some(_) => failed = Some(g.nodes[j].label().to_string()),
-                        None => waiting = true,
-                    }
-                }
-                if let Some(failed_input) = failed {
+            let node = &g.nodes[i];
+            let inputs = match input_entries(g, node, &t.results) {
+                Inputs::Done(inputs) => inputs,
+                Inputs::Failed(failed_input) => {
                     let r = StageResult {
                         outcome: Outcome::Skipped { failed_input },
                         entry: None,
                     };
-                    finish(&mut results, i, r);
+                    t.finish(progress, g, i, r);
                     continue;
                 }
-                if waiting {
-                    continue;
-                }
-                let digests: Vec<&str> = inputs.iter().map(|e| e.digest.as_str()).collect();
-                let key = stage_key(g, self.reg, node, &digests);
-                if !self.opts.force.contains(&node.kind) {
-                    match self.store.find(&key) {
-                        Found::Hit(e) => {
-                            for l in &node.labels {
-                                let _ = self.store.set_label(l, &e.key);
-                            }
-                            let r = StageResult {
-                                outcome: Outcome::Cached,
-                                entry: Some(e),
-                            };
-                            finish(&mut results, i, r);
-                            continue;
-                        }
-                        Found::Damaged { problems, .. } => {
-                            for msg in exec::quarantine(self.store, &problems) {
-                                progress.line(&msg);
-                                damaged.push(msg);
-                            }
-                        }
-                        Found::Miss => {}
-                    }
-                }
-                match state::read(self.store, &key) {
-                    Some(rec) if jobs.get(&rec.job_id).is_some_and(JobState::is_active) => {
-                        progress.line(&format!(
-                            "{}: job {} is {}; waiting for it",
-                            node.label(),
-                            rec.job_id,
-                            describe(&jobs[&rec.job_id])
-                        ));
-                        watching.insert(i, rec);
-                    }
-                    Some(rec) => {
-                        let st = jobs.get(&rec.job_id).cloned().unwrap_or(JobState::Unknown);
-                        let why = state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
-                        progress.line(&format!(
-                            "{}: earlier job {} ended without a result ({why}; log {}); resubmitting",
-                            node.label(),
-                            rec.job_id,
-                            rec.log.display()
-                        ));
-                        ready.push((i, key, inputs));
-                    }
-                    None => ready.push((i, key, inputs)),
-                }
+                Inputs::Waiting => continue,
+            };
+            let digests: Vec<&str> = inputs.iter().map(|e| e.digest.as_str()).collect();
+            let key = stage_key(g, self.reg, node, &digests);
+            if let Some(e) = self.in_store(node, &key, progress, &mut t.damaged) {
+                let r = StageResult {
+                    outcome: Outcome::Cached,
+                    entry: Some(e),
+                };
+                t.finish(progress, g, i, r);
+                continue;
             }
-            if !ready.is_empty() {
-                for rec in self.submit(&ready, &longer)? {
-                    let i = ready
-                        .iter()
-                        .find(|(_, k, _)| *k == rec.key)
-                        .map(|(i, _, _)| *i)
-                        .expect("submitted key is ready");
-                    watching.insert(i, rec);
+            match state::read(self.store, &key) {
+                Some(rec) if jobs.get(&rec.job_id).is_some_and(JobState::is_active) => {
+                    progress.line(&format!(
+                        "{}: job {} is {}; waiting for it",
+                        node.label(),
+                        rec.job_id,
+                        describe(&jobs[&rec.job_id])
+                    ));
+                    t.watching.insert(i, rec);
                 }
+                Some(rec) => {
+                    let st = jobs.get(&rec.job_id).cloned().unwrap_or(JobState::Unknown);
+                    let why = state::details(&rec.job_id).unwrap_or_else(|| describe(&st));
+                    progress.line(&format!(
+                        "{}: earlier job {} ended without a result ({why}; log {}); resubmitting",
+                        node.label(),
+                        rec.job_id,
+                        rec.log.display()
+                    ));
+                    ready.push(Ready {
+                        node: i,
+                        key,
+                        inputs,
+                    });
+                }
+                None => ready.push(Ready {
+                    node: i,
+                    key,
+                    inputs,
+                }),
             }
-            if watching.is_empty() {
-                break;
-            }
-            progress.beat(super::progress::heartbeat());
-            std::thread::sleep(self.opts.poll);
         }
-        progress.done();
-        let mut out = BTreeMap::new();
-        for &i in nodes {
-            out.insert(i, results[i].take().expect("every node was resolved"));
+        ready
+    }
+
+    /// The entry of `node` under `key` when the store holds it intact and its
+    /// kind is not forced, its labels then set; damaged artifacts met are
+    /// quarantined and added to `damaged`.
+    fn in_store(
+        &self,
+        node: &Node,
+        key: &str,
+        progress: &Progress,
+        damaged: &mut Vec<String>,
+    ) -> Option<Entry> {
+        if self.opts.force.contains(&node.kind) {
+            return None;
         }
-        Ok(RunReport {
-            results: out,
-            damaged,
-        })
+        match self.store.find(key) {
+            Found::Hit(e) => {
+                for l in &node.labels {
+                    let _ = self.store.set_label(l, &e.key);
+                }
+                Some(e)
+            }
+            Found::Damaged { problems, .. } => {
+                for msg in exec::quarantine(self.store, &problems) {
+                    progress.line(&msg);
+                    damaged.push(msg);
+                }
+                None
+            }
+            Found::Miss => None,
+        }
     }
 
     /// Submit `ready` stages: one job (an array when several) per kind and
     /// settings. Records each stage's job in the store; returns the records.
     /// `longer`: stages resubmitted after their time limit, with the factor on it.
-    fn submit(
-        &self,
-        ready: &[(usize, String, Vec<Entry>)],
-        longer: &BTreeMap<usize, f64>,
-    ) -> Result<Vec<JobRecord>> {
+    fn submit(&self, ready: &[Ready], longer: &BTreeMap<usize, f64>) -> Result<Vec<JobRecord>> {
         let g = self.graph;
         let mut groups: BTreeMap<(String, String), Vec<usize>> = BTreeMap::new();
-        for (k, (i, _, _)) in ready.iter().enumerate() {
-            let s = serde_json::to_string(&self.settings[*i])?;
+        for (k, r) in ready.iter().enumerate() {
+            let s = serde_json::to_string(&self.settings[r.node])?;
             groups
-                .entry((g.nodes[*i].kind.clone(), s))
+                .entry((g.nodes[r.node].kind.clone(), s))
                 .or_default()
                 .push(k);
         }
         let logs = state::jobs_dir(self.store).join("log");
         std::fs::create_dir_all(&logs)?;
-        let figures: Vec<String> = g.figures.iter().map(|f| f.id.clone()).collect();
         let mut out = Vec::new();
         for ((kind, _), members) in groups {
-            let settings = &self.settings[ready[members[0]].0];
-            let res: Vec<Resources> = members
-                .iter()
-                .map(|&k| {
-                    let (i, _, inputs) = &ready[k];
-                    plan::resources(
-                        &g.nodes[*i].kind,
-                        &g.nodes[*i].params,
-                        self.reg
-                            .planned(&g.nodes[*i].kind, &g.nodes[*i].parsed)
-                            .as_ref(),
-                        (input_bytes(self.store, inputs), inputs.len()),
-                        settings,
-                    )
-                })
-                .collect();
-            let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
-            // Only simulations (kinds with a cost model) checkpoint.
-            let resumable = self
-                .reg
-                .planned(&kind, &g.nodes[ready[members[0]].0].parsed)
-                .is_some();
-            // Short stages share a task (one after the other); a stage that
-            // ran out of time once goes alone.
-            let factor: Vec<f64> = members
-                .iter()
-                .map(|&k| longer.get(&ready[k].0).copied().unwrap_or(1.0))
-                .collect();
-            let plan::JobTasks {
-                tasks,
-                task_of,
-                time_min: time,
-            } = plan::job_tasks(&res, &factor, resumable, settings);
-            let (time, links) = plan::chain(time, state::max_minutes(settings), resumable);
-            let keys: Vec<&str> = members.iter().map(|&k| ready[k].1.as_str()).collect();
-            let array = tasks.len() > 1;
-            let mut args = vec![
-                format!("--job-name=repro-{kind}"),
-                "--cpus-per-task=1".to_string(),
-                "--ntasks=1".to_string(),
-                format!("--mem={mem}M"),
-                format!("--time={}", plan::time_limit(time)),
-                format!(
-                    "--output={}",
-                    logs.join(if array { "%A_%a.log" } else { "%j.log" })
-                        .display()
-                ),
-            ];
-            if array {
-                args.push(format!("--array=0-{}", tasks.len() - 1));
-            }
-            args.extend(settings.sbatch_args());
-            if members.iter().any(|&k| longer.contains_key(&ready[k].0)) {
-                // After the profile's own options: a `--time` among them set the
-                // limit the job hit.
-                args.push(format!("--time={}", plan::time_limit(time)));
-            }
-            let worker = format!(
-                "{} worker --store {}",
-                shell_quote(&self.opts.binary.display().to_string()),
-                shell_quote(&self.store.dir.display().to_string()),
-            );
-            let script = if tasks.iter().all(|t| t.len() == 1) {
-                format!(
-                    "#!/bin/bash\n# repro: {} stage(s) of kind {kind}\nKEYS=({})\nexec {worker} --key \"${{KEYS[${{SLURM_ARRAY_TASK_ID:-0}}]}}\"\n",
-                    keys.len(),
-                    keys.join(" "),
-                )
-            } else {
-                // A task's stages one after the other; the task fails if one
-                // does (the others still run: each is its own stage).
-                let list: Vec<String> = tasks
-                    .iter()
-                    .map(|t| {
-                        let k: Vec<&str> = t.iter().map(|&m| keys[m]).collect();
-                        format!("\"{}\"", k.join(" "))
-                    })
-                    .collect();
-                format!(
-                    "#!/bin/bash\n# repro: {} stage(s) of kind {kind} in {} task(s)\nTASKS=({})\nstatus=0\nfor KEY in ${{TASKS[${{SLURM_ARRAY_TASK_ID:-0}}]}}; do\n  {worker} --key \"$KEY\" || status=$?\ndone\nexit $status\n",
-                    keys.len(),
-                    tasks.len(),
-                    list.join(" "),
-                )
-            };
+            let settings = &self.settings[ready[members[0]].node];
+            let job = self.job(ready, kind, members, longer);
+            let args = self.sbatch_args(&job, &logs, settings);
+            let script = self.script(&job);
             // Records first (without a job id), so a worker always finds its record.
-            let mut recs: Vec<JobRecord> = members
-                .iter()
-                .zip(&res)
-                .map(|(&k, r)| {
-                    let (i, key, inputs) = &ready[k];
-                    let node = &g.nodes[*i];
-                    JobRecord {
-                        key: key.clone(),
-                        label: node.label().to_string(),
-                        kind: node.kind.clone(),
-                        recipe: node.recipe.clone(),
-                        root: self.ws.root.clone(),
-                        profile: g.profile.clone(),
-                        figures: figures.clone(),
-                        inputs: inputs.iter().map(|e| e.key.clone()).collect(),
-                        force: self.opts.force.contains(&node.kind),
-                        job_id: String::new(),
-                        log: PathBuf::new(),
-                        resources: r.clone(),
-                        submitted: now(),
-                    }
-                })
-                .collect();
+            let mut recs = self.records(ready, &job);
             for r in &recs {
                 state::write(self.store, r)?;
             }
-            // A chain: each job starts when the one before has ended (at its
-            // time limit, or done: a worker whose stage is in the store exits)
-            // and resumes from the last checkpoint. The records name the last.
-            let mut id = state::submit(&args, &script)?;
-            let mut chain = vec![id.clone()];
-            for _ in 1..links {
-                let mut after = args.clone();
-                after.push(format!("--dependency=afterany:{id}"));
-                id = state::submit(&after, &script)?;
-                chain.push(id.clone());
-            }
-            eprintln!(
-                "submitted Slurm job {}: {} {kind} stage(s){}, {mem} MiB and {} each",
-                if links > 1 {
-                    format!(
-                        "chain {} (each resumes from the last checkpoint)",
-                        chain.join(" -> ")
-                    )
-                } else {
-                    id.clone()
-                },
-                keys.len(),
-                if tasks.len() < keys.len() {
-                    format!(" in {} task(s)", tasks.len())
-                } else {
-                    String::new()
-                },
-                plan::time_limit(time)
-            );
+            let id = submit_chain(&job, &args, &script)?;
             for (m, r) in recs.iter_mut().enumerate() {
-                let t = task_of[m];
-                if array {
+                let t = job.task_of[m];
+                if job.array() {
                     r.job_id = format!("{id}_{t}");
                     r.log = logs.join(format!("{id}_{t}.log"));
                 } else {
@@ -526,6 +514,221 @@ impl Driver<'_> {
         }
         Ok(out)
     }
+
+    /// The job of the `members` of `ready` (stages of one kind and settings):
+    /// each one's resources, its tasks (short stages share one, one after the
+    /// other; a stage that ran out of time once goes alone) and its time limit.
+    fn job<'r>(
+        &self,
+        ready: &'r [Ready],
+        kind: String,
+        members: Vec<usize>,
+        longer: &BTreeMap<usize, f64>,
+    ) -> Job<'r> {
+        let g = self.graph;
+        let settings = &self.settings[ready[members[0]].node];
+        let res: Vec<Resources> = members
+            .iter()
+            .map(|&k| {
+                let Ready {
+                    node: i, inputs, ..
+                } = &ready[k];
+                plan::resources(
+                    &g.nodes[*i].kind,
+                    &g.nodes[*i].params,
+                    self.reg
+                        .planned(&g.nodes[*i].kind, &g.nodes[*i].parsed)
+                        .as_ref(),
+                    (input_bytes(self.store, inputs), inputs.len()),
+                    settings,
+                )
+            })
+            .collect();
+        let mem = res.iter().map(|r| r.mem_mib).max().unwrap_or(1);
+        // Only simulations (kinds with a cost model) checkpoint.
+        let resumable = self
+            .reg
+            .planned(&kind, &g.nodes[ready[members[0]].node].parsed)
+            .is_some();
+        let factor: Vec<f64> = members
+            .iter()
+            .map(|&k| longer.get(&ready[k].node).copied().unwrap_or(1.0))
+            .collect();
+        let plan::JobTasks {
+            tasks,
+            task_of,
+            time_min: time,
+        } = plan::job_tasks(&res, &factor, resumable, settings);
+        let (time, links) = plan::chain(time, state::max_minutes(settings), resumable);
+        let keys: Vec<&str> = members.iter().map(|&k| ready[k].key.as_str()).collect();
+        let resubmitted = members.iter().any(|&k| longer.contains_key(&ready[k].node));
+        Job {
+            kind,
+            members,
+            res,
+            mem,
+            tasks,
+            task_of,
+            time,
+            links,
+            keys,
+            resubmitted,
+        }
+    }
+
+    /// `sbatch`'s options for `job`: name, one CPU, memory, time limit, log
+    /// files under `logs`, the array, then the profile's own options.
+    fn sbatch_args(&self, job: &Job, logs: &Path, settings: &Settings) -> Vec<String> {
+        let mut args = vec![
+            format!("--job-name=repro-{}", job.kind),
+            "--cpus-per-task=1".to_string(),
+            "--ntasks=1".to_string(),
+            format!("--mem={}M", job.mem),
+            format!("--time={}", plan::time_limit(job.time)),
+            format!(
+                "--output={}",
+                logs.join(if job.array() { "%A_%a.log" } else { "%j.log" })
+                    .display()
+            ),
+        ];
+        if job.array() {
+            args.push(format!("--array=0-{}", job.tasks.len() - 1));
+        }
+        args.extend(settings.sbatch_args());
+        if job.resubmitted {
+            // After the profile's own options: a `--time` among them set the
+            // limit the job hit.
+            args.push(format!("--time={}", plan::time_limit(job.time)));
+        }
+        args
+    }
+
+    /// The batch script of `job`: each array task runs `repro worker` on its
+    /// stage, or on its stages one after the other.
+    fn script(&self, job: &Job) -> String {
+        let kind = &job.kind;
+        let keys = &job.keys;
+        let worker = format!(
+            "{} worker --store {}",
+            shell_quote(&self.opts.binary.display().to_string()),
+            shell_quote(&self.store.dir.display().to_string()),
+        );
+        if job.tasks.iter().all(|t| t.len() == 1) {
+            format!(
+                "#!/bin/bash\n# repro: {} stage(s) of kind {kind}\nKEYS=({})\nexec {worker} --key \"${{KEYS[${{SLURM_ARRAY_TASK_ID:-0}}]}}\"\n",
+                keys.len(),
+                keys.join(" "),
+            )
+        } else {
+            // A task's stages one after the other; the task fails if one
+            // does (the others still run: each is its own stage).
+            let list: Vec<String> = job
+                .tasks
+                .iter()
+                .map(|t| {
+                    let k: Vec<&str> = t.iter().map(|&m| keys[m]).collect();
+                    format!("\"{}\"", k.join(" "))
+                })
+                .collect();
+            format!(
+                "#!/bin/bash\n# repro: {} stage(s) of kind {kind} in {} task(s)\nTASKS=({})\nstatus=0\nfor KEY in ${{TASKS[${{SLURM_ARRAY_TASK_ID:-0}}]}}; do\n  {worker} --key \"$KEY\" || status=$?\ndone\nexit $status\n",
+                keys.len(),
+                job.tasks.len(),
+                list.join(" "),
+            )
+        }
+    }
+
+    /// The job records of `job`'s stages, without a job id yet.
+    fn records(&self, ready: &[Ready], job: &Job) -> Vec<JobRecord> {
+        let g = self.graph;
+        let figures: Vec<String> = g.figures.iter().map(|f| f.id.clone()).collect();
+        job.members
+            .iter()
+            .zip(&job.res)
+            .map(|(&k, r)| {
+                let Ready {
+                    node: i,
+                    key,
+                    inputs,
+                } = &ready[k];
+                let node = &g.nodes[*i];
+                JobRecord {
+                    key: key.clone(),
+                    label: node.label().to_string(),
+                    kind: node.kind.clone(),
+                    recipe: node.recipe.clone(),
+                    root: self.ws.root.clone(),
+                    profile: g.profile.clone(),
+                    figures: figures.clone(),
+                    inputs: inputs.iter().map(|e| e.key.clone()).collect(),
+                    force: self.opts.force.contains(&node.kind),
+                    job_id: String::new(),
+                    log: PathBuf::new(),
+                    resources: r.clone(),
+                    submitted: now(),
+                }
+            })
+            .collect()
+    }
+}
+
+/// A stage's inputs: their entries once all are in `results`, else the first
+/// failed one (before any still to come), else waiting.
+fn input_entries(g: &Graph, node: &Node, results: &[Option<StageResult>]) -> Inputs {
+    let mut inputs = Vec::new();
+    let mut failed = None;
+    let mut waiting = false;
+    for &j in &node.inputs {
+        match &results[j] {
+            Some(StageResult { entry: Some(e), .. }) => inputs.push(e.clone()),
+            Some(_) => failed = Some(g.nodes[j].label().to_string()),
+            None => waiting = true,
+        }
+    }
+    if let Some(failed_input) = failed {
+        Inputs::Failed(failed_input)
+    } else if waiting {
+        Inputs::Waiting
+    } else {
+        Inputs::Done(inputs)
+    }
+}
+
+/// Submit `job` with `args` and `script`, as a chain when it has several
+/// links: each job starts when the one before has ended (at its time limit,
+/// or done: a worker whose stage is in the store exits) and resumes from the
+/// last checkpoint. Returns the last job's id, which the records name.
+fn submit_chain(job: &Job, args: &[String], script: &str) -> Result<String> {
+    let mut id = state::submit(args, script)?;
+    let mut chain = vec![id.clone()];
+    for _ in 1..job.links {
+        let mut after = args.to_vec();
+        after.push(format!("--dependency=afterany:{id}"));
+        id = state::submit(&after, script)?;
+        chain.push(id.clone());
+    }
+    eprintln!(
+        "submitted Slurm job {}: {} {} stage(s){}, {} MiB and {} each",
+        if job.links > 1 {
+            format!(
+                "chain {} (each resumes from the last checkpoint)",
+                chain.join(" -> ")
+            )
+        } else {
+            id.clone()
+        },
+        job.keys.len(),
+        job.kind,
+        if job.tasks.len() < job.keys.len() {
+            format!(" in {} task(s)", job.tasks.len())
+        } else {
+            String::new()
+        },
+        job.mem,
+        plan::time_limit(job.time)
+    );
+    Ok(id)
 }
 
 fn shell_quote(s: &str) -> String {

@@ -7,17 +7,20 @@ use std::collections::BTreeMap;
 use anyhow::{Result, bail};
 use serde_json::Value;
 
-use super::collapse_output::{CollapseParts, collapse_files, collapse_output};
-use super::params::CollapseParams;
+use super::collapse_output::{CollapseParts, Collapsed, collapse_files, collapse_output};
+use super::curve_rows::CurveRows;
+use super::params::{CollapseParams, FromQuantity};
 use super::rescaled::{run_named, validate_named};
 use super::samples::replica_columns;
 use crate::analysis::pool;
-use crate::fit::collapse::{self, Curve, curves_by};
+use crate::fit::collapse::{self, CollapseResult, Curve, Rescale};
 use crate::fit::rescalings;
-use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, XI_REFITTED, jackknife_method};
+use crate::fit::uncertainty::replicas::{
+    HELD, JK_IMPOSSIBLE, Replicas, XI_REFITTED, jackknife_method,
+};
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
-use crate::stages::tables::{Columns, Cond, inputs_of, pick};
+use crate::stages::tables::{Columns, Cond, inputs_of};
 
 pub struct Collapse;
 
@@ -138,77 +141,128 @@ fn collapse_group(
         _ => f64::NAN, // validated: a measured xi column instead
     };
     let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
-    let rows = c.select(&p.filter)?;
-    let rows_in = rows.clone();
-    // A measured xi per curve (its first row of `where`), when given.
-    let measured: Option<BTreeMap<u64, f64>> = match &p.xi {
-        Some(col) => {
-            let (v, b) = (c.col(col)?, c.col(&p.curve_by)?);
-            let mut m = BTreeMap::new();
-            for &i in &rows {
-                m.entry(b[i].to_bits()).or_insert(v[i]);
-            }
-            Some(m)
-        }
-        None => None,
+    let sc = Scaling::read(p, &c, phi_c)?;
+    let curves = sc.curves(&sc.points.y);
+    let rescale = sc.rescale(sc.measured.clone());
+    let found = match &p.g_from {
+        Some(from) => held_g(inputs, group, from, &curves, &rescale)?,
+        None => sc.fit(ctx, &curves, &rescale),
     };
-    let (xc, yc, ec, bc) = (
-        c.col(&p.x)?,
-        c.col(&p.y)?,
-        c.col(&p.y_err)?,
-        c.col(&p.curve_by)?,
+    collapse_output(p, &curves, &rescale, &found, group)
+}
+
+/// `g_from`: g held at another fit's value, so nothing is fitted: the collapse
+/// is a test of the independent exponents, its quality S the verdict; g's
+/// error is the source fit's.
+fn held_g(
+    inputs: &[Artifact],
+    group: &[(String, f64)],
+    from: &FromQuantity,
+    curves: &[Curve],
+    rescale: Rescale<'_>,
+) -> Result<Collapsed> {
+    let (g, dg) = Columns::read(&inputs_of("collapse", inputs, &from.stage)?)?
+        .quantity_in(&from.quantity, group)?;
+    let (rows, note, best) = match collapse::quality(curves, rescale, &[g]) {
+        Ok(q) => (
+            vec![
+                ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                ("collapse_S".to_string(), q.s, f64::NAN),
+                ("curves".to_string(), curves.len() as f64, 0.0),
+            ],
+            String::new(),
+            Some(vec![g, f64::NAN]),
+        ),
+        Err(e) => (
+            vec![
+                ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                ("collapse_S".to_string(), f64::NAN, f64::NAN),
+            ],
+            format!("collapse quality failed: {e:#}"),
+            None,
+        ),
+    };
+    let method = format!(
+        "g held at {}.{} (its fit's error); no fit",
+        from.stage, from.quantity
     );
-    let x_all = pick(xc, &rows);
-    let y_all = pick(yc, &rows);
-    let (e_all, b_all) = (pick(ec, &rows), pick(bc, &rows));
-    // Curves without a usable measured xi are left out.
-    let has_xi = |c: &Curve| {
-        measured
-            .as_ref()
-            .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
-    };
-    let curves_of = |ys: &[f64]| -> Vec<Curve> {
-        curves_by(&p.curve_by, &x_all, ys, &e_all, &b_all)
-            .into_iter()
-            .filter(|c| has_xi(c))
-            .collect()
-    };
-    let curves = curves_of(&y_all);
-    let fitted: &[&str] = if measured.is_some() {
-        &["g"]
-    } else {
-        &["g", "gamma_xi"]
-    };
-    // With `g_from` nothing is fitted and `bounds` is empty (validated).
-    let bounds: Vec<(f64, f64)> = fitted
-        .iter()
-        .map(|k| p.bounds.get(*k).copied().unwrap_or((f64::NAN, f64::NAN)))
-        .collect();
-    // The measured xi of each curve with one replica of one unit left out
-    // (`XI_jkK` with `jk_unit`, from a fit per state point that carries
-    // them): the refits rescale with it, so that xi's share of the variance
-    // is counted rather than held at its value.
-    let measured_jk: Option<BTreeMap<(u64, usize), (u64, f64)>> = match &p.xi {
-        Some(col) => {
-            let b = c.col(&p.curve_by)?;
-            let units = c.col(pool::JK_UNIT).ok();
-            let samples: Vec<&[f64]> = (0..pool::MAX_JK_REPLICAS)
-                .map_while(|k| c.col(&pool::jk_column(col, k)).ok())
-                .collect();
-            units.filter(|_| samples.len() >= 2).map(|u| {
-                let mut m = BTreeMap::new();
-                for &i in &rows_in {
-                    for (k, v) in samples.iter().enumerate() {
-                        m.entry((u[i].to_bits(), k))
-                            .or_insert((b[i].to_bits(), v[i]));
-                    }
-                }
-                m
-            })
-        }
-        None => None,
-    };
-    let rescale_with = |by_xi: Option<BTreeMap<u64, f64>>| {
+    Ok(Collapsed {
+        rows,
+        note,
+        best,
+        method,
+    })
+}
+
+/// The error method of a collapse without replica refits.
+const COVARIANCE: &str = "fit covariance of the collapse";
+
+/// Fig. 19's finite-size scaling of one collapse: its rows of `where` as
+/// curves, xi per curve measured (a column) or (phi_c - phi)^-gamma_xi, and
+/// what it fits (g, and gamma_xi without a measured xi) within which bounds.
+struct Scaling<'a> {
+    p: &'a CollapseParams,
+    c: &'a Columns,
+    phi_c: f64,
+    /// The rows of `where`.
+    rows: Vec<usize>,
+    points: CurveRows<'a>,
+    /// The measured xi per curve (by the bits of its `curve_by` value).
+    measured: Option<BTreeMap<u64, f64>>,
+    /// The measured xi with one replica of one unit left out, where the data
+    /// carry them: (unit, replica) -> (curve, xi).
+    measured_jk: Option<BTreeMap<(u64, usize), (u64, f64)>>,
+    fitted: &'static [&'static str],
+    bounds: Vec<(f64, f64)>,
+}
+
+impl<'a> Scaling<'a> {
+    fn read(p: &'a CollapseParams, c: &'a Columns, phi_c: f64) -> Result<Self> {
+        let rows = c.select(&p.filter)?;
+        let measured = measured_xi(p, c, &rows)?;
+        let points = CurveRows::read(p, c, &rows)?;
+        let fitted: &'static [&'static str] = if measured.is_some() {
+            &["g"]
+        } else {
+            &["g", "gamma_xi"]
+        };
+        // With `g_from` nothing is fitted and `bounds` is empty (validated).
+        let bounds: Vec<(f64, f64)> = fitted
+            .iter()
+            .map(|k| p.bounds.get(*k).copied().unwrap_or((f64::NAN, f64::NAN)))
+            .collect();
+        let measured_jk = measured_xi_replicas(p, c, &rows)?;
+        Ok(Scaling {
+            p,
+            c,
+            phi_c,
+            rows,
+            points,
+            measured,
+            measured_jk,
+            fitted,
+            bounds,
+        })
+    }
+
+    /// The curves with y values `ys`; those without a usable measured xi are
+    /// left out.
+    fn curves(&self, ys: &[f64]) -> Vec<Curve> {
+        let has_xi = |c: &Curve| {
+            self.measured
+                .as_ref()
+                .is_none_or(|m| m[&c.param.to_bits()].is_finite() && m[&c.param.to_bits()] > 0.0)
+        };
+        self.points.curves(ys, has_xi)
+    }
+
+    /// The rescaling at q = (g, gamma_xi): x to sqrt(x)/xi, y and its error
+    /// times xi^-g, with xi the curve's in `by_xi` or else (phi_c - phi)^-gamma_xi.
+    fn rescale(
+        &self,
+        by_xi: Option<BTreeMap<u64, f64>>,
+    ) -> impl Fn(&[f64], &Curve, f64, f64, f64) -> (f64, f64, f64) + use<> {
+        let phi_c = self.phi_c;
         move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
             let l = match &by_xi {
                 Some(m) => m[&cv.param.to_bits()],
@@ -217,12 +271,13 @@ fn collapse_group(
             let f = l.powf(-q[0]);
             (x.sqrt() / l, y * f, s * f)
         }
-    };
-    let rescale = rescale_with(measured.clone());
-    // The measured xi with replica `left` of its unit left out.
-    let xi_left_out = |left: pool::LeftOut| -> Option<BTreeMap<u64, f64>> {
-        let mut m = measured.clone()?;
-        if let Some((curve, v)) = measured_jk
+    }
+
+    /// The measured xi with replica `left` of its unit left out.
+    fn xi_left_out(&self, left: pool::LeftOut) -> Option<BTreeMap<u64, f64>> {
+        let mut m = self.measured.clone()?;
+        if let Some((curve, v)) = self
+            .measured_jk
             .as_ref()
             .and_then(|j| j.get(&(left.unit.to_bits(), left.replica)))
             && v.is_finite()
@@ -231,166 +286,203 @@ fn collapse_group(
             m.insert(*curve, *v);
         }
         Some(m)
-    };
-    if let Some(from) = &p.g_from {
-        // g held: the collapse is a test of the independent exponents, its
-        // quality S the verdict; g's error is the source fit's.
-        let (g, dg) = Columns::read(&inputs_of("collapse", inputs, &from.stage)?)?
-            .quantity_in(&from.quantity, group)?;
-        let (rows, note, best) = match collapse::quality(&curves, &rescale, &[g]) {
-            Ok(q) => (
-                vec![
-                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                    ("collapse_S".to_string(), q.s, f64::NAN),
-                    ("curves".to_string(), curves.len() as f64, 0.0),
-                ],
-                String::new(),
-                Some(vec![g, f64::NAN]),
-            ),
-            Err(e) => (
-                vec![
-                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                    ("collapse_S".to_string(), f64::NAN, f64::NAN),
-                ],
-                format!("collapse quality failed: {e:#}"),
-                None,
-            ),
-        };
-        let method = format!(
-            "g held at {}.{} (its fit's error); no fit",
-            from.stage, from.quantity
-        );
-        return collapse_output(
-            &p,
-            &curves,
-            best.as_deref(),
-            &rescale,
-            &rows,
-            &note,
-            &method,
-            group,
-        );
     }
-    let result = if measured.is_none() && curves.iter().any(|c| c.param >= phi_c) {
-        Err(anyhow::anyhow!(
-            "phi_c = {phi_c} is not above every {} of the data",
-            p.curve_by
-        ))
-    } else {
-        collapse::collapse(&curves, fitted, &bounds, &rescale).map_err(anyhow::Error::from)
-    };
-    let mut method = "fit covariance of the collapse".to_string();
-    let (rows, note, best) = match result {
-        Ok(r) if measured.is_some() => {
-            let (g, mut dg) = r.get("g").expect("named");
-            // Errors from refits with one replica of one phi left out, in
-            // chi4P and, where the data carry its replica samples, in the
-            // measured xi of that phi (else xi is held at its value).
-            if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
-                let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                    let curves = curves_of(ys);
-                    let rescale = rescale_with(xi_left_out(left));
-                    collapse::best(&curves, fitted, &bounds, &rescale)
-                        .map_err(|e| {
-                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
-                        })
-                        .ok()
-                        .map(|b| vec![b[0]])
-                };
-                match pool::replica_jackknife_with(&units, &x_all, &y_all, &[], &y_jk, &[], refit) {
-                    Some(j) => {
-                        dg = j.errors[0];
-                        let note = if measured_jk.is_some() {
-                            XI_REFITTED
-                        } else {
-                            HELD
-                        };
-                        method = jackknife_method(j.refits.len(), note);
-                    }
-                    None => method.push_str(JK_IMPOSSIBLE),
+
+    /// The replica jackknife inputs of the rows, if y has them.
+    fn replicas(&self) -> Option<Replicas> {
+        replica_columns(self.c, &self.rows, &self.p.x, &self.p.y)
+    }
+
+    /// The best parameters of a jackknife refit's collapse of `curves`; a
+    /// failure is logged.
+    fn refit(&self, ctx: &StageCtx, curves: &[Curve], rescale: Rescale<'_>) -> Option<Vec<f64>> {
+        collapse::best(curves, self.fitted, &self.bounds, rescale)
+            .map_err(|e| ctx.log(format!("jackknife refit of the collapse failed: {e:#}")))
+            .ok()
+    }
+
+    /// The fitted collapse of `curves`: its numbers with their errors, or NaN
+    /// and why it failed.
+    fn fit(&self, ctx: &StageCtx, curves: &[Curve], rescale: Rescale<'_>) -> Collapsed {
+        let result = if self.measured.is_none() && curves.iter().any(|c| c.param >= self.phi_c) {
+            Err(anyhow::anyhow!(
+                "phi_c = {} is not above every {} of the data",
+                self.phi_c,
+                self.p.curve_by
+            ))
+        } else {
+            collapse::collapse(curves, self.fitted, &self.bounds, rescale)
+                .map_err(anyhow::Error::from)
+        };
+        match result {
+            Ok(r) if self.measured.is_some() => self.with_measured_xi(ctx, &r, curves.len()),
+            Ok(r) => self.with_gamma_xi(ctx, &r, curves.len(), rescale),
+            Err(e) => self.failed(ctx, &e),
+        }
+    }
+
+    /// g fitted with the measured xi of `n_curves` curves. Its error from
+    /// refits with one replica of one phi left out, in chi4P and, where the
+    /// data carry its replica samples, in the measured xi of that phi (else xi
+    /// is held at its value).
+    fn with_measured_xi(&self, ctx: &StageCtx, r: &CollapseResult, n_curves: usize) -> Collapsed {
+        let (g, mut dg) = r.get("g").expect("named");
+        let mut method = COVARIANCE.to_string();
+        if let Some((units, _, y_jk)) = self.replicas() {
+            let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                let curves = self.curves(ys);
+                let rescale = self.rescale(self.xi_left_out(left));
+                self.refit(ctx, &curves, &rescale).map(|b| vec![b[0]])
+            };
+            let (x, y) = (&self.points.x, &self.points.y);
+            match pool::replica_jackknife_with(&units, x, y, &[], &y_jk, &[], refit) {
+                Some(j) => {
+                    dg = j.errors[0];
+                    let note = if self.measured_jk.is_some() {
+                        XI_REFITTED
+                    } else {
+                        HELD
+                    };
+                    method = jackknife_method(j.refits.len(), note);
                 }
+                None => method.push_str(JK_IMPOSSIBLE),
             }
-            (
-                vec![
-                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                    ("collapse_S".to_string(), r.quality.s, f64::NAN),
-                    ("curves".to_string(), curves.len() as f64, 0.0),
-                ],
-                String::new(),
-                Some([g, f64::NAN]),
-            )
         }
-        Ok(r) => {
-            let (g, mut dg) = r.get("g").expect("named");
-            let (gx, mut dgx) = r.get("gamma_xi").expect("named");
-            let cov = r.covariance[0][1];
-            let mut dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
-                .max(0.0)
-                .sqrt();
-            // The sub-box sizes of one phi come from the same runs: errors
-            // from refits with one replica of one phi left out.
-            if let Some((units, _, y_jk)) = replica_columns(&c, &rows_in, &p.x, &p.y) {
-                let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                    let b = collapse::best(&curves_of(ys), fitted, &bounds, &rescale)
-                        .map_err(|e| {
-                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
-                        })
-                        .ok()?;
-                    let (g, gx) = (b[0], b[1]);
-                    Some(vec![g, gx, g * gx])
-                };
-                match pool::replica_jackknife(&units, &x_all, &y_all, &[], &y_jk, refit) {
-                    Some((e, refits)) => {
-                        (dg, dgx, dgc) = (e[0], e[1], e[2]);
-                        method = jackknife_method(refits, HELD);
-                    }
-                    None => method.push_str(JK_IMPOSSIBLE),
+        Collapsed {
+            rows: vec![
+                ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                ("curves".to_string(), n_curves as f64, 0.0),
+            ],
+            note: String::new(),
+            best: Some(vec![g, f64::NAN]),
+            method,
+        }
+    }
+
+    /// g and gamma_xi fitted, xi = (phi_c - phi)^-gamma_xi, of `n_curves`
+    /// curves, and gamma_chi = g gamma_xi. The sub-box sizes of one phi come
+    /// from the same runs: errors from refits with one replica of one phi left
+    /// out, where the data carry replica samples.
+    fn with_gamma_xi(
+        &self,
+        ctx: &StageCtx,
+        r: &CollapseResult,
+        n_curves: usize,
+        rescale: Rescale<'_>,
+    ) -> Collapsed {
+        let (g, mut dg) = r.get("g").expect("named");
+        let (gx, mut dgx) = r.get("gamma_xi").expect("named");
+        let cov = r.covariance[0][1];
+        let mut dgc = (gx * gx * dg * dg + g * g * dgx * dgx + 2.0 * g * gx * cov)
+            .max(0.0)
+            .sqrt();
+        let mut method = COVARIANCE.to_string();
+        if let Some((units, _, y_jk)) = self.replicas() {
+            let refit = |_: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+                let b = self.refit(ctx, &self.curves(ys), rescale)?;
+                let (g, gx) = (b[0], b[1]);
+                Some(vec![g, gx, g * gx])
+            };
+            let (x, y) = (&self.points.x, &self.points.y);
+            match pool::replica_jackknife(&units, x, y, &[], &y_jk, refit) {
+                Some((e, refits)) => {
+                    (dg, dgx, dgc) = (e[0], e[1], e[2]);
+                    method = jackknife_method(refits, HELD);
                 }
+                None => method.push_str(JK_IMPOSSIBLE),
             }
-            (
-                vec![
-                    ("gamma_chi_over_gamma_xi".to_string(), g, dg),
-                    ("gamma_xi".to_string(), gx, dgx),
-                    ("gamma_chi".to_string(), g * gx, dgc),
-                    ("collapse_S".to_string(), r.quality.s, f64::NAN),
-                    ("phi_c_used".to_string(), phi_c, 0.0),
-                    ("curves".to_string(), curves.len() as f64, 0.0),
-                ],
-                String::new(),
-                Some([g, gx]),
-            )
         }
-        Err(e) => {
-            let msg = format!("collapse failed: {e:#}");
-            ctx.log(msg.clone());
-            let names = [
-                "gamma_chi_over_gamma_xi",
-                "gamma_xi",
-                "gamma_chi",
-                "collapse_S",
-            ];
-            let mut rows: Vec<(String, f64, f64)> = names
-                .iter()
-                .filter(|n| measured.is_none() || !n.starts_with("gamma_x") && **n != "gamma_chi")
-                .map(|n| (n.to_string(), f64::NAN, f64::NAN))
-                .collect();
-            if measured.is_none() {
-                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
-            }
-            (rows, msg, None)
+        Collapsed {
+            rows: vec![
+                ("gamma_chi_over_gamma_xi".to_string(), g, dg),
+                ("gamma_xi".to_string(), gx, dgx),
+                ("gamma_chi".to_string(), g * gx, dgc),
+                ("collapse_S".to_string(), r.quality.s, f64::NAN),
+                ("phi_c_used".to_string(), self.phi_c, 0.0),
+                ("curves".to_string(), n_curves as f64, 0.0),
+            ],
+            note: String::new(),
+            best: Some(vec![g, gx]),
+            method,
         }
+    }
+
+    /// A collapse that failed: its numbers NaN (those of xi's exponents only
+    /// without a measured xi), the error its note.
+    fn failed(&self, ctx: &StageCtx, e: &anyhow::Error) -> Collapsed {
+        let msg = format!("collapse failed: {e:#}");
+        ctx.log(msg.clone());
+        let names = [
+            "gamma_chi_over_gamma_xi",
+            "gamma_xi",
+            "gamma_chi",
+            "collapse_S",
+        ];
+        let measured = self.measured.is_some();
+        let mut rows: Vec<(String, f64, f64)> = names
+            .iter()
+            .filter(|n| !measured || !n.starts_with("gamma_x") && **n != "gamma_chi")
+            .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+            .collect();
+        if !measured {
+            rows.push(("phi_c_used".to_string(), self.phi_c, 0.0));
+        }
+        Collapsed {
+            rows,
+            note: msg,
+            best: None,
+            method: COVARIANCE.to_string(),
+        }
+    }
+}
+
+/// The measured xi per curve (its first row of `rows`), when `p.xi` names a
+/// column.
+fn measured_xi(
+    p: &CollapseParams,
+    c: &Columns,
+    rows: &[usize],
+) -> Result<Option<BTreeMap<u64, f64>>> {
+    let Some(col) = &p.xi else {
+        return Ok(None);
     };
-    let best = best.map(|q| q.to_vec());
-    collapse_output(
-        &p,
-        &curves,
-        best.as_deref(),
-        &rescale,
-        &rows,
-        &note,
-        &method,
-        group,
-    )
+    let (v, b) = (c.col(col)?, c.col(&p.curve_by)?);
+    let mut m = BTreeMap::new();
+    for &i in rows {
+        m.entry(b[i].to_bits()).or_insert(v[i]);
+    }
+    Ok(Some(m))
+}
+
+/// The measured xi of each curve with one replica of one unit left out
+/// (`XI_jkK` with `jk_unit`, from a fit per state point that carries them),
+/// keyed by (unit, replica): the refits rescale with it, so that xi's share of
+/// the variance is counted rather than held at its value.
+#[allow(clippy::type_complexity)]
+fn measured_xi_replicas(
+    p: &CollapseParams,
+    c: &Columns,
+    rows: &[usize],
+) -> Result<Option<BTreeMap<(u64, usize), (u64, f64)>>> {
+    let Some(col) = &p.xi else {
+        return Ok(None);
+    };
+    let b = c.col(&p.curve_by)?;
+    let units = c.col(pool::JK_UNIT).ok();
+    let samples: Vec<&[f64]> = (0..pool::MAX_JK_REPLICAS)
+        .map_while(|k| c.col(&pool::jk_column(col, k)).ok())
+        .collect();
+    Ok(units.filter(|_| samples.len() >= 2).map(|u| {
+        let mut m = BTreeMap::new();
+        for &i in rows {
+            for (k, v) in samples.iter().enumerate() {
+                m.entry((u[i].to_bits(), k))
+                    .or_insert((b[i].to_bits(), v[i]));
+            }
+        }
+        m
+    }))
 }
 
 #[cfg(test)]

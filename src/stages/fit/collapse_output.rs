@@ -19,22 +19,28 @@ pub(super) struct CollapseParts {
     method: String,
 }
 
+/// What one collapse found: its quantity rows, its note (why it failed, or
+/// empty), the parameters its curves are rescaled with (none when it failed)
+/// and how its errors were taken.
+pub(super) struct Collapsed {
+    pub(super) rows: Vec<(String, f64, f64)>,
+    pub(super) note: String,
+    pub(super) best: Option<Vec<f64>>,
+    pub(super) method: String,
+}
+
 /// A group's outputs: the quantity table and the curves rescaled at the best
 /// parameters (none when the collapse failed), each led by the group's
 /// `group_by` columns.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn collapse_output(
     p: &CollapseParams,
     curves: &[Curve],
-    best: Option<&[f64]>,
     rescale: collapse::Rescale<'_>,
-    rows: &[(String, f64, f64)],
-    note: &str,
-    method: &str,
+    found: &Collapsed,
     group: &[(String, f64)],
 ) -> Result<CollapseParts> {
     let mut cols: [Vec<f64>; 5] = Default::default();
-    if let Some(q) = best {
+    if let Some(q) = found.best.as_deref() {
         for cv in curves {
             for k in 0..cv.x.len() {
                 let (x, y, s) = rescale(q, cv, cv.x[k], cv.y[k], cv.sigma[k]);
@@ -53,9 +59,9 @@ pub(super) fn collapse_output(
         ("Y_err", s),
     ])?;
     Ok(CollapseParts {
-        quantities: quantity_batch(group, rows, note, None)?,
+        quantities: quantity_batch(group, &found.rows, &found.note, None)?,
         rescaled: led_by_group(group, &resc)?,
-        method: method.to_string(),
+        method: found.method.clone(),
     })
 }
 

@@ -12,17 +12,17 @@ use super::ranges::scan_ranges;
 use super::samples::{
     jackknife_table, jk_samples, object_replicas, pick_rows, replica_columns, unit_columns,
 };
-use crate::fit::Data;
 use crate::fit::catalogue::Form;
 use crate::fit::uncertainty::held::{add_in_quadrature, held_shifts};
 use crate::fit::uncertainty::leverage::{CARRIED, Carried, carried_errors, leverages};
 use crate::fit::uncertainty::replicas::{
-    FitPoints, Refits, covariance_method, mean_jackknife, replica_errors,
+    FitPoints, Refits, Replicas, covariance_method, mean_jackknife, replica_errors,
 };
 use crate::fit::uncertainty::scatter::{clean, relative_scatter, widened};
+use crate::fit::{Data, FitResult};
 use crate::pipeline::StageCtx;
 use crate::stages::tables::{Columns, pick};
-use crate::table::results::quantity_batch;
+use crate::table::results::{UnitSamples, quantity_batch};
 
 /// What one fit of a group writes: its quantity table, its curve, its range
 /// scan, how its errors were estimated and its replica jackknife refits.
@@ -37,8 +37,6 @@ pub(super) struct Group {
     pub(super) pooled: Option<Vec<(f64, f64)>>,
 }
 
-/// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
-/// the fitted columns, with the group's values) and its range scan, if asked for.
 /// The numbers a fit takes from other fits (`fixed_from`): the replica refits
 /// of those whose fit has them (its jackknife refits them with the same replica
 /// left out), and the value and quoted error of those whose fit has none (held,
@@ -49,6 +47,8 @@ pub(super) struct TakenNumbers {
     pub held: Vec<(String, f64, f64)>,
 }
 
+/// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
+/// the fitted columns, with the group's values) and its range scan, if asked for.
 pub(super) fn fit_group(
     ctx: &StageCtx,
     p: &FitParams,
@@ -58,131 +58,62 @@ pub(super) fn fit_group(
     fixed: &[(String, f64)],
     from_other: &TakenNumbers,
 ) -> Result<Group> {
-    let shifted = &from_other.refits;
-    let x = pick(c.col(&p.x)?, rows);
-    let y = pick(c.col(&p.y)?, rows);
-    let s = match &p.y_err {
-        Some(e) => pick(c.col(e)?, rows),
-        None => vec![1.0; rows.len()],
-    };
-    // The replica jackknife runs over the rows the fit uses: a row without a
-    // value (a state point whose own fit failed) has no replica samples either.
-    let used: Vec<usize> = (0..rows.len())
-        .filter(|&i| x[i].is_finite() && y[i].is_finite())
-        .collect();
-    let used_rows = pick_rows(rows, &used);
-    let jk = replica_columns(c, &used_rows, &p.x, &p.y);
-    let one_unit = unit_columns(c, &used_rows, &p.y);
-    let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
-    let cleaned = clean(&x, &y, &s);
-    if cleaned.dropped > 0 {
-        ctx.log(format!(
-            "dropped {} point(s) with non-finite x or y",
-            cleaned.dropped
-        ));
-    }
-    let (x, y, s) = (cleaned.x, cleaned.y, cleaned.s);
+    let pts = group_points(ctx, p, c, rows)?;
+    let (x, y) = (&pts.x, &pts.y);
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
     // fit, its refits and its range scan then weight by the widened errors.
-    let scatter = model_scatter(ctx, p, &x, &y, &s, &fixed_ref);
+    let scatter = model_scatter(ctx, p, x, y, &pts.s, &fixed_ref);
     let m_scatter = scatter.map_or(0.0, |(m, _)| m);
-    let s = widened(&s, &y, m_scatter);
+    let s = widened(&pts.s, y, m_scatter);
     if let FitForm::Value = p.form {
         // Rows whose x has replica samples too (a lag t = m tau_alpha,
         // remeasured in each replica sample) are not at a fixed x.
-        let x_moves = !jk_samples(c, &used_rows, &p.x).is_empty();
-        return fit_value(p, group, &y, &s, one_unit.as_ref(), x_moves);
+        let x_moves = !jk_samples(c, &pts.used_rows, &p.x).is_empty();
+        return fit_value(p, group, y, &s, pts.one_unit.as_ref(), x_moves);
     }
-    // Only where every row comes from the one unit: all weights then
-    // change together. Across units the sample's larger errors would
-    // down-weight the unit left out and damp its refit's shift.
-    let s_jk: Vec<Vec<f64>> = match (&p.y_err, &jk) {
-        (Some(e), Some((_, _, y_jk))) if one_unit.is_some() => {
-            let v = jk_samples(c, &used_rows, e);
-            if v.len() == y_jk.len() { v } else { Vec::new() }
-        }
-        _ => Vec::new(),
-    };
+    let s_jk = unit_error_samples(p, c, &pts);
     let taken = p.taken();
-    let pts = FitPoints {
-        raw: (&raw.0, &raw.1, &raw.2),
-        x: &x,
-        y: &y,
+    let fit_points = FitPoints {
+        raw: (&pts.raw.0, &pts.raw.1, &pts.raw.2),
+        x,
+        y,
         s: &s,
         m_scatter,
-        jk: jk.as_ref(),
-        one_unit: one_unit.as_ref(),
+        jk: pts.jk.as_ref(),
+        one_unit: pts.one_unit.as_ref(),
         s_jk: &s_jk,
-        object_replicas: object_replicas(c, &used_rows),
+        object_replicas: object_replicas(c, &pts.used_rows),
         fixed,
-        shifted,
+        shifted: &from_other.refits,
         taken: &taken,
     };
     let mut method = covariance_method(p.y_err.as_deref());
     let form = p.form.named();
-    let mut jackknife = None;
-    let mut pooled = None;
-    let (rows, note, curve, samples) = match fit_form(p, &x, &y, &s, &fixed_ref) {
-        Ok(f) => {
-            let mut rows: Vec<(String, f64, f64)> = if let FitForm::Drift = p.form {
-                // Relative change of y across the x range, from the slope.
-                let (span, mean) = drift_scale(&x, &y);
-                let (b, db) = f.expect("slope");
-                vec![(
-                    p.quantity_name("drift"),
-                    b * span / mean,
-                    db * span / mean.abs(),
-                )]
-            } else {
-                f.names
-                    .iter()
-                    .zip(f.params.iter().zip(&f.stderr))
-                    .map(|(n, (v, e))| (p.quantity_name(n), *v, *e))
-                    .collect()
-            };
-            // A replica sample passes the same `where` on x and y as the
-            // pooled data (e.g. P > 0 of a tail: a bin one replica never reached).
-            let passes_on = |col: &str, v: f64| p.filter.get(col).is_none_or(|c| c.accepts(v));
-            let passes = |x: f64, y: f64| passes_on(&p.x, x) && passes_on(&p.y, y);
-            let refit = |x: &[f64], y: &[f64], s: &[f64], fixed: &[(&str, f64)]| {
-                let g = fit_form(p, x, y, s, fixed).ok()?;
-                Some(reported(p, x, y, &g))
-            };
-            let replicated = replica_errors(&pts, &mut rows, &mut method, passes, refit);
-            let pts = (x.as_slice(), y.as_slice(), s.as_slice());
-            let max_leverage =
-                leverage_floor(ctx, p, form, &f, pts, &fixed_ref, &mut rows, &mut method);
-            held_errors(
-                p,
-                &f,
-                pts,
-                &fixed_ref,
-                &from_other.held,
-                &mut rows,
-                &mut method,
-            );
-            if let Some(r) = &replicated.refits {
-                jackknife = Some(jackknife_table(group, &rows, r)?);
-            }
-            pooled = replicated.pooled;
-            let samples = replicated.samples;
-            let fit_quality = (f.reduced_chi2, x.len(), max_leverage);
-            diagnostic_rows(p, scatter, fit_quality, &mut rows, &mut method);
-            let curve = p
-                .curve
-                .as_ref()
-                .map(|cs| curve_points(cs, form, &f.params, &fixed_ref, &x));
-            (rows, f.warnings.join("; "), curve, samples)
-        }
+    let fitting = Fitting {
+        ctx,
+        p,
+        group,
+        fixed_ref: &fixed_ref,
+        held: &from_other.held,
+        scatter,
+    };
+    let Fitted {
+        mut rows,
+        mut note,
+        curve,
+        samples,
+        jackknife,
+        pooled,
+    } = match fit_form(p, x, y, &s, &fixed_ref) {
+        Ok(f) => converged(&fitting, &f, &fit_points, &mut method)?,
         Err(e) => failed_fit(ctx, p, &e),
     };
-    let (mut rows, mut note) = (rows, note);
     let scan = match form {
         Some(fm) if !p.ranges.is_empty() => scan_ranges(
             p,
             fm,
-            Data::new(&x, &y, &s),
+            Data::new(x, y, &s),
             &fixed_ref,
             group,
             &mut rows,
@@ -205,19 +136,164 @@ pub(super) fn fit_group(
     })
 }
 
+/// A group's points as the fit takes them: the rows it uses, their replica
+/// samples, and the points before and after cleaning.
+struct GroupPoints {
+    /// The rows of the table with a finite x and y: a row without a value (a
+    /// state point whose own fit failed) has no replica samples either, so
+    /// the replica jackknife runs over these.
+    used_rows: Vec<usize>,
+    /// The replica jackknife inputs of the used rows, if y has them.
+    jk: Option<Replicas>,
+    /// Their unit and the replica samples of y, when they all come from one unit.
+    one_unit: Option<(f64, Vec<Vec<f64>>)>,
+    /// The used points before cleaning: x, y and errors.
+    raw: (Vec<f64>, Vec<f64>, Vec<f64>),
+    /// The cleaned points and their errors (unit errors without `y_err`),
+    /// before any model scatter widens them.
+    x: Vec<f64>,
+    y: Vec<f64>,
+    s: Vec<f64>,
+}
+
+/// The points of `rows` of `c` for fit `p`; logs how many were dropped for a
+/// non-finite x or y.
+fn group_points(ctx: &StageCtx, p: &FitParams, c: &Columns, rows: &[usize]) -> Result<GroupPoints> {
+    let x = pick(c.col(&p.x)?, rows);
+    let y = pick(c.col(&p.y)?, rows);
+    let s = match &p.y_err {
+        Some(e) => pick(c.col(e)?, rows),
+        None => vec![1.0; rows.len()],
+    };
+    let used: Vec<usize> = (0..rows.len())
+        .filter(|&i| x[i].is_finite() && y[i].is_finite())
+        .collect();
+    let used_rows = pick_rows(rows, &used);
+    let jk = replica_columns(c, &used_rows, &p.x, &p.y);
+    let one_unit = unit_columns(c, &used_rows, &p.y);
+    let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
+    let cleaned = clean(&x, &y, &s);
+    if cleaned.dropped > 0 {
+        ctx.log(format!(
+            "dropped {} point(s) with non-finite x or y",
+            cleaned.dropped
+        ));
+    }
+    Ok(GroupPoints {
+        used_rows,
+        jk,
+        one_unit,
+        raw,
+        x: cleaned.x,
+        y: cleaned.y,
+        s: cleaned.s,
+    })
+}
+
+/// The per-point errors (`y_err`) of each replica sample, for refits that
+/// weight by their own sample's; empty unless every used row comes from one
+/// unit. Only there do all weights change together: across units the
+/// sample's larger errors would down-weight the unit left out and damp its
+/// refit's shift.
+fn unit_error_samples(p: &FitParams, c: &Columns, pts: &GroupPoints) -> Vec<Vec<f64>> {
+    match (&p.y_err, &pts.jk) {
+        (Some(e), Some((_, _, y_jk))) if pts.one_unit.is_some() => {
+            let v = jk_samples(c, &pts.used_rows, e);
+            if v.len() == y_jk.len() { v } else { Vec::new() }
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// What every step of one group's fit after its points reads: the stage, the
+/// fit's parameters, the group's values, the numbers held fixed (those held at
+/// another fit's value without replica refits with that value and its error)
+/// and the relative model scatter, if searched for.
+struct Fitting<'a> {
+    ctx: &'a StageCtx,
+    p: &'a FitParams,
+    group: &'a [(String, f64)],
+    fixed_ref: &'a [(&'a str, f64)],
+    held: &'a [(String, f64, f64)],
+    scatter: Option<(f64, f64)>,
+}
+
+/// What one fit of a group gives before its tables are written: its rows
+/// (name, value, error), its note, the drawn curve's points, the replica
+/// samples of its numbers, the table of its replica refits and, on one unit's
+/// rows, its pooled errors.
+struct Fitted {
+    rows: Vec<(String, f64, f64)>,
+    note: String,
+    curve: Option<(Vec<f64>, Vec<f64>)>,
+    samples: Option<UnitSamples>,
+    jackknife: Option<RecordBatch>,
+    pooled: Option<Vec<(f64, f64)>>,
+}
+
+/// A fit that converged: its numbers, each error then from the replica
+/// jackknife where the points have replica samples, at least the
+/// delete-one-point jackknife's when one point carries the fit, and widened by
+/// the errors of numbers held at other fits' values; its diagnostic rows and
+/// its curve. `method` says how the errors were estimated.
+fn converged(fg: &Fitting, f: &FitResult, pts: &FitPoints, method: &mut String) -> Result<Fitted> {
+    let p = fg.p;
+    let (x, y, s) = (pts.x, pts.y, pts.s);
+    let mut rows = fitted_rows(p, f, x, y);
+    // A replica sample passes the same `where` on x and y as the
+    // pooled data (e.g. P > 0 of a tail: a bin one replica never reached).
+    let passes_on = |col: &str, v: f64| p.filter.get(col).is_none_or(|c| c.accepts(v));
+    let passes = |x: f64, y: f64| passes_on(&p.x, x) && passes_on(&p.y, y);
+    let refit = |x: &[f64], y: &[f64], s: &[f64], fixed: &[(&str, f64)]| {
+        let g = fit_form(p, x, y, s, fixed).ok()?;
+        Some(reported(p, x, y, &g))
+    };
+    let replicated = replica_errors(pts, &mut rows, method, passes, refit);
+    let max_leverage = leverage_floor(fg, f, (x, y, s), &mut rows, method);
+    held_errors(fg, f, (x, y, s), &mut rows, method);
+    let jackknife = match &replicated.refits {
+        Some(r) => Some(jackknife_table(fg.group, &rows, r)?),
+        None => None,
+    };
+    let fit_quality = (f.reduced_chi2, x.len(), max_leverage);
+    diagnostic_rows(p, fg.scatter, fit_quality, &mut rows, method);
+    let curve = p
+        .curve
+        .as_ref()
+        .map(|cs| curve_points(cs, p.form.named(), &f.params, fg.fixed_ref, x));
+    Ok(Fitted {
+        rows,
+        note: f.warnings.join("; "),
+        curve,
+        samples: replicated.samples,
+        jackknife,
+        pooled: replicated.pooled,
+    })
+}
+
+/// A converged fit's numbers with their fit covariance errors: its parameters
+/// or, for `drift`, the relative change of y across the x range from the slope.
+fn fitted_rows(p: &FitParams, f: &FitResult, x: &[f64], y: &[f64]) -> Vec<(String, f64, f64)> {
+    if let FitForm::Drift = p.form {
+        let (span, mean) = drift_scale(x, y);
+        let (b, db) = f.expect("slope");
+        vec![(
+            p.quantity_name("drift"),
+            b * span / mean,
+            db * span / mean.abs(),
+        )]
+    } else {
+        f.names
+            .iter()
+            .zip(f.params.iter().zip(&f.stderr))
+            .map(|(n, (v, e))| (p.quantity_name(n), *v, *e))
+            .collect()
+    }
+}
+
 /// What a failed fit writes: its numbers as NaN, the error as its note, an
 /// empty curve if one was asked for.
-#[allow(clippy::type_complexity)]
-fn failed_fit(
-    ctx: &StageCtx,
-    p: &FitParams,
-    e: &anyhow::Error,
-) -> (
-    Vec<(String, f64, f64)>,
-    String,
-    Option<(Vec<f64>, Vec<f64>)>,
-    Option<crate::table::results::UnitSamples>,
-) {
+fn failed_fit(ctx: &StageCtx, p: &FitParams, e: &anyhow::Error) -> Fitted {
     let msg = format!("{e:#}");
     ctx.log(format!("fit failed: {msg}"));
     let rows = p
@@ -226,12 +302,14 @@ fn failed_fit(
         .iter()
         .map(|n| (p.quantity_name(n), f64::NAN, f64::NAN))
         .collect();
-    (
+    Fitted {
         rows,
-        format!("fit failed: {msg}"),
-        p.curve.as_ref().map(|_| (vec![], vec![])),
-        None,
-    )
+        note: format!("fit failed: {msg}"),
+        curve: p.curve.as_ref().map(|_| (vec![], vec![])),
+        samples: None,
+        jackknife: None,
+        pooled: None,
+    }
 }
 
 /// `scatter: relative`: the relative model scatter s_m and the reduced chi^2 of
@@ -260,18 +338,15 @@ fn model_scatter(
 
 /// The largest leverage of the fit's points, and each error raised to at
 /// least the delete-one-point jackknife's when one point carries the fit.
-#[allow(clippy::too_many_arguments)]
 fn leverage_floor(
-    ctx: &StageCtx,
-    p: &FitParams,
-    form: Option<&Form>,
-    f: &crate::fit::FitResult,
+    fg: &Fitting,
+    f: &FitResult,
     (x, y, s): (&[f64], &[f64], &[f64]),
-    fixed_ref: &[(&str, f64)],
     rows: &mut [(String, f64, f64)],
     method: &mut String,
 ) -> f64 {
-    let Some(fm) = form else {
+    let (ctx, p, fixed_ref) = (fg.ctx, fg.p, fg.fixed_ref);
+    let Some(fm) = p.form.named() else {
         return f64::NAN;
     };
     let free: Vec<bool> = f.stderr.iter().map(|e| e.is_finite() && *e > 0.0).collect();
@@ -312,16 +387,15 @@ fn leverage_floor(
 /// A number held at another fit's value, that fit without replica refits:
 /// its error passed on by refits at its value +- that error.
 fn held_errors(
-    p: &FitParams,
-    f: &crate::fit::FitResult,
+    fg: &Fitting,
+    f: &FitResult,
     (x, y, s): (&[f64], &[f64], &[f64]),
-    fixed_ref: &[(&str, f64)],
-    held: &[(String, f64, f64)],
     rows: &mut [(String, f64, f64)],
     method: &mut String,
 ) {
+    let (p, fixed_ref) = (fg.p, fg.fixed_ref);
     let center = reported(p, x, y, f);
-    for (name, value, err) in held {
+    for (name, value, err) in fg.held {
         let refit_at = |v: f64| {
             let at: Vec<(&str, f64)> = fixed_ref
                 .iter()

@@ -12,6 +12,7 @@
 
 mod collapse;
 mod collapse_output;
+mod curve_rows;
 mod fitting;
 mod group;
 mod kind;

@@ -5,16 +5,19 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 
-use super::collapse_output::{CollapseParts, collapse_output};
+use super::collapse_output::{CollapseParts, Collapsed, collapse_output};
+use super::curve_rows::CurveRows;
 use super::params::CollapseParams;
 use super::samples::replica_columns;
 use crate::analysis::pool;
-use crate::fit::collapse::{self, Curve, curves_by};
+use crate::fit::collapse::{self, Curve, Rescale};
 use crate::fit::rescalings::{self, At, Rescaling};
 use crate::fit::uncertainty::held::{add_in_quadrature, held_shifts};
-use crate::fit::uncertainty::replicas::{HELD, JK_IMPOSSIBLE, also_units, jackknife_method};
+use crate::fit::uncertainty::replicas::{
+    HELD, JK_IMPOSSIBLE, Refits, also_units, jackknife_method,
+};
 use crate::pipeline::{Artifact, StageCtx};
-use crate::stages::tables::{Columns, inputs_of, pick};
+use crate::stages::tables::{Columns, inputs_of};
 
 /// The keys of a named rescaling: its fitted parameters in `bounds`, phi_c when it
 /// needs one, no measured `xi`.
@@ -57,205 +60,284 @@ pub(super) fn run_named(
     inputs: &[Artifact],
     group: &[(String, f64)],
 ) -> Result<CollapseParts> {
-    // phi_c and its quoted error (none for a number given in the spec).
-    let (phi_c, phi_c_err) = match (&p.phi_c, &p.phi_c_from) {
-        (Some(v), _) => (*v, f64::NAN),
-        (None, Some(f)) => f.get("collapse", inputs)?,
-        _ => (f64::NAN, f64::NAN),
+    let named = Named::read(p, r, inputs)?;
+    let curves = named.curves(&named.points.y);
+    let rescale = named.rescale_at(named.phi_c);
+    let found = match named.fit(&curves, &rescale) {
+        Ok(fit) => named.fitted(ctx, &curves, fit),
+        Err(e) => named.failed(ctx, &e),
     };
-    let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
-    // The per-curve numbers (first row of each curve), e.g. a joined per-phi fit.
-    let by_all = c.col(&p.curve_by)?;
-    let cols: Vec<&[f64]> = r
-        .per_curve
-        .iter()
-        .map(|name| {
-            c.col(name).map_err(|e| {
-                anyhow::anyhow!(
-                    "collapse: rescaling `{}` reads column `{name}` per curve: {e:#}",
-                    r.name
-                )
+    collapse_output(p, &curves, &rescale, &found, group)
+}
+
+/// A collapse's result: the fitted parameters, their fit covariance errors
+/// and the quality S.
+type Fit = (Vec<f64>, Vec<f64>, f64);
+
+/// One collapse with a named rescaling: its rows of `where` as curves, the
+/// rescaling's per-curve numbers, its bounds and phi_c.
+struct Named<'a> {
+    p: &'a CollapseParams,
+    r: &'static Rescaling,
+    c: Columns,
+    /// The rows of `where`.
+    rows: Vec<usize>,
+    points: CurveRows<'a>,
+    /// The rescaling's `per_curve` columns of each curve (its first row), by
+    /// the bits of its `curve_by` value: e.g. a joined per-phi fit.
+    per_curve: BTreeMap<u64, Vec<f64>>,
+    bounds: Vec<(f64, f64)>,
+    /// phi_c and its quoted error (none for a number given in the spec).
+    phi_c: f64,
+    phi_c_err: f64,
+    /// phi_c with each replica of each unit left out, where its fit carries
+    /// refits (`jackknife.parquet`): the collapse is redone with it, so that
+    /// phi_c's share of the variance is counted (N* of the cluster cut-off
+    /// moves most with phi_c at the densest points).
+    phi_c_refits: Option<Refits>,
+}
+
+impl<'a> Named<'a> {
+    fn read(p: &'a CollapseParams, r: &'static Rescaling, inputs: &[Artifact]) -> Result<Self> {
+        let (phi_c, phi_c_err) = match (&p.phi_c, &p.phi_c_from) {
+            (Some(v), _) => (*v, f64::NAN),
+            (None, Some(f)) => f.get("collapse", inputs)?,
+            _ => (f64::NAN, f64::NAN),
+        };
+        let c = Columns::read(&inputs_of("collapse", inputs, &p.data)?)?;
+        let by_all = c.col(&p.curve_by)?;
+        let cols: Vec<&[f64]> = r
+            .per_curve
+            .iter()
+            .map(|name| {
+                c.col(name).map_err(|e| {
+                    anyhow::anyhow!(
+                        "collapse: rescaling `{}` reads column `{name}` per curve: {e:#}",
+                        r.name
+                    )
+                })
             })
+            .collect::<Result<_>>()?;
+        let rows = c.select(&p.filter)?;
+        let mut per_curve: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+        for &i in &rows {
+            per_curve
+                .entry(by_all[i].to_bits())
+                .or_insert_with(|| cols.iter().map(|v| v[i]).collect());
+        }
+        let points = CurveRows::read(p, &c, &rows)?;
+        let bounds: Vec<(f64, f64)> = r.fitted.iter().map(|k| p.bounds[*k]).collect();
+        let phi_c_refits = match &p.phi_c_from {
+            Some(f) if r.needs_phi_c && !r.fitted.is_empty() => f.jackknife("collapse", inputs)?,
+            _ => None,
+        };
+        Ok(Named {
+            p,
+            r,
+            c,
+            rows,
+            points,
+            per_curve,
+            bounds,
+            phi_c,
+            phi_c_err,
+            phi_c_refits,
         })
-        .collect::<Result<_>>()?;
-    let rows_in = c.select(&p.filter)?;
-    let mut per_curve: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
-    for &i in &rows_in {
-        per_curve
-            .entry(by_all[i].to_bits())
-            .or_insert_with(|| cols.iter().map(|v| v[i]).collect());
     }
-    let x_all = pick(c.col(&p.x)?, &rows_in);
-    let y_all = pick(c.col(&p.y)?, &rows_in);
-    let e_all = pick(c.col(&p.y_err)?, &rows_in);
-    let b_all = pick(by_all, &rows_in);
-    let none: Vec<f64> = vec![];
-    let columns_of =
-        |phi: f64| -> &[f64] { per_curve.get(&phi.to_bits()).map_or(&none[..], |v| &v[..]) };
-    // Curves whose per-curve numbers are missing or not finite are left out.
-    let usable = |cv: &Curve| {
-        let v = columns_of(cv.param);
-        v.len() == r.per_curve.len() && v.iter().all(|u| u.is_finite() && *u > 0.0)
-    };
-    let curves_of = |ys: &[f64]| -> Vec<Curve> {
-        curves_by(&p.curve_by, &x_all, ys, &e_all, &b_all)
-            .into_iter()
-            .filter(|cv| usable(cv))
-            .collect()
-    };
-    let curves = curves_of(&y_all);
-    let bounds: Vec<(f64, f64)> = r.fitted.iter().map(|k| p.bounds[*k]).collect();
-    let columns_of = &columns_of;
-    let rescale_at = |phi_c: f64| {
+
+    /// The per-curve numbers of the curve at `param` (none if it has no row).
+    fn columns_of(&self, param: f64) -> &[f64] {
+        self.per_curve
+            .get(&param.to_bits())
+            .map_or(&[][..], |v| &v[..])
+    }
+
+    /// The curves with y values `ys`; those whose per-curve numbers are
+    /// missing or not finite are left out.
+    fn curves(&self, ys: &[f64]) -> Vec<Curve> {
+        let usable = |cv: &Curve| {
+            let v = self.columns_of(cv.param);
+            v.len() == self.r.per_curve.len() && v.iter().all(|u| u.is_finite() && *u > 0.0)
+        };
+        self.points.curves(ys, usable)
+    }
+
+    /// The rescaling's map with phi_c at `phi_c`.
+    fn rescale_at(&self, phi_c: f64) -> impl Fn(&[f64], &Curve, f64, f64, f64) -> (f64, f64, f64) {
         move |q: &[f64], cv: &Curve, x: f64, y: f64, s: f64| {
             let at = At {
                 param: cv.param,
                 phi_c,
-                columns: columns_of(cv.param),
+                columns: self.columns_of(cv.param),
             };
-            (r.map)(q, &at, x, y, s)
+            (self.r.map)(q, &at, x, y, s)
         }
-    };
-    let rescale = rescale_at(phi_c);
-    // phi_c with each replica of each unit left out, where its fit carries
-    // refits (`jackknife.parquet`): the collapse is redone with it, so that
-    // phi_c's share of the variance is counted (N* of the cluster cut-off
-    // moves most with phi_c at the densest points).
-    let phi_c_refits = match &p.phi_c_from {
-        Some(f) if r.needs_phi_c && !r.fitted.is_empty() => f.jackknife("collapse", inputs)?,
-        _ => None,
-    };
-    let result: Result<(Vec<f64>, Vec<f64>, f64)> =
-        if r.needs_phi_c && curves.iter().any(|cv| cv.param >= phi_c) {
+    }
+
+    /// Whether phi_c at `pc` is not above every curve's value, as a rescaling
+    /// that needs it requires.
+    fn phi_c_too_low(&self, curves: &[Curve], pc: f64) -> bool {
+        curves.iter().any(|cv| cv.param >= pc)
+    }
+
+    /// The collapse of `curves`: the fitted parameters, or for a rescaling
+    /// without any the quality S alone.
+    fn fit(&self, curves: &[Curve], rescale: Rescale<'_>) -> Result<Fit> {
+        let r = self.r;
+        if r.needs_phi_c && self.phi_c_too_low(curves, self.phi_c) {
             Err(anyhow::anyhow!(
-                "phi_c = {phi_c} is not above every {} of the data",
-                p.curve_by
+                "phi_c = {} is not above every {} of the data",
+                self.phi_c,
+                self.p.curve_by
             ))
         } else if r.fitted.is_empty() {
-            collapse::quality(&curves, &rescale, &[])
+            collapse::quality(curves, rescale, &[])
                 .map(|q| (vec![], vec![], q.s))
                 .map_err(anyhow::Error::from)
         } else {
-            collapse::collapse(&curves, r.fitted, &bounds, &rescale)
+            collapse::collapse(curves, r.fitted, &self.bounds, rescale)
                 .map(|res| (res.params, res.stderr, res.quality.s))
                 .map_err(anyhow::Error::from)
+        }
+    }
+
+    /// A collapse that succeeded: its parameters with their errors (the
+    /// replica jackknife's and phi_c's share, see [`Self::jackknife_errors`]
+    /// and [`Self::held_phi_c_errors`]), S, phi_c and the number of curves.
+    fn fitted(&self, ctx: &StageCtx, curves: &[Curve], (q, mut dq, s): Fit) -> Collapsed {
+        let r = self.r;
+        let mut method = "fit covariance of the collapse".to_string();
+        self.jackknife_errors(ctx, &mut dq, &mut method);
+        self.held_phi_c_errors(curves, &q, &mut dq, &mut method);
+        let mut rows: Vec<(String, f64, f64)> = r
+            .fitted
+            .iter()
+            .zip(q.iter().zip(&dq))
+            .map(|(n, (v, e))| (n.to_string(), *v, *e))
+            .collect();
+        rows.push(("collapse_S".to_string(), s, f64::NAN));
+        if r.needs_phi_c {
+            rows.push(("phi_c_used".to_string(), self.phi_c, 0.0));
+        }
+        rows.push(("curves".to_string(), curves.len() as f64, 0.0));
+        Collapsed {
+            rows,
+            note: String::new(),
+            best: Some(q),
+            method,
+        }
+    }
+
+    /// The errors `dq` from refits with one replica of one unit left out: of
+    /// the data where they carry replica samples, of phi_c where its fit has
+    /// refits (rows without replica samples, such as cluster sizes, then keep
+    /// their covariance error and add phi_c's share in quadrature).
+    fn jackknife_errors(&self, ctx: &StageCtx, dq: &mut Vec<f64>, method: &mut String) {
+        let (p, r) = (self.p, self.r);
+        let jk = replica_columns(&self.c, &self.rows, &p.x, &p.y);
+        let also = match &self.phi_c_refits {
+            Some(refits) => also_units(&[("phi_c".to_string(), refits.clone())]),
+            None => Vec::new(),
         };
-    let mut method = "fit covariance of the collapse".to_string();
-    let (rows, note, best) = match result {
-        Ok((q, mut dq, s)) => {
-            let jk = replica_columns(&c, &rows_in, &p.x, &p.y);
-            let also = match &phi_c_refits {
-                Some(refits) => also_units(&[("phi_c".to_string(), refits.clone())]),
-                None => Vec::new(),
-            };
-            if !r.fitted.is_empty() && (jk.is_some() || !also.is_empty()) {
-                let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
-                    let pc = phi_c_refits
-                        .as_ref()
-                        .and_then(|m| m.get(&(left.unit.to_bits(), left.replica)))
-                        .copied()
-                        .unwrap_or(phi_c);
-                    let curves = curves_of(ys);
-                    if r.needs_phi_c && curves.iter().any(|cv| cv.param >= pc) {
-                        return None;
-                    }
-                    collapse::best(&curves, r.fitted, &bounds, &rescale_at(pc))
-                        .map_err(|e| {
-                            ctx.log(format!("jackknife refit of the collapse failed: {e:#}"))
-                        })
-                        .ok()
-                };
-                let (units, y_jk) = match &jk {
-                    Some((u, _, y)) => (u.clone(), y.clone()),
-                    None => (Vec::new(), Vec::new()),
-                };
-                let from = match &p.phi_c_from {
-                    Some(f) if !also.is_empty() => format!(
-                        "; phi_c ({} of {}) refitted with the same replica left out",
-                        f.quantity, f.stage
-                    ),
-                    _ => HELD.to_string(),
-                };
-                match pool::replica_jackknife_with(&units, &x_all, &y_all, &[], &y_jk, &also, refit)
-                {
-                    Some(j) if jk.is_some() => {
-                        dq = j.errors;
-                        method = jackknife_method(j.refits.len(), &from);
-                    }
-                    Some(j) => {
-                        // Rows without replica samples (cluster sizes): the
-                        // covariance error, plus in quadrature phi_c's share.
-                        for (d, e) in dq.iter_mut().zip(&j.errors) {
-                            *d = d.hypot(*e);
-                        }
-                        method.push_str(&format!(
-                            ", plus in quadrature the replica jackknife of phi_c ({} refits of the collapse with phi_c from the same replica left out)",
-                            j.refits.len()
-                        ));
-                    }
-                    None => method.push_str(JK_IMPOSSIBLE),
-                }
-            }
-            // phi_c from a fit without replica refits (a joint fit) is held
-            // in the jackknife: its quoted error is passed on as the fit
-            // stage passes it (refits at phi_c +- its error).
-            if let (Some(f), None, true) = (
-                &p.phi_c_from,
-                &phi_c_refits,
-                r.needs_phi_c && !r.fitted.is_empty(),
-            ) {
-                let refit_at = |pc: f64| {
-                    if curves.iter().any(|cv| cv.param >= pc) {
-                        return None;
-                    }
-                    collapse::best(&curves, r.fitted, &bounds, &rescale_at(pc)).ok()
-                };
-                if let Some(d) = held_shifts(&q, phi_c, phi_c_err, refit_at) {
-                    add_in_quadrature(&mut dq, &d);
-                    method.push_str(&format!(
-                        "; phi_c ({} of {}, without replica refits) held at {phi_c:.6} +- {phi_c_err:.2e}: each error adds in quadrature half the change between the collapses at phi_c +- {phi_c_err:.2e}",
-                        f.quantity, f.stage
-                    ));
-                }
-            }
-            let mut rows: Vec<(String, f64, f64)> = r
-                .fitted
-                .iter()
-                .zip(q.iter().zip(&dq))
-                .map(|(n, (v, e))| (n.to_string(), *v, *e))
-                .collect();
-            rows.push(("collapse_S".to_string(), s, f64::NAN));
-            if r.needs_phi_c {
-                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
-            }
-            rows.push(("curves".to_string(), curves.len() as f64, 0.0));
-            (rows, String::new(), Some(q))
+        if r.fitted.is_empty() || (jk.is_none() && also.is_empty()) {
+            return;
         }
-        Err(e) => {
-            let msg = format!("collapse failed: {e:#}");
-            ctx.log(msg.clone());
-            let mut rows: Vec<(String, f64, f64)> = r
-                .fitted
-                .iter()
-                .chain(&["collapse_S"])
-                .map(|n| (n.to_string(), f64::NAN, f64::NAN))
-                .collect();
-            if r.needs_phi_c {
-                rows.push(("phi_c_used".to_string(), phi_c, 0.0));
+        let refit = |left: pool::LeftOut, _: &[f64], ys: &[f64]| -> Option<Vec<f64>> {
+            let pc = self
+                .phi_c_refits
+                .as_ref()
+                .and_then(|m| m.get(&(left.unit.to_bits(), left.replica)))
+                .copied()
+                .unwrap_or(self.phi_c);
+            let curves = self.curves(ys);
+            if r.needs_phi_c && self.phi_c_too_low(&curves, pc) {
+                return None;
             }
-            (rows, msg, None)
+            collapse::best(&curves, r.fitted, &self.bounds, &self.rescale_at(pc))
+                .map_err(|e| ctx.log(format!("jackknife refit of the collapse failed: {e:#}")))
+                .ok()
+        };
+        let (units, y_jk) = match &jk {
+            Some((u, _, y)) => (u.clone(), y.clone()),
+            None => (Vec::new(), Vec::new()),
+        };
+        let from = match &p.phi_c_from {
+            Some(f) if !also.is_empty() => format!(
+                "; phi_c ({} of {}) refitted with the same replica left out",
+                f.quantity, f.stage
+            ),
+            _ => HELD.to_string(),
+        };
+        let (x, y) = (&self.points.x, &self.points.y);
+        match pool::replica_jackknife_with(&units, x, y, &[], &y_jk, &also, refit) {
+            Some(j) if jk.is_some() => {
+                *dq = j.errors;
+                *method = jackknife_method(j.refits.len(), &from);
+            }
+            Some(j) => {
+                // Rows without replica samples (cluster sizes): the
+                // covariance error, plus in quadrature phi_c's share.
+                for (d, e) in dq.iter_mut().zip(&j.errors) {
+                    *d = d.hypot(*e);
+                }
+                method.push_str(&format!(
+                    ", plus in quadrature the replica jackknife of phi_c ({} refits of the collapse with phi_c from the same replica left out)",
+                    j.refits.len()
+                ));
+            }
+            None => method.push_str(JK_IMPOSSIBLE),
         }
-    };
-    collapse_output(
-        p,
-        &curves,
-        best.as_deref(),
-        &rescale,
-        &rows,
-        &note,
-        &method,
-        group,
-    )
+    }
+
+    /// phi_c from a fit without replica refits (a joint fit) is held in the
+    /// jackknife: its quoted error is passed on to the errors `dq` of the
+    /// parameters `q` as the fit stage passes it (refits at phi_c +- its error).
+    fn held_phi_c_errors(&self, curves: &[Curve], q: &[f64], dq: &mut [f64], method: &mut String) {
+        let r = self.r;
+        let (phi_c, phi_c_err) = (self.phi_c, self.phi_c_err);
+        let (Some(f), None, true) = (
+            &self.p.phi_c_from,
+            &self.phi_c_refits,
+            r.needs_phi_c && !r.fitted.is_empty(),
+        ) else {
+            return;
+        };
+        let refit_at = |pc: f64| {
+            if self.phi_c_too_low(curves, pc) {
+                return None;
+            }
+            collapse::best(curves, r.fitted, &self.bounds, &self.rescale_at(pc)).ok()
+        };
+        if let Some(d) = held_shifts(q, phi_c, phi_c_err, refit_at) {
+            add_in_quadrature(dq, &d);
+            method.push_str(&format!(
+                "; phi_c ({} of {}, without replica refits) held at {phi_c:.6} +- {phi_c_err:.2e}: each error adds in quadrature half the change between the collapses at phi_c +- {phi_c_err:.2e}",
+                f.quantity, f.stage
+            ));
+        }
+    }
+
+    /// A collapse that failed: its numbers NaN, the error its note.
+    fn failed(&self, ctx: &StageCtx, e: &anyhow::Error) -> Collapsed {
+        let msg = format!("collapse failed: {e:#}");
+        ctx.log(msg.clone());
+        let mut rows: Vec<(String, f64, f64)> = self
+            .r
+            .fitted
+            .iter()
+            .chain(&["collapse_S"])
+            .map(|n| (n.to_string(), f64::NAN, f64::NAN))
+            .collect();
+        if self.r.needs_phi_c {
+            rows.push(("phi_c_used".to_string(), self.phi_c, 0.0));
+        }
+        Collapsed {
+            rows,
+            note: msg,
+            best: None,
+            method: "fit covariance of the collapse".to_string(),
+        }
+    }
 }
 
 #[cfg(test)]
