@@ -479,10 +479,12 @@ fn lay_out_panel<DB: DrawingBackend>(
     let left = pad + room(&p.y.label, 0.5 * sz.label) + ytick_w + 0.5 * sz.tick;
     let bottom = pad + room(&p.x.label, 0.4 * sz.label) + tick_h + 0.5 * sz.tick;
     let right = pad + xtick_half.max(0.3 * sz.label) + 0.2 * sz.label;
+    // A note's `code` spans (shared with the report's Markdown) print as
+    // plain text on the image.
     let notes: Vec<String> = p
         .notes
         .iter()
-        .cloned()
+        .map(|n| n.replace('`', ""))
         .chain(bar_notes(p, xs, ys))
         .collect();
     let mut lines = vec![];
