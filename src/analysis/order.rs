@@ -156,7 +156,7 @@ pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
 mod tests {
     use super::*;
     use crate::analysis::test_support::col;
-    use rand::{Rng, SeedableRng};
+    use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
 /// One frame of `rows` rows of `cols` disks a unit apart, row r shifted and
