@@ -32,7 +32,8 @@ fn default_cutoff() -> f64 {
     1.4
 }
 
-/// Cells about 10 r1 wide: some 20 disks each at the dense phi.
+/// Cells about 10 r1 wide: some 16 disks each at the dense phi (8 x 8 cells
+/// at N = 1000).
 fn default_cell() -> f64 {
     10.0
 }
