@@ -160,49 +160,53 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-/// One frame of `rows` rows of `cols` disks a unit apart, row r shifted and
-/// placed at `row(r)`, species by (column, row).
-fn lattice(
-    cols: usize,
-    rows: usize,
-    row: impl Fn(usize) -> (f64, f64),
-    box_size: [f64; 2],
-    species: impl Fn(usize, usize) -> u8,
-) -> Trajectory {
-    let (mut x, mut y, mut s) = (Vec::new(), Vec::new(), Vec::new());
-    for r in 0..rows {
-        let (shift, height) = row(r);
-        for c in 0..cols {
-            x.push(c as f64 + shift);
-            y.push(height);
-            s.push(species(c, r));
+    /// One frame of `rows` rows of `cols` disks a unit apart, row r shifted and
+    /// placed at `row(r)`, species by (column, row).
+    fn lattice(
+        cols: usize,
+        rows: usize,
+        row: impl Fn(usize) -> (f64, f64),
+        box_size: [f64; 2],
+        species: impl Fn(usize, usize) -> u8,
+    ) -> Trajectory {
+        let (mut x, mut y, mut s) = (Vec::new(), Vec::new(), Vec::new());
+        for r in 0..rows {
+            let (shift, height) = row(r);
+            for c in 0..cols {
+                x.push(c as f64 + shift);
+                y.push(height);
+                s.push(species(c, r));
+            }
+        }
+        trajectory(box_size, s, vec![(0.0, x, y)])
+    }
+
+    fn trajectory(
+        box_size: [f64; 2],
+        species: Vec<u8>,
+        frames: Vec<(f64, Vec<f64>, Vec<f64>)>,
+    ) -> Trajectory {
+        Trajectory {
+            box_size,
+            periodic: [true, true],
+            species,
+            // Unit spacing is contact for radius 0.5; the large species barely larger,
+            // so that both lattices keep their shells within the cut-off.
+            radii: vec![0.5, 0.5],
+            masses: vec![1.0, 1.0],
+            frames: frames
+                .into_iter()
+                .map(|(time, x, y)| Frame {
+                    time,
+                    x,
+                    y,
+                    vx: Vec::new(),
+                    vy: Vec::new(),
+                })
+                .collect(),
+            schedule: None,
         }
     }
-    trajectory(box_size, s, vec![(0.0, x, y)])
-}
-
-fn trajectory(box_size: [f64; 2], species: Vec<u8>, frames: Vec<(f64, Vec<f64>, Vec<f64>)>) -> Trajectory {
-    Trajectory {
-        box_size,
-        periodic: [true, true],
-        species,
-        // Unit spacing is contact for radius 0.5; the large species barely larger,
-        // so that both lattices keep their shells within the cut-off.
-        radii: vec![0.5, 0.5],
-        masses: vec![1.0, 1.0],
-        frames: frames
-            .into_iter()
-            .map(|(time, x, y)| Frame {
-                time,
-                x,
-                y,
-                vx: Vec::new(),
-                vy: Vec::new(),
-            })
-            .collect(),
-        schedule: None,
-    }
-}
 
     fn order(traj: &Trajectory, p: &Params) -> RecordBatch {
         compute(traj, p).unwrap()
@@ -222,7 +226,11 @@ fn trajectory(box_size: [f64; 2], species: Vec<u8>, frames: Vec<(f64, Vec<f64>, 
             |c, r| ((c + r) % 2) as u8,
         );
         let b = order(&t, &Params::default());
-        assert!((col(&b, "psi6")[0] - 1.0).abs() < 1e-12, "{:?}", col(&b, "psi6"));
+        assert!(
+            (col(&b, "psi6")[0] - 1.0).abs() < 1e-12,
+            "{:?}",
+            col(&b, "psi6")
+        );
         assert!((col(&b, "psi6_global")[0] - 1.0).abs() < 1e-12);
     }
 
@@ -245,7 +253,9 @@ fn trajectory(box_size: [f64; 2], species: Vec<u8>, frames: Vec<(f64, Vec<f64>, 
     fn a_random_mixture_has_no_global_order_and_binomial_composition() {
         let (n, l, frames) = (4000, 64.0, 20);
         let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let species: Vec<u8> = (0..n).map(|_| u8::from(rng.random::<f64>() < 0.5)).collect();
+        let species: Vec<u8> = (0..n)
+            .map(|_| u8::from(rng.random::<f64>() < 0.5))
+            .collect();
         let data = (0..frames)
             .map(|k| {
                 let x = (0..n).map(|_| l * rng.random::<f64>()).collect();
@@ -255,7 +265,13 @@ fn trajectory(box_size: [f64; 2], species: Vec<u8>, frames: Vec<(f64, Vec<f64>, 
             .collect();
         let t = trajectory([l, l], species, data);
         // Cells of side 8: 64 cells of about 62 disks.
-        let b = order(&t, &Params { cell: 8.0, ..Default::default() });
+        let b = order(
+            &t,
+            &Params {
+                cell: 8.0,
+                ..Default::default()
+            },
+        );
         let bound = 4.0 / (n as f64).sqrt();
         for g in col(&b, "psi6_global") {
             assert!(g < bound, "psi6_global {g} above 4/sqrt(N) = {bound}");
@@ -285,21 +301,47 @@ fn trajectory(box_size: [f64; 2], species: Vec<u8>, frames: Vec<(f64, Vec<f64>, 
             |c, _| u8::from(c >= n / 2),
         );
         // 4 x 4 cells of 64 disks each, none straddling the halves.
-        let b = order(&t, &Params { cell: 8.0, ..Default::default() });
+        let b = order(
+            &t,
+            &Params {
+                cell: 8.0,
+                ..Default::default()
+            },
+        );
         let v = col(&b, "small_fraction_var")[0];
         assert!((v - 64.0).abs() < 1e-9, "demixed: ratio {v}");
         // A checkerboard: every cell holds exactly half of each, ratio 0.
-        let t = lattice(n, n, |r| (0.5, r as f64 + 0.5), [n as f64; 2], |c, r| {
-            ((c + r) % 2) as u8
-        });
-        let v = col(&order(&t, &Params { cell: 8.0, ..Default::default() }), "small_fraction_var")[0];
+        let t = lattice(
+            n,
+            n,
+            |r| (0.5, r as f64 + 0.5),
+            [n as f64; 2],
+            |c, r| ((c + r) % 2) as u8,
+        );
+        let v = col(
+            &order(
+                &t,
+                &Params {
+                    cell: 8.0,
+                    ..Default::default()
+                },
+            ),
+            "small_fraction_var",
+        )[0];
         assert!(v.abs() < 1e-12, "alternating: ratio {v}");
     }
 
     #[test]
     fn bad_parameters_are_named() {
         let t = lattice(8, 8, |r| (0.5, r as f64 + 0.5), [8.0; 2], |_, _| 0);
-        let e = compute(&t, &Params { cutoff: 0.0, ..Default::default() }).unwrap_err();
+        let e = compute(
+            &t,
+            &Params {
+                cutoff: 0.0,
+                ..Default::default()
+            },
+        )
+        .unwrap_err();
         assert!(format!("{e:#}").contains("`cutoff`"), "{e:#}");
     }
 }
