@@ -359,7 +359,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "order",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
-        describe: "bond-orientational order and local composition of every recorded frame: t, psi6 (mean |psi6_j|), psi6_global (|mean psi6_j|), small_fraction_var (variance of the small-disk fraction over cells / its binomial value; 1 random, > 1 demixed)",
+        describe: "bond-orientational order and local composition of every recorded frame: t, psi6 (mean |psi6_j|), psi6_global (|mean psi6_j|), small_fraction_var (variance of the small-disk fraction over the sub-boxes of chi4 / its binomial value; 1 random, > 1 demixed)",
         typed: &Typed(|t, p: &order::Params| per_replica(t, p, order::compute)),
     },
     Observable {
@@ -637,7 +637,7 @@ mod tests {
             ("msd", json!({"fractions": [0.1]}), "msd"),
             ("van_hove", json!({"lags": [1.0]}), "P"),
             ("gr", json!({"r_max": 5.0}), "g"),
-            ("order", json!({"cutoff": 1.4, "cell": 6.0}), "psi6"),
+            ("order", json!({"cutoff": 1.4, "n": 40}), "psi6"),
             ("clusters", json!({"lags": [1.0], "cutoffs": cut}), "Rg"),
             ("cluster_sizes", json!({"lags": [1.0], "cutoffs": cut}), "P"),
             ("mobility_snapshot", json!({"lags": [1.0]}), "class"),

@@ -10,8 +10,9 @@
 //! perfect triangular lattice, 0 in a square one), `psi6_global` is |mean of
 //! psi6_j| (1 for one crystal orientation, about 1/sqrt(N) without order).
 //!
-//! Composition: the box is cut into square cells of side about `cell`; in each
-//! cell with n_c disks the fraction f_c of small disks (species 0) is compared
+//! Composition: the box is tiled with the square sub-boxes of chi4 (paper H,
+//! Eq. 5) holding `n` disks on average; in each cell with n_c disks the
+//! fraction f_c of small disks (species 0) is compared
 //! to the global fraction x. `small_fraction_var` is the mean over cells of
 //! (f_c - x)^2 / [x (1 - x) / n_c], the variance of the fraction in units of
 //! its binomial value: 1 for a random mixture, above 1 when the species demix,
@@ -21,7 +22,8 @@ use anyhow::Result;
 use arrow_array::RecordBatch;
 use serde::Deserialize;
 
-use super::{check_trajectory, ensure_positive, fold, neighbours};
+use super::subbox::SubBoxes;
+use super::{check_trajectory, ensure_positive, neighbours};
 use crate::table::f64_batch;
 use crate::traj::{Frame, Trajectory};
 
@@ -32,10 +34,10 @@ fn default_cutoff() -> f64 {
     1.4
 }
 
-/// Cells about 10 r1 wide: some 16 disks each at the dense phi (8 x 8 cells
-/// at N = 1000).
-fn default_cell() -> f64 {
-    10.0
+/// Sub-boxes of 16 disks on average: about 10 r1 wide at the dense phi
+/// (7 x 7 of them at N = 1000).
+fn default_n() -> f64 {
+    16.0
 }
 
 /// Parameters of the order observable.
@@ -45,17 +47,17 @@ pub struct Params {
     /// Neighbours of psi6: pairs closer than `cutoff` x (R_i + R_j).
     #[serde(default = "default_cutoff")]
     pub cutoff: f64,
-    /// Side of the square cells of the composition (units r1); each axis is
-    /// cut into round(L / cell) equal cells, at least one.
-    #[serde(default = "default_cell")]
-    pub cell: f64,
+    /// Mean number of disks of the square cells of the composition: the
+    /// sub-boxes of chi4 (paper H, Eq. 5; `subbox::SubBoxes`).
+    #[serde(default = "default_n")]
+    pub n: f64,
 }
 
 impl Default for Params {
     fn default() -> Self {
         Self {
             cutoff: default_cutoff(),
-            cell: default_cell(),
+            n: default_n(),
         }
     }
 }
@@ -63,30 +65,17 @@ impl Default for Params {
 /// psi6 of one frame: (mean of |psi6_j|, |mean of psi6_j|).
 pub fn psi6(traj: &Trajectory, f: &Frame, cutoff: f64) -> Result<(f64, f64)> {
     let n = traj.n();
-    let radius = |i: usize| traj.radii[traj.species[i] as usize];
-    let r_max = traj.radii.iter().copied().fold(0.0, f64::max);
     let mut sum = vec![[0.0f64; 2]; n];
     let mut count = vec![0usize; n];
-    neighbours::for_each_pair(
-        &f.x,
-        &f.y,
-        traj.box_size,
-        traj.periodic,
-        2.0 * cutoff * r_max,
-        |i, j, dx, dy| {
-            let rc = cutoff * (radius(i) + radius(j));
-            if dx * dx + dy * dy < rc * rc {
-                // The bond j -> i is the bond i -> j turned by pi: 6 pi, the same phase.
-                let a = 6.0 * dy.atan2(dx);
-                let (s, c) = a.sin_cos();
-                for k in [i, j] {
-                    sum[k][0] += c;
-                    sum[k][1] += s;
-                    count[k] += 1;
-                }
-            }
-        },
-    )?;
+    neighbours::for_each_neighbour(traj, &f.x, &f.y, cutoff, |i, j, dx, dy| {
+        // The bond j -> i is the bond i -> j turned by pi: 6 pi, the same phase.
+        let (s, c) = (6.0 * dy.atan2(dx)).sin_cos();
+        for k in [i, j] {
+            sum[k][0] += c;
+            sum[k][1] += s;
+            count[k] += 1;
+        }
+    })?;
     let (mut local, mut global) = (0.0, [0.0f64; 2]);
     for (s, &c) in sum.iter().zip(&count) {
         if c > 0 {
@@ -99,35 +88,32 @@ pub fn psi6(traj: &Trajectory, f: &Frame, cutoff: f64) -> Result<(f64, f64)> {
     Ok((local / n, global[0].hypot(global[1]) / n))
 }
 
-/// Variance of the small-disk fraction over cells in units of its binomial
-/// value x(1 - x)/n_c; NaN when the trajectory holds one species only.
-pub fn small_fraction_var(traj: &Trajectory, f: &Frame, cell: f64) -> f64 {
+/// Variance of the small-disk fraction over the sub-boxes `cells` in units of
+/// its binomial value x(1 - x)/n_c; NaN when the trajectory holds one species
+/// only. Disks between sub-boxes are left out, as in chi4 (Eq. 5).
+pub fn small_fraction_var(traj: &Trajectory, f: &Frame, cells: &SubBoxes) -> f64 {
     let n = traj.n();
     let x = traj.species.iter().filter(|&&s| s == 0).count() as f64 / n as f64;
     if x <= 0.0 || x >= 1.0 {
         return f64::NAN;
     }
-    let nc = [0, 1].map(|d| (traj.box_size[d] / cell).round().max(1.0) as usize);
-    let mut small = vec![0usize; nc[0] * nc[1]];
-    let mut all = vec![0usize; nc[0] * nc[1]];
+    let mut small = vec![0usize; cells.len()];
+    let mut all = vec![0usize; cells.len()];
     for i in 0..n {
-        let c = [(0, &f.x), (1, &f.y)].map(|(d, p)| {
-            let v = fold(p[i], traj.box_size[d], traj.periodic[d]) / traj.box_size[d];
-            ((v * nc[d] as f64).floor().max(0.0) as usize).min(nc[d] - 1)
-        });
-        let k = c[1] * nc[0] + c[0];
-        all[k] += 1;
-        small[k] += usize::from(traj.species[i] == 0);
+        if let Some(k) = cells.locate(f.x[i], f.y[i]) {
+            all[k] += 1;
+            small[k] += usize::from(traj.species[i] == 0);
+        }
     }
-    let (mut sum, mut cells) = (0.0, 0usize);
+    let (mut sum, mut used) = (0.0, 0usize);
     for (&s, &a) in small.iter().zip(&all) {
         if a > 0 {
             let dev = s as f64 / a as f64 - x;
             sum += dev * dev * a as f64 / (x * (1.0 - x));
-            cells += 1;
+            used += 1;
         }
     }
-    sum / cells as f64
+    sum / used as f64
 }
 
 /// Table `t, psi6, psi6_global, small_fraction_var`: one row per recorded
@@ -135,14 +121,14 @@ pub fn small_fraction_var(traj: &Trajectory, f: &Frame, cell: f64) -> f64 {
 pub fn compute(traj: &Trajectory, p: &Params) -> Result<RecordBatch> {
     check_trajectory(traj)?;
     ensure_positive("cutoff", p.cutoff)?;
-    ensure_positive("cell", p.cell)?;
+    let cells = SubBoxes::new(traj, p.n)?;
     let mut cols: [Vec<f64>; 4] = Default::default();
     for f in &traj.frames {
         let (local, global) = psi6(traj, f, p.cutoff)?;
         cols[0].push(f.time);
         cols[1].push(local);
         cols[2].push(global);
-        cols[3].push(small_fraction_var(traj, f, p.cell));
+        cols[3].push(small_fraction_var(traj, f, &cells));
     }
     let [t, local, global, var] = cols;
     f64_batch(&[
@@ -264,11 +250,11 @@ mod tests {
             })
             .collect();
         let t = trajectory([l, l], species, data);
-        // Cells of side 8: 64 cells of about 62 disks.
+        // Sub-boxes of side 8: 64 of about 62 disks.
         let b = order(
             &t,
             &Params {
-                cell: 8.0,
+                n: 62.5,
                 ..Default::default()
             },
         );
@@ -304,7 +290,7 @@ mod tests {
         let b = order(
             &t,
             &Params {
-                cell: 8.0,
+                n: 64.0,
                 ..Default::default()
             },
         );
@@ -322,7 +308,7 @@ mod tests {
             &order(
                 &t,
                 &Params {
-                    cell: 8.0,
+                    n: 64.0,
                     ..Default::default()
                 },
             ),
