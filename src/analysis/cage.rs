@@ -9,7 +9,7 @@
 
 use anyhow::{Result, bail};
 
-use super::neighbours::for_each_pair;
+use super::neighbours::for_each_neighbour;
 use crate::traj::{Frame, Trajectory};
 
 /// |dr_i - <dr_j>_{j in cage(i)}|^2 per disk over the frames f0 -> f1 of `traj`;
@@ -24,33 +24,17 @@ pub fn squared_displacements(
         bail!("the cage cut-off (in contact distances) must be positive, got {cutoff}");
     }
     let n = traj.n();
-    let radius: Vec<f64> = traj
-        .species
-        .iter()
-        .map(|&s| traj.radii[s as usize])
-        .collect();
-    let r_max = radius.iter().copied().fold(0.0, f64::max);
     let dx: Vec<f64> = f1.x.iter().zip(&f0.x).map(|(a, b)| a - b).collect();
     let dy: Vec<f64> = f1.y.iter().zip(&f0.y).map(|(a, b)| a - b).collect();
     let (mut sx, mut sy, mut k) = (vec![0.0; n], vec![0.0; n], vec![0u32; n]);
-    for_each_pair(
-        &f0.x,
-        &f0.y,
-        traj.box_size,
-        traj.periodic,
-        cutoff * 2.0 * r_max,
-        |i, j, rx, ry| {
-            let c = cutoff * (radius[i] + radius[j]);
-            if rx * rx + ry * ry < c * c {
-                sx[i] += dx[j];
-                sy[i] += dy[j];
-                k[i] += 1;
-                sx[j] += dx[i];
-                sy[j] += dy[i];
-                k[j] += 1;
-            }
-        },
-    )?;
+    for_each_neighbour(traj, &f0.x, &f0.y, cutoff, |i, j, _, _| {
+        sx[i] += dx[j];
+        sy[i] += dy[j];
+        k[i] += 1;
+        sx[j] += dx[i];
+        sy[j] += dy[i];
+        k[j] += 1;
+    })?;
     Ok((0..n)
         .map(|i| {
             let (mx, my) = if k[i] > 0 {

@@ -21,6 +21,7 @@ pub mod msd;
 pub mod neighbours;
 pub mod observable_params;
 pub mod observables;
+pub mod order;
 pub mod overlap;
 pub mod pool;
 pub mod run_summary;

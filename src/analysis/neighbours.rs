@@ -1,9 +1,42 @@
 //! Cell list: every pair of particles closer than a cut-off, with the minimum-image
-//! separation vector, in O(N) for bounded density. Shared by g_ab(r) and clusters.
+//! separation vector, in O(N) for bounded density. Shared by g_ab(r), clusters,
+//! cage-relative displacements and the bond order psi6.
 
 use anyhow::{Result, bail};
 
 use super::fold;
+use crate::traj::Trajectory;
+
+/// Neighbours: pairs of disks of `traj` at positions (x, y) closer than
+/// `cutoff` times the sum of their radii (a first shell in contact distances);
+/// `f(i, j, dx, dy)` once per unordered pair, as [`for_each_pair`].
+pub fn for_each_neighbour(
+    traj: &Trajectory,
+    x: &[f64],
+    y: &[f64],
+    cutoff: f64,
+    mut f: impl FnMut(usize, usize, f64, f64),
+) -> Result<()> {
+    let radius: Vec<f64> = traj
+        .species
+        .iter()
+        .map(|&s| traj.radii[s as usize])
+        .collect();
+    let r_max = radius.iter().copied().fold(0.0, f64::max);
+    for_each_pair(
+        x,
+        y,
+        traj.box_size,
+        traj.periodic,
+        cutoff * 2.0 * r_max,
+        |i, j, dx, dy| {
+            let c = cutoff * (radius[i] + radius[j]);
+            if dx * dx + dy * dy < c * c {
+                f(i, j, dx, dy);
+            }
+        },
+    )
+}
 
 /// Pairs within `rcut` of points (x, y) in a box of side `box_size` (periodic per
 /// axis): calls `f(i, j, dx, dy)` once per unordered pair, (dx, dy) = r_j - r_i

@@ -9,7 +9,7 @@ use std::any::Any;
 use anyhow::Result;
 
 use super::intruder::{self, DriveParams};
-use super::{chi4, clusters, front, gr, msd, overlap, s4, van_hove};
+use super::{chi4, clusters, front, gr, msd, order, overlap, s4, van_hove};
 use crate::pipeline::canon::param_error;
 
 /// The parsed parameters of an observable.
@@ -173,6 +173,7 @@ impl ObservableParams for intruder::VelocityParams {
 }
 
 impl ObservableParams for gr::Params {}
+impl ObservableParams for order::Params {}
 impl ObservableParams for intruder::ProfileParams {}
 impl ObservableParams for intruder::DiffusionParams {}
 impl ObservableParams for front::FieldParams {}

@@ -19,7 +19,7 @@ use serde_json::Value;
 
 use super::observable_params::{Lags, LagsFrom, ObservableParams, checked};
 use super::pool::{self, Errors};
-use super::{chi4, clusters, front, gr, intruder, lags, msd, overlap, s4, van_hove};
+use super::{chi4, clusters, front, gr, intruder, lags, msd, order, overlap, s4, van_hove};
 use crate::pipeline::registry::{param_keys, typed};
 use crate::table::f64_batch;
 use crate::traj::Trajectory;
@@ -356,6 +356,13 @@ pub static OBSERVABLES: &[Observable] = &[
         typed: &Typed(|t, p: &gr::Params| per_replica(t, p, gr::compute)),
     },
     Observable {
+        name: "order",
+        at: lags::AtLag::Interpolate,
+        takes_drive: false,
+        describe: "bond-orientational order and local composition of every recorded frame: t, psi6 (mean |psi6_j|), psi6_global (|mean psi6_j|), small_fraction_var (variance of the small-disk fraction over the sub-boxes of chi4 / its binomial value; 1 random, > 1 demixed)",
+        typed: &Typed(|t, p: &order::Params| per_replica(t, p, order::compute)),
+    },
+    Observable {
         name: "clusters",
         at: lags::AtLag::Nearest,
         takes_drive: false,
@@ -630,6 +637,7 @@ mod tests {
             ("msd", json!({"fractions": [0.1]}), "msd"),
             ("van_hove", json!({"lags": [1.0]}), "P"),
             ("gr", json!({"r_max": 5.0}), "g"),
+            ("order", json!({"cutoff": 1.4, "n": 40}), "psi6"),
             ("clusters", json!({"lags": [1.0], "cutoffs": cut}), "Rg"),
             ("cluster_sizes", json!({"lags": [1.0], "cutoffs": cut}), "P"),
             ("mobility_snapshot", json!({"lags": [1.0]}), "class"),
