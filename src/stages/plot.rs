@@ -29,7 +29,9 @@ struct PlotLookup<'a> {
 
 impl Lookup for PlotLookup<'_> {
     fn resolve(&self, r: &Reference) -> Result<Resolved> {
-        if !r.is_local() {
+        // `{=ci:...}` in a ci build is this build.
+        let own_profile = r.profile.as_deref().is_none_or(|p| p == self.build.profile);
+        if !(own_profile && r.figure.is_none()) {
             anyhow::bail!(
                 "a plot's text references only its own build (a stage it gathers, `profile`, an experiment upstream): state a number of another figure or profile in a compare reason or `error_coverage`"
             );
@@ -636,7 +638,7 @@ pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
     let table =
         |layer: &Layer| Columns::read_file(&inputs_of("plot", inputs, &layer.from)?, &layer.file);
     let fig = build(p, table, |text| fill(text, inputs, &p.build))?;
-    with_caption(fig, verdicts(inputs)?)
+    with_caption(fig, verdicts(inputs, &p.build)?)
 }
 
 /// `fig` with `lines` under its panels, its height grown by theirs so that
@@ -652,7 +654,7 @@ fn with_caption(mut fig: Figure, lines: Vec<String>) -> Result<Figure> {
 const SHORT_CHARS: usize = 90;
 
 /// One verdict line per row of every gathered `compare` stage (docs/plot.md).
-fn verdicts(inputs: &[Artifact]) -> Result<Vec<String>> {
+fn verdicts(inputs: &[Artifact], build: &BuildInfo) -> Result<Vec<String>> {
     let mut out = vec![];
     for a in inputs.iter().filter(|a| a.kind.name == "compare") {
         let (batches, _) = crate::table::read_parquet_bytes(a.read("parquet")?)?;
@@ -666,8 +668,15 @@ fn verdicts(inputs: &[Artifact]) -> Result<Vec<String>> {
             let rows = crate::table::results::read_compare(b)
                 .with_context(|| format!("plot: the compare table of {}", a.label))?;
             for (i, c) in rows.iter().enumerate() {
+                // The reason's references this build holds (its experiments,
+                // the stages the plot gathers) printed as numbers; the others
+                // are cut (`before_reference`).
+                let mut c = c.clone();
+                if let Ok(r) = fill(&c.reason, inputs, build) {
+                    c.reason = r;
+                }
                 out.push(verdict_line(
-                    c,
+                    &c,
                     &text(super::compare::SHORT, i),
                     provenance(c.source),
                 ));
@@ -708,6 +717,13 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
         } else {
             short.to_string()
         };
+        // A fit's own note may open with the verdict ("unreliable: ..."): once.
+        let label = c.verdict.label();
+        let why = why
+            .trim()
+            .strip_prefix(label)
+            .and_then(|w| w.strip_prefix(':'))
+            .map_or(why.clone(), |w| w.trim().to_string());
         line.push_str(": ");
         line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));
     }

@@ -545,7 +545,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
          - {quantity: phi_c, value: 0.82, tolerance: 0.01}\n\
          - {quantity: gamma, value: 1.19, tolerance: 0.05}\n\
          - {quantity: nu, value: 0.55, tolerance: 0.1}\n\
-         out_of_reach: {phi_c: 'the box (N = 1000; see the frontier) is too small; and more'}\n\
+         out_of_reach: {phi_c: 'the box (see the frontier) of N = {=eps09.n} is too small; and more'}\n\
          short: {gamma: the range is too narrow}\n",
     );
     let ctx = StageCtx::new(0, "compare".into(), None);
@@ -561,11 +561,20 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
             .remove(0),
     );
     compare.kind = "compare".into();
-    let lines = super::verdicts(&[compare]).unwrap();
+    // The reason's reference to an experiment upstream prints as its value.
+    let build = super::BuildInfo {
+        profile: "ci".into(),
+        experiments: [(
+            "eps09".to_string(),
+            [("n".to_string(), serde_json::json!(1000))].into(),
+        )]
+        .into(),
+    };
+    let lines = super::verdicts(&[compare], &build).unwrap();
     assert_eq!(
         lines,
         [
-            "phi_c: paper 0.82; ours 0.805 ± 0.004; out of reach: the box is too small",
+            "phi_c: paper 0.82; ours 0.805 ± 0.004; out of reach: the box of N = 1000 is too small",
             "gamma: paper 1.19; ours 1.01 ± 0.06; disagree: the range is too narrow",
             "nu: paper 0.55; ours 0.50 ± 0.10; agree",
         ]
@@ -591,6 +600,16 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
                     + super::SHORT_CHARS
                     + 1,
         "{line}"
+    );
+    // A fit's note that opens with the verdict prints it once.
+    let c = crate::table::results::Compared {
+        verdict: crate::table::results::Verdict::Unreliable,
+        reason: "unreliable: phi_c = 0.789 falls on the last point; more".into(),
+        ..c
+    };
+    assert_eq!(
+        super::verdict_line(&c, "", ""),
+        "phi_c: paper 0.82; ours 0.805 ± 0.004; unreliable: phi_c = 0.789 falls on the last point"
     );
 }
 
