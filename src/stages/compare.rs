@@ -65,6 +65,18 @@ pub struct CompareParams {
     short: std::collections::BTreeMap<String, String>,
 }
 
+/// How a claim's reason states it: `paper states > chi4P_a06 (margin 0); ...`.
+const CLAIM_OPENS: &str = "paper states ";
+const CLAIM_ENDS: &str = " (margin ";
+
+/// The claim a row's reason states (`> chi4P_a06`, `< 3`), if it is a claim's:
+/// a figure's verdict line names it instead of the bound's number alone.
+pub fn claim_in(reason: &str) -> Option<&str> {
+    let (_, rest) = reason.split_once(CLAIM_OPENS)?;
+    let (claim, _) = rest.split_once(CLAIM_ENDS)?;
+    Some(claim)
+}
+
 /// The column of the short reasons (empty where none is given).
 pub const SHORT: &str = "short";
 
@@ -181,7 +193,7 @@ impl StageKind for Compare {
                             Claim::Below => (v < bound - pval.tolerance, "<"),
                         };
                         let why = format!(
-                            "paper states {op} {name} (margin {}); ours {} against {}",
+                            "{CLAIM_OPENS}{op} {name}{CLAIM_ENDS}{}); ours {} against {}",
                             pval.tolerance,
                             significant(v),
                             significant(bound)

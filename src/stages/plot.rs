@@ -700,10 +700,18 @@ fn provenance(source: crate::table::results::Source) -> &'static str {
 /// else the reason's first clause (up to "; "), cut to [`SHORT_CHARS`].
 fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &str) -> String {
     use crate::table::results::Verdict;
+    // A claim names what it is against: `paper > chi4P_a06 (3.3)`, `paper < 3`.
+    let paper = match super::compare::claim_in(&c.reason) {
+        Some(claim) if claim.split_once(' ').is_some_and(|(_, b)| b.parse::<f64>().is_ok()) => {
+            format!("paper {claim}")
+        }
+        Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
+        None => format!("paper {}", legend_number(c.paper)),
+    };
     let paper = if provenance.is_empty() {
-        format!("paper {}", legend_number(c.paper))
+        paper
     } else {
-        format!("paper {} ({provenance})", legend_number(c.paper))
+        format!("{paper} ({provenance})")
     };
     let ours = if c.ours.is_finite() {
         format!("ours {}", value_with_error(c.ours, c.ours_err))

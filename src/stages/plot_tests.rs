@@ -601,6 +601,32 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
                     + 1,
         "{line}"
     );
+    // A claim names what it is against, another quantity or a number.
+    let claim = crate::table::results::Compared {
+        quantity: "chi4P_a30".into(),
+        ours: 2.8,
+        ours_err: 0.7,
+        paper: 3.3,
+        tolerance: 0.0,
+        verdict: crate::table::results::Verdict::Agree,
+        reason: "paper states > chi4P_a06 (margin 0); ours 2.8 against 3.3".into(),
+        source: crate::table::results::Source::Figure,
+    };
+    assert_eq!(
+        super::verdict_line(&claim, "", ""),
+        "chi4P_a30: paper > chi4P_a06 (3.30); ours 2.8 ± 0.7; agree"
+    );
+    let claim = crate::table::results::Compared {
+        quantity: "reduced_chi2".into(),
+        ours: 0.9,
+        paper: 3.0,
+        reason: "paper states < 3 (margin 0); ours 0.9 against 3".into(),
+        ..claim
+    };
+    assert_eq!(
+        super::verdict_line(&claim, "", ""),
+        "reduced_chi2: paper < 3; ours 0.9 ± 0.7; agree"
+    );
     // A fit's note that opens with the verdict prints it once.
     let c = crate::table::results::Compared {
         verdict: crate::table::results::Verdict::Unreliable,
