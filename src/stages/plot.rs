@@ -702,7 +702,11 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
     use crate::table::results::Verdict;
     // A claim names what it is against: `paper > chi4P_a06 (3.3)`, `paper < 3`.
     let paper = match super::compare::claim_in(&c.reason) {
-        Some(claim) if claim.split_once(' ').is_some_and(|(_, b)| b.parse::<f64>().is_ok()) => {
+        Some(claim)
+            if claim
+                .split_once(' ')
+                .is_some_and(|(_, b)| b.parse::<f64>().is_ok()) =>
+        {
             format!("paper {claim}")
         }
         Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
