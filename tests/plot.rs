@@ -772,6 +772,32 @@ fn noise_on_a_log_axis_is_drawn_open_or_left_out() {
     assert!(notes.contains("Open markers"), "{notes}");
 }
 
+/// What the y range leaves out does not widen the x range: a noise point far
+/// along x below the axes, and the stretch of a fit that falls out of view
+/// (fig14's master curve at small), end where the shown data end.
+#[test]
+fn the_x_range_ends_where_what_shows_ends() {
+    let mut x: Vec<f64> = (1..=8).map(f64::from).collect();
+    x[7] = 1000.0;
+    let mut y: Vec<f64> = (1..=8).map(|x| 10f64.powi(-x)).collect();
+    y[7] = 1e-40;
+    let mut e: Vec<f64> = y.iter().map(|v| 0.1 * v).collect();
+    e[7] = 2.0 * y[7];
+    let mut s = series("data", x, y);
+    s.style = Style::Points;
+    s.y_err = Some(e);
+    let fx: Vec<f64> = (0..100).map(|i| 1.0 + 10.0 * i as f64).collect();
+    let fy: Vec<f64> = fx.iter().map(|x| 10f64.powf(-x)).collect();
+    let mut fit = series("fit", fx, fy);
+    fit.fit = true;
+    let f = Figure {
+        panels: vec![panel("", axis("x", false), axis("y", true), vec![s, fit])],
+        ..overlap_figure()
+    };
+    let lay = layout(&f).unwrap();
+    assert!(lay[0].x.hi > 7.0 && lay[0].x.hi < 20.0, "{:?}", lay[0].x);
+}
+
 /// A paper's value with its tolerance: a pale band about the line, as tall as
 /// twice the half-width on the axis, under the data; none without `band`.
 #[test]

@@ -262,7 +262,6 @@ fn scales(p: &Panel) -> (Scale, Scale) {
         None if axis.from_zero && !axis.log => Scale::fit(values.into_iter().chain([0.0]), false),
         None => Scale::fit(values, axis.log),
     };
-    let xs = p.series.iter().flat_map(|s| s.x.iter().copied()).collect();
     let y_axis = Scale {
         lo: 1.0,
         hi: 10.0,
@@ -319,7 +318,20 @@ fn scales(p: &Panel) -> (Scale, Scale) {
         .map(|l| l.at)
         .filter(|&v| y_axis.accepts(v) && t(v) >= lo - reach && t(v) <= hi + reach);
     let ys = values.iter().copied().chain(ends).chain(near).collect();
-    (fit(&p.x, xs), fit(&p.y, ys))
+    let y = fit(&p.y, ys);
+    // The x range holds what shows: a noise point or a stretch of a fit that
+    // the y range leaves out does not widen it (fig14's log-normal tail).
+    let shown = |v: f64| y.accepts(v) && (y.fraction(v) >= 0.0 && y.fraction(v) <= 1.0);
+    let xs = p
+        .series
+        .iter()
+        .flat_map(|s| {
+            (0..s.x.len())
+                .filter(move |&i| !((s.fit || noise(s, i, p.y.log)) && !shown(s.y[i])))
+                .map(move |i| s.x[i])
+        })
+        .collect();
+    (fit(&p.x, xs), y)
 }
 
 /// Where a panel's parts go.
@@ -396,14 +408,13 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
         .filter(|s| matches!(s.style, Style::Points | Style::LinePoints) && !s.fit)
     {
         for i in (0..s.y.len()).filter(|&i| noise(s, i, ys.log)) {
+            // Below the y range it is left out wherever its x lies: the x
+            // range ends with what shows ([`scales`]).
             let in_x = xs.accepts(s.x[i]) && (xs.lo..=xs.hi).contains(&s.x[i]);
-            if !in_x {
-                continue;
-            }
-            if ys.accepts(s.y[i]) && (ys.lo..=ys.hi).contains(&s.y[i]) {
-                open |= !s.marker.open();
-            } else {
+            if !(ys.accepts(s.y[i]) && (ys.lo..=ys.hi).contains(&s.y[i])) {
                 left_out += 1;
+            } else if in_x {
+                open |= !s.marker.open();
             }
         }
     }
