@@ -34,7 +34,13 @@ pub static FORMS: &[Form] = &[
         params: &["A", "phi_c", "gamma"],
         log_x: false,
         fit: forms::power_law_offset,
-        model: |p, _, x| p[0] * (p[1] - x).powf(-p[2]),
+        model: |p, _, x| {
+            if x < p[1] {
+                p[0] * (p[1] - x).powf(-p[2])
+            } else {
+                f64::NAN
+            }
+        },
     },
     Form {
         name: "vft",
@@ -42,7 +48,15 @@ pub static FORMS: &[Form] = &[
         params: &["A", "phi_0", "B"],
         log_x: false,
         fit: forms::vft,
-        model: |p, _, x| p[0] * (p[2] / (p[1] - x)).exp(),
+        // Defined below its divergence only, as the power law: beyond phi_0
+        // the formula falls back to ~0, a drawn curve to a vertical line.
+        model: |p, _, x| {
+            if x < p[1] {
+                p[0] * (p[2] / (p[1] - x)).exp()
+            } else {
+                f64::NAN
+            }
+        },
     },
     Form {
         name: "power_law",
@@ -201,5 +215,18 @@ mod tests {
         let e = (g.fit)(Data::new(&[1.0], &[1.0], &[1.0]), &[]).unwrap_err();
         assert!(e.to_string().contains("lag t"), "{e}");
         assert!(find("gausian").err().unwrap().contains("log_normal"));
+    }
+
+    /// The divergent forms are defined below their divergence only: a curve
+    /// drawn past it ends there instead of falling to a vertical line.
+    #[test]
+    fn divergent_forms_end_at_their_divergence() {
+        let vft = find("vft").unwrap();
+        let (a, phi_0, b) = (0.76, 0.83, 0.148);
+        let below = (vft.model)(&[a, phi_0, b], &[], 0.80);
+        assert!((below - a * (b / 0.03f64).exp()).abs() < 1e-9 * below);
+        assert!((vft.model)(&[a, phi_0, b], &[], 0.84).is_nan());
+        let pl = find("power_law_offset").unwrap();
+        assert!((pl.model)(&[1.0, 0.82, 2.0], &[], 0.83).is_nan());
     }
 }

@@ -43,6 +43,21 @@ enum Claim {
     Below,
 }
 
+impl Claim {
+    fn symbol(self) -> &'static str {
+        match self {
+            Claim::Above => ">",
+            Claim::Below => "<",
+        }
+    }
+}
+
+/// The claim as a reason states it (`paper states > phi_c_10 (margin 0)`):
+/// [`claim_in`] finds it there, so a verdict line names what it is against.
+fn claim_text(c: Claim, name: &str, tolerance: f64) -> String {
+    format!("{CLAIM_OPENS}{} {name}{CLAIM_ENDS}{tolerance})", c.symbol())
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CompareParams {
@@ -66,7 +81,7 @@ pub struct CompareParams {
 }
 
 /// How a claim's reason states it: `paper states > chi4P_a06 (margin 0); ...`.
-const CLAIM_OPENS: &str = "paper states ";
+pub const CLAIM_OPENS: &str = "paper states ";
 const CLAIM_ENDS: &str = " (margin ";
 
 /// The claim a row's reason states (`> chi4P_a06`, `< 3`), if it is a claim's:
@@ -171,10 +186,15 @@ impl StageKind for Compare {
                     format!("no input reports '{}'", pval.quantity),
                 ),
                 Some((_, v, e, note)) if note.contains("unreliable") => {
-                    let why = match p.out_of_reach.get(&pval.quantity) {
+                    let mut why = match p.out_of_reach.get(&pval.quantity) {
                         Some(reach) => format!("{note}; {reach}"),
                         None => note.clone(),
                     };
+                    // An unreliable number of a claim still says what it was claimed against.
+                    if let Some(c) = pval.claim {
+                        let name = pval.than.clone().unwrap_or_else(|| pval.value.to_string());
+                        why = format!("{why}; {}", claim_text(c, &name, pval.tolerance));
+                    }
                     (*v, *e, "unreliable", why)
                 }
                 Some(&(_, v, e, _)) => {
@@ -186,15 +206,15 @@ impl StageKind for Compare {
                             .and_then(|q| ours.iter().find(|o| &o.0 == q));
                         let (bound, name) = match &pval.than {
                             Some(q) => (other.map_or(f64::NAN, |o| o.1), q.clone()),
-                            None => (pval.value, significant(pval.value)),
+                            None => (pval.value, pval.value.to_string()),
                         };
-                        let (ok, op) = match c {
-                            Claim::Above => (v > bound + pval.tolerance, ">"),
-                            Claim::Below => (v < bound - pval.tolerance, "<"),
+                        let ok = match c {
+                            Claim::Above => v > bound + pval.tolerance,
+                            Claim::Below => v < bound - pval.tolerance,
                         };
                         let why = format!(
-                            "{CLAIM_OPENS}{op} {name}{CLAIM_ENDS}{}); ours {} against {}",
-                            pval.tolerance,
+                            "{}; ours {} against {}",
+                            claim_text(c, &name, pval.tolerance),
                             significant(v),
                             significant(bound)
                         );
@@ -315,7 +335,7 @@ pub(super) fn digits(v: f64, n: i32) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{Compare, digits, significant};
+    use super::{Compare, claim_in, digits, significant};
     use crate::pipeline::{Kind, StageCtx};
     use crate::stages::tables::Columns;
     use crate::stages::test_support::{artifact, yaml};
@@ -421,6 +441,35 @@ mod tests {
             "{}",
             c.str[REASON][0]
         );
+        // Each reason names its claim, for the figure's verdict line.
+        assert_eq!(claim_in(&c.str[REASON][0]), Some("> c10"));
+        assert_eq!(claim_in(&c.str[REASON][1]), Some("> c09"));
+    }
+
+    /// A claim whose own number is unreliable (phi_c_09 on its last point,
+    /// claimed above phi_c_10) keeps the fit's note and still names the claim.
+    #[test]
+    fn an_unreliable_claim_names_what_it_is_against() {
+        let dir = tempfile::tempdir().unwrap();
+        let on_last = "unreliable: phi_c = 0.789: it falls on the last point";
+        let weak = artifact(
+            dir.path(),
+            "weak",
+            quantity_batch(&[], &[("c09".to_string(), 0.789, 0.003)], on_last, None).unwrap(),
+        );
+        let firm = artifact(
+            dir.path(),
+            "firm",
+            quantity_batch(&[], &[("c10".to_string(), 0.783, 0.002)], "", None).unwrap(),
+        );
+        let params = yaml("paper:\n- {quantity: c09, claim: above, than: c10, value: 0, tolerance: 0}\n");
+        let ctx = StageCtx::new(0, "compare".into(), None);
+        let out = Compare.run_params(&ctx, &params, &[weak, firm]).unwrap();
+        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(c.str[VERDICT], ["unreliable"]);
+        assert!(c.str[REASON][0].starts_with(on_last), "{}", c.str[REASON][0]);
+        assert_eq!(claim_in(&c.str[REASON][0]), Some("> c10"));
     }
 
     #[test]

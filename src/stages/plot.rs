@@ -605,6 +605,12 @@ fn systematic(all: &[Series], ps: &PanelSpec) -> Vec<String> {
             .filter(|s| s.group == fit.group)
             .collect();
         let signs = residual_signs(fit, &data, ps);
+        // Runs are counted in order of x: with several points at one x (a
+        // scatter of clusters at each N_c) that order, and so the runs, are
+        // arbitrary.
+        if signs.windows(2).any(|w| w[0].0 == w[1].0) {
+            continue;
+        }
         let above: Vec<bool> = signs.iter().map(|s| s.1).collect();
         let Some(r) = crate::fit::runs::runs(&above).filter(|r| r.p < RUNS_LEVEL) else {
             continue;
@@ -736,8 +742,11 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
             .strip_prefix(label)
             .and_then(|w| w.strip_prefix(':'))
             .map_or(why.clone(), |w| w.trim().to_string());
-        line.push_str(": ");
-        line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));
+        // A claim's own statement is already the line's `paper` part.
+        if !why.trim().starts_with(super::compare::CLAIM_OPENS) {
+            line.push_str(": ");
+            line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));
+        }
     }
     line
 }

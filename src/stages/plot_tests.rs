@@ -520,6 +520,38 @@ fn a_line_through_a_curve_that_turns_is_flagged() {
     assert!(alarms < 20, "{alarms} false alarms in 2000 seeds");
 }
 
+/// A scatter with several points at each x (clusters of one N_c) has no order
+/// of its residual signs: it gets no runs note, where the same curve with one
+/// point per x does.
+#[test]
+fn a_scatter_with_tied_x_is_not_judged_by_runs() {
+    let curve = |x: &[f64]| crate::plot::Series {
+        label: "a + b x: b = 1".into(),
+        x: x.to_vec(),
+        y: x.iter().map(|&x| x).collect(),
+        fit: true,
+        ..Default::default()
+    };
+    let points = |x: Vec<f64>, y: Vec<f64>| crate::plot::Series {
+        x,
+        y,
+        style: crate::plot::Style::Points,
+        ..Default::default()
+    };
+    let ps: super::PanelSpec =
+        serde_json::from_value(serde_json::json!({"x": {"label": "N_c"}, "y": {}, "layers": []}))
+            .unwrap();
+    // Twelve points above the line y = x, twelve below, far from random order.
+    let x: Vec<f64> = (0..24).map(|i| 1.0 + i as f64).collect();
+    let y: Vec<f64> = x.iter().map(|&x| if x <= 12.0 { x + 1.0 } else { x - 1.0 }).collect();
+    let line = curve(&[0.0, 30.0]);
+    assert_eq!(super::systematic(&[points(x, y), line.clone()], &ps).len(), 1);
+    // The same signs at six x, four points each: no note.
+    let x: Vec<f64> = (0..24).map(|i| 1.0 + (i / 4) as f64).collect();
+    let y: Vec<f64> = (0..24).map(|i| x[i] + if i < 12 { 1.0 } else { -1.0 }).collect();
+    assert!(super::systematic(&[points(x, y), line], &ps).is_empty());
+}
+
 /// A compare table gathered by the plot: one verdict line per paper value,
 /// the short reason given in `short` where the verdict is not agree, the
 /// first clause of the reason otherwise, none where it agrees; the
@@ -626,6 +658,17 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
     assert_eq!(
         super::verdict_line(&claim, "", ""),
         "reduced_chi2: paper < 3; ours 0.9 ± 0.7; agree"
+    );
+    // Where it disagrees, the claim is not said a second time as the reason.
+    let claim = crate::table::results::Compared {
+        ours: 13.0,
+        verdict: crate::table::results::Verdict::Disagree,
+        reason: "paper states < 3 (margin 0); ours 13 against 3".into(),
+        ..claim
+    };
+    assert_eq!(
+        super::verdict_line(&claim, "", ""),
+        "reduced_chi2: paper < 3; ours 13.0 ± 0.7; disagree"
     );
     // A fit's note that opens with the verdict prints it once.
     let c = crate::table::results::Compared {
