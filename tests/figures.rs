@@ -733,6 +733,42 @@ stages:
         - {quantity: D_055, value: 0, tolerance: 0, claim: above}
 "#;
 
+const AGING_PIPELINE: &str = r#"
+description: tiny fig2 drift
+stages:
+  - name: aging
+    kind: aging
+    gather: [tiny]
+    by: [phi]
+  - name: drift
+    kind: fit
+    gather: [aging]
+    params: {form: drift, file: tau.parquet, x: t0, y: tau_alpha, where: {phi: 0.55}}
+"#;
+
+/// fig2's drift of tau_alpha(t0): the waiting times of one run share its
+/// stretch of time, so its error is the replica jackknife (tau.parquet
+/// carries tau_alpha with each replica left out), not the scatter about the
+/// line of points that are not independent.
+#[test]
+fn the_aging_drift_is_refitted_per_replica() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ws, _) = build(dir.path(), "agefig", AGING_PIPELINE);
+    let drift = ws.results.join("agefig/drift.parquet");
+    let (v, jk0, jk1) = (
+        column(&drift, "value"),
+        column(&drift, "value_jk0"),
+        column(&drift, "value_jk1"),
+    );
+    assert!(v[0].is_finite() && jk0[0].is_finite() && jk1[0].is_finite(), "{v:?} {jk0:?} {jk1:?}");
+    assert!(jk0[0] != jk1[0], "each replica left out refits its own drift");
+    // Two replicas: the jackknife error sqrt((n-1)/n sum (jk_k - mean)^2) is
+    // |jk0 - jk1| / 2.
+    let e = column(&drift, "error")[0];
+    let expect = (jk0[0] - jk1[0]).abs() / 2.0;
+    assert!(e >= 0.99 * expect, "error {e} against the jackknife {expect}");
+}
+
 #[test]
 fn diffusion_levels_and_claims_on_a_tiny_sweep() {
     let dir = tempfile::tempdir().unwrap();

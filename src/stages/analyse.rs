@@ -369,6 +369,13 @@ fn take_run_drive(
 /// errors from the independent replicas.
 const TIME_BLOCKS_WITH_REPLICA_SAMPLES: &[&str] = &["s4", "intruder_velocity"];
 
+/// Replica means (`Errors::Mean`) that carry replica samples too: aging's
+/// tau_alpha(t0), whose neighbouring waiting times share one run's stretch
+/// of time, so that a fit across t0 (fig2's drift) scatters as its replicas
+/// do, not as its points about the line (which counts correlated points as
+/// independent and quoted half the seed-to-seed spread).
+const MEANS_WITH_REPLICA_SAMPLES: &[&str] = &["aging"];
+
 /// The replica jackknife columns (`X_jk0`, ..., `jk_unit`; `pool::with_replica_samples`)
 /// of an observable pooled over 2 to `MAX_JK_REPLICAS` replicas: the same
 /// observable with each replica left out, so that a fit downstream can refit
@@ -388,6 +395,7 @@ fn replica_samples(
     let pooled = match tables.errors {
         Errors::Jackknife { .. } | Errors::SeedToSeed { .. } => true,
         Errors::TimeBlocks { .. } => TIME_BLOCKS_WITH_REPLICA_SAMPLES.contains(&obs.name),
+        Errors::Mean { .. } if MEANS_WITH_REPLICA_SAMPLES.contains(&obs.name) => true,
         _ => !tables.left_out.is_empty(),
     };
     if !pooled || refs.len() < 2 || refs.len() > pool::MAX_JK_REPLICAS {
