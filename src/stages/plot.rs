@@ -698,6 +698,7 @@ fn provenance(source: crate::table::results::Source) -> &'static str {
     match source {
         crate::table::results::Source::Figure => "",
         crate::table::results::Source::Ref12 => "quoted, ref. 12",
+        crate::table::results::Source::Check => "our cross-check, not the paper's",
     }
 }
 
@@ -716,6 +717,9 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
             format!("paper {claim}")
         }
         Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
+        None if c.source == crate::table::results::Source::Check => {
+            format!("expected {}", legend_number(c.paper))
+        }
         None => format!("paper {}", legend_number(c.paper)),
     };
     let paper = if provenance.is_empty() {
@@ -730,8 +734,14 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
     };
     let mut line = format!("{}: {paper}; {ours}; {}", c.quantity, c.verdict.label());
     if c.verdict != Verdict::Agree {
+        // A miss opens with its arithmetic (`|ours - paper| = d > tol`), on the
+        // line already: the reason is the clause after it, where there is one.
+        let reason = match c.reason.split_once("; ") {
+            Some((miss, rest)) if miss.starts_with('|') && !rest.trim().is_empty() => rest,
+            _ => c.reason.as_str(),
+        };
         let why = if short.is_empty() {
-            first_clause(&c.reason)
+            first_clause(reason)
         } else {
             short.to_string()
         };

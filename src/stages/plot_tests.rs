@@ -670,6 +670,32 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         super::verdict_line(&claim, "", ""),
         "reduced_chi2: paper < 3; ours 13.0 ± 0.7; disagree"
     );
+    // A miss with a caveat: the caveat's first clause, not the arithmetic.
+    let miss = crate::table::results::Compared {
+        quantity: "gamma".into(),
+        ours: 0.7,
+        ours_err: 0.1,
+        paper: 1.6,
+        tolerance: 0.3,
+        verdict: crate::table::results::Verdict::Disagree,
+        reason: "|0.7 - 1.6| = 0.9 > 0.3; the box is too small (panel c); more".into(),
+        source: crate::table::results::Source::Figure,
+    };
+    assert_eq!(
+        super::verdict_line(&miss, "", ""),
+        "gamma: paper 1.60; ours 0.70 ± 0.10; disagree: the box is too small"
+    );
+    // A value the project checks itself against is not called the paper's.
+    let check = crate::table::results::Compared {
+        source: crate::table::results::Source::Check,
+        reason: "|0.7 - 1| = 0.3 > 0.25".into(),
+        paper: 1.0,
+        ..miss
+    };
+    assert_eq!(
+        super::verdict_line(&check, "", super::provenance(check.source)),
+        "gamma: expected 1.00 (our cross-check, not the paper's); ours 0.70 ± 0.10; disagree: |0.7 - 1| = 0.3 > 0.25"
+    );
     // A fit's note that opens with the verdict prints it once.
     let c = crate::table::results::Compared {
         verdict: crate::table::results::Verdict::Unreliable,

@@ -144,10 +144,21 @@ fn collapse_group(
     let sc = Scaling::read(p, &c, phi_c)?;
     let curves = sc.curves(&sc.points.y);
     let rescale = sc.rescale(sc.measured.clone());
-    let found = match &p.g_from {
+    let mut found = match &p.g_from {
         Some(from) => held_g(inputs, group, from, &curves, &rescale)?,
         None => sc.fit(ctx, &curves, &rescale),
     };
+    // A phi_c taken from a fit that marks it unreliable marks this one too.
+    if let Some(f) = &p.phi_c_from
+        && let Some(why) = f.inherited_unreliable("phi_c", "collapse", inputs)?
+        && !found.note.contains("unreliable")
+    {
+        found.note = if found.note.is_empty() {
+            why
+        } else {
+            format!("{why}; {}", found.note)
+        };
+    }
     collapse_output(p, &curves, &rescale, &found, group)
 }
 

@@ -45,6 +45,9 @@ pub(super) struct Group {
 pub(super) struct TakenNumbers {
     pub refits: Vec<(String, Refits)>,
     pub held: Vec<(String, f64, f64)>,
+    /// A taken number its own fit marks unreliable (a phi_c on its last
+    /// point), said so: every number fitted with it inherits the mark.
+    pub unreliable: Option<String>,
 }
 
 /// One fit of `p` over `rows` of `c`: its quantity table, its curve (named after
@@ -121,6 +124,15 @@ pub(super) fn fit_group(
         )?,
         _ => Vec::new(),
     };
+    if let Some(why) = &from_other.unreliable
+        && !note.contains("unreliable")
+    {
+        note = if note.is_empty() {
+            why.clone()
+        } else {
+            format!("{why}; {note}")
+        };
+    }
     let table = quantity_batch(group, &rows, &note, samples.as_ref())?;
     let curve = match curve {
         Some((cx, cy)) => Some(curve_table(p, group, cx, cy)?),

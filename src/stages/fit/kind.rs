@@ -121,6 +121,9 @@ impl StageKind for Fit {
         for (name, from) in &p.fixed_from {
             let (value, err) = from.get("fit", inputs)?;
             fixed.push((name.clone(), value));
+            if let Some(why) = from.inherited_unreliable(name, "fit", inputs)? {
+                taken.unreliable = Some(why);
+            }
             match from.jackknife("fit", inputs)? {
                 Some(r) => taken.refits.push((name.clone(), r)),
                 None => taken.held.push((name.clone(), value, err)),

@@ -29,6 +29,29 @@ impl FromQuantity {
         c.quantity(&self.quantity)
     }
 
+    /// Where its own fit marks the number unreliable (a phi_c on its last
+    /// point), the note every number fitted with it as `param` inherits.
+    pub(super) fn inherited_unreliable(
+        &self,
+        param: &str,
+        kind: &str,
+        inputs: &[Artifact],
+    ) -> Result<Option<String>> {
+        let c = Columns::read(&inputs_of(kind, inputs, &self.stage)?)?;
+        let (Some(q), Some(n)) = (c.str.get(QUANTITY), c.str.get(crate::table::results::NOTE)) else {
+            return Ok(None);
+        };
+        Ok((0..q.len())
+            .find(|&i| q[i] == self.quantity && n[i].contains("unreliable"))
+            .map(|i| {
+                let why = n[i].trim_start_matches("unreliable:").trim();
+                format!(
+                    "unreliable: {param} is {} of {}, itself unreliable ({why})",
+                    self.quantity, self.stage
+                )
+            }))
+    }
+
     /// The number's replica jackknife refits (`jackknife.parquet` of its fit), if
     /// it has them: its value with each replica of each unit left out.
     pub(super) fn jackknife(&self, kind: &str, inputs: &[Artifact]) -> Result<Option<Refits>> {

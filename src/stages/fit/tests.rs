@@ -747,3 +747,45 @@ fn a_value_at_a_remeasured_lag_quotes_its_jackknife_alone() {
         );
     }
 }
+
+/// A number taken from a fit that marks it unreliable (a phi_c on its last
+/// point) makes every number fitted with it unreliable too, saying whence;
+/// taken from a reliable fit, the note stays empty.
+#[test]
+fn a_number_taken_from_an_unreliable_fit_marks_the_fit_unreliable() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctx = StageCtx::new(0, "inherit".into(), None);
+    let phi: Vec<f64> = (0..8).map(|i| 0.60 + 0.025 * i as f64).collect();
+    let chi: Vec<f64> = phi.iter().map(|p| 2.0 * (0.85 - p).powf(-0.8)).collect();
+    let err: Vec<f64> = chi.iter().map(|c| 0.02 * c).collect();
+    let peaks = artifact(
+        dir.path(),
+        "peaks",
+        f64_batch(&[("phi", phi), ("chi4", chi), ("chi4_err", err)]).unwrap(),
+    );
+    let fit = yaml(
+        "{form: power_law_offset, data: peaks, x: phi, y: chi4, y_err: chi4_err, \
+         fixed_from: {phi_c: {stage: joint, quantity: phi_c_joint}}, rename: {gamma: gamma_chi}}",
+    );
+    let source = |note: &str| {
+        artifact(
+            dir.path(),
+            "joint",
+            crate::table::results::quantity_batch(&[], &[("phi_c_joint".into(), 0.85, 0.001)], note, None)
+                .unwrap(),
+        )
+    };
+    let note_of = |src| {
+        let o = Fit.run_params(&ctx, &fit, &[peaks.clone(), src]).unwrap();
+        let c = Columns::read_file(&[&artifact_of(dir.path(), &o)], "parquet").unwrap();
+        c.str[crate::table::results::NOTE].clone()
+    };
+    let on_last = "unreliable: phi_c = 0.850: it falls on the last point";
+    for n in note_of(source(on_last)) {
+        assert!(
+            n.starts_with("unreliable: phi_c is phi_c_joint of joint, itself unreliable (phi_c = 0.850"),
+            "{n}"
+        );
+    }
+    assert!(note_of(source("")).iter().all(|n| !n.contains("unreliable")));
+}
