@@ -698,7 +698,6 @@ fn provenance(source: crate::table::results::Source) -> &'static str {
     match source {
         crate::table::results::Source::Figure => "",
         crate::table::results::Source::Ref12 => "quoted, ref. 12",
-        crate::table::results::Source::Check => "our cross-check, not the paper's",
     }
 }
 
@@ -717,9 +716,6 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
             format!("paper {claim}")
         }
         Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
-        None if c.source == crate::table::results::Source::Check => {
-            format!("expected {}", legend_number(c.paper))
-        }
         None => format!("paper {}", legend_number(c.paper)),
     };
     let paper = if provenance.is_empty() {

@@ -685,17 +685,6 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         super::verdict_line(&miss, "", ""),
         "gamma: paper 1.60; ours 0.70 ± 0.10; disagree: the box is too small"
     );
-    // A value the project checks itself against is not called the paper's.
-    let check = crate::table::results::Compared {
-        source: crate::table::results::Source::Check,
-        reason: "|0.7 - 1| = 0.3 > 0.25".into(),
-        paper: 1.0,
-        ..miss
-    };
-    assert_eq!(
-        super::verdict_line(&check, "", super::provenance(check.source)),
-        "gamma: expected 1.00 (our cross-check, not the paper's); ours 0.70 ± 0.10; disagree: |0.7 - 1| = 0.3 > 0.25"
-    );
     // A fit's note that opens with the verdict prints it once.
     let c = crate::table::results::Compared {
         verdict: crate::table::results::Verdict::Unreliable,

@@ -311,20 +311,16 @@ pub enum Source {
     #[default]
     Figure,
     Ref12,
-    /// Not a paper's value: what the project checks itself against (the
-    /// Einstein relation's mu / mu_E = 1).
-    Check,
 }
 
 impl Source {
-    pub const ALL: [Source; 3] = [Source::Figure, Source::Ref12, Source::Check];
+    pub const ALL: [Source; 2] = [Source::Figure, Source::Ref12];
 
     /// As compare.parquet spells it.
     pub fn as_str(self) -> &'static str {
         match self {
             Source::Figure => "figure",
             Source::Ref12 => "ref12",
-            Source::Check => "check",
         }
     }
 
@@ -333,7 +329,6 @@ impl Source {
         match self {
             Source::Figure => "measured (figure)",
             Source::Ref12 => "quoted (ref. 12)",
-            Source::Check => "our cross-check, not the paper's",
         }
     }
 
