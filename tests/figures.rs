@@ -760,13 +760,22 @@ fn the_aging_drift_is_refitted_per_replica() {
         column(&drift, "value_jk0"),
         column(&drift, "value_jk1"),
     );
-    assert!(v[0].is_finite() && jk0[0].is_finite() && jk1[0].is_finite(), "{v:?} {jk0:?} {jk1:?}");
-    assert!(jk0[0] != jk1[0], "each replica left out refits its own drift");
+    assert!(
+        v[0].is_finite() && jk0[0].is_finite() && jk1[0].is_finite(),
+        "{v:?} {jk0:?} {jk1:?}"
+    );
+    assert!(
+        jk0[0] != jk1[0],
+        "each replica left out refits its own drift"
+    );
     // Two replicas: the jackknife error sqrt((n-1)/n sum (jk_k - mean)^2) is
     // |jk0 - jk1| / 2.
     let e = column(&drift, "error")[0];
     let expect = (jk0[0] - jk1[0]).abs() / 2.0;
-    assert!(e >= 0.99 * expect, "error {e} against the jackknife {expect}");
+    assert!(
+        e >= 0.99 * expect,
+        "error {e} against the jackknife {expect}"
+    );
 }
 
 #[test]

@@ -462,13 +462,18 @@ mod tests {
             "firm",
             quantity_batch(&[], &[("c10".to_string(), 0.783, 0.002)], "", None).unwrap(),
         );
-        let params = yaml("paper:\n- {quantity: c09, claim: above, than: c10, value: 0, tolerance: 0}\n");
+        let params =
+            yaml("paper:\n- {quantity: c09, claim: above, than: c10, value: 0, tolerance: 0}\n");
         let ctx = StageCtx::new(0, "compare".into(), None);
         let out = Compare.run_params(&ctx, &params, &[weak, firm]).unwrap();
         let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
         let c = Columns::from_batch(&b[0]).unwrap();
         assert_eq!(c.str[VERDICT], ["unreliable"]);
-        assert!(c.str[REASON][0].starts_with(on_last), "{}", c.str[REASON][0]);
+        assert!(
+            c.str[REASON][0].starts_with(on_last),
+            "{}",
+            c.str[REASON][0]
+        );
         assert_eq!(claim_in(&c.str[REASON][0]), Some("> c10"));
     }
 

@@ -543,12 +543,20 @@ fn a_scatter_with_tied_x_is_not_judged_by_runs() {
             .unwrap();
     // Twelve points above the line y = x, twelve below, far from random order.
     let x: Vec<f64> = (0..24).map(|i| 1.0 + i as f64).collect();
-    let y: Vec<f64> = x.iter().map(|&x| if x <= 12.0 { x + 1.0 } else { x - 1.0 }).collect();
+    let y: Vec<f64> = x
+        .iter()
+        .map(|&x| if x <= 12.0 { x + 1.0 } else { x - 1.0 })
+        .collect();
     let line = curve(&[0.0, 30.0]);
-    assert_eq!(super::systematic(&[points(x, y), line.clone()], &ps).len(), 1);
+    assert_eq!(
+        super::systematic(&[points(x, y), line.clone()], &ps).len(),
+        1
+    );
     // The same signs at six x, four points each: no note.
     let x: Vec<f64> = (0..24).map(|i| 1.0 + (i / 4) as f64).collect();
-    let y: Vec<f64> = (0..24).map(|i| x[i] + if i < 12 { 1.0 } else { -1.0 }).collect();
+    let y: Vec<f64> = (0..24)
+        .map(|i| x[i] + if i < 12 { 1.0 } else { -1.0 })
+        .collect();
     assert!(super::systematic(&[points(x, y), line], &ps).is_empty());
 }
 

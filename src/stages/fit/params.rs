@@ -38,7 +38,8 @@ impl FromQuantity {
         inputs: &[Artifact],
     ) -> Result<Option<String>> {
         let c = Columns::read(&inputs_of(kind, inputs, &self.stage)?)?;
-        let (Some(q), Some(n)) = (c.str.get(QUANTITY), c.str.get(crate::table::results::NOTE)) else {
+        let (Some(q), Some(n)) = (c.str.get(QUANTITY), c.str.get(crate::table::results::NOTE))
+        else {
             return Ok(None);
         };
         Ok((0..q.len())

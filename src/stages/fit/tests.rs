@@ -771,8 +771,13 @@ fn a_number_taken_from_an_unreliable_fit_marks_the_fit_unreliable() {
         artifact(
             dir.path(),
             "joint",
-            crate::table::results::quantity_batch(&[], &[("phi_c_joint".into(), 0.85, 0.001)], note, None)
-                .unwrap(),
+            crate::table::results::quantity_batch(
+                &[],
+                &[("phi_c_joint".into(), 0.85, 0.001)],
+                note,
+                None,
+            )
+            .unwrap(),
         )
     };
     let note_of = |src| {
@@ -783,9 +788,15 @@ fn a_number_taken_from_an_unreliable_fit_marks_the_fit_unreliable() {
     let on_last = "unreliable: phi_c = 0.850: it falls on the last point";
     for n in note_of(source(on_last)) {
         assert!(
-            n.starts_with("unreliable: phi_c is phi_c_joint of joint, itself unreliable (phi_c = 0.850"),
+            n.starts_with(
+                "unreliable: phi_c is phi_c_joint of joint, itself unreliable (phi_c = 0.850"
+            ),
             "{n}"
         );
     }
-    assert!(note_of(source("")).iter().all(|n| !n.contains("unreliable")));
+    assert!(
+        note_of(source(""))
+            .iter()
+            .all(|n| !n.contains("unreliable"))
+    );
 }
