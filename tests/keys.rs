@@ -265,3 +265,29 @@ fn editing_the_table_columns_makes_the_table_stage_of_fig12_stale() {
     assert!(stale.iter().any(|k| k == "table"), "{stale:?}");
     assert!(stale.iter().any(|k| k == "simulate"), "{stale:?}");
 }
+
+/// A plot is told the `where` of its figure's fits upstream (the build's
+/// `windows`), so that fig25's legend prints each fit's q window from the
+/// fit itself.
+#[test]
+fn a_plot_knows_the_windows_of_the_fits_it_draws() {
+    let reg = repro::stages::registry();
+    let cat = Catalogue::load(root()).unwrap();
+    let graph = repro::pipeline::graph::plan(&cat, &["fig25".to_string()], "ci", &reg).unwrap();
+    let node = |kind: &str, stage: &str| {
+        graph
+            .nodes
+            .iter()
+            .find(|n| n.kind == kind && n.ids.iter().any(|id| id.stage == stage))
+            .unwrap_or_else(|| panic!("no {kind} stage {stage} in fig25"))
+    };
+    let plot = node("plot", "figure");
+    for fit in ["oz_04", "oz_06", "oz_10"] {
+        let want = &node("fit", fit).params["where"]["q"]["max"];
+        assert!(want.is_number(), "{fit}: {want}");
+        assert_eq!(
+            &plot.params["build"]["windows"][fit]["where_q_max"], want,
+            "{fit}"
+        );
+    }
+}

@@ -117,3 +117,24 @@ fn every_reference_parses_and_a_plot_names_only_its_own_build() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// A compare's `short` reason is printed whole on the image: one longer than a
+/// verdict line holds would be cut mid-sentence.
+#[test]
+fn every_short_reason_fits_its_verdict_line() {
+    let limit = repro::stages::plot::SHORT_CHARS;
+    let mut bad = Vec::new();
+    for id in &enforced() {
+        for (path, text) in prose(&pipeline(id)) {
+            // The raw text: a reference to a number is longer than the
+            // number it prints, so the raw length bounds the printed one.
+            if path.contains(".short.") && text.chars().count() > limit {
+                bad.push(format!(
+                    "pipelines/{id}.yaml {path}: {} characters (at most {limit}): \"{text}\"",
+                    text.chars().count()
+                ));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}

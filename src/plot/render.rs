@@ -225,6 +225,10 @@ fn series_markers(fig: &Figure) -> Vec<Vec<Option<Marker>>> {
                             Marker::CYCLE[(k_plain - 1) % Marker::CYCLE.len()]
                         }
                         (Marker::Auto, None) => Marker::Circle,
+                        (Marker::AutoOpen, Some(g)) => {
+                            Marker::CYCLE[rank_of(&values, g).0 % Marker::CYCLE.len()].hollow()
+                        }
+                        (Marker::AutoOpen, None) => Marker::OpenCircle,
                         (m, _) => {
                             k_plain += usize::from(plain);
                             m

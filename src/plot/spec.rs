@@ -192,6 +192,9 @@ pub enum Marker {
     /// By group value (see [`Series::marker`]).
     #[default]
     Auto,
+    /// The shape `auto` gives, open: the same points where a fit drawn beneath
+    /// them must show through (a tail of a distribution).
+    AutoOpen,
     Circle,
     Square,
     Triangle,
@@ -227,7 +230,8 @@ impl Marker {
     pub fn open(self) -> bool {
         matches!(
             self,
-            Marker::OpenCircle
+            Marker::AutoOpen
+                | Marker::OpenCircle
                 | Marker::OpenSquare
                 | Marker::OpenTriangle
                 | Marker::OpenDiamond
@@ -240,6 +244,7 @@ impl Marker {
     /// The same shape, filled.
     pub fn filled(self) -> Marker {
         match self {
+            Marker::AutoOpen => Marker::Auto,
             Marker::OpenCircle => Marker::Circle,
             Marker::OpenSquare => Marker::Square,
             Marker::OpenTriangle => Marker::Triangle,

@@ -40,7 +40,14 @@ impl Lookup for PlotLookup<'_> {
             return Ok(Resolved::Text(self.build.profile.clone()));
         };
         if row.is_empty()
-            && let Some(v) = self.build.experiments.get(name).and_then(|e| e.get(field))
+            && let Some(v) = (self.build.experiments.get(name))
+                .or_else(|| {
+                    field
+                        .starts_with("where_")
+                        .then(|| self.build.windows.get(name))
+                        .flatten()
+                })
+                .and_then(|e| e.get(field))
         {
             return Ok(Resolved::Param(v.clone()));
         }
@@ -323,8 +330,10 @@ impl GuideCurve {
 }
 
 /// What the planner tells a plot about the build it draws (its parameter
-/// `build`, not written in YAML): the profile, and the number-valued
-/// parameters and replicas of every experiment upstream at that profile.
+/// `build`, not written in YAML): the profile, the number-valued
+/// parameters and replicas of every experiment upstream at that profile, and
+/// the row windows (`where`) of the figure's stages upstream, as
+/// `where_COL`, `where_COL_min`, `where_COL_max` (a fit's range on the image).
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BuildInfo {
@@ -332,6 +341,8 @@ pub struct BuildInfo {
     pub profile: String,
     #[serde(default)]
     pub experiments: std::collections::BTreeMap<String, std::collections::BTreeMap<String, Value>>,
+    #[serde(default)]
+    pub windows: std::collections::BTreeMap<String, std::collections::BTreeMap<String, Value>>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -656,8 +667,9 @@ fn with_caption(mut fig: Figure, lines: Vec<String>) -> Result<Figure> {
 }
 
 /// The longest short reason a verdict line prints, in characters; a longer
-/// first clause is cut at a word and ends in "…".
-const SHORT_CHARS: usize = 90;
+/// first clause is cut at a word and ends in "…". A `short` must fit
+/// (tests/texts.rs).
+pub const SHORT_CHARS: usize = 90;
 
 /// One verdict line per row of every gathered `compare` stage (docs/plot.md).
 fn verdicts(inputs: &[Artifact], build: &BuildInfo) -> Result<Vec<String>> {

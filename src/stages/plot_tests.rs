@@ -291,11 +291,11 @@ panels:
 #[test]
 fn notes_state_the_build_they_are_drawn_on() {
     let yaml = r#"
-build: {profile: small, experiments: {eps09_long: {n: 2000, replicas: 3, origins: 8, eps: 0.9}}}
+build: {profile: small, experiments: {eps09_long: {n: 2000, replicas: 3, origins: 8, eps: 0.9}}, windows: {oz: {where_q_max: 0.6, where_phi: 0.78}}}
 panels:
   - x: {label: "a"}
     y: {label: "ξ"}
-    notes: ["A small box ({=profile}: N = {=eps09_long.n}, {=eps09_long.replicas} replicas, ε = {=eps09_long.eps})."]
+    notes: ["A small box ({=profile}: N = {=eps09_long.n}, {=eps09_long.replicas} replicas, ε = {=eps09_long.eps}).", "OZ over q ≤ {=oz.where_q_max} at φ = {=oz.where_phi}."]
     layers: []
 "#;
     let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
@@ -303,8 +303,23 @@ panels:
     let fig = super::figure(&p, &[]).unwrap();
     assert_eq!(
         fig.panels[0].notes,
-        ["A small box (small: N = 2000, 3 replicas, ε = 0.9)."]
+        [
+            "A small box (small: N = 2000, 3 replicas, ε = 0.9).",
+            "OZ over q ≤ 0.6 at φ = 0.78."
+        ]
     );
+    // A window the build does not have is an error, never a blank.
+    let bad = r#"
+build: {profile: small, windows: {oz: {where_q_max: 0.6}}}
+panels:
+  - x: {label: "a"}
+    y: {label: "ξ"}
+    notes: ["q ≤ {=oz.where_q_min}"]
+    layers: []
+"#;
+    let v: serde_json::Value = serde_saphyr::from_str(bad).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    assert!(super::figure(&p, &[]).is_err());
     assert_eq!(fig.profile.as_deref(), Some("small"));
     assert!(crate::plot::defects(&fig).unwrap().is_empty());
 }
@@ -609,6 +624,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
             [("n".to_string(), serde_json::json!(1000))].into(),
         )]
         .into(),
+        windows: Default::default(),
     };
     let lines = super::verdicts(&[compare], &build).unwrap();
     assert_eq!(

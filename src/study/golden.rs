@@ -428,6 +428,18 @@ pub fn record(r: &Recording, opts: &RunOptions) -> Result<GoldenFile> {
         opts,
     )?
     .0;
+    // A figure no seed built (every build failed, e.g. on a pipeline being
+    // edited) has no numbers: recording it would drop its bands.
+    for id in r.ids {
+        let built = numbers
+            .iter()
+            .any(|((f, _), v)| f == id && v.iter().any(|x| x.value.is_finite()));
+        if !built {
+            bail!(
+                "no master seed built {id} (the failures are printed above): nothing recorded, the golden file is left as it was"
+            );
+        }
+    }
     let mut ungated = r.ungated.clone();
     let mut quantities = Vec::new();
     for ((f, q), v) in &numbers {

@@ -309,6 +309,9 @@ impl<'a> Planner<'a> {
         let mut seen = vec![false; self.graph.nodes.len()];
         let mut stack = inputs.to_vec();
         let mut names: BTreeMap<String, ()> = BTreeMap::new();
+        // The row windows (`where`) of this figure's stages upstream, one per
+        // stage name; `None` where its instances differ (no one number).
+        let mut windows: BTreeMap<String, Option<serde_json::Map<String, Value>>> = BTreeMap::new();
         while let Some(n) = stack.pop() {
             if std::mem::replace(&mut seen[n], true) {
                 continue;
@@ -316,6 +319,18 @@ impl<'a> Planner<'a> {
             let node = &self.graph.nodes[n];
             for id in node.ids.iter().filter(|id| id.figure.is_none()) {
                 names.insert(id.stage.clone(), ());
+            }
+            if let Some(id) = node.ids.iter().find(|id| id.figure.is_some())
+                && let Some(w) = node.params.get("where").and_then(window_fields)
+            {
+                windows
+                    .entry(id.stage.clone())
+                    .and_modify(|e| {
+                        if e.as_ref() != Some(&w) {
+                            *e = None;
+                        }
+                    })
+                    .or_insert(Some(w));
             }
             stack.extend(node.inputs.iter().copied());
         }
@@ -331,7 +346,11 @@ impl<'a> Planner<'a> {
             m.retain(|_, v| v.is_number());
             experiments.insert(name.clone(), Value::Object(m));
         }
-        serde_json::json!({"profile": self.graph.profile, "experiments": experiments})
+        let windows: serde_json::Map<String, Value> = windows
+            .into_iter()
+            .filter_map(|(k, w)| Some((k, Value::Object(w?))))
+            .collect();
+        serde_json::json!({"profile": self.graph.profile, "experiments": experiments, "windows": windows})
     }
 
     /// Every node `roots` reach through their inputs, the roots included, in order.
@@ -346,6 +365,29 @@ impl<'a> Planner<'a> {
         }
         (0..needed.len()).filter(|&i| needed[i]).collect()
     }
+}
+
+/// A stage's `where` as numbers a text may name: `where_COL` for an equality
+/// (or a list), `where_COL_min` and `where_COL_max` for a range
+/// (`{=oz_04.where_q_max}` prints the q window a fit used).
+fn window_fields(w: &Value) -> Option<serde_json::Map<String, Value>> {
+    let mut out = serde_json::Map::new();
+    for (col, cond) in w.as_object()? {
+        match cond {
+            Value::Number(_) | Value::Array(_) => {
+                out.insert(format!("where_{col}"), cond.clone());
+            }
+            Value::Object(r) => {
+                for end in ["min", "max"] {
+                    if let Some(v) = r.get(end).filter(|v| v.is_number()) {
+                        out.insert(format!("where_{col}_{end}"), v.clone());
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    (!out.is_empty()).then_some(out)
 }
 
 #[cfg(test)]
@@ -418,6 +460,19 @@ mod tests {
             (sim.ids[0].figure.as_ref(), sim.ids[0].stage.as_str()),
             (None, "e")
         );
+    }
+
+    /// A stage's `where` as the numbers a text may name.
+    #[test]
+    fn a_window_names_its_bounds_and_values() {
+        let w =
+            window_fields(&json!({"q": {"min": 0.001, "max": 0.4}, "phi": 0.78, "kind": [0, 1]}))
+                .unwrap();
+        assert_eq!(
+            Value::Object(w),
+            json!({"where_q_min": 0.001, "where_q_max": 0.4, "where_phi": 0.78, "where_kind": [0, 1]})
+        );
+        assert!(window_fields(&json!({})).is_none());
     }
 
     #[test]

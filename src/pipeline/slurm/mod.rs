@@ -13,16 +13,22 @@
 //! nothing half-written enters the store.
 //!
 //! [`plan`]: resources from the planned work; [`state`]: job records and Slurm's
-//! view of the jobs.
+//! view of the jobs; [`worker`]: a job's side, one stage computed into the
+//! store; [`dry_run`]: the jobs a build would submit, without submitting.
 
+mod dry_run;
 pub mod plan;
 pub mod state;
+mod worker;
+
+pub use dry_run::dry_run;
+pub use worker::worker;
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use anyhow::{Context, Result, bail, ensure};
+use anyhow::{Context, Result};
 
 use super::cost;
 use super::exec::{self, Outcome, RunReport, StageResult, State, stage_key};
@@ -30,7 +36,6 @@ use super::graph::{Graph, Node};
 use super::progress::{self, Progress};
 use super::registry::Registry;
 use super::spec::Catalogue;
-use super::stage::Planned;
 use super::store::{Entry, Found, Store};
 use super::{FigureRun, Workspace, needed_nodes, publish};
 use plan::{Resources, Settings};
@@ -740,89 +745,6 @@ fn input_bytes(store: &Store, inputs: &[Entry]) -> u64 {
     inputs.iter().map(|e| store.entry_bytes(e)).sum()
 }
 
-/// `repro worker`: compute the stage recorded under `key` in the store's job
-/// records and write it to the store. Refuses when the specs or the binary
-/// differ from the submitter's (the key would not match).
-pub fn worker(store_dir: &Path, reg: &Registry, key: &str) -> Result<()> {
-    let store = Store::open(store_dir)?;
-    let rec = state::read(&store, key).with_context(|| {
-        format!(
-            "no job record {}/{key}.json: this stage was not submitted through this store",
-            state::jobs_dir(&store).display()
-        )
-    })?;
-    let ws = Workspace {
-        root: rec.root.clone(),
-        results: rec.root.join("results"),
-        store: store_dir.to_path_buf(),
-    };
-    let graph = ws.plan(reg, &rec.figures, &rec.profile)?;
-    let Some(i) = graph.nodes.iter().position(|n| n.recipe == rec.recipe) else {
-        bail!(
-            "stage {} is no longer in the plan of {} at profile {}: the specs under {} changed since it was submitted",
-            rec.label,
-            rec.figures.join(" "),
-            rec.profile,
-            rec.root.display()
-        );
-    };
-    let node: &Node = &graph.nodes[i];
-    ensure!(
-        node.inputs.len() == rec.inputs.len(),
-        "stage {}: the plan has {} inputs, the job record {}",
-        rec.label,
-        node.inputs.len(),
-        rec.inputs.len()
-    );
-    let mut inputs = Vec::new();
-    for (&j, k) in node.inputs.iter().zip(&rec.inputs) {
-        let e = store.lookup(k).with_context(|| {
-            format!(
-                "input {} (key {k}) is not intact in the store {}",
-                graph.nodes[j].label(),
-                store_dir.display()
-            )
-        })?;
-        inputs.push(exec::artifact(&store, reg, node, &graph.nodes[j], &e));
-    }
-    let digests: Vec<&str> = inputs.iter().map(|a| a.digest.as_str()).collect();
-    let mine = stage_key(&graph, reg, node, &digests);
-    ensure!(
-        mine == key,
-        "stage {}: this binary computes key {mine}, the submitter {key}: the repro binary (code fingerprint) differs from the submitter's",
-        rec.label
-    );
-    let _lock = store.lock_key(key)?;
-    if !rec.force && store.lookup(key).is_some() {
-        eprintln!(
-            "{} is already in the store (computed by another job)",
-            rec.label
-        );
-        return Ok(());
-    }
-    eprintln!("computing {} ({}), key {key}", rec.label, rec.kind);
-    match exec::compute(&store, reg, node, key.to_string(), &inputs, None) {
-        Ok((e, _)) => {
-            for l in &e.log {
-                eprintln!("log: {l}");
-            }
-            eprintln!(
-                "wrote {} file(s) of {} in {:.1} s",
-                e.files.len(),
-                rec.label,
-                e.wall_s
-            );
-            Ok(())
-        }
-        Err((error, log)) => {
-            for l in &log {
-                eprintln!("log: {l}");
-            }
-            bail!("stage {} ({}) failed: {error}", rec.label, rec.kind)
-        }
-    }
-}
-
 /// Slurm state of the stages of `st` that are stale and have a job record:
 /// `queued (job 12_3, Priority)`, `running (job 12_3)`, `failed (...)`.
 pub fn job_states(
@@ -860,128 +782,6 @@ pub fn job_states(
         out.insert(i, s);
     }
     out
-}
-
-/// What `--executor slurm` would submit now for figures `ids`: the stale stages
-/// grouped into jobs, with resources, and the total core-hours. Stages behind a
-/// stale one are planned with the bytes their inputs are expected to have.
-pub fn dry_run(
-    ws: &Workspace,
-    reg: &Registry,
-    ids: &[String],
-    profile: &str,
-    force: &[String],
-) -> Result<String> {
-    let cat = Catalogue::load(&ws.root)?;
-    let (graph, st) = super::figure_status(ws, reg, ids, profile, force)?;
-    let settings = plan::settings(&cat, &graph)?;
-    let store = Store::open(&ws.store)?;
-    let mut groups: BTreeMap<(String, String), Vec<(usize, Resources)>> = BTreeMap::new();
-    let mut cached = 0;
-    let planned = |n: &Node| reg.planned(&n.kind, &n.parsed);
-    for (i, s) in &st {
-        let node = &graph.nodes[*i];
-        let key = match s {
-            State::Cached { .. } => {
-                cached += 1;
-                continue;
-            }
-            _ => node.kind.clone(),
-        };
-        // Input sizes: cached inputs as stored; simulations to come from their
-        // planned frames (x, y as f64 per disk); other stages' outputs are small.
-        let bytes: u64 = node
-            .inputs
-            .iter()
-            .map(|&j| {
-                let d = match st.iter().find(|(k, _)| *k == j) {
-                    Some((_, State::Cached { key })) => store.lookup(key),
-                    _ => None,
-                };
-                match d {
-                    Some(e) => store.entry_bytes(&e),
-                    None => planned(&graph.nodes[j]).map_or(0, |p| p.output_bytes),
-                }
-            })
-            .sum();
-        let r = plan::resources(
-            &node.kind,
-            &node.params,
-            planned(node).as_ref(),
-            (bytes, node.inputs.len()),
-            &settings[*i],
-        );
-        let s = serde_json::to_string(&settings[*i].sbatch_args())?;
-        groups.entry((key, s)).or_default().push((*i, r));
-    }
-    let mut out = String::new();
-    let (mut expected, mut limit, mut longest) = (0.0f64, 0.0, 0.0f64);
-    let mut task_count = 0;
-    for ((kind, sargs), members) in &groups {
-        let mem = members.iter().map(|(_, r)| r.mem_mib).max().unwrap_or(0);
-        let first = members[0].0;
-        let resumable = planned(&graph.nodes[first]).is_some();
-        // As submitted: short stages share a task.
-        let res: Vec<Resources> = members.iter().map(|(_, r)| r.clone()).collect();
-        let plan::JobTasks {
-            tasks,
-            task_of,
-            time_min: time,
-        } = plan::job_tasks(&res, &vec![1.0; res.len()], resumable, &settings[first]);
-        let (time, links) = plan::chain(time, state::max_minutes(&settings[first]), resumable);
-        task_count += tasks.len();
-        // Each task of analyses starts once (it loads the binary and the store).
-        if !resumable {
-            expected += tasks.len() as f64 * plan::JOB_START_S / 3600.0;
-        }
-        // Slurm holds each task of an array to the array's limit.
-        limit += (tasks.len() * links as usize) as f64 * time as f64 / 60.0;
-        out += &format!(
-            "job {kind}: {} stage(s) in {} task(s){}, 1 CPU, --mem={mem}M --time={} {}{}\n",
-            members.len(),
-            tasks.len(),
-            if tasks.len() > 1 { " (array)" } else { "" },
-            plan::time_limit(time),
-            sargs,
-            if links > 1 {
-                format!(
-                    " as a chain of {links} jobs (each after the one before, resuming from the last checkpoint)"
-                )
-            } else {
-                String::new()
-            }
-        );
-        for (m, (i, r)) in members.iter().enumerate() {
-            let work = planned(&graph.nodes[*i]).map_or(String::new(), |p| {
-                p.counts
-                    .iter()
-                    .take(2)
-                    .map(|(name, v)| format!("{name} = {}, ", Planned::count_text(*v)))
-                    .collect()
-            });
-            let cpu = if r.expected_s < 3600.0 {
-                format!("{:.1} CPU s", r.expected_s)
-            } else {
-                format!("{:.2} core-h", r.expected_s / 3600.0)
-            };
-            out += &format!(
-                "    {}  ({work}expected {cpu}, asks {} MiB, task {})\n",
-                graph.nodes[*i].label(),
-                r.mem_mib,
-                task_of[m]
-            );
-            expected += r.expected_s / 3600.0 * r.cpus as f64;
-            longest = longest.max(r.expected_s / 3600.0);
-        }
-    }
-    let jobs: usize = groups.values().map(|m| m.len()).sum();
-    out += &format!(
-        "{jobs} stage(s) to run in {} job(s) of {task_count} task(s) (waves: stages are submitted when their inputs are done), {cached} cached\n\
-         total: {expected:.2} core-hours expected, {limit:.2} core-hours requested (time limits, {:.1}x); longest stage {longest:.2} h\n",
-        groups.len(),
-        limit / expected.max(1e-9)
-    );
-    Ok(out)
 }
 
 #[cfg(test)]

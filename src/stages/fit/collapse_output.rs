@@ -58,8 +58,26 @@ pub(super) fn collapse_output(
         ("Y", y),
         ("Y_err", s),
     ])?;
+    for from in p.rename.keys() {
+        if !found.rows.iter().any(|r| &r.0 == from) {
+            anyhow::bail!(
+                "collapse: `rename` names '{from}', which this collapse does not report (it reports {})",
+                found
+                    .rows
+                    .iter()
+                    .map(|r| r.0.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
+    let rows: Vec<(String, f64, f64)> = found
+        .rows
+        .iter()
+        .map(|(n, v, e)| (p.rename.get(n).unwrap_or(n).clone(), *v, *e))
+        .collect();
     Ok(CollapseParts {
-        quantities: quantity_batch(group, &found.rows, &found.note, None)?,
+        quantities: quantity_batch(group, &rows, &found.note, None)?,
         rescaled: led_by_group(group, &resc)?,
         method: found.method.clone(),
     })

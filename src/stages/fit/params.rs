@@ -301,4 +301,8 @@ pub struct CollapseParams {
     /// finite-size scaling (e.g. `cluster_cutoff`, `log_normal`).
     #[serde(default)]
     pub rescaling: Option<String>,
+    /// Quantity names of the table (`{rho: rho_held}`), so that a figure can
+    /// compare two collapses of one rescaling (phi_c fitted and held).
+    #[serde(default)]
+    pub rename: BTreeMap<String, String>,
 }
