@@ -705,6 +705,49 @@ fn crowded_group_values_are_told_apart_by_rank_colour_and_shape() {
     assert!(lay[0].markers.windows(2).all(|w| w[0] != w[1]));
 }
 
+/// Unlabelled guide lines of neighbouring values (an offset curve's dotted
+/// level) have no legend entry to tell apart and are not a defect; the same
+/// lines with legend entries are.
+#[test]
+fn unlabelled_guides_of_close_colours_are_no_defect() {
+    let make = |labelled: bool| {
+        let guides = [0.8, 0.805]
+            .iter()
+            .map(|&phi| {
+                let mut s = series(
+                    if labelled { "guide" } else { "" },
+                    vec![1.0, 6.0],
+                    vec![phi; 2],
+                );
+                if labelled {
+                    s.label = format!("level {phi}");
+                }
+                s.dotted = true;
+                s.fit = true;
+                s.color = Some(repro::plot::viridis((phi - 0.60) / (0.805 - 0.60) * 0.88));
+                s.group = Some(Group {
+                    column: "phi".into(),
+                    value: phi,
+                });
+                s
+            })
+            .collect();
+        Figure {
+            panels: vec![panel("", axis("t", false), axis("y", false), guides)],
+            ..overlap_figure()
+        }
+    };
+    let close = |f: &Figure| {
+        defects(f)
+            .unwrap()
+            .into_iter()
+            .filter(|d| d.contains("share marker and dash"))
+            .count()
+    };
+    assert_eq!(close(&make(false)), 0);
+    assert_eq!(close(&make(true)), 1);
+}
+
 /// A note naming a profile other than the one drawn is a defect; naming the
 /// drawn one, or the paper as a publication, is not.
 #[test]

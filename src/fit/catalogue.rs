@@ -22,6 +22,10 @@ pub struct Form {
     pub model: fn(&[f64], Fixed<'_>, f64) -> f64,
 }
 
+/// Forms solved linearly for every parameter at once: they cannot hold one
+/// (`fixed`, `fixed_from`), so a fit that asks it is refused, never run free.
+pub const HOLD_NONE: &[&str] = &["power_law", "line", "log_trend", "proportional"];
+
 /// The value of `name` among `fixed`.
 fn fixed_value(fixed: Fixed<'_>, name: &str) -> Option<f64> {
     fixed.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)

@@ -227,7 +227,11 @@ fn alike(p: &super::Panel, lay: &PanelLayout) -> Vec<String> {
                 _ => false,
             };
             let same_entry = !a.label.is_empty() && a.label == b.label;
-            if same_group || same_entry {
+            // Two unlabelled guide lines (an offset curve's level, a fit per
+            // group) have no legend entry to be told apart by: each is read
+            // against the data it lies beside.
+            let guides = a.fit && b.fit && a.label.is_empty() && b.label.is_empty();
+            if same_group || same_entry || guides {
                 continue;
             }
             // A fit's line beside points: told apart by being a line.

@@ -104,6 +104,14 @@ impl StageKind for Fit {
                 "fit: `scatter: {sc}`: the only model scatter is `relative`, for a named form with `y_err` (without y_err the errors are scaled to the scatter already)"
             );
         }
+        let name = p.form.name();
+        if crate::fit::catalogue::HOLD_NONE.contains(&name)
+            && !(p.fixed.is_empty() && p.fixed_from.is_empty())
+        {
+            bail!(
+                "fit: form `{name}` fits every parameter at once and cannot hold one (`fixed`, `fixed_from`); hold it in a form that can (e.g. `power_law_offset`), or divide the data by the held law (a `join` with `derive`)"
+            );
+        }
         for (lo, hi) in &p.ranges {
             if !(lo.is_finite() && hi.is_finite() && lo < hi) {
                 bail!(

@@ -294,6 +294,26 @@ fn a_relative_model_scatter_brings_the_reduced_chi2_to_one() {
     }
 }
 
+/// A form solved linearly for all its parameters cannot hold one: asking it
+/// to is refused at parse, naming the form, instead of a free fit.
+#[test]
+fn a_linear_form_refuses_a_held_parameter() {
+    for bad in [
+        "{form: power_law, x: F, y: v, fixed: {exponent: 0.5}}",
+        "{form: line, x: F, y: v, fixed_from: {slope: {stage: s, quantity: q}}}",
+        "{form: proportional, x: F, y: v, fixed: {slope: 1.0}}",
+    ] {
+        let err = Fit.validate(&yaml(bad)).unwrap_err().to_string();
+        assert!(err.contains("cannot hold one"), "{bad}: {err}");
+    }
+    assert!(
+        Fit.validate(&yaml(
+            "{form: power_law_offset, x: F, y: v, fixed: {phi_c: 0.82}}"
+        ))
+        .is_ok()
+    );
+}
+
 /// A curve on one state point whose replicas differ as a whole (an offset
 /// and a slope per replica, shared by every point) while each point's
 /// error counts only the small independent part: the fit covariance says
