@@ -138,3 +138,38 @@ fn every_short_reason_fits_its_verdict_line() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// method-intruder-heating turns the drift's total kinetic energy into one per
+/// disk with a factor 1 / (2 N) written as a number (a join's operand is a
+/// column or a number): it must equal 1 / (2 N) of its runs at every profile.
+#[test]
+fn the_drift_energy_factor_is_one_over_two_n_of_its_runs() {
+    let doc = pipeline("method-intruder-heating");
+    let factor = doc["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|s| {
+            s["params"]["derive"]
+                .as_array()
+                .cloned()
+                .unwrap_or_default()
+        })
+        .find(|d| d["name"] == "drift_energy")
+        .and_then(|d| d["b"].as_f64())
+        .expect("a derive `drift_energy` with a number `b`");
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("experiments/intruder_eps09.yaml");
+    let exp: Value = serde_saphyr::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let profiles = exp["profiles"].as_object().unwrap();
+    assert!(!profiles.is_empty());
+    for (name, p) in profiles {
+        let n = p["params"]["n"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{name}: no n"));
+        assert!(
+            (factor - 1.0 / (2.0 * n)).abs() < 1e-12,
+            "{name}: N = {n}, so the factor must be {}, not {factor}",
+            1.0 / (2.0 * n)
+        );
+    }
+}

@@ -135,7 +135,15 @@ fn readme_stage(
         s.push_str(":\n\n| column | type | unit | meaning |\n|---|---|---|---|\n");
         if let Some(b) = batches.first() {
             for f in b.schema().fields() {
-                let (unit, what) = crate::table::columns::describe(f.name()).unwrap_or_default();
+                // A known column, else the meaning its stage wrote (a
+                // figure's own derived column).
+                let (unit, what) = crate::table::columns::describe(f.name())
+                    .or_else(|| {
+                        let m = f.metadata();
+                        m.get("description")
+                            .map(|d| (m.get("unit").cloned().unwrap_or_default(), d.clone()))
+                    })
+                    .unwrap_or_default();
                 s.push_str(&format!(
                     "| {} | {} | {unit} | {what} |\n",
                     f.name(),

@@ -28,6 +28,11 @@ pub struct Derived {
     pub b: Option<Operand>,
     #[serde(default)]
     pub propagate_errors: bool,
+    /// What the column means, carried in its field metadata (`description`)
+    /// into the published table and its README: a figure's own column needs
+    /// no row in src/table/columns.rs.
+    #[serde(default)]
+    pub describe: Option<String>,
 }
 
 /// An input of a derived column: a column of the joined row, or a number
@@ -467,9 +472,37 @@ impl StageKind for Join {
         for (k, v) in &l.str {
             cols.push((k.clone(), Arc::new(StringArray::from(v.clone()))));
         }
-        let b = RecordBatch::try_from_iter(cols)?;
+        let b = with_descriptions(RecordBatch::try_from_iter(cols)?, &p.derive)?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
     }
+}
+
+/// The batch with each described derived column's meaning in its field
+/// metadata (`description`), which the published README reads.
+fn with_descriptions(b: RecordBatch, derive: &[Derived]) -> Result<RecordBatch> {
+    let fields: Vec<arrow_schema::Field> = b
+        .schema()
+        .fields()
+        .iter()
+        .map(|f| {
+            match derive
+                .iter()
+                .find(|d| &d.name == f.name())
+                .and_then(|d| d.describe.clone())
+            {
+                Some(what) => f.as_ref().clone().with_metadata(
+                    [("description".to_string(), what)]
+                        .into_iter()
+                        .collect::<std::collections::HashMap<String, String>>(),
+                ),
+                None => f.as_ref().clone(),
+            }
+        })
+        .collect();
+    Ok(RecordBatch::try_new(
+        Arc::new(arrow_schema::Schema::new(fields)),
+        b.columns().to_vec(),
+    )?)
 }
 
 #[cfg(test)]
@@ -507,7 +540,7 @@ mod tests {
             "{left: cold, right: hot, on: [phi], derive: [\
              {name: ratio, op: divide, a: v, b: v_hot, propagate_errors: true}, \
              {name: impulse, op: multiply, a: v, b: dt, propagate_errors: true}, \
-             {name: plain, op: divide, a: v, b: v_hot}, \
+             {name: plain, op: divide, a: v, b: v_hot, describe: cold over hot}, \
              {name: ln_ratio, op: ln, a: ratio}]}",
         )
         .unwrap();
@@ -515,6 +548,18 @@ mod tests {
         let ctx = StageCtx::new(0, "join".into(), None);
         let out = Join.run_params(&ctx, &params, &inputs).unwrap();
         let (b, _) = crate::table::read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        // A described derived column carries its meaning in its field metadata.
+        let schema = b[0].schema();
+        let meaning = |n: &str| {
+            schema
+                .field_with_name(n)
+                .unwrap()
+                .metadata()
+                .get("description")
+                .cloned()
+        };
+        assert_eq!(meaning("plain").as_deref(), Some("cold over hot"));
+        assert_eq!(meaning("ratio"), None);
         let c = Columns::from_batch(&b[0]).unwrap();
         let col = |n: &str| c.col(n).unwrap().to_vec();
         // phi 0.6: 3 / 2 with 10% and 5% relative errors.

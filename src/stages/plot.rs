@@ -666,6 +666,17 @@ fn with_caption(mut fig: Figure, lines: Vec<String>) -> Result<Figure> {
     Ok(fig)
 }
 
+/// A paper's value as the paper writes it: the legend's short form where that
+/// is the same number (1.00, 0.82), else every digit (16.51, not 17).
+fn paper_number(v: f64) -> String {
+    let short = legend_number(v);
+    if short.parse::<f64>().is_ok_and(|x| x == v) {
+        short
+    } else {
+        format!("{v}")
+    }
+}
+
 /// The longest short reason a verdict line prints, in characters; a longer
 /// first clause is cut at a word and ends in "…". A `short` must fit
 /// (tests/texts.rs).
@@ -727,8 +738,8 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
         {
             format!("paper {claim}")
         }
-        Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
-        None => format!("paper {}", legend_number(c.paper)),
+        Some(claim) => format!("paper {claim} ({})", paper_number(c.paper)),
+        None => format!("paper {}", paper_number(c.paper)),
     };
     let paper = if provenance.is_empty() {
         paper

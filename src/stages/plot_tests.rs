@@ -645,6 +645,17 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         reason: "x ".repeat(100),
         source: crate::table::results::Source::Ref12,
     };
+    // A paper's value prints as written, not rounded like a legend's number.
+    let v_cm = crate::table::results::Compared {
+        quantity: "V_cm".into(),
+        paper: 16.51,
+        ..c.clone()
+    };
+    assert!(
+        super::verdict_line(&v_cm, "", "").starts_with("V_cm: paper 16.51; "),
+        "{}",
+        super::verdict_line(&v_cm, "", "")
+    );
     let line = super::verdict_line(&c, "", "quoted, ref. 12");
     assert!(
         line.starts_with("phi_c: paper 0.82 (quoted, ref. 12); ours 0.805 ± 0.004; disagree: x x")
