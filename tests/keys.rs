@@ -67,20 +67,20 @@ impl Copy {
         std::fs::write(file, &before).unwrap();
         kinds
             .iter()
-            .map(|(name, roots)| s.fingerprint(name, roots).unwrap().hash)
+            .map(|(name, roots, cut)| s.fingerprint_cut(name, roots, cut).unwrap().hash)
             .collect()
     }
 }
 
-/// Every registered kind with its own files.
-type Kinds<'a> = Vec<(String, Vec<&'a str>)>;
+/// Every registered kind with its own files and the import edges it does not follow.
+type Kinds<'a> = Vec<(String, Vec<&'a str>, Vec<(&'static str, &'static str)>)>;
 
 fn kinds(reg: &Registry) -> Kinds<'_> {
     reg.names()
         .into_iter()
         .map(|n| {
-            let roots = reg.get(&n).unwrap().modules().to_vec();
-            (n, roots)
+            let k = reg.get(&n).unwrap();
+            (n, k.modules().to_vec(), k.not_followed())
         })
         .collect()
 }
@@ -102,12 +102,12 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
     let base_sources = copy.sources();
     let mut closures = BTreeMap::new();
     let mut base = Vec::new();
-    for (name, roots) in &kinds {
-        let f = base_sources.fingerprint(name, roots).unwrap();
+    for (name, roots, cut) in &kinds {
+        let f = base_sources.fingerprint_cut(name, roots, cut).unwrap();
         // The shipped fingerprint is build.rs's derivation of the same sources.
         assert_eq!(f.hash, reg.fingerprint(name), "{name}");
         assert_eq!(f.modules, reg.modules(name), "{name}");
-        let by_syn: Vec<String> = syn_graph::closure(&graph, roots).into_iter().collect();
+        let by_syn: Vec<String> = syn_graph::closure(&graph, roots, cut).into_iter().collect();
         assert_eq!(
             f.modules, by_syn,
             "{name}: the key's closure (left) is not syn's (right)"
@@ -116,7 +116,7 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
         base.push(f.hash);
     }
     // What the import parser once missed: inline child paths of a mod.rs.
-    for (name, _) in &kinds {
+    for (name, _, _) in &kinds {
         if closures[name].contains(&"table".to_string()) {
             assert!(
                 closures[name].contains(&"table/columns".to_string()),
@@ -133,6 +133,12 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
             .any(|m| m.starts_with("sim/engine"))
     );
     assert!(closures["tau_alpha"].contains(&"analysis/observables".to_string()));
+    // One observable's key covers its own module and what that imports, not
+    // the other observables' modules the catalogue names.
+    assert!(!closures["tau_alpha"].contains(&"analysis/clusters".to_string()));
+    assert!(!closures["clusters"].contains(&"analysis/chi4".to_string()));
+    assert!(closures["chi4_peaks"].contains(&"analysis/overlap".to_string()));
+    assert!(closures["front"].contains(&"analysis/intruder".to_string()));
     let mut files = Vec::new();
     syn_graph::rust_files(&copy.src, &mut files);
     files.sort();
@@ -150,12 +156,12 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
             .zip(&base)
             .zip(&after)
             .filter(|((_, b), a)| a != b)
-            .map(|(((n, _), _), _)| n.as_str())
+            .map(|(((n, _, _), _), _)| n.as_str())
             .collect();
         let reach: BTreeSet<&str> = kinds
             .iter()
-            .filter(|(n, _)| closures[n].contains(&key))
-            .map(|(n, _)| n.as_str())
+            .filter(|(n, _, _)| closures[n].contains(&key))
+            .map(|(n, _, _)| n.as_str())
             .collect();
         assert_eq!(
             moved, reach,
@@ -172,14 +178,14 @@ fn every_file_moves_exactly_the_kinds_whose_closure_reaches_it() {
 fn imports_and_crate_versions_move_the_kinds_that_use_them() {
     let copy = Copy::new();
     let kinds: Kinds = vec![
-        ("simulate".into(), vec!["stages/simulate"]),
-        ("fit".into(), vec!["stages/fit/kind"]),
+        ("simulate".into(), vec!["stages/simulate"], vec![]),
+        ("fit".into(), vec!["stages/fit/kind"], vec![]),
     ];
     let base: Vec<String> = {
         let s = copy.sources();
         kinds
             .iter()
-            .map(|(n, r)| s.fingerprint(n, r).unwrap().hash)
+            .map(|(n, r, _)| s.fingerprint(n, r).unwrap().hash)
             .collect()
     };
     let palette = copy.src.join("plot/palette.rs");
@@ -202,7 +208,7 @@ fn imports_and_crate_versions_move_the_kinds_that_use_them() {
     // Another compiler moves every key.
     let mut s = copy.sources();
     s.rustc.push_str(" (another)");
-    for ((n, r), b) in kinds.iter().zip(&base) {
+    for ((n, r, _), b) in kinds.iter().zip(&base) {
         assert_ne!(&s.fingerprint(n, r).unwrap().hash, b, "{n}");
     }
 }
@@ -218,8 +224,8 @@ fn stale_after(id: &str, file: &str, edit: impl Fn(&str) -> String) -> (usize, V
     let moved: BTreeSet<&str> = kinds
         .iter()
         .zip(&after)
-        .filter(|((n, _), a)| reg.fingerprint(n) != a.as_str())
-        .map(|((n, _), _)| n.as_str())
+        .filter(|((n, _, _), a)| reg.fingerprint(n) != a.as_str())
+        .map(|((n, _, _), _)| n.as_str())
         .collect();
     let cat = Catalogue::load(root()).unwrap();
     let graph = repro::pipeline::graph::plan(&cat, &[id.to_string()], "ci", &reg).unwrap();
@@ -253,6 +259,129 @@ fn editing_the_framework_leaves_every_stage_of_fig4_cached() {
         let (nodes, stale) = stale_after("fig4", file, harmless);
         assert!(nodes > 50, "{nodes} stages");
         assert_eq!(stale, Vec::<String>::new(), "editing {file}");
+    }
+}
+
+/// Editing one observable's code reruns the stages of the observables that
+/// run it, not the others the catalogue names: the clusters' module leaves
+/// fig4 (tau_alpha, chi4) cached and makes fig12's cluster stages stale, with
+/// what reads them, and no simulation.
+#[test]
+fn editing_one_observable_reruns_its_stages_only() {
+    let (nodes, stale) = stale_after("fig4", "analysis/clusters.rs", harmless);
+    assert!(nodes > 50, "{nodes} stages");
+    assert_eq!(
+        stale,
+        Vec::<String>::new(),
+        "fig4 after an edit of the clusters"
+    );
+    let (_, stale) = stale_after("fig12", "analysis/clusters.rs", harmless);
+    assert!(stale.iter().any(|k| k == "cluster_sizes"), "{stale:?}");
+    assert!(
+        !stale.iter().any(|k| k == "simulate" || k == "tau_alpha"),
+        "{stale:?}"
+    );
+    // The catalogue itself is in every observable's key.
+    let (_, stale) = stale_after("fig4", "analysis/observables.rs", harmless);
+    assert!(stale.iter().any(|k| k == "tau_alpha"), "{stale:?}");
+}
+
+/// What keeps the cut edges honest: every member module an observable's line
+/// in the catalogue names (its types and functions, and those of the helpers
+/// it calls) is one of its `modules`, which its key follows. Read from the
+/// catalogue's source, a second way from the code itself.
+#[test]
+fn every_observable_names_the_modules_its_line_runs() {
+    use repro::analysis::observables::{MEMBERS, OBSERVABLES};
+    let text = std::fs::read_to_string(root().join("src/analysis/observables.rs")).unwrap();
+    let (code, _) = repro::pipeline::fingerprint::non_test_code(&text);
+    let start = code.find("pub static OBSERVABLES").unwrap();
+    let end = start + code[start..].find("\n];").unwrap();
+    let names: Vec<&str> = MEMBERS
+        .iter()
+        .map(|m| m.strip_prefix("analysis/").unwrap())
+        .collect();
+    let named = |s: &str| -> BTreeSet<String> {
+        names
+            .iter()
+            .filter(|n| {
+                s.match_indices(&format!("{n}::")).any(|(i, _)| {
+                    !s[..i]
+                        .chars()
+                        .next_back()
+                        .is_some_and(|c| c.is_alphanumeric() || c == '_')
+                })
+            })
+            .map(|n| format!("analysis/{n}"))
+            .collect()
+    };
+    // The helpers outside the list: each top-level `fn`, up to the next.
+    let outside = format!("{}{}", &code[..start], &code[end..]);
+    let mut helpers: Vec<(String, String)> = Vec::new();
+    for part in outside.split("\nfn ").skip(1) {
+        let name: String = part
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        helpers.push((name, part.to_string()));
+    }
+    let calls = |s: &str, h: &str| s.contains(&format!("{h}(")) || s.contains(&format!("{h}::<"));
+    let reach = |line: &str| -> BTreeSet<String> {
+        let mut seen: BTreeSet<&str> = BTreeSet::new();
+        let mut todo = vec![line.to_string()];
+        let mut out = BTreeSet::new();
+        while let Some(s) = todo.pop() {
+            out.extend(named(&s));
+            for (h, body) in &helpers {
+                if calls(&s, h) && seen.insert(h) {
+                    todo.push(body.clone());
+                }
+            }
+        }
+        out
+    };
+    let lines: Vec<&str> = code[start..end]
+        .split("\n    Observable {")
+        .skip(1)
+        .collect();
+    assert_eq!(lines.len(), OBSERVABLES.len());
+    for (line, obs) in lines.iter().zip(OBSERVABLES) {
+        assert!(line.contains(&format!("name: \"{}\"", obs.name)), "{line}");
+        let own: BTreeSet<String> = obs.modules.iter().map(|m| m.to_string()).collect();
+        assert!(
+            own.iter().all(|m| MEMBERS.contains(&m.as_str())),
+            "{}: {own:?}",
+            obs.name
+        );
+        let runs = reach(line);
+        assert!(
+            !runs.is_empty(),
+            "{}: its line names no member module",
+            obs.name
+        );
+        assert!(
+            runs.is_subset(&own),
+            "{}: its line runs {runs:?}, its `modules` are {own:?}",
+            obs.name
+        );
+    }
+    // A member the catalogue imports but `MEMBERS` leaves out would be in
+    // every key: safe, but the list says what is cut.
+    let imports = code
+        .lines()
+        .find(|l| l.starts_with("use super::{"))
+        .unwrap();
+    for n in imports
+        .trim_start_matches("use super::{")
+        .trim_end_matches("};")
+        .split(", ")
+    {
+        if !["lags", "pool"].contains(&n) {
+            assert!(
+                MEMBERS.contains(&format!("analysis/{n}").as_str()),
+                "{n} is no member"
+            );
+        }
     }
 }
 

@@ -163,8 +163,8 @@ pub struct Peak {
     pub chi4p: Estimate,
 }
 
-/// chi4 peak for each sub-box size (parabola in ln t through the largest sample and
-/// its neighbours; errors by leaving out one (replica, origin bin) block at a time,
+/// chi4 peak for each sub-box size (parabola in ln t through the top of the curve,
+/// [`peak_log_t`]; errors by leaving out one (replica, origin bin) block at a time,
 /// never below the lag grid's resolution, [`peak_resolution`]).
 pub fn peaks(trajs: &[&Trajectory], p: &Params) -> Result<Vec<Peak>> {
     Ok(peaks_of(&run(trajs, p)?, trajs, p.variance))

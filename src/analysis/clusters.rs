@@ -326,8 +326,9 @@ pub fn sizes_table(rows: &RecordBatch, p: &Params) -> Result<RecordBatch> {
 /// [`sizes_table`] of concatenated replicas (`replica` column) again with each
 /// replica left out, on the rows of `full` (the table of all of them): the
 /// replica jackknife samples of P(Nc), from the cluster rows already found. A
-/// bin that the others leave empty has P = NaN there (a fit refitting the sample
-/// then skips it). The lags are those of `full`.
+/// bin that the others leave empty at every lag has P = NaN there (a fit
+/// refitting the sample then skips it); one they fill at another lag has P = 0
+/// where they leave it empty, as in `full`. The lags are those of `full`.
 pub fn sizes_left_out(
     rows: &RecordBatch,
     p: &Params,
@@ -417,7 +418,8 @@ fn float_col(b: &RecordBatch, name: &str) -> Vec<f64> {
 fn sizes_of(rows: &RecordBatch, p: &Params, keep: impl Fn(usize) -> bool) -> Result<RecordBatch> {
     let col = |name: &str| float_col(rows, name);
     let (t, kind, nc, spans) = (col("t"), col("kind"), col("Nc"), col("spans"));
-    let mut cols: [Vec<f64>; 8] = Default::default();
+    // Per (lag, kind): spanning clusters, the largest of them, and P(Nc).
+    let mut per = Vec::new();
     for &lag in &p.lags {
         for k in [0.0, 1.0] {
             let here: Vec<usize> = (0..t.len())
@@ -436,16 +438,48 @@ fn sizes_of(rows: &RecordBatch, p: &Params, keep: impl Fn(usize) -> bool) -> Res
                 .filter(|&&i| spans[i] != 0.0)
                 .map(|&i| nc[i])
                 .fold(0.0, f64::max);
-            for (centre, prob, count) in size_distribution(&sizes, p.per_decade)? {
-                cols[0].push(lag);
-                cols[1].push(k);
-                cols[2].push(centre);
-                cols[3].push(prob);
-                cols[4].push(count as f64);
-                cols[5].push(spanning);
-                cols[6].push(largest);
-                cols[7].push(prob / (count as f64).sqrt());
-            }
+            per.push((
+                lag,
+                k,
+                spanning,
+                largest,
+                size_distribution(&sizes, p.per_decade)?,
+            ));
+        }
+    }
+    // Every lag has the bins any lag fills for its kind, P = 0 where it has
+    // none: a time between two recorded lags is then read off bin by bin
+    // (`lags::at_requests`), the two lags' distributions mixed in ln t.
+    let bins = |k: f64| -> Vec<f64> {
+        let mut c: Vec<f64> = per
+            .iter()
+            .filter(|x| x.1 == k)
+            .flat_map(|x| x.4.iter().map(|b| b.0))
+            .collect();
+        c.sort_by(f64::total_cmp);
+        c.dedup_by(|a, b| a.to_bits() == b.to_bits());
+        c
+    };
+    let shared = [bins(0.0), bins(1.0)];
+    let mut cols: [Vec<f64>; 8] = Default::default();
+    for (lag, k, spanning, largest, dist) in &per {
+        for &centre in &shared[*k as usize] {
+            let (prob, count) = dist
+                .iter()
+                .find(|b| b.0.to_bits() == centre.to_bits())
+                .map_or((0.0, 0), |b| (b.1, b.2));
+            cols[0].push(*lag);
+            cols[1].push(*k);
+            cols[2].push(centre);
+            cols[3].push(prob);
+            cols[4].push(count as f64);
+            cols[5].push(*spanning);
+            cols[6].push(*largest);
+            cols[7].push(if count > 0 {
+                prob / (count as f64).sqrt()
+            } else {
+                0.0
+            });
         }
     }
     let [t, k, n, pr, c, sp, big, pe] = cols;
@@ -578,6 +612,74 @@ mod tests {
         assert!((pe[slow[1]] - pr[slow[1]]).abs() < 1e-12);
         let fast: Vec<usize> = (0..kind.len()).filter(|&i| kind[i] == 1.0).collect();
         assert!(fast.iter().all(|&i| sp[i] == 0.0 && big[i] == 0.0));
+    }
+
+    /// Two lags whose clusters fill different bins share their bins (P = 0 where
+    /// a lag has none), so a time between them is read off bin by bin: at
+    /// weight w on the second lag, P is the mixture (1 - w) P_1 + w P_2 of the
+    /// two distributions, and its error the larger of the two.
+    #[test]
+    fn a_time_between_two_lags_mixes_their_distributions_bin_by_bin() {
+        // Lag 1: slow sizes 1, 1, 2. Lag 2: slow sizes 2, 5.
+        let rows = f64_batch(&[
+            ("t", vec![1.0, 1.0, 1.0, 2.0, 2.0]),
+            ("t0", vec![0.0; 5]),
+            ("kind", vec![0.0; 5]),
+            ("Nc", vec![1.0, 1.0, 2.0, 2.0, 5.0]),
+            ("Rg", vec![0.0, 0.0, 0.5, 0.5, 1.0]),
+            ("spans", vec![0.0; 5]),
+        ])
+        .unwrap();
+        let mut p = unit_lag_params(10);
+        p.lags = vec![1.0, 2.0];
+        let b = sizes_table(&rows, &p).unwrap();
+        let (t, nc, pr, pe) = (col(&b, "t"), col(&b, "Nc"), col(&b, "P"), col(&b, "P_err"));
+        let at = |lag: f64| -> Vec<(f64, f64, f64)> {
+            (0..t.len())
+                .filter(|&i| t[i] == lag && col(&b, "kind")[i] == 0.0)
+                .map(|i| (nc[i], pr[i], pe[i]))
+                .collect()
+        };
+        let (one, two) = (at(1.0), at(2.0));
+        // Bins {1}, {2} and {4, 5} (centre sqrt(20), two integers wide).
+        let centres = [1.0, 2.0, 20f64.sqrt()];
+        assert_eq!(one.iter().map(|r| r.0).collect::<Vec<_>>(), centres);
+        assert_eq!(two.iter().map(|r| r.0).collect::<Vec<_>>(), centres);
+        assert_eq!((one[2].1, one[2].2), (0.0, 0.0), "sizes 4-5 at lag 1");
+        assert_eq!((two[0].1, two[0].2), (0.0, 0.0), "size 1 at lag 2");
+        // Read at t = 2^0.25 (weight 0.25 on lag 2), as `at` does.
+        let request =
+            crate::analysis::lags::in_units(&[1.0, 2.0], 2f64.powf(0.25), "u", &[1.0], 0.0)
+                .unwrap();
+        assert!((request[0].weight - 0.25).abs() < 1e-12);
+        let r = crate::analysis::lags::at_requests(&b, &request).unwrap();
+        let (rk, rn, rp, re) = (
+            col(&r, "kind"),
+            col(&r, "Nc"),
+            col(&r, "P"),
+            col(&r, "P_err"),
+        );
+        let slow: Vec<usize> = (0..rk.len()).filter(|&i| rk[i] == 0.0).collect();
+        assert_eq!(slow.len(), 3);
+        for (j, &i) in slow.iter().enumerate() {
+            assert_eq!(rn[i], one[j].0);
+            let want = 0.75 * one[j].1 + 0.25 * two[j].1;
+            assert!(
+                (rp[i] - want).abs() < 1e-12,
+                "Nc {}: {} against {want}",
+                rn[i],
+                rp[i]
+            );
+            assert_eq!(re[i], one[j].2.max(two[j].2));
+            assert!(rp[i] > 0.0);
+        }
+        // Normalised: the sum of P x integers per bin is 1 at each lag, and so mixed.
+        let norm: f64 = slow
+            .iter()
+            .zip([1.0, 1.0, 2.0])
+            .map(|(&i, w)| rp[i] * w)
+            .sum();
+        assert!((norm - 1.0).abs() < 1e-12, "{norm}");
     }
 
     /// The leave-one-out tables of P(Nc) are those of the other replicas' clusters

@@ -7,6 +7,7 @@ use arrow_array::RecordBatch;
 use serde::Deserialize;
 
 use super::check_trajectory;
+use super::drive::DriveParams;
 use super::stats::Estimate;
 use crate::table::f64_batch;
 use crate::traj::{Frame, Trajectory};
@@ -43,15 +44,6 @@ pub struct VelocityParams {
     /// how much of a collision's momentum one kick carries.
     #[serde(default)]
     pub kick_rate_factor: Option<f64>,
-}
-
-/// eps, gamma and T of the simulation, for Eq. (7) of paper I.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DriveParams {
-    pub eps: f64,
-    pub gamma: f64,
-    pub temperature: f64,
 }
 
 fn intruders(traj: &Trajectory, species: u8) -> Result<Vec<usize>> {

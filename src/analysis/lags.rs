@@ -171,8 +171,9 @@ pub struct InUnits {
 /// How an observable is read at a time between recorded lags.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AtLag {
-    /// A curve of t (Q, chi4, S4, the MSD, van Hove): interpolated in ln t
-    /// between the two recorded lags around the request.
+    /// A curve of t (Q, chi4, S4, the MSD, van Hove, and the cluster size
+    /// distribution P(Nc) on bins its lags share): interpolated in ln t between
+    /// the two recorded lags around the request.
     Interpolate,
     /// A configuration of a frame pair (clusters, a mobility snapshot): it
     /// exists at recorded lags only, so the nearest in ln t is taken.

@@ -13,6 +13,7 @@
 pub mod cage;
 pub mod chi4;
 pub mod clusters;
+pub mod drive;
 pub mod front;
 pub mod gr;
 pub mod intruder;

@@ -8,7 +8,8 @@ use std::any::Any;
 
 use anyhow::Result;
 
-use super::intruder::{self, DriveParams};
+use super::drive::DriveParams;
+use super::intruder;
 use super::{chi4, clusters, front, gr, msd, order, overlap, s4, van_hove};
 use crate::pipeline::canon::param_error;
 

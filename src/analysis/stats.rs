@@ -150,28 +150,87 @@ pub fn interp_log_t(t: &[f64], y: &[f64], t0: f64) -> Option<f64> {
     Some(y[k - 1] + s * (y[k] - y[k - 1]))
 }
 
-/// Peak (t_peak, y_peak) of a curve sampled at ascending t > 0: the maximum sample,
-/// refined by the parabola through it and its two neighbours in ln t (the sample
-/// itself if it is at an end or the parabola is not concave).
+/// The top of a peak that [`peak_log_t`] fits: the samples around the highest
+/// one down to this fraction of its height.
+pub const PEAK_TOP: f64 = 0.8;
+
+/// Peak (t_peak, y_peak) of a curve sampled at ascending t > 0: the vertex of the
+/// least-squares parabola in ln t through the samples around the maximum that
+/// reach [`PEAK_TOP`] of it (at least the maximum and its two neighbours), the
+/// vertex kept inside them; the maximum sample itself at an end of the curve or
+/// where the parabola is not concave. A parabola through the top rather than
+/// through the highest sample alone: on a noisy, finely sampled curve the
+/// highest sample jumps from lag to lag, the estimate with it, and a
+/// leave-one-out jackknife of such a jump under-quotes its spread.
 pub fn peak_log_t(t: &[f64], y: &[f64]) -> Option<(f64, f64)> {
+    peak_log_t_within(t, y, PEAK_TOP)
+}
+
+/// [`peak_log_t`] over the samples reaching `top` x the maximum (`top` = 1: the
+/// maximum and its two neighbours, the parabola through three points).
+pub fn peak_log_t_within(t: &[f64], y: &[f64], top: f64) -> Option<(f64, f64)> {
     let n = t.len().min(y.len());
     let k = (0..n)
         .filter(|&i| y[i].is_finite())
         .max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
-    if k == 0 || k + 1 >= n {
+    if k == 0 || k + 1 >= n || !(y[k - 1].is_finite() && y[k + 1].is_finite()) {
         return Some((t[k], y[k]));
     }
-    let (x0, x1, x2) = (t[k - 1].ln(), t[k].ln(), t[k + 1].ln());
-    let (y0, y1, y2) = (y[k - 1], y[k], y[k + 1]);
-    // Parabola y = c0 + c1 (x - x1) + c2 (x - x1)^2 through three points.
-    let (d0, d2) = (x0 - x1, x2 - x1);
-    let c2 = ((y0 - y1) / d0 - (y2 - y1) / d2) / (d0 - d2);
-    let c1 = (y0 - y1) / d0 - c2 * d0;
-    if c2 >= 0.0 || !(y0.is_finite() && y2.is_finite()) {
-        return Some((t[k], y1));
+    // The top: contiguous finite samples down to `top` x the maximum (a
+    // negative maximum keeps the three points).
+    let reaches = |i: usize| y[i].is_finite() && y[i] >= top * y[k];
+    let (mut lo, mut hi) = (k - 1, k + 1);
+    while lo > 0 && reaches(lo - 1) {
+        lo -= 1;
     }
-    let dx = (-c1 / (2.0 * c2)).clamp(d0, d2);
-    Some(((x1 + dx).exp(), y1 + c1 * dx + c2 * dx * dx))
+    while hi + 1 < n && reaches(hi + 1) {
+        hi += 1;
+    }
+    // y = c0 + c1 u + c2 u^2, u = ln t - ln t_k, by the normal equations.
+    let x1 = t[k].ln();
+    let mut s = [0.0f64; 5];
+    let mut r = [0.0f64; 3];
+    for i in lo..=hi {
+        let u = t[i].ln() - x1;
+        let mut p = 1.0;
+        for (j, sj) in s.iter_mut().enumerate() {
+            *sj += p;
+            if j < 3 {
+                r[j] += p * y[i];
+            }
+            p *= u;
+        }
+    }
+    let m = [[s[0], s[1], s[2]], [s[1], s[2], s[3]], [s[2], s[3], s[4]]];
+    let c = solve3(m, r)?;
+    if !(c[2] < 0.0) {
+        return Some((t[k], y[k]));
+    }
+    let (ua, ub) = (t[lo].ln() - x1, t[hi].ln() - x1);
+    let du = (-c[1] / (2.0 * c[2])).clamp(ua, ub);
+    Some(((x1 + du).exp(), c[0] + c[1] * du + c[2] * du * du))
+}
+
+/// A 3 x 3 system by Cramer's rule; None when singular.
+fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let d = det(m);
+    if !(d.abs() > 0.0) {
+        return None;
+    }
+    let mut out = [0.0; 3];
+    for (j, o) in out.iter_mut().enumerate() {
+        let mut a = m;
+        for i in 0..3 {
+            a[i][j] = r[i];
+        }
+        *o = det(a) / d;
+    }
+    Some(out)
 }
 
 /// How finely a sampled curve fixes its peak (t, y) from [`peak_log_t`]: the time to
@@ -300,6 +359,52 @@ mod tests {
         assert!((interp_log_t(&t, &y, 10f64.sqrt()).unwrap() - 0.5).abs() < 1e-12);
         assert_eq!(interp_log_t(&t, &y, 1000.0), None);
         assert_eq!(interp_log_t(&t, &y, 0.5), None);
+    }
+
+    /// On a noisy, finely sampled peak the parabola through the top finds the
+    /// peak time closer than the parabola through the highest sample and its
+    /// neighbours (`top` = 1), and the top's estimate moves less from one noise
+    /// realisation to the next: the jumps of the highest sample are what a
+    /// jackknife of the three-point peak under-quotes.
+    #[test]
+    fn the_top_of_a_noisy_peak_locates_it_better_than_its_highest_sample() {
+        // chi4-like: a Gaussian in ln t, 12 lags a decade, 5% noise.
+        let t: Vec<f64> = (0..49)
+            .map(|k| 0.01 * 10f64.powf(k as f64 / 12.0))
+            .collect();
+        let (t_peak, width) = (3.3f64, 1.2f64);
+        let mut state = 0x2545F4914F6CDD1Du64;
+        let mut normal = move || {
+            // Box-Muller on xorshift64* uniforms.
+            let mut u = || {
+                state ^= state >> 12;
+                state ^= state << 25;
+                state ^= state >> 27;
+                ((state.wrapping_mul(0x2545F4914F6CDD1D) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        };
+        let (mut top, mut three) = (Vec::new(), Vec::new());
+        for _ in 0..400 {
+            let y: Vec<f64> = t
+                .iter()
+                .map(|x| {
+                    let g = (-(x.ln() - t_peak.ln()).powi(2) / (2.0 * width * width)).exp();
+                    g * (1.0 + 0.05 * normal())
+                })
+                .collect();
+            top.push((peak_log_t(&t, &y).unwrap().0 / t_peak).ln());
+            three.push((peak_log_t_within(&t, &y, 1.0).unwrap().0 / t_peak).ln());
+        }
+        let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+        let (r_top, r_three) = (rms(&top), rms(&three));
+        // Measured: 0.10 against 0.19 in ln t.
+        assert!(
+            r_top < 0.7 * r_three,
+            "rms ln error: top {r_top}, three points {r_three}"
+        );
+        assert!(r_top < 0.13, "{r_top}");
     }
 
     /// A peak between grid points: the parabola finds it, and its error is at least

@@ -677,6 +677,29 @@ impl Sources {
     /// without entering the harness ([`is_harness`]), roots included; an error
     /// names a root that is no module.
     pub fn closure(&self, roots: &[&str]) -> Result<BTreeSet<String>, String> {
+        self.closure_cut(roots, &[])
+    }
+
+    /// [`Sources::closure`] without following the import edges `cut` (`(from,
+    /// to)`, module keys or paths): a catalogue that names every member of a
+    /// family to dispatch by name reaches, for one member, only that member's
+    /// modules. An edge that is no import is an error: a renamed module must
+    /// not leave a cut that no longer cuts, nor one that names nothing.
+    pub fn closure_cut(
+        &self,
+        roots: &[&str],
+        cut: &[(&str, &str)],
+    ) -> Result<BTreeSet<String>, String> {
+        let mut cut_keys = BTreeSet::new();
+        for (from, to) in cut {
+            let (f, t) = (module_key(from), module_key(to));
+            if !self.modules.get(&f).is_some_and(|m| m.deps.contains(&t)) {
+                return Err(format!(
+                    "the cut edge '{f}' -> '{t}' is no import of the sources"
+                ));
+            }
+            cut_keys.insert((f, t));
+        }
         let mut seen = BTreeSet::new();
         let mut todo: Vec<String> = Vec::new();
         for r in roots {
@@ -696,7 +719,11 @@ impl Sources {
                 todo.extend(
                     m.deps
                         .iter()
-                        .filter(|d| !seen.contains(*d) && !is_harness(d))
+                        .filter(|d| {
+                            !seen.contains(*d)
+                                && !is_harness(d)
+                                && !cut_keys.contains(&(k.clone(), (*d).clone()))
+                        })
                         .cloned(),
                 );
             }
@@ -737,11 +764,22 @@ impl Sources {
     /// name, every module of their closure with its hash, and every lock entry
     /// of the crates the closure names.
     pub fn fingerprint(&self, name: &str, roots: &[&str]) -> Result<Fingerprint, String> {
+        self.fingerprint_cut(name, roots, &[])
+    }
+
+    /// [`Sources::fingerprint`] over [`Sources::closure_cut`]: the edges `cut`
+    /// are not followed.
+    pub fn fingerprint_cut(
+        &self,
+        name: &str,
+        roots: &[&str],
+        cut: &[(&str, &str)],
+    ) -> Result<Fingerprint, String> {
         if roots.is_empty() {
             return Err(format!("stage kind '{name}' names no source file"));
         }
         let closure = self
-            .closure(roots)
+            .closure_cut(roots, cut)
             .map_err(|e| format!("stage kind '{name}': {e}"))?;
         let mut h = blake3::Hasher::new();
         // v3: the harness left out, inline paths resolved in their module, the
@@ -901,6 +939,40 @@ mod tests {
             resolve(&v("x"), &path, &modules, &reexports, 0),
             Some(v("a/deep"))
         );
+    }
+
+    /// A catalogue `cat` naming members `m1` and `m2`, each reaching a shared
+    /// `s`: with the edge to `m2` cut, the key of `m1`'s kind covers the
+    /// catalogue, `m1` and `s`, not `m2`; a cut that is no import is an error.
+    #[test]
+    fn a_cut_edge_is_not_followed() {
+        let mut s = Sources::default();
+        let m = |deps: &[&str], hash: &str| Module {
+            hash: hash.into(),
+            deps: deps.iter().map(|d| d.to_string()).collect(),
+            ..Module::default()
+        };
+        s.modules.insert("kind".into(), m(&["cat"], "k"));
+        s.modules.insert("cat".into(), m(&["m1", "m2"], "c"));
+        s.modules.insert("m1".into(), m(&["s"], "1"));
+        s.modules.insert("m2".into(), m(&["s"], "2"));
+        s.modules.insert("s".into(), m(&[], "s"));
+        let all = s.closure(&["kind"]).unwrap();
+        assert_eq!(all.len(), 5);
+        let one = s.closure_cut(&["kind"], &[("cat", "m2")]).unwrap();
+        assert_eq!(
+            one.into_iter().collect::<Vec<_>>(),
+            ["cat", "kind", "m1", "s"]
+        );
+        let f1 = s.fingerprint_cut("k", &["kind"], &[("cat", "m2")]).unwrap();
+        s.modules.get_mut("m2").unwrap().hash = "2'".into();
+        let f2 = s.fingerprint_cut("k", &["kind"], &[("cat", "m2")]).unwrap();
+        assert_eq!(f1, f2, "an edit of the cut member moved the key");
+        s.modules.get_mut("m1").unwrap().hash = "1'".into();
+        let f3 = s.fingerprint_cut("k", &["kind"], &[("cat", "m2")]).unwrap();
+        assert_ne!(f1.hash, f3.hash, "an edit of the own member left the key");
+        let e = s.closure_cut(&["kind"], &[("m1", "m2")]).unwrap_err();
+        assert!(e.contains("'m1' -> 'm2' is no import"), "{e}");
     }
 
     #[test]

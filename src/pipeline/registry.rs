@@ -90,14 +90,20 @@ pub struct Registry {
 /// of the crates they use ([`Sources::fingerprint`]). A file that is no module
 /// under `src/` is an error: a misspelt or renamed file must not silently key
 /// every stage of the kind on a constant.
-pub fn code_fingerprint(name: &str, modules: &[&str]) -> Result<Fingerprint> {
-    code_fingerprint_in(crate::fingerprints::sources(), name, modules)
+/// The edges `cut` are not followed ([`StageKind::not_followed`]).
+pub fn code_fingerprint(name: &str, modules: &[&str], cut: &[(&str, &str)]) -> Result<Fingerprint> {
+    code_fingerprint_in(crate::fingerprints::sources(), name, modules, cut)
 }
 
 /// [`code_fingerprint`] over any sources (tests read an edited copy).
-pub fn code_fingerprint_in(sources: &Sources, name: &str, modules: &[&str]) -> Result<Fingerprint> {
+pub fn code_fingerprint_in(
+    sources: &Sources,
+    name: &str,
+    modules: &[&str],
+    cut: &[(&str, &str)],
+) -> Result<Fingerprint> {
     sources
-        .fingerprint(name, modules)
+        .fingerprint_cut(name, modules, cut)
         .map_err(anyhow::Error::msg)
 }
 
@@ -112,10 +118,14 @@ impl Registry {
     /// exist under `src/` (a programming error every test that builds the
     /// registry catches).
     pub fn register(&mut self, kind: impl StageKind) {
-        let fingerprint = code_fingerprint(StageKind::name(&kind), StageKind::modules(&kind))
-            .unwrap_or_else(|e| {
-                panic!("{e}");
-            });
+        let fingerprint = code_fingerprint(
+            StageKind::name(&kind),
+            StageKind::modules(&kind),
+            &StageKind::not_followed(&kind),
+        )
+        .unwrap_or_else(|e| {
+            panic!("{e}");
+        });
         self.kinds.insert(
             StageKind::name(&kind).to_string(),
             Registered {
@@ -220,13 +230,13 @@ mod tests {
 
     #[test]
     fn an_unknown_module_is_an_error_not_a_constant() {
-        let e = code_fingerprint("chi4", &["analysis", "stages/chi_4"]).unwrap_err();
+        let e = code_fingerprint("chi4", &["analysis", "stages/chi_4"], &[]).unwrap_err();
         assert!(
             e.to_string().contains("'stages/chi_4'") && e.to_string().contains("chi4"),
             "{e}"
         );
-        assert!(code_fingerprint("chi4", &[]).is_err());
-        let f = code_fingerprint("table", &["src/pipeline/kinds.rs"]).unwrap();
+        assert!(code_fingerprint("chi4", &[], &[]).is_err());
+        let f = code_fingerprint("table", &["src/pipeline/kinds.rs"], &[]).unwrap();
         assert!(f.modules.contains(&"pipeline/kinds".to_string()), "{f:?}");
         assert!(f.modules.contains(&"table/columns".to_string()), "{f:?}");
         // The stage trait is harness, in no key.

@@ -48,6 +48,15 @@ pub trait StageKind: Send + Sync + 'static {
     /// paths such as `stages/simulate`): its code fingerprint hashes every module
     /// they reach through the import graph ([`super::fingerprint`]).
     fn modules(&self) -> &[&str];
+    /// Import edges (`(from, to)` module keys) its key does not follow. A
+    /// catalogue that names every member of a family to dispatch by name
+    /// (`analysis::observables` names every observable's module) would put
+    /// every member into every member's key: an analysis kind cuts the
+    /// catalogue's edges to the members it does not run
+    /// ([`super::fingerprint::Sources::closure_cut`]).
+    fn not_followed(&self) -> Vec<(&'static str, &'static str)> {
+        Vec::new()
+    }
     /// Parse and check parameters before anything runs; the error says what is
     /// valid (a [`ParamError`](super::canon::ParamError) is located at its key).
     fn parse(&self, params: &Value) -> Result<Self::Params>;
@@ -115,6 +124,7 @@ pub trait Kind: Send + Sync {
     fn explain(&self, params: &Value) -> String;
     fn details(&self) -> String;
     fn modules(&self) -> &[&str];
+    fn not_followed(&self) -> Vec<(&'static str, &'static str)>;
     fn holds(&self) -> Holds;
     /// [`StageKind::parse`], the value kept for the other calls.
     fn parse(&self, params: &Value) -> Result<Parsed>;
@@ -148,6 +158,9 @@ impl<K: StageKind> Kind for K {
     }
     fn modules(&self) -> &[&str] {
         StageKind::modules(self)
+    }
+    fn not_followed(&self) -> Vec<(&'static str, &'static str)> {
+        StageKind::not_followed(self)
     }
     fn holds(&self) -> Holds {
         StageKind::holds(self)

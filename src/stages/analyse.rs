@@ -9,8 +9,9 @@
 //! otherwise); the main table then gets `t_over_tau_alpha`, and `at: [0.01, 1, 8.5]`
 //! reads the observable at those multiples (the lags it sets on the parsed
 //! parameters, [`ObservableParams::set_lags`]): a curve of t is computed at the two
-//! recorded lags around each and interpolated linearly in ln t; a configuration
-//! (clusters, a mobility snapshot) at the nearest recorded lag ([`lags::AtLag`]).
+//! recorded lags around each and interpolated linearly in ln t (P(Nc) too, bin by
+//! bin); a configuration (clusters, a mobility snapshot) at the nearest recorded
+//! lag ([`lags::AtLag`]).
 //! The lags and weights are listed in `at.parquet`; a request past the last lag
 //! fails.
 //!
@@ -25,7 +26,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use super::tables::{Columns, inputs_of, trajectories};
-use crate::analysis::intruder::DriveParams;
+use crate::analysis::drive::DriveParams;
 use crate::analysis::observable_params::{LagsFrom, ObservableParams};
 use crate::analysis::observables::{OBSERVABLES, Observable};
 use crate::analysis::pool::{JK_UNIT, MAX_JK_REPLICAS, jk_column};
@@ -496,9 +497,14 @@ impl StageKind for Analyse {
         )
     }
     fn modules(&self) -> &[&str] {
-        // Every observable's code is reached through the catalogue
-        // (`analysis::observables`), which names them all.
+        // The observable's own code is reached through the catalogue
+        // (`analysis::observables`), which names them all ...
         &[file!()]
+    }
+    fn not_followed(&self) -> Vec<(&'static str, &'static str)> {
+        // ... and only its own: the catalogue's edges to the other
+        // observables' modules are cut.
+        self.obs.not_followed()
     }
     fn parse(&self, params: &Value) -> Result<Split> {
         split(self.obs, params)

@@ -361,13 +361,17 @@ fn resolve(
 
 /// Roots through `graph`, stopped at the harness (the rule of
 /// `repro::pipeline::fingerprint`).
-pub fn closure(graph: &Graph, roots: &[&str]) -> BTreeSet<String> {
+pub fn closure(graph: &Graph, roots: &[&str], cut: &[(&str, &str)]) -> BTreeSet<String> {
     let mut seen = BTreeSet::new();
     let mut todo: Vec<String> = roots.iter().map(|r| module_key(r)).collect();
     while let Some(k) = todo.pop() {
         if seen.insert(k.clone()) {
             let deps = graph.get(&k).unwrap_or_else(|| panic!("{k} is no module"));
-            todo.extend(deps.iter().filter(|d| !is_harness(d)).cloned());
+            todo.extend(
+                deps.iter()
+                    .filter(|d| !is_harness(d) && !cut.contains(&(k.as_str(), d.as_str())))
+                    .cloned(),
+            );
         }
     }
     seen

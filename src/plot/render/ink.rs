@@ -363,12 +363,9 @@ pub(super) fn marker<DB: DrawingBackend>(
     size: f64,
     color: RGBColor,
 ) -> Result<()> {
-    let open = m.open();
-    let fill = if open {
-        WHITE.filled()
-    } else {
-        ShapeStyle::from(&color).filled()
-    };
+    // An open marker is its outline alone: a fit drawn beneath it (fig8's
+    // tails through their points) shows through.
+    let fill = (!m.open()).then(|| ShapeStyle::from(&color).filled());
     let line = ShapeStyle::from(&color).stroke_width(1);
     let s = size.max(2.0);
     let poly = |pts: &[P]| {
@@ -376,11 +373,12 @@ pub(super) fn marker<DB: DrawingBackend>(
             .map(|&(dx, dy)| px((x + dx * s, y + dy * s)))
             .collect::<Vec<_>>()
     };
-    // A filled polygon with its outline (the outline alone stays on white
-    // inside when open).
+    // A filled polygon with its outline (the outline alone when open).
     let shape = |pts: Vec<P>| -> Result<()> {
         let v = poly(&pts);
-        area.draw(&Polygon::new(v.clone(), fill)).map_err(err)?;
+        if let Some(fill) = fill {
+            area.draw(&Polygon::new(v.clone(), fill)).map_err(err)?;
+        }
         let mut closed = v;
         closed.push(closed[0]);
         area.draw(&PathElement::new(closed, line)).map_err(err)
@@ -397,7 +395,9 @@ pub(super) fn marker<DB: DrawingBackend>(
         Marker::Circle | Marker::Auto => {
             let c = px((x, y));
             let r = s.round() as i32;
-            area.draw(&Circle::new(c, r, fill)).map_err(err)?;
+            if let Some(fill) = fill {
+                area.draw(&Circle::new(c, r, fill)).map_err(err)?;
+            }
             area.draw(&Circle::new(c, r, line)).map_err(err)
         }
         Marker::Square => shape(vec![(-0.9, -0.9), (0.9, -0.9), (0.9, 0.9), (-0.9, 0.9)]),
