@@ -738,7 +738,9 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
         {
             format!("paper {claim}")
         }
-        Some(claim) => format!("paper {claim} ({})", paper_number(c.paper)),
+        // Against another of our numbers: printed as ours are, not as a
+        // paper's value is written.
+        Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
         None => format!("paper {}", paper_number(c.paper)),
     };
     let paper = if provenance.is_empty() {
