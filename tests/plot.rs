@@ -815,6 +815,43 @@ fn noise_on_a_log_axis_is_drawn_open_or_left_out() {
     assert!(notes.contains("Open markers"), "{notes}");
 }
 
+/// A measured value at or below zero beyond its error cannot be drawn on a log
+/// axis: it is counted in a note, never dropped without a word (paper I's
+/// fig3: v < 0 at the smallest force).
+#[test]
+fn a_value_at_or_below_zero_on_a_log_axis_is_counted() {
+    let x: Vec<f64> = (1..=6).map(f64::from).collect();
+    let mut y: Vec<f64> = x.iter().map(|x| 10f64.powf(-x)).collect();
+    y[0] = -0.02;
+    y[1] = 0.0;
+    let mut e: Vec<f64> = y.iter().map(|v| 0.1 * v.abs()).collect();
+    e[0] = 0.007;
+    e[1] = 0.0;
+    let mut s = series("data", x, y);
+    s.style = Style::Points;
+    s.y_err = Some(e);
+    let f = Figure {
+        panels: vec![panel("", axis("x", false), axis("y", true), vec![s])],
+        ..overlap_figure()
+    };
+    let notes = layout(&f).unwrap()[0].notes.join(" ");
+    assert!(
+        notes.contains(
+            "2 points at or below zero beyond their errors cannot be drawn on the log axis"
+        ),
+        "{notes}"
+    );
+    // On a linear axis they are drawn: no such note.
+    let mut s = series("data", vec![1.0, 2.0], vec![-0.02, 0.5]);
+    s.style = Style::Points;
+    let f = Figure {
+        panels: vec![panel("", axis("x", false), axis("y", false), vec![s])],
+        ..overlap_figure()
+    };
+    let notes = layout(&f).unwrap()[0].notes.join(" ");
+    assert!(!notes.contains("below zero"), "{notes}");
+}
+
 /// What the y range leaves out does not widen the x range: a noise point far
 /// along x below the axes, and the stretch of a fit that falls out of view
 /// (fig14's master curve at small), end where the shown data end.

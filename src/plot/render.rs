@@ -405,12 +405,21 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
     // Noise on a log axis: points whose error exceeds their value, drawn
     // open where they fall inside the axes, left out (the y range is set by
     // the other points) where they do not.
-    let (mut open, mut left_out) = (false, 0);
+    let (mut open, mut left_out, mut below_zero) = (false, 0, 0);
     for s in p
         .series
         .iter()
         .filter(|s| matches!(s.style, Style::Points | Style::LinePoints) && !s.fit)
     {
+        // A measured value at or below zero that is not noise: a log axis
+        // cannot draw it, and it must not vanish without a word.
+        below_zero += (0..s.y.len())
+            .filter(|&i| !noise(s, i, ys.log))
+            .filter(|&i| {
+                let at_or_below = |log: bool, v: f64| log && v.is_finite() && v <= 0.0;
+                at_or_below(ys.log, s.y[i]) || at_or_below(xs.log, s.x[i])
+            })
+            .count();
         for i in (0..s.y.len()).filter(|&i| noise(s, i, ys.log)) {
             // Below the y range it is left out wherever its x lies: the x
             // range ends with what shows ([`scales`]).
@@ -438,6 +447,14 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
             if left_out == 1 { "" } else { "s" },
             if left_out == 1 { "its" } else { "their" },
             if left_out == 1 { "s" } else { "" },
+        ));
+    }
+    if below_zero > 0 {
+        out.push(format!(
+            "{below_zero} point{} at or below zero beyond {} error{} cannot be drawn on the log axis, left out.",
+            if below_zero == 1 { "" } else { "s" },
+            if below_zero == 1 { "its" } else { "their" },
+            if below_zero == 1 { "" } else { "s" },
         ));
     }
     out
