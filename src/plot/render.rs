@@ -411,13 +411,14 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
         .iter()
         .filter(|s| matches!(s.style, Style::Points | Style::LinePoints) && !s.fit)
     {
-        // A measured value at or below zero that is not noise: a log axis
-        // cannot draw it, and it must not vanish without a word.
+        // A measured value below zero that is not noise: a log axis cannot
+        // draw it, and it must not vanish without a word. (An exact zero is
+        // an empty histogram bin, no measurement.)
         below_zero += (0..s.y.len())
             .filter(|&i| !noise(s, i, ys.log))
             .filter(|&i| {
-                let at_or_below = |log: bool, v: f64| log && v.is_finite() && v <= 0.0;
-                at_or_below(ys.log, s.y[i]) || at_or_below(xs.log, s.x[i])
+                let below = |log: bool, v: f64| log && v.is_finite() && v < 0.0;
+                below(ys.log, s.y[i]) || below(xs.log, s.x[i])
             })
             .count();
         for i in (0..s.y.len()).filter(|&i| noise(s, i, ys.log)) {
@@ -451,7 +452,7 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
     }
     if below_zero > 0 {
         out.push(format!(
-            "{below_zero} point{} at or below zero beyond {} error{} cannot be drawn on the log axis, left out.",
+            "{below_zero} point{} below zero beyond {} error{} cannot be drawn on the log axis, left out.",
             if below_zero == 1 { "" } else { "s" },
             if below_zero == 1 { "its" } else { "their" },
             if below_zero == 1 { "" } else { "s" },

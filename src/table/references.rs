@@ -192,8 +192,18 @@ pub fn value_with_error(v: f64, e: f64) -> String {
     if !v.is_finite() {
         return "(no fit)".into();
     }
-    if !(e.is_finite() && e > 0.0) {
+    // No error, or one at the floating-point rounding of the value (an
+    // identity such as S4(q = 0) / chi4): the value alone, not fifteen digits.
+    if !(e.is_finite() && e > 1e-9 * v.abs()) {
         return legend_number(v);
+    }
+    // A value far below one (a precision, an energy drift): mantissas with a
+    // common power of ten, not a run of zeros.
+    if v.abs().max(e) < 1e-4 {
+        let p = v.abs().max(e).log10().floor();
+        let s = 10f64.powf(-p);
+        let power = format!("{}", p as i64).replacen('-', "−", 1);
+        return format!("({}) × 10^{{{power}}}", value_with_error(v * s, e * s));
     }
     let mut digits = -e.log10().floor();
     if e * 10f64.powf(digits) < 2.0 {
