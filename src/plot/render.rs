@@ -442,20 +442,25 @@ fn bar_notes(p: &Panel, xs: Scale, ys: Scale) -> Vec<String> {
     if open {
         out.push("Open markers of filled series: points whose error exceeds their value.".into());
     }
+    // "1 point whose error exceeds its value lies" / "2 points ... their ... lie".
+    let count = |n: usize, text: &str| -> String {
+        let one = n == 1;
+        let text = text
+            .replace("{s}", if one { "" } else { "s" })
+            .replace("{its}", if one { "its" } else { "their" })
+            .replace("{lies}", if one { "lies" } else { "lie" });
+        format!("{n} point{} {text}", if one { "" } else { "s" })
+    };
     if left_out > 0 {
-        out.push(format!(
-            "{left_out} point{} whose error exceeds {} value lie{} outside the axes, left out.",
-            if left_out == 1 { "" } else { "s" },
-            if left_out == 1 { "its" } else { "their" },
-            if left_out == 1 { "s" } else { "" },
+        out.push(count(
+            left_out,
+            "whose error exceeds {its} value {lies} outside the axes, left out.",
         ));
     }
     if below_zero > 0 {
-        out.push(format!(
-            "{below_zero} point{} below zero beyond {} error{} cannot be drawn on the log axis, left out.",
-            if below_zero == 1 { "" } else { "s" },
-            if below_zero == 1 { "its" } else { "their" },
-            if below_zero == 1 { "" } else { "s" },
+        out.push(count(
+            below_zero,
+            "below zero beyond {its} error{s} cannot be drawn on the log axis, left out.",
         ));
     }
     out
