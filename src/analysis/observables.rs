@@ -58,6 +58,10 @@ pub struct Observable {
     /// Whether it takes the drive of its runs (`drive`, `kick_rate_factor`):
     /// the analysis stage reads them from the runs it analyses.
     pub takes_drive: bool,
+    /// Whether it analyses the window its experiment names
+    /// ([`crate::analysis::window`]): every observable but the one that
+    /// measures the window itself (aging, over every origin).
+    pub windowed: bool,
     /// The modules of [`MEMBERS`] its function runs (with what they import):
     /// its stages' key covers these, not the other observables' modules.
     /// tests/keys.rs checks that every member module named in its line is here.
@@ -274,6 +278,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "overlap",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/overlap"],
         describe: "Q(t) (paper H, Eq. 5-7) pooled over replicas and time origins: t, Q, Q_err, n_origins",
         typed: &Typed(|t, p: &overlap::Params| {
@@ -292,6 +297,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "tau_alpha",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/overlap"],
         describe: "tau_alpha where Q = 1/e, pooled replicas, jackknife error: one row tau_alpha, tau_alpha_err, replicas",
         typed: &Typed(|t, p: &overlap::Params| {
@@ -309,6 +315,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "q_levels",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/overlap"],
         describe: "time-density superposition test (Fig. 5): t where Q = each level and t/tau_alpha, one jackknife: level, t, t_err, tau_alpha, t_over_tau_alpha, t_over_tau_alpha_err",
         typed: &Typed(|t, p: &overlap::LevelParams| {
@@ -320,6 +327,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "aging",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: false,
         modules: &["analysis/overlap"],
         describe: "Q(t; t0) per waiting time t0 averaged over replicas (Fig. 2): t0, t, Q; tau.parquet: t0, tau_alpha, tau_alpha_err (replica jackknife)",
         typed: &Typed(|t, p: &overlap::Params| {
@@ -337,6 +345,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "chi4",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/chi4"],
         describe: "chi4(t) (paper H, Eq. 14) per sub-box size N, pooled replicas: N, t, Q, chi4, chi4_err, n_origins",
         typed: &Typed(|t, p: &chi4::Params| {
@@ -348,6 +357,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "chi4_peaks",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/chi4"],
         describe: "chi4 peak per sub-box size with tau_alpha and chi4(tau_alpha): N, tau4, chi4P, tau_alpha, chi4_tau_alpha (+ _err)",
         typed: &Typed(|t, p: &chi4::Params| {
@@ -359,6 +369,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "s4",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/s4"],
         describe: "four-point structure factor S4(q, t) per shell, q = 0 first (chi4 of the whole system), time origins of every replica pooled: L, t, q, q2, S4, S4_err, n_vectors",
         typed: &Typed(|t, p: &s4::Params| {
@@ -370,6 +381,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "msd",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/msd"],
         describe: "mean-squared displacement, all / per species / fastest and slowest fractions: t, species, select, fraction, msd, msd_err, n_origins",
         typed: &Typed(|t, p: &msd::Params| {
@@ -386,6 +398,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "diffusion",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/msd"],
         describe: "D from the long-time MSD slope over [fit_min_tau, fit_max_tau] x tau_alpha (Fig. 9), one jackknife: D, D_err, tau_alpha, tau_alpha_err, t_fit_min, t_fit_max, points",
         typed: &Typed(|t, p: &msd::DiffusionParams| {
@@ -396,6 +409,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "van_hove",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/van_hove"],
         describe: "self part of the van Hove function P(dx, t): t, dx, P, P_err",
         typed: &Typed(|t, p: &van_hove::Params| per_replica(t, p, van_hove::compute)),
@@ -404,6 +418,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "gr",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/gr"],
         describe: "partial pair correlations g_ab(r) with their first minima: a, b, r, g, r_min",
         typed: &Typed(|t, p: &gr::Params| per_replica(t, p, gr::compute)),
@@ -412,6 +427,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "order",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/order"],
         describe: "bond-orientational order and local composition of every recorded frame: t, psi6 (mean |psi6_j|), psi6_global (|mean psi6_j|), small_fraction_var (variance of the small-disk fraction over the sub-boxes of chi4 / its binomial value; 1 random, > 1 demixed)",
         typed: &Typed(|t, p: &order::Params| per_replica(t, p, order::compute)),
@@ -420,6 +436,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "clusters",
         at: lags::AtLag::Nearest,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/clusters"],
         describe: "slow and fast clusters (Eq. 10) with size and radius of gyration, every replica: replica, t, t0, kind, Nc, Rg, spans",
         typed: &Typed(|t, p: &clusters::Params| {
@@ -433,6 +450,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "cluster_sizes",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/clusters"],
         describe: "log-binned cluster size distribution P(Nc) of the clusters of every replica: t, kind, Nc, P, P_err, n_clusters",
         typed: &Typed(|t, p: &clusters::Params| {
@@ -454,6 +472,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "mobility_snapshot",
         at: lags::AtLag::Nearest,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/clusters"],
         describe: "one frame per replica with each disk's mobility class over the first lag (Fig. 10): replica, t, t0, x, y, radius, class (0 slow, 1 fast, 2 neither)",
         typed: &Typed(|t, p: &clusters::Params| {
@@ -465,6 +484,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_velocity",
         at: lags::AtLag::Interpolate,
         takes_drive: true,
+        windowed: true,
         modules: &["analysis/intruder"],
         describe: "stationary intruder velocity over time blocks of every replica (paper I): v, v_err, v_first, v_second, stationary, snr, v_bath, v_rel (+ _err), mass_total, n_blocks; with drive: {eps, gamma, temperature} also v_dr, v_over_vdr, vdr2_sqrt_eta; with kick_rate_factor (and drive) also kick_dt, collision_momentum",
         typed: &Typed(|t, p: &intruder::VelocityParams| {
@@ -476,6 +496,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_path",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/intruder"],
         describe: "intruder path of every replica (paper I, Fig. 4 inset): replica, t, x, v",
         typed: &Typed(|t, p: &intruder::VelocityParams| {
@@ -487,6 +508,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "intruder_diffusion",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/intruder"],
         describe: "intruder diffusion along x at F = 0 and the Einstein mobility (paper I): D, T_x, mu_einstein = D / T_x (+ _err over replicas)",
         typed: &Typed(|t, p: &intruder::DiffusionParams| {
@@ -500,6 +522,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "momentum_profile",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/intruder"],
         describe: "momentum density profile Px(x) at given times (paper I): t, x, Px (+ Px_err over replicas)",
         typed: &Typed(|t, p: &intruder::ProfileParams| {
@@ -510,6 +533,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "velocity_field",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/front"],
         describe: "bath velocity field on square cells at given times, pooled over replicas (paper I, Fig. 1): t, x, y, vx, vy; intruder.parquet: t, x, y (mean over replicas)",
         typed: &Typed(|t, p: &front::FieldParams| {
@@ -526,6 +550,7 @@ pub static OBSERVABLES: &[Observable] = &[
         name: "front",
         at: lags::AtLag::Interpolate,
         takes_drive: false,
+        windowed: true,
         modules: &["analysis/front"],
         describe: "momentum front from Px(x) (paper I, Fig. 2): quantity, value, error, note for V_cm, V_br, V_ratio, eta_wall (jackknife over replicas); positions.parquet: t, x_cm, Px_cm, width, eta_wall (+ _err); lines.parquet: the fitted x_cm(t), width(t)",
         typed: &Typed(|t, p: &front::FrontParams| {

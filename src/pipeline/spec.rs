@@ -85,6 +85,12 @@ pub struct ExperimentSpec {
     pub params: BTreeMap<String, Value>,
     /// Per-profile grid, replicas and run length (`ci`, `small`, `paper`).
     pub profiles: BTreeMap<String, Spanned<ProfileSpec>>,
+    /// The analysed window of its runs, `FIGURE/STAGE`: a stage whose kind
+    /// holds a window (phi, skip_origins), planned as that figure plans it.
+    /// Every analysis of these runs outside that figure reads it
+    /// (src/analysis/window.rs); without it they read every origin.
+    #[serde(default)]
+    pub window: Option<Spanned<String>>,
 }
 
 impl ExperimentSpec {

@@ -57,6 +57,13 @@ pub trait StageKind: Send + Sync + 'static {
     fn not_followed(&self) -> Vec<(&'static str, &'static str)> {
         Vec::new()
     }
+    /// Whether its stages analyse the window an experiment names (`window:` in
+    /// its YAML) rather than every origin of its runs: the planner then adds
+    /// that window's table to their inputs. Analyses of runs do; a kind that
+    /// measures the window itself (aging) does not.
+    fn takes_window(&self, _params: &Self::Params) -> bool {
+        false
+    }
     /// Parse and check parameters before anything runs; the error says what is
     /// valid (a [`ParamError`](super::canon::ParamError) is located at its key).
     fn parse(&self, params: &Value) -> Result<Self::Params>;
@@ -126,6 +133,7 @@ pub trait Kind: Send + Sync {
     fn modules(&self) -> &[&str];
     fn not_followed(&self) -> Vec<(&'static str, &'static str)>;
     fn holds(&self) -> Holds;
+    fn takes_window(&self, params: &Parsed) -> bool;
     /// [`StageKind::parse`], the value kept for the other calls.
     fn parse(&self, params: &Value) -> Result<Parsed>;
     /// Parse and drop (listings probe the accepted keys this way).
@@ -165,6 +173,11 @@ impl<K: StageKind> Kind for K {
     fn holds(&self) -> Holds {
         StageKind::holds(self)
     }
+    fn takes_window(&self, params: &Parsed) -> bool {
+        params
+            .get::<K::Params>()
+            .is_ok_and(|p| StageKind::takes_window(self, p))
+    }
     fn parse(&self, params: &Value) -> Result<Parsed> {
         Ok(Parsed(Arc::new(StageKind::parse(self, params)?)))
     }
@@ -200,6 +213,9 @@ pub enum Holds {
     /// A simulated trajectory (`parquet`) with its run summary (`json`) and the
     /// run's parameters.
     Trajectory,
+    /// The analysed window of an experiment's runs per state point (`parquet`:
+    /// phi, skip_origins), which an experiment names as its `window`.
+    Window,
 }
 
 /// What one long stage (a simulation) is planned to cost, as the function its

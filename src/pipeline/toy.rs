@@ -25,6 +25,7 @@ pub fn register(r: &mut Registry) {
     r.register(ToyFit);
     r.register(ToyPlot);
     r.register(ToyFail);
+    r.register(ToyWindow);
 }
 
 fn column(b: &RecordBatch, name: &str, label: &str) -> Result<Vec<f64>> {
@@ -136,6 +137,9 @@ impl StageKind for ToyAnalyse {
     fn modules(&self) -> &[&str] {
         &[file!()]
     }
+    fn takes_window(&self, _p: &AnalyseParams) -> bool {
+        true
+    }
     fn parse(&self, params: &Value) -> Result<AnalyseParams> {
         let p: AnalyseParams = typed("toy_analyse", params)?;
         if p.a.is_nan() || p.a <= 0.0 {
@@ -163,6 +167,39 @@ impl StageKind for ToyAnalyse {
                 ])?],
                 &[],
             )?,
+        ))
+    }
+}
+
+/// `toy_window`: an experiment's analysed window, every origin at every phi
+/// of its inputs (phi, skip_origins = 0).
+pub struct ToyWindow;
+
+impl StageKind for ToyWindow {
+    type Params = Value;
+    fn name(&self) -> &str {
+        "toy_window"
+    }
+    fn modules(&self) -> &[&str] {
+        &[file!()]
+    }
+    fn holds(&self) -> super::stage::Holds {
+        super::stage::Holds::Window
+    }
+    fn parse(&self, params: &Value) -> Result<Value> {
+        Ok(params.clone())
+    }
+    fn run(&self, _ctx: &StageCtx, _p: &Value, inputs: &[Artifact]) -> Result<Output> {
+        let mut phi: Vec<f64> = inputs
+            .iter()
+            .filter_map(|a| a.point.get("phi").and_then(Value::as_f64))
+            .collect();
+        phi.sort_by(f64::total_cmp);
+        phi.dedup();
+        let zero = vec![0.0; phi.len()];
+        Ok(Output::single(
+            "parquet",
+            to_parquet_bytes(&[f64_batch(&[("phi", phi), ("skip_origins", zero)])?], &[])?,
         ))
     }
 }

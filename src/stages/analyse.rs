@@ -137,6 +137,79 @@ fn measured_samples(name: &str, u: &TimeUnit, inputs: &[Artifact], unit: f64) ->
     v.iter().all(|x| x.is_finite() && *x > 0.0).then_some(v)
 }
 
+/// The gathered trajectories, each cut to its analysed window: the fraction
+/// `skip` of its origins when the stage gives `skip_origins`, else the one its
+/// experiment's window (an input holding [`Holds::Window`]) gives at its phi,
+/// else every origin.
+fn windowed(
+    ctx: &StageCtx,
+    name: &str,
+    skip: Option<f64>,
+    inputs: &[Artifact],
+) -> Result<Vec<Trajectory>> {
+    let trajs = trajectories(name, inputs)?;
+    let windows: Vec<&Artifact> = inputs
+        .iter()
+        .filter(|a| a.kind.holds == Holds::Window)
+        .collect();
+    let window = if windows.is_empty() || skip.is_some() {
+        None
+    } else {
+        Some(Columns::read(&windows)?)
+    };
+    if window.is_some() && skip.is_some() {
+        ctx.log("`skip_origins` given: the experiment's window is not read".to_string());
+    }
+    let sims = inputs.iter().filter(|a| a.kind.holds == Holds::Trajectory);
+    trajs
+        .into_iter()
+        .zip(sims)
+        .map(|(t, a)| {
+            let f = match (skip, &window) {
+                (Some(f), _) => f,
+                (None, Some(w)) => {
+                    let phi = a
+                        .point
+                        .get("phi")
+                        .and_then(Value::as_f64)
+                        .with_context(|| {
+                            format!(
+                                "{name}: the run {} has no phi to read its window at",
+                                a.label
+                            )
+                        })?;
+                    skip_at(w, phi).with_context(|| format!("{name}: {}", a.label))?
+                }
+                (None, None) => return Ok(t),
+            };
+            if f == 0.0 {
+                return Ok(t);
+            }
+            ctx.log(format!(
+                "{}: the earliest {f} of its time origins left out",
+                a.label
+            ));
+            crate::analysis::window::skip_origins(&t, f)
+                .with_context(|| format!("{name}: the window of {}", a.label))
+        })
+        .collect()
+}
+
+/// The fraction of origins the window table of an experiment leaves out at
+/// `phi` (within 1e-9): the window an analysis of a run at `phi` keeps.
+fn skip_at(window: &Columns, phi: f64) -> Result<f64> {
+    let (p, s) = (window.col("phi")?, window.col("skip_origins")?);
+    p.iter()
+        .position(|&x| (x - phi).abs() <= 1e-9 * phi.abs().max(1.0))
+        .map(|i| s[i])
+        .with_context(|| {
+            format!(
+                "the experiment's window ({}) has no row at phi = {phi}; it has phi = {:?}",
+                window.source, p
+            )
+        })
+}
+
 /// The jackknife unit of an analysis: named by its gathered trajectories'
 /// digests, so that every analysis of the same runs shares it.
 fn replica_unit(inputs: &[Artifact]) -> f64 {
@@ -506,6 +579,9 @@ impl StageKind for Analyse {
         // observables' modules are cut.
         self.obs.not_followed()
     }
+    fn takes_window(&self, _s: &Split) -> bool {
+        self.obs.windowed
+    }
     fn parse(&self, params: &Value) -> Result<Split> {
         split(self.obs, params)
     }
@@ -527,14 +603,7 @@ impl StageKind for Analyse {
     }
     fn run(&self, ctx: &StageCtx, s: &Split, inputs: &[Artifact]) -> Result<Output> {
         let name = self.obs.name;
-        let mut trajs = trajectories(name, inputs)?;
-        if let Some(f) = s.skip_origins {
-            trajs = trajs
-                .iter()
-                .map(|t| crate::analysis::window::skip_origins(t, f))
-                .collect::<Result<_>>()
-                .with_context(|| format!("{name}: `skip_origins`"))?;
-        }
+        let trajs = windowed(ctx, name, s.skip_origins, inputs)?;
         let refs: Vec<&Trajectory> = trajs.iter().collect();
         let unit = s
             .unit

@@ -38,6 +38,7 @@ pub mod run_summary;
 pub mod script;
 pub mod simulate;
 pub mod simulate_cost;
+pub mod steady_window;
 pub mod synthetic;
 pub mod tables;
 #[cfg(test)]
@@ -68,4 +69,6 @@ pub fn register(r: &mut Registry) {
     r.register(run_summary::RunSummary);
     r.register(compression::Compression);
     r.register(script::Script);
+    r.register(steady_window::SteadyWindow);
+    r.register(steady_window::Window);
 }

@@ -32,6 +32,7 @@ mod experiment;
 mod order;
 mod reference;
 mod stages;
+mod window;
 
 /// One stage instance.
 #[derive(Debug, Clone)]
@@ -123,6 +124,8 @@ struct Planner<'a> {
     parsed: HashMap<(String, String), Parsed>,
     /// Figures being planned, outermost first: a `from` back to one is a cycle.
     open: Vec<String>,
+    /// Experiments' windows planned so far, by `FIGURE/STAGE`.
+    windows: HashMap<String, usize>,
 }
 
 /// Plan figures `ids` (all figures if empty) at `profile`.
@@ -224,6 +227,7 @@ impl<'a> Planner<'a> {
             experiments: HashMap::new(),
             parsed: HashMap::new(),
             open: Vec::new(),
+            windows: HashMap::new(),
         })
     }
 

@@ -175,6 +175,16 @@ impl Planner<'_> {
         let profile = self.graph.profile.clone();
         let locate = |e: anyhow::Error| site.param_error(&profile, &e);
         let parsed = self.parse(&st.kind, &p).map_err(locate)?;
+        // An analysis of runs whose experiment names its window reads it too.
+        let mut inputs = inputs.to_vec();
+        if self.reg.get(&st.kind)?.takes_window(&parsed) {
+            for w in self.windows(site, &inputs)? {
+                if !inputs.contains(&w) {
+                    inputs.push(w);
+                }
+            }
+        }
+        let inputs = &inputs[..];
         // What the stage asks of its planned inputs (lags long enough, ...).
         let upstream: Vec<PlannedInput> = inputs
             .iter()
