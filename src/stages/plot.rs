@@ -363,6 +363,28 @@ pub struct PlotParams {
     /// Colours keyed by value, per group column: see [`Figure::colour_ranges`].
     #[serde(default)]
     pub colour_ranges: std::collections::BTreeMap<String, (f64, f64)>,
+    /// What the verdict lines compare with: the paper's values, or the
+    /// project's own targets (a stability check: T held at 1, a rate ratio).
+    #[serde(default)]
+    pub against: Against,
+}
+
+/// What a figure's compared values are, as its verdict lines name them.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Against {
+    #[default]
+    Paper,
+    Target,
+}
+
+impl Against {
+    fn word(self) -> &'static str {
+        match self {
+            Against::Paper => "paper",
+            Against::Target => "target",
+        }
+    }
 }
 
 /// Data units per unit of the vector columns of an arrows layer.
@@ -655,7 +677,7 @@ pub fn figure(p: &PlotParams, inputs: &[Artifact]) -> Result<Figure> {
     let table =
         |layer: &Layer| Columns::read_file(&inputs_of("plot", inputs, &layer.from)?, &layer.file);
     let fig = build(p, table, |text| fill(text, inputs, &p.build))?;
-    with_caption(fig, verdicts(inputs, &p.build)?)
+    with_caption(fig, verdicts(inputs, &p.build, p.against)?)
 }
 
 /// `fig` with `lines` under its panels, its height grown by theirs so that
@@ -683,7 +705,7 @@ fn paper_number(v: f64) -> String {
 pub const SHORT_CHARS: usize = 90;
 
 /// One verdict line per row of every gathered `compare` stage (docs/plot.md).
-fn verdicts(inputs: &[Artifact], build: &BuildInfo) -> Result<Vec<String>> {
+fn verdicts(inputs: &[Artifact], build: &BuildInfo, against: Against) -> Result<Vec<String>> {
     let mut out = vec![];
     for a in inputs.iter().filter(|a| a.kind.name == "compare") {
         let (batches, _) = crate::table::read_parquet_bytes(a.read("parquet")?)?;
@@ -708,6 +730,7 @@ fn verdicts(inputs: &[Artifact], build: &BuildInfo) -> Result<Vec<String>> {
                     &c,
                     &text(super::compare::SHORT, i),
                     provenance(c.source),
+                    against,
                 ));
             }
         }
@@ -727,8 +750,14 @@ fn provenance(source: crate::table::results::Source) -> &'static str {
 /// `quantity: paper P (provenance); ours V ± E; verdict[: short reason]`,
 /// the reason only where the verdict is not `agree`: the given short form,
 /// else the reason's first clause (up to "; "), cut to [`SHORT_CHARS`].
-fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &str) -> String {
+fn verdict_line(
+    c: &crate::table::results::Compared,
+    short: &str,
+    provenance: &str,
+    against: Against,
+) -> String {
     use crate::table::results::Verdict;
+    let word = against.word();
     // A claim names what it is against: `paper > chi4P_a06 (3.3)`, `paper < 3`.
     let paper = match super::compare::claim_in(&c.reason) {
         Some(claim)
@@ -736,12 +765,12 @@ fn verdict_line(c: &crate::table::results::Compared, short: &str, provenance: &s
                 .split_once(' ')
                 .is_some_and(|(_, b)| b.parse::<f64>().is_ok()) =>
         {
-            format!("paper {claim}")
+            format!("{word} {claim}")
         }
         // Against another of our numbers: printed as ours are, not as a
         // paper's value is written.
-        Some(claim) => format!("paper {claim} ({})", legend_number(c.paper)),
-        None => format!("paper {}", paper_number(c.paper)),
+        Some(claim) => format!("{word} {claim} ({})", legend_number(c.paper)),
+        None => format!("{word} {}", paper_number(c.paper)),
     };
     let paper = if provenance.is_empty() {
         paper

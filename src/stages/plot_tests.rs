@@ -80,7 +80,7 @@ fn synthetic_verdicts(st: &serde_json::Value, stages: &[serde_json::Value]) -> V
                 reason: "the profile stops short of the state point the paper reaches, with too small a box ".repeat(3),
                 source: crate::table::results::Source::Ref12,
             };
-            out.push(super::verdict_line(&row, "", "quoted, ref. 12"));
+            out.push(super::verdict_line(&row, "", "quoted, ref. 12", super::Against::Paper));
         }
     }
     out
@@ -652,11 +652,15 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         ..c.clone()
     };
     assert!(
-        super::verdict_line(&v_cm, "", "").starts_with("V_cm: paper 16.51; "),
-        "{}",
-        super::verdict_line(&v_cm, "", "")
+        super::verdict_line(&v_cm, "", "", super::Against::Paper).starts_with("V_cm: paper 16.51; "),
     );
-    let line = super::verdict_line(&c, "", "quoted, ref. 12");
+    // A stability figure compares with the project's own target, and says so.
+    assert!(
+        super::verdict_line(&v_cm, "", "", super::Against::Target).starts_with("V_cm: target 16.51; "),
+        "{}",
+        super::verdict_line(&v_cm, "", "", super::Against::Paper)
+    );
+    let line = super::verdict_line(&c, "", "quoted, ref. 12", super::Against::Paper);
     assert!(
         line.starts_with("phi_c: paper 0.82 (quoted, ref. 12); ours 0.805 ± 0.004; disagree: x x")
             && line.ends_with("x…")
@@ -680,7 +684,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         source: crate::table::results::Source::Figure,
     };
     assert_eq!(
-        super::verdict_line(&claim, "", ""),
+        super::verdict_line(&claim, "", "", super::Against::Paper),
         "chi4P_a30: paper > chi4P_a06 (3.30); ours 2.8 ± 0.7; agree"
     );
     let claim = crate::table::results::Compared {
@@ -691,7 +695,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         ..claim
     };
     assert_eq!(
-        super::verdict_line(&claim, "", ""),
+        super::verdict_line(&claim, "", "", super::Against::Paper),
         "reduced_chi2: paper < 3; ours 0.9 ± 0.7; agree"
     );
     // Where it disagrees, the claim is not said a second time as the reason.
@@ -702,7 +706,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         ..claim
     };
     assert_eq!(
-        super::verdict_line(&claim, "", ""),
+        super::verdict_line(&claim, "", "", super::Against::Paper),
         "reduced_chi2: paper < 3; ours 13.0 ± 0.7; disagree"
     );
     // A miss with a caveat: the caveat's first clause, not the arithmetic.
@@ -717,7 +721,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         source: crate::table::results::Source::Figure,
     };
     assert_eq!(
-        super::verdict_line(&miss, "", ""),
+        super::verdict_line(&miss, "", "", super::Against::Paper),
         "gamma: paper 1.60; ours 0.70 ± 0.10; disagree: the box is too small"
     );
     // A fit's note that opens with the verdict prints it once.
@@ -727,7 +731,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         ..c
     };
     assert_eq!(
-        super::verdict_line(&c, "", ""),
+        super::verdict_line(&c, "", "", super::Against::Paper),
         "phi_c: paper 0.82; ours 0.805 ± 0.004; unreliable: phi_c = 0.789 falls on the last point"
     );
 }

@@ -113,6 +113,33 @@ pub fn fitted(dir: &Path) -> Result<BTreeMap<String, Fitted>> {
     Ok(out)
 }
 
+/// The fitted quantities of a built figure that a fit table reports once per
+/// group (a `group_by` fit: one row per phi, eta, ...): [`fitted`] keeps one of
+/// their rows only, so a listing of single numbers must leave them out.
+pub fn grouped_quantities(dir: &Path) -> Result<std::collections::BTreeSet<String>> {
+    let mut out = std::collections::BTreeSet::new();
+    for f in std::fs::read_dir(dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .flatten()
+        .map(|e| e.path())
+    {
+        let stem = f.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+        if f.extension().is_none_or(|x| x != "parquet") || f.ends_with("compare.parquet") || stem.contains('.') {
+            continue;
+        }
+        let (batches, _) = crate::table::read_parquet(&f)?;
+        let mut seen = std::collections::BTreeSet::new();
+        for b in batches {
+            for r in results::read_quantities(&b).unwrap_or_default() {
+                if !seen.insert(r.quantity.clone()) {
+                    out.insert(r.quantity);
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// Every key number of a built figure with its quoted error: every published fit
 /// table's rows and the `ours`, `ours_err` columns of compare.parquet, by name.
 pub fn key_numbers_with_errors(dir: &Path) -> Result<BTreeMap<String, Fitted>> {

@@ -194,8 +194,20 @@ pub fn value_with_error(v: f64, e: f64) -> String {
     }
     // No error, or one at the floating-point rounding of the value (an
     // identity such as S4(q = 0) / chi4): the value alone, not fifteen digits.
+    // Without an error the legend's rounding could hide a miss (1.044 printed
+    // as 1.0 against a tolerance of 0.04): four significant digits where it
+    // moves the value by more than 0.2%.
     if !(e.is_finite() && e > 1e-9 * v.abs()) {
-        return legend_number(v);
+        let short = legend_number(v);
+        if short
+            .parse::<f64>()
+            .is_ok_and(|x| (x - v).abs() <= 2e-3 * v.abs())
+            || v == 0.0
+        {
+            return short;
+        }
+        let d = (3.0 - v.abs().log10().floor()).max(0.0) as usize;
+        return format!("{v:.d$}").replacen('-', "−", 1);
     }
     // A value far below one (a precision, an energy drift): mantissas with a
     // common power of ten, not a run of zeros.

@@ -102,6 +102,18 @@ pub fn render(report: &Report, image: impl Fn(&str) -> String) -> String {
             );
         }
     }
+    let grouped: Vec<String> = figs
+        .iter()
+        .filter(|f| !f.grouped.is_empty())
+        .map(|f| format!("{}: {}", f.id, f.grouped.join(", ")))
+        .collect();
+    if !grouped.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nFitted once per group (per phi, eta, force, ...), in each figure's fit tables (`results/ID/`), not listed above: {}.",
+            grouped.join("; ")
+        );
+    }
     if !frontier.is_empty() {
         let _ = writeln!(s, "\n## Speed against accuracy (`repro frontier`)\n");
         let _ = writeln!(

@@ -136,6 +136,9 @@ pub struct FigureReport {
     pub compared: Vec<Compared>,
     /// Fitted numbers of the figure that are not compared with the paper.
     pub others: Vec<(String, Fitted)>,
+    /// Fitted quantities with one value per group (a `group_by` fit), not
+    /// compared: named only, their values are in the figure's tables.
+    pub grouped: Vec<String>,
     /// `results/ID/figure.png`, if drawn.
     pub png: Option<PathBuf>,
     /// `results/ID/figure.svg`, if drawn.
@@ -226,9 +229,14 @@ fn built_figures(results: &Path, profile: Option<&str>) -> Result<(String, Vec<F
         } else {
             Vec::new()
         };
+        let grouped = crate::study::results::grouped_quantities(&d)?;
         let others = fitted(&d)?
             .into_iter()
-            .filter(|(q, _)| !compared.iter().any(|c| &c.quantity == q))
+            .filter(|(q, _)| !compared.iter().any(|c| &c.quantity == q) && !grouped.contains(q))
+            .collect();
+        let grouped = grouped
+            .into_iter()
+            .filter(|q| !compared.iter().any(|c| &c.quantity == q))
             .collect();
         let mut parquet: Vec<PathBuf> = std::fs::read_dir(&d)
             .with_context(|| format!("listing {}", d.display()))?
@@ -254,6 +262,7 @@ fn built_figures(results: &Path, profile: Option<&str>) -> Result<(String, Vec<F
             provenance: prov,
             compared,
             others,
+            grouped,
             tables,
         });
     }
