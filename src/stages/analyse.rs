@@ -157,9 +157,6 @@ fn windowed(
     } else {
         Some(Columns::read(&windows)?)
     };
-    if window.is_some() && skip.is_some() {
-        ctx.log("`skip_origins` given: the experiment's window is not read".to_string());
-    }
     let sims = inputs.iter().filter(|a| a.kind.holds == Holds::Trajectory);
     trajs
         .into_iter()
@@ -579,8 +576,9 @@ impl StageKind for Analyse {
         // observables' modules are cut.
         self.obs.not_followed()
     }
-    fn takes_window(&self, _s: &Split) -> bool {
-        self.obs.windowed
+    fn takes_window(&self, s: &Split) -> bool {
+        // A stage's own `skip_origins` is its window: it reads no other.
+        self.obs.windowed && s.skip_origins.is_none()
     }
     fn parse(&self, params: &Value) -> Result<Split> {
         split(self.obs, params)

@@ -212,6 +212,15 @@ impl StageKind for Compare {
                             Claim::Above => v > bound + pval.tolerance,
                             Claim::Below => v < bound - pval.tolerance,
                         };
+                        // An order within twice the combined errors is not
+                        // resolved, whichever way the central values fall.
+                        let sigma = e.hypot(other.map_or(0.0, |o| o.2));
+                        let margin = match c {
+                            Claim::Above => v - bound - pval.tolerance,
+                            Claim::Below => bound - pval.tolerance - v,
+                        };
+                        let unresolved =
+                            sigma.is_finite() && sigma > 0.0 && margin.abs() <= 2.0 * sigma;
                         let why = format!(
                             "{}; ours {} against {}",
                             claim_text(c, &name, pval.tolerance),
@@ -229,6 +238,16 @@ impl StageKind for Compare {
                                 e,
                                 "unreliable",
                                 format!("{name} is {}; {why}", bound_note.unwrap_or_default()),
+                            ),
+                            _ if unresolved => (
+                                v,
+                                e,
+                                "unreliable",
+                                format!(
+                                    "{why}; the difference, {}, lies within twice its error, {}: the order is not resolved",
+                                    digits(margin, 2),
+                                    digits(sigma, 2)
+                                ),
                             ),
                             (true, _) => (v, e, "agree", why),
                             (false, Some(r)) => (v, e, "out_of_reach", format!("{r}; {why}")),
@@ -444,6 +463,47 @@ mod tests {
         // Each reason names its claim, for the figure's verdict line.
         assert_eq!(claim_in(&c.str[REASON][0]), Some("> c10"));
         assert_eq!(claim_in(&c.str[REASON][1]), Some("> c09"));
+    }
+
+    /// An order within twice the combined errors is not resolved, whichever
+    /// way the central values fall: 0.81 +- 0.02 above 0.80 +- 0.002 is
+    /// unreliable, 0.81 +- 0.002 above it agrees, 0.79 +- 0.002 disagrees.
+    #[test]
+    fn a_claim_within_twice_the_errors_is_not_resolved() {
+        let dir = tempfile::tempdir().unwrap();
+        let fit = artifact(
+            dir.path(),
+            "fit",
+            quantity_batch(
+                &[],
+                &[
+                    ("base".to_string(), 0.80, 0.002),
+                    ("close".to_string(), 0.81, 0.02),
+                    ("far".to_string(), 0.81, 0.002),
+                    ("under".to_string(), 0.79, 0.002),
+                ],
+                "",
+                None,
+            )
+            .unwrap(),
+        );
+        let params = yaml(
+            "paper:\n\
+             - {quantity: close, claim: above, than: base, value: 0, tolerance: 0}\n\
+             - {quantity: far, claim: above, than: base, value: 0, tolerance: 0}\n\
+             - {quantity: under, claim: above, than: base, value: 0, tolerance: 0}\n",
+        );
+        let ctx = StageCtx::new(0, "compare".into(), None);
+        let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
+        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(c.str[VERDICT], ["unreliable", "agree", "disagree"]);
+        assert!(
+            c.str[REASON][0].contains("not resolved"),
+            "{}",
+            c.str[REASON][0]
+        );
+        assert_eq!(claim_in(&c.str[REASON][0]), Some("> base"));
     }
 
     /// A claim whose own number is unreliable (phi_c_09 on its last point,

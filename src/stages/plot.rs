@@ -802,7 +802,17 @@ fn verdict_line(
             .strip_prefix(label)
             .and_then(|w| w.strip_prefix(':'))
             .map_or(why.clone(), |w| w.trim().to_string());
-        // A claim's own statement is already the line's `paper` part.
+        // A claim's own statement is already the line's `paper` part; an
+        // order it does not resolve says so (its reason's last clause).
+        let why = match c.reason.rsplit_once("; ") {
+            Some((_, last))
+                if why.trim().starts_with(super::compare::CLAIM_OPENS)
+                    && last.contains("not resolved") =>
+            {
+                last.to_string()
+            }
+            _ => why,
+        };
         if !why.trim().starts_with(super::compare::CLAIM_OPENS) {
             line.push_str(": ");
             line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));

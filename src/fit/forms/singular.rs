@@ -55,7 +55,9 @@ pub fn vft(data: Data<'_>, fixed: Fixed<'_>) -> Result<FitResult, FitError> {
 
 /// Why a singular point `c` fitted above the data `x` is not resolved by them, if
 /// it is not: it lies closer to the last data point than the last step of the
-/// data, so the divergence could as well sit on that point (Fig. 4 at the ci
+/// data, where VFT-shaped data put a free power law's divergence too (on exact
+/// power-law data the fit is unbiased there: src/fit/stability.rs), so the
+/// place alone does not say which the data are (Fig. 4 at the ci
 /// profile: phi_c = 0.788 beyond phi = 0.78 with steps of 0.01; the paper's
 /// 0.82 lies 0.015 beyond its last point, three of its steps).
 pub fn on_last_point(x: &[f64], c: f64) -> Option<String> {
@@ -69,8 +71,9 @@ pub fn on_last_point(x: &[f64], c: f64) -> Option<String> {
     (gap < step).then(|| {
         format!(
             "the divergence lies {gap:.4} beyond the last data point {last}, less than the \
-             last step of the data ({step:.4}): it falls on the last point, and the data \
-             cannot locate it (add points between {last} and the divergence)"
+             last step of the data ({step:.4}): it falls on the last point, where a free \
+             power law lands on VFT-shaped data too, so it does not by itself locate a \
+             divergence (add points between {last} and the divergence)"
         )
     })
 }
