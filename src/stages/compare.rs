@@ -212,9 +212,11 @@ impl StageKind for Compare {
                             Claim::Above => v > bound + pval.tolerance,
                             Claim::Below => v < bound - pval.tolerance,
                         };
-                        // An order within twice the combined errors is not
-                        // resolved, whichever way the central values fall.
-                        let sigma = e.hypot(other.map_or(0.0, |o| o.2));
+                        // An order of two of our numbers within twice their
+                        // combined error is not resolved, whichever way the
+                        // central values fall. A bound given as a value (no
+                        // overlap: a gap above 0) is judged as stated.
+                        let sigma = other.map_or(f64::NAN, |o| e.hypot(o.2));
                         let margin = match c {
                             Claim::Above => v - bound - pval.tolerance,
                             Claim::Below => bound - pval.tolerance - v,
@@ -244,7 +246,7 @@ impl StageKind for Compare {
                                 e,
                                 "unreliable",
                                 format!(
-                                    "{why}; the difference, {}, lies within twice its error, {}: the order is not resolved",
+                                    "{why}; the difference, {} ± {}, lies within twice its error: the order is not resolved",
                                     digits(margin, 2),
                                     digits(sigma, 2)
                                 ),
