@@ -158,7 +158,7 @@ impl StageKind for Compare {
     fn run(&self, _ctx: &StageCtx, p: &CompareParams, inputs: &[Artifact]) -> Result<Output> {
         // (quantity, value, error, note); a note saying `unreliable` (a fit that
         // ran but whose numbers its data cannot support) makes the verdict.
-        let mut ours: Vec<(String, f64, f64, String)> = Vec::new();
+        let mut ours: Vec<Ours> = Vec::new();
         for a in inputs {
             for b in read_parquet_bytes(a.read("parquet")?)?.0 {
                 let (q, v, e) = (
@@ -200,61 +200,9 @@ impl StageKind for Compare {
                 Some(&(_, v, e, _)) => {
                     let d = (v - pval.value).abs();
                     if let Some(c) = pval.claim {
-                        let other = pval
-                            .than
-                            .as_ref()
-                            .and_then(|q| ours.iter().find(|o| &o.0 == q));
-                        let (bound, name) = match &pval.than {
-                            Some(q) => (other.map_or(f64::NAN, |o| o.1), q.clone()),
-                            None => (pval.value, pval.value.to_string()),
-                        };
-                        let ok = match c {
-                            Claim::Above => v > bound + pval.tolerance,
-                            Claim::Below => v < bound - pval.tolerance,
-                        };
-                        // An order of two of our numbers within twice their
-                        // combined error is not resolved, whichever way the
-                        // central values fall. A bound given as a value (no
-                        // overlap: a gap above 0) is judged as stated.
-                        let sigma = other.map_or(f64::NAN, |o| e.hypot(o.2));
-                        let margin = match c {
-                            Claim::Above => v - bound - pval.tolerance,
-                            Claim::Below => bound - pval.tolerance - v,
-                        };
-                        let unresolved =
-                            sigma.is_finite() && sigma > 0.0 && margin.abs() <= 2.0 * sigma;
-                        let why = format!(
-                            "{}; ours {} against {}",
-                            claim_text(c, &name, pval.tolerance),
-                            significant(v),
-                            significant(bound)
-                        );
-                        // A claim against a number its data cannot support (a
-                        // phi_c on the last point) cannot be judged either.
-                        let bound_note = other
-                            .map(|o| o.3.as_str())
-                            .filter(|n| n.contains("unreliable"));
-                        match (ok, p.out_of_reach.get(&pval.quantity)) {
-                            _ if bound_note.is_some() => (
-                                v,
-                                e,
-                                "unreliable",
-                                format!("{name} is {}; {why}", bound_note.unwrap_or_default()),
-                            ),
-                            _ if unresolved => (
-                                v,
-                                e,
-                                "unreliable",
-                                format!(
-                                    "{why}; the difference, {} ± {}, lies within twice its error: the order is not resolved",
-                                    digits(margin, 2),
-                                    digits(sigma, 2)
-                                ),
-                            ),
-                            (true, _) => (v, e, "agree", why),
-                            (false, Some(r)) => (v, e, "out_of_reach", format!("{r}; {why}")),
-                            (false, None) => (v, e, "disagree", why),
-                        }
+                        let (ver, why) =
+                            judge_claim(c, pval, (v, e), &ours, p.out_of_reach.get(&pval.quantity));
+                        (v, e, ver, why)
                     } else if d <= pval.tolerance {
                         (
                             v,
@@ -325,6 +273,69 @@ impl StageKind for Compare {
             columns,
         )?;
         Ok(Output::single("parquet", to_parquet_bytes(&[b], &[])?))
+    }
+}
+
+/// One of our numbers: (quantity, value, error, the fit's note).
+type Ours = (String, f64, f64, String);
+
+/// The verdict and reason of a claim (`above`/`below` a value or another of
+/// our numbers) on our value `v` with error `e`.
+fn judge_claim(
+    c: Claim,
+    pval: &PaperValue,
+    (v, e): (f64, f64),
+    ours: &[Ours],
+    out_of_reach: Option<&String>,
+) -> (&'static str, String) {
+    let other = pval
+        .than
+        .as_ref()
+        .and_then(|q| ours.iter().find(|o| &o.0 == q));
+    let (bound, name) = match &pval.than {
+        Some(q) => (other.map_or(f64::NAN, |o| o.1), q.clone()),
+        None => (pval.value, pval.value.to_string()),
+    };
+    let ok = match c {
+        Claim::Above => v > bound + pval.tolerance,
+        Claim::Below => v < bound - pval.tolerance,
+    };
+    // An order of two of our numbers within twice their combined error is
+    // not resolved, whichever way the central values fall. A bound given as
+    // a value (no overlap: a gap above 0) is judged as stated.
+    let sigma = other.map_or(f64::NAN, |o| e.hypot(o.2));
+    let margin = match c {
+        Claim::Above => v - bound - pval.tolerance,
+        Claim::Below => bound - pval.tolerance - v,
+    };
+    let unresolved = sigma.is_finite() && sigma > 0.0 && margin.abs() <= 2.0 * sigma;
+    let why = format!(
+        "{}; ours {} against {}",
+        claim_text(c, &name, pval.tolerance),
+        significant(v),
+        significant(bound)
+    );
+    // A claim against a number its data cannot support (a phi_c on the last
+    // point) cannot be judged either.
+    let bound_note = other
+        .map(|o| o.3.as_str())
+        .filter(|n| n.contains("unreliable"));
+    match (ok, out_of_reach) {
+        _ if bound_note.is_some() => (
+            "unreliable",
+            format!("{name} is {}; {why}", bound_note.unwrap_or_default()),
+        ),
+        _ if unresolved => (
+            "unreliable",
+            format!(
+                "{why}; the difference, {} ± {}, lies within twice its error: the order is not resolved",
+                digits(margin, 2),
+                digits(sigma, 2)
+            ),
+        ),
+        (true, _) => ("agree", why),
+        (false, Some(r)) => ("out_of_reach", format!("{r}; {why}")),
+        (false, None) => ("disagree", why),
     }
 }
 
