@@ -43,6 +43,7 @@ pub mod synthetic;
 pub mod tables;
 #[cfg(test)]
 pub(crate) mod test_support;
+pub mod verdict_line;
 
 use crate::pipeline::Registry;
 
