@@ -265,8 +265,9 @@ pub fn bracketing_lags(requests: &[InUnits]) -> Vec<f64> {
 /// rows at `below` and at `above` are paired in order (the same keys, e.g. the
 /// same q, must follow in the same order) and every float column is
 /// interpolated with the request's weight (a column equal in both rows, a key,
-/// is kept bit for bit), but an error `X_err` is the larger of the two and a
-/// count comes from the nearer lag, like every other column. A table
+/// is kept bit for bit), but an error `X_err` is the larger of the two, and a
+/// count and the largest of what it counts come from the nearer lag, like
+/// every column that is not a float. A table
 /// without a float column `t` is returned as it is.
 pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch> {
     let Some(t) = b
@@ -335,7 +336,7 @@ pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch>
                     |(&l, &h)| Some(x.value(l as usize).max(x.value(h as usize))),
                 )))
             }
-            Some(x) if !is_count(name) => Arc::new(Float64Array::from_iter(
+            Some(x) if !of_nearer_lag(name) => Arc::new(Float64Array::from_iter(
                 lo_rows
                     .iter()
                     .zip(&hi_rows)
@@ -354,6 +355,14 @@ pub fn at_requests(b: &RecordBatch, requests: &[InUnits]) -> Result<RecordBatch>
         cols.push((f.name().clone(), col));
     }
     Ok(RecordBatch::try_from_iter(cols)?)
+}
+
+/// Whether column `name` comes from the nearer lag in [`at_requests`]: a count,
+/// and the largest of the objects counted (`largest_spanning`), which must
+/// describe the same clusters as their count (interpolated, it gave a spanning
+/// cluster's size beside a count of none).
+fn of_nearer_lag(name: &str) -> bool {
+    is_count(name) || name.starts_with("largest_")
 }
 
 #[cfg(test)]
@@ -438,8 +447,8 @@ mod tests {
     }
 
     /// A curve linear in ln t is read exactly between its lags; keys (q) are
-    /// kept bit for bit, errors are the larger of the two, counts come from the
-    /// nearer lag, and a table whose
+    /// kept bit for bit, errors are the larger of the two, counts and the
+    /// largest of what they count come from the nearer lag, and a table whose
     /// lags hold different rows is refused.
     #[test]
     fn rows_at_a_request_interpolate_in_ln_t() {
@@ -458,6 +467,14 @@ mod tests {
             (
                 "n",
                 Arc::new(UInt64Array::from(vec![10u64, 10, 20, 20])) as ArrayRef,
+            ),
+            (
+                "n_spanning",
+                Arc::new(Float64Array::from(vec![0.0, 0.0, 1.0, 1.0])) as ArrayRef,
+            ),
+            (
+                "largest_spanning",
+                Arc::new(Float64Array::from(vec![0.0, 0.0, 700.0, 700.0])) as ArrayRef,
             ),
         ])
         .unwrap();
@@ -485,6 +502,10 @@ mod tests {
             .unwrap();
         // 1.3 is nearer 1 than 2 in ln t (weight 0.38).
         assert_eq!(n.values().to_vec(), [10, 10]);
+        // The largest spanning cluster belongs with the count of them: none
+        // at the nearer lag, so no size either.
+        assert_eq!(col("n_spanning"), [0.0, 0.0]);
+        assert_eq!(col("largest_spanning"), [0.0, 0.0]);
         let ragged = b.slice(0, 3);
         assert!(err_text(at_requests(&ragged, &r)).contains("cannot interpolate"));
     }

@@ -195,16 +195,10 @@ fn windowed(
 /// The fraction of origins the window table of an experiment leaves out at
 /// `phi` (within 1e-9): the window an analysis of a run at `phi` keeps.
 fn skip_at(window: &Columns, phi: f64) -> Result<f64> {
-    let (p, s) = (window.col("phi")?, window.col("skip_origins")?);
-    p.iter()
-        .position(|&x| (x - phi).abs() <= 1e-9 * phi.abs().max(1.0))
-        .map(|i| s[i])
-        .with_context(|| {
-            format!(
-                "the experiment's window ({}) has no row at phi = {phi}; it has phi = {:?}",
-                window.source, p
-            )
-        })
+    let (skip, _) = window
+        .value_of("skip_origins", &[("phi".to_string(), phi)])
+        .context("the experiment's window")?;
+    Ok(skip)
 }
 
 /// The jackknife unit of an analysis: named by its gathered trajectories'
