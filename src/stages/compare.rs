@@ -34,6 +34,11 @@ struct PaperValue {
     /// from its reference 12; a column of the output, so a reader can tell.
     #[serde(default)]
     source: results::Source,
+    /// With `claim`: the bound is the project's reading of a statement the
+    /// paper makes without a number (`t06_drift < 0` for "no good collapse"),
+    /// and says so instead of "paper states".
+    #[serde(default)]
+    criterion: bool,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -54,8 +59,17 @@ impl Claim {
 
 /// The claim as a reason states it (`paper states > phi_c_10 (margin 0)`):
 /// [`claim_in`] finds it there, so a verdict line names what it is against.
-fn claim_text(c: Claim, name: &str, tolerance: f64) -> String {
-    format!("{CLAIM_OPENS}{} {name}{CLAIM_ENDS}{tolerance})", c.symbol())
+fn claim_text(c: Claim, name: &str, pval: &PaperValue) -> String {
+    let opens = if pval.criterion {
+        CRITERION_OPENS
+    } else {
+        CLAIM_OPENS
+    };
+    format!(
+        "{opens}{} {name}{CLAIM_ENDS}{})",
+        c.symbol(),
+        pval.tolerance
+    )
 }
 
 #[derive(Deserialize)]
@@ -82,14 +96,28 @@ pub struct CompareParams {
 
 /// How a claim's reason states it: `paper states > chi4P_a06 (margin 0); ...`.
 pub const CLAIM_OPENS: &str = "paper states ";
+/// How a claim's reason states a bound of the project's own (`criterion`).
+pub const CRITERION_OPENS: &str = "our criterion ";
 const CLAIM_ENDS: &str = " (margin ";
 
 /// The claim a row's reason states (`> chi4P_a06`, `< 3`), if it is a claim's:
 /// a figure's verdict line names it instead of the bound's number alone.
 pub fn claim_in(reason: &str) -> Option<&str> {
-    let (_, rest) = reason.split_once(CLAIM_OPENS)?;
+    let (_, rest) = reason
+        .split_once(CLAIM_OPENS)
+        .or_else(|| reason.split_once(CRITERION_OPENS))?;
     let (claim, _) = rest.split_once(CLAIM_ENDS)?;
     Some(claim)
+}
+
+/// Whether `text` opens with a claim's statement (the paper's or ours).
+pub fn opens_claim(text: &str) -> bool {
+    text.starts_with(CLAIM_OPENS) || text.starts_with(CRITERION_OPENS)
+}
+
+/// Whether a row's claim is a bound of the project's own (`criterion`).
+pub fn is_criterion(reason: &str) -> bool {
+    reason.contains(CRITERION_OPENS)
 }
 
 /// The column of the short reasons (empty where none is given).
@@ -193,7 +221,7 @@ impl StageKind for Compare {
                     // An unreliable number of a claim still says what it was claimed against.
                     if let Some(c) = pval.claim {
                         let name = pval.than.clone().unwrap_or_else(|| pval.value.to_string());
-                        why = format!("{why}; {}", claim_text(c, &name, pval.tolerance));
+                        why = format!("{why}; {}", claim_text(c, &name, pval));
                     }
                     (*v, *e, "unreliable", why)
                 }
@@ -224,8 +252,22 @@ impl StageKind for Compare {
                             digits(d, 3),
                             pval.tolerance
                         );
+                        // Outside the tolerance by less than twice our error,
+                        // the value may still lie inside it: as for a claim's
+                        // order, such a miss is not resolved.
+                        let beyond = d - pval.tolerance;
                         match p.out_of_reach.get(&pval.quantity) {
                             Some(why) => (v, e, "out_of_reach", format!("{why}; {miss}")),
+                            None if e.is_finite() && e > 0.0 && beyond <= 2.0 * e => (
+                                v,
+                                e,
+                                "unreliable",
+                                format!(
+                                    "{miss}, by {} ± {}, within twice its error: the disagreement is not resolved",
+                                    digits(beyond, 2),
+                                    digits(e, 2)
+                                ),
+                            ),
                             None => (v, e, "disagree", miss),
                         }
                     }
@@ -311,7 +353,7 @@ fn judge_claim(
     let unresolved = sigma.is_finite() && sigma > 0.0 && margin.abs() <= 2.0 * sigma;
     let why = format!(
         "{}; ours {} against {}",
-        claim_text(c, &name, pval.tolerance),
+        claim_text(c, &name, pval),
         significant(v),
         significant(bound)
     );
@@ -517,6 +559,51 @@ mod tests {
             c.str[REASON][0]
         );
         assert_eq!(claim_in(&c.str[REASON][0]), Some("> base"));
+    }
+
+    /// A value outside the tolerance disagrees only when it lies outside by
+    /// more than twice its error: 1.13 +- 0.31 against 1.6 +- 0.3 is not
+    /// resolved, 1.13 +- 0.05 disagrees, 1.5 +- 0.31 agrees, and a value
+    /// without an error is judged as stated.
+    #[test]
+    fn a_value_outside_the_tolerance_within_twice_its_error_is_not_resolved() {
+        let dir = tempfile::tempdir().unwrap();
+        let fit = artifact(
+            dir.path(),
+            "fit",
+            quantity_batch(
+                &[],
+                &[
+                    ("wide".to_string(), 1.13, 0.31),
+                    ("narrow".to_string(), 1.13, 0.05),
+                    ("inside".to_string(), 1.5, 0.31),
+                    ("exact".to_string(), 1.13, f64::NAN),
+                ],
+                "",
+                None,
+            )
+            .unwrap(),
+        );
+        let params = yaml(
+            "paper:\n\
+             - {quantity: wide, value: 1.6, tolerance: 0.3}\n\
+             - {quantity: narrow, value: 1.6, tolerance: 0.3}\n\
+             - {quantity: inside, value: 1.6, tolerance: 0.3}\n\
+             - {quantity: exact, value: 1.6, tolerance: 0.3}\n",
+        );
+        let ctx = StageCtx::new(0, "compare".into(), None);
+        let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
+        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        let c = Columns::from_batch(&b[0]).unwrap();
+        assert_eq!(
+            c.str[VERDICT],
+            ["unreliable", "disagree", "agree", "disagree"]
+        );
+        assert!(
+            c.str[REASON][0].contains("not resolved"),
+            "{}",
+            c.str[REASON][0]
+        );
     }
 
     /// A claim whose own number is unreliable (phi_c_09 on its last point,

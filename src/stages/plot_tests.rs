@@ -594,6 +594,7 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         ("phi_c".to_string(), 0.805, 0.004),
         ("gamma".to_string(), 1.01, 0.06),
         ("nu".to_string(), 0.5, 0.1),
+        ("d_f".to_string(), 1.13, 0.31),
     ];
     let fit = artifact(
         dir.path(),
@@ -605,8 +606,9 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
          - {quantity: phi_c, value: 0.82, tolerance: 0.01}\n\
          - {quantity: gamma, value: 1.19, tolerance: 0.05}\n\
          - {quantity: nu, value: 0.55, tolerance: 0.1}\n\
+         - {quantity: d_f, value: 1.6, tolerance: 0.3}\n\
          out_of_reach: {phi_c: 'the box (see the frontier) of N = {=eps09.n} is too small; and more'}\n\
-         short: {gamma: the range is too narrow}\n",
+         short: {gamma: the range is too narrow, d_f: the power law is loosely fixed}\n",
     );
     let ctx = StageCtx::new(0, "compare".into(), None);
     let out = super::super::compare::Compare
@@ -638,6 +640,8 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
             "phi_c: paper 0.82; ours 0.805 ± 0.004; out of reach: the box of N = 1000 is too small",
             "gamma: paper 1.19; ours 1.01 ± 0.06; disagree: the range is too narrow",
             "nu: paper 0.55; ours 0.50 ± 0.10; agree",
+            // Outside the tolerance by less than twice its error.
+            "d_f: paper 1.60; ours 1.1 ± 0.3; unreliable: not resolved; the power law is loosely fixed",
         ]
     );
     let c = crate::table::results::Compared {
@@ -715,6 +719,15 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
     assert_eq!(
         super::verdict_line(&claim, "", "", super::Against::Paper),
         "reduced_chi2: paper < 3; ours 13.0 ± 0.7; disagree"
+    );
+    // A bound the paper gives no number for is the project's criterion.
+    let criterion = crate::table::results::Compared {
+        reason: "our criterion < 3 (margin 0); ours 13 against 3".into(),
+        ..claim.clone()
+    };
+    assert_eq!(
+        super::verdict_line(&criterion, "", "", super::Against::Paper),
+        "reduced_chi2: criterion < 3; ours 13.0 ± 0.7; disagree"
     );
     // A miss with a caveat: the caveat's first clause, not the arithmetic.
     let miss = crate::table::results::Compared {

@@ -61,6 +61,12 @@ pub(super) fn verdict_line(
     use crate::table::results::Verdict;
     let word = against.word();
     // A claim names what it is against: `paper > chi4P_a06 (3.3)`, `paper < 3`.
+    // A bound of the project's own reading says so, not "paper".
+    let word = if super::compare::is_criterion(&c.reason) {
+        "criterion"
+    } else {
+        word
+    };
     let paper = match super::compare::claim_in(&c.reason) {
         Some(claim)
             if claim
@@ -108,14 +114,24 @@ pub(super) fn verdict_line(
         // order it does not resolve says so (its reason's last clause).
         let why = match c.reason.rsplit_once("; ") {
             Some((_, last))
-                if why.trim().starts_with(super::compare::CLAIM_OPENS)
-                    && last.contains("not resolved") =>
+                if super::compare::opens_claim(why.trim()) && last.contains("not resolved") =>
             {
                 last.to_string()
             }
             _ => why,
         };
-        if !why.trim().starts_with(super::compare::CLAIM_OPENS) {
+        // A value outside the tolerance by less than twice its error says
+        // so before its reason (its miss, on the line, does not).
+        let miss = c
+            .reason
+            .split_once("; ")
+            .map_or(c.reason.as_str(), |(m, _)| m);
+        let why = if miss.starts_with('|') && miss.contains("not resolved") {
+            format!("not resolved; {}", why.trim())
+        } else {
+            why
+        };
+        if !super::compare::opens_claim(why.trim()) {
             line.push_str(": ");
             line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));
         }
