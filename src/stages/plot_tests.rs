@@ -582,7 +582,8 @@ fn a_scatter_with_tied_x_is_not_judged_by_runs() {
 
 /// A compare table gathered by the plot: one verdict line per paper value,
 /// the short reason given in `short` where the verdict is not agree, the
-/// first clause of the reason otherwise, none where it agrees; the
+/// first clause of the reason otherwise, none where it agrees unless a short
+/// reason is given; the
 /// provenance of the paper's value where the table has that column.
 #[test]
 fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
@@ -660,6 +661,20 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         paper: 16.51,
         ..c.clone()
     };
+    // An agreement with a short reason (a held input) says it.
+    let held = crate::table::results::Compared {
+        quantity: "g".into(),
+        ours: 1.44,
+        ours_err: 0.08,
+        paper: 1.58,
+        tolerance: 0.2,
+        verdict: crate::table::results::Verdict::Agree,
+        ..c.clone()
+    };
+    assert_eq!(
+        super::verdict_line(&held, "held input, not a result", "", super::Against::Paper),
+        "g: paper 1.58; ours 1.44 ± 0.08; agree: held input, not a result"
+    );
     assert!(
         super::verdict_line(&v_cm, "", "", super::Against::Paper)
             .starts_with("V_cm: paper 16.51; "),

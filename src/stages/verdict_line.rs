@@ -135,6 +135,11 @@ pub(super) fn verdict_line(
             line.push_str(": ");
             line.push_str(&cut(&before_reference(why.trim()), SHORT_CHARS));
         }
+    } else if !short.is_empty() {
+        // An agreement a reader must not take at face value (a held input)
+        // says why, where the pipeline gives a short reason for it.
+        line.push_str(": ");
+        line.push_str(&cut(short.trim(), SHORT_CHARS));
     }
     line
 }
