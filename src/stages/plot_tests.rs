@@ -671,6 +671,18 @@ fn verdict_lines_carry_paper_ours_verdict_and_short_reason() {
         verdict: crate::table::results::Verdict::Agree,
         ..c.clone()
     };
+    // A miss within twice its error and nothing more to say: not resolved.
+    let bare = crate::table::results::Compared {
+        verdict: crate::table::results::Verdict::Unreliable,
+        reason: "|0.808 - 0.82| = 0.012 > 0.01, by 0.0022 ± 0.015, within twice its error: the disagreement is not resolved".into(),
+        ours: 0.808,
+        ours_err: 0.015,
+        ..c.clone()
+    };
+    assert_eq!(
+        super::verdict_line(&bare, "", "", super::Against::Paper),
+        "phi_c: paper 0.82; ours 0.808 ± 0.015; unreliable: not resolved"
+    );
     assert_eq!(
         super::verdict_line(&held, "held input, not a result", "", super::Against::Paper),
         "g: paper 1.58; ours 1.44 ± 0.08; agree: held input, not a result"

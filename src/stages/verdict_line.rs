@@ -126,10 +126,14 @@ pub(super) fn verdict_line(
             .reason
             .split_once("; ")
             .map_or(c.reason.as_str(), |(m, _)| m);
-        let why = if miss.starts_with('|') && miss.contains("not resolved") {
-            format!("not resolved; {}", why.trim())
-        } else {
-            why
+        let why = match (
+            miss.starts_with('|') && miss.contains("not resolved"),
+            why.trim(),
+        ) {
+            (false, _) => why,
+            // Nothing beyond the miss itself: its verdict is the reason.
+            (true, w) if w.is_empty() || w.starts_with('|') => "not resolved".to_string(),
+            (true, w) => format!("not resolved; {w}"),
         };
         if !super::compare::opens_claim(why.trim()) {
             line.push_str(": ");
