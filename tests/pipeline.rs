@@ -1220,6 +1220,12 @@ fn the_results_readme_says_what_every_published_table_is() {
     );
     // Counts and indices are integers in published tables.
     assert!(readme.contains("| replica | Int64 |"), "{readme}");
+    // A compare table's reasons keep their references: the README says where
+    // they are printed filled in.
+    assert!(
+        readme.contains("its `reason` is a template") && readme.contains("repro report --profile"),
+        "{readme}"
+    );
     let (b, _) = repro::table::read_parquet(&dir.join("overlap_table.parquet")).unwrap();
     let replica = b[0].column_by_name("replica").unwrap();
     assert_eq!(replica.data_type(), &arrow_schema::DataType::Int64);

@@ -132,12 +132,33 @@ fn readme_stage(
         if let Some((_, e)) = kv.iter().find(|(k, _)| k == "errors") {
             s.push_str(&format!(" (errors: {e})"));
         }
+        if file.starts_with("compare.") {
+            // The reasons keep their references, resolved where they are read.
+            s.push_str(
+                " (its `reason` is a template: `{=STAGE.QUANTITY}` names a number of a build, \
+                 `{paper:X}` quotes the paper; `repro report --profile PROFILE` prints every \
+                 reason filled in, docs/report-PROFILE.md)",
+            );
+        }
         s.push_str(":\n\n| column | type | unit | meaning |\n|---|---|---|---|\n");
         if let Some(b) = batches.first() {
             for f in b.schema().fields() {
                 // A known column, else the meaning its stage wrote (a
                 // figure's own derived column).
-                let (unit, what) = crate::table::columns::describe(f.name())
+                // This stage's own meaning first (its `columns:`), then a
+                // known column, else the meaning its stage wrote (a figure's
+                // own derived column).
+                let own = fig
+                    .columns
+                    .get(stage)
+                    .and_then(|m| m.get(f.name()))
+                    .map(|what| {
+                        let unit = crate::table::columns::describe(f.name())
+                            .map_or(String::new(), |(u, _)| u);
+                        (unit, what.clone())
+                    });
+                let (unit, what) = own
+                    .or_else(|| crate::table::columns::describe(f.name()))
                     .or_else(|| {
                         let m = f.metadata();
                         m.get("description")

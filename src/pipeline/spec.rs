@@ -238,6 +238,11 @@ pub struct StageSpec {
     /// symbols"), for `results/ID/README.md`; not part of any cache key.
     #[serde(default)]
     pub describes: Option<String>,
+    /// What a column of the published table means where its usual meaning
+    /// (src/table/columns.rs) does not hold, e.g. `t` as the time since the
+    /// force was switched on, not a lag; for the README only, in no key.
+    #[serde(default)]
+    pub columns: BTreeMap<String, String>,
 }
 
 /// `spec` with every `{reason:ID}` of its `error_coverage` and stage

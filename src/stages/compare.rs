@@ -34,9 +34,10 @@ struct PaperValue {
     /// from its reference 12; a column of the output, so a reader can tell.
     #[serde(default)]
     source: results::Source,
-    /// With `claim`: the bound is the project's reading of a statement the
-    /// paper makes without a number (`t06_drift < 0` for "no good collapse"),
-    /// and says so instead of "paper states".
+    /// The bound (with `claim`) or value is the project's own, not the
+    /// paper's: a reading of a statement the paper makes without a number
+    /// (`t06_drift < 0` for "no good collapse"), or a cross-check (mu / mu_E
+    /// = 1); the reason and the verdict line say "criterion".
     #[serde(default)]
     criterion: bool,
 }
@@ -118,6 +119,16 @@ pub fn opens_claim(text: &str) -> bool {
 /// Whether a row's claim is a bound of the project's own (`criterion`).
 pub fn is_criterion(reason: &str) -> bool {
     reason.contains(CRITERION_OPENS)
+}
+
+/// Where a row's paper value comes from, as the report prints it: the
+/// paper's figure, its reference 12, or a criterion of our own.
+pub fn source_label(c: &results::Compared) -> &'static str {
+    if is_criterion(&c.reason) {
+        "our criterion"
+    } else {
+        c.source.label()
+    }
 }
 
 /// The column of the short reasons (empty where none is given).
@@ -272,6 +283,13 @@ impl StageKind for Compare {
                         }
                     }
                 }
+            };
+            // A value of our own choosing (a cross-check's 1) says so, as a
+            // claim's criterion does.
+            let why = if pval.criterion && pval.claim.is_none() {
+                format!("{why}; {CRITERION_OPENS}{}, not a number of the paper", pval.value)
+            } else {
+                why
             };
             q.push(pval.quantity.clone());
             o.push(v);

@@ -105,6 +105,8 @@ pub struct FigurePlan {
     pub publish: Vec<(String, usize)>,
     /// Stage name -> what it is in the paper (the stages' `describes:`).
     pub describes: BTreeMap<String, String>,
+    /// Stage name -> column -> its meaning there (the stages' `columns:`).
+    pub columns: BTreeMap<String, BTreeMap<String, String>>,
 }
 
 /// The stage graph of one or more figures at one profile.

@@ -35,6 +35,7 @@ impl Planner<'_> {
             nodes,
             publish: planned.publish,
             describes: planned.describes,
+            columns: planned.columns,
         })
     }
 
@@ -59,6 +60,9 @@ impl Planner<'_> {
             let st = &s.value;
             if let Some(d) = &st.describes {
                 out.describes.insert(st.name.clone(), d.clone());
+            }
+            if !st.columns.is_empty() {
+                out.columns.insert(st.name.clone(), st.columns.clone());
             }
             let mine = match &st.from {
                 Some(target) => self.reference(site, target)?,
@@ -220,6 +224,7 @@ pub(super) struct Stages {
     pub(super) instances: HashMap<String, Vec<usize>>,
     publish: Vec<(String, usize)>,
     describes: BTreeMap<String, String>,
+    columns: BTreeMap<String, BTreeMap<String, String>>,
 }
 
 /// Where a stage is declared: its figure, file, pipeline and entry.

@@ -83,7 +83,7 @@ fn row(figs: &[&FigureReport], hl: &Headline) -> String {
         (Some(_), Some(c), _) => [
             format!("{} ({})", number(c.ours, c.ours_err), error(c.ours_err)),
             plain(c.paper),
-            c.source.label().to_string(),
+            crate::stages::compare::source_label(c).to_string(),
             c.verdict.label().to_string(),
             // The measurement behind a verdict other than agreement.
             if c.verdict == "agree" {

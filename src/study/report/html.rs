@@ -294,7 +294,7 @@ fn key_numbers(s: &mut String, f: &FigureReport) {
             number(c.ours, c.ours_err),
             error(c.ours_err),
             plain(c.paper),
-            c.source.label(),
+            crate::stages::compare::source_label(c),
             plain(c.tolerance),
             c.verdict.as_str(),
             c.verdict.label(),

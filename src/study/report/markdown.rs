@@ -80,7 +80,7 @@ pub fn render(report: &Report, image: impl Fn(&str) -> String) -> String {
                 number(c.ours, c.ours_err),
                 error(c.ours_err),
                 plain(c.paper),
-                c.source.label(),
+                crate::stages::compare::source_label(c),
                 plain(c.tolerance),
                 c.verdict,
                 cell(&c.reason)
