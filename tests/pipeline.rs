@@ -1220,6 +1220,11 @@ fn the_results_readme_says_what_every_published_table_is() {
     );
     // Counts and indices are integers in published tables.
     assert!(readme.contains("| replica | Int64 |"), "{readme}");
+    // A stage's `columns:` gives a column's meaning in its table, the unit kept.
+    assert!(
+        readme.contains("| a | Float64 | r1 | the toy's sweep parameter |"),
+        "{readme}"
+    );
     // A compare table's reasons keep their references: the README says where
     // they are printed filled in.
     assert!(

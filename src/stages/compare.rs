@@ -287,7 +287,10 @@ impl StageKind for Compare {
             // A value of our own choosing (a cross-check's 1) says so, as a
             // claim's criterion does.
             let why = if pval.criterion && pval.claim.is_none() {
-                format!("{why}; {CRITERION_OPENS}{}, not a number of the paper", pval.value)
+                format!(
+                    "{why}; {CRITERION_OPENS}{}, not a number of the paper",
+                    pval.value
+                )
             } else {
                 why
             };

@@ -604,7 +604,7 @@ mod tests {
         );
         let m = wrong("description: b\nstages:\n  - name: mine\n    from: a/t\n    kind: table\n");
         assert!(
-            m.contains("takes only `name`, `publish` and `describes`"),
+            m.contains("takes only `name`, `publish`, `describes` and `columns`"),
             "{m}"
         );
         let m = wrong("description: b\nstages:\n  - name: mine\n    map: e\n");

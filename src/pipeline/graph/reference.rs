@@ -20,7 +20,7 @@ impl Planner<'_> {
             || !st.profiles.is_empty()
         {
             return Err(site.err(format!(
-                "stage '{}' is `from: {target}`, another figure's stage as that figure declares it: it takes only `name`, `publish` and `describes` (no `kind`, `map`, `gather`, `by`, `params`, `sweep` or `profiles`)",
+                "stage '{}' is `from: {target}`, another figure's stage as that figure declares it: it takes only `name`, `publish`, `describes` and `columns` (no `kind`, `map`, `gather`, `by`, `params`, `sweep` or `profiles`)",
                 st.name
             )));
         }
