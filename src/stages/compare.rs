@@ -440,6 +440,14 @@ mod tests {
     /// Verdicts against the paper: inside the tolerance agrees, outside
     /// disagrees unless the profile says it is out of reach; a caveat is
     /// appended to the reason whatever the verdict.
+    /// The compare table of `params` over `inputs`, as columns.
+    fn compared(params: &serde_json::Value, inputs: &[crate::pipeline::Artifact]) -> Columns {
+        let ctx = StageCtx::new(0, "compare".into(), None);
+        let out = Compare.run_params(&ctx, params, inputs).unwrap();
+        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
+        Columns::from_batch(&b[0]).unwrap()
+    }
+
     #[test]
     fn verdicts_follow_the_tolerance_and_caveats_reach_the_reason() {
         let dir = tempfile::tempdir().unwrap();
@@ -471,10 +479,7 @@ mod tests {
         bad["paper"][0]["source"] = yaml("ref13");
         let e = format!("{:#}", Compare.validate(&bad).unwrap_err());
         assert!(e.contains("ref13") && e.contains("ref12"), "{e}");
-        let ctx = StageCtx::new(0, "compare".into(), None);
-        let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
-        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
-        let c = Columns::from_batch(&b[0]).unwrap();
+        let c = compared(&params, &[fit]);
         assert_eq!(
             c.str[VERDICT],
             ["agree", "disagree", "out_of_reach", "missing"]
@@ -526,10 +531,7 @@ mod tests {
              - {quantity: c09, claim: above, than: c10, value: 0, tolerance: 0}\n\
              - {quantity: c08, claim: above, than: c09, value: 0, tolerance: 0}\n",
         );
-        let ctx = StageCtx::new(0, "compare".into(), None);
-        let out = Compare.run_params(&ctx, &params, &[weak, firm]).unwrap();
-        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
-        let c = Columns::from_batch(&b[0]).unwrap();
+        let c = compared(&params, &[weak, firm]);
         assert_eq!(c.str[VERDICT], ["unreliable", "agree"]);
         assert!(
             c.str[REASON][0].starts_with("c10 is unreliable: phi_c = 0.783"),
@@ -569,10 +571,7 @@ mod tests {
              - {quantity: far, claim: above, than: base, value: 0, tolerance: 0}\n\
              - {quantity: under, claim: above, than: base, value: 0, tolerance: 0}\n",
         );
-        let ctx = StageCtx::new(0, "compare".into(), None);
-        let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
-        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
-        let c = Columns::from_batch(&b[0]).unwrap();
+        let c = compared(&params, &[fit]);
         assert_eq!(c.str[VERDICT], ["unreliable", "agree", "disagree"]);
         assert!(
             c.str[REASON][0].contains("not resolved"),
@@ -612,10 +611,7 @@ mod tests {
              - {quantity: inside, value: 1.6, tolerance: 0.3}\n\
              - {quantity: exact, value: 1.6, tolerance: 0.3}\n",
         );
-        let ctx = StageCtx::new(0, "compare".into(), None);
-        let out = Compare.run_params(&ctx, &params, &[fit]).unwrap();
-        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
-        let c = Columns::from_batch(&b[0]).unwrap();
+        let c = compared(&params, &[fit]);
         assert_eq!(
             c.str[VERDICT],
             ["unreliable", "disagree", "agree", "disagree"]
@@ -645,10 +641,7 @@ mod tests {
         );
         let params =
             yaml("paper:\n- {quantity: c09, claim: above, than: c10, value: 0, tolerance: 0}\n");
-        let ctx = StageCtx::new(0, "compare".into(), None);
-        let out = Compare.run_params(&ctx, &params, &[weak, firm]).unwrap();
-        let (b, _) = read_parquet_bytes(out.files["parquet"].clone()).unwrap();
-        let c = Columns::from_batch(&b[0]).unwrap();
+        let c = compared(&params, &[weak, firm]);
         assert_eq!(c.str[VERDICT], ["unreliable"]);
         assert!(
             c.str[REASON][0].starts_with(on_last),
