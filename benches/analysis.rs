@@ -23,6 +23,7 @@ fn chi4_one_pair_1e6(b: divan::Bencher) {
     let p = chi4::Params {
         a: 0.6,
         n: vec![100.0],
+        fractions: Vec::new(),
         lags: Some(vec![1.0]),
         rel_tol: 1e-6,
         variance: chi4::Variance::default(),

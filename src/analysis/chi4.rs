@@ -49,7 +49,12 @@ pub struct Params {
     #[serde(default = "default_a")]
     pub a: f64,
     /// Mean particle numbers N of the sub-boxes (one chi4 curve each).
+    #[serde(default)]
     pub n: Vec<f64>,
+    /// Sub-boxes as fractions of the system's particle number (N = f N_total, one
+    /// curve each): a sweep in the total N reads a fixed fraction of every box.
+    #[serde(default)]
+    pub fractions: Vec<f64>,
     /// Lags t to evaluate; every lag the trajectory realises if absent.
     #[serde(default)]
     pub lags: Option<Vec<f64>>,
@@ -208,13 +213,18 @@ fn peaks_of(m: &Moments, trajs: &[&Trajectory], v: Variance) -> Vec<Peak> {
     out
 }
 
-/// Sub-box sizes that fit in a system of `n_particles`: a request above it becomes
-/// the whole system (so one spec serves every profile's N).
-pub fn clamp_sizes(p: &mut Params, n_particles: usize) {
-    for n in &mut p.n {
-        *n = n.min(n_particles as f64);
-    }
-    p.n.dedup();
+/// The sub-box sizes for a system of `n_particles`: `n` and the `fractions` of it,
+/// ascending, each once; a request above the system becomes the whole system (so
+/// one spec serves every profile's N). The parse has checked that there is a size
+/// and that each fraction is in (0, 1] (`ObservableParams::check`).
+pub fn resolve_sizes(p: &mut Params, n_particles: usize) {
+    let total = n_particles as f64;
+    let mut sizes: Vec<f64> = p.n.iter().map(|n| n.min(total)).collect();
+    sizes.extend(p.fractions.iter().map(|f| f * total));
+    sizes.sort_by(f64::total_cmp);
+    sizes.dedup();
+    p.n = sizes;
+    p.fractions.clear();
 }
 
 /// Per sub-box size N (Fig. 15 inset, Fig. 19): the peak (tau4, chi4P) with
@@ -341,12 +351,13 @@ mod tests {
         let mut p = Params {
             a: 0.6,
             n: vec![100.0, 5000.0],
+            fractions: vec![0.25],
             lags: None,
             rel_tol: 1e-6,
             variance: Variance::default(),
         };
-        clamp_sizes(&mut p, traj.n());
-        assert_eq!(p.n, vec![100.0, 800.0]);
+        resolve_sizes(&mut p, traj.n());
+        assert_eq!(p.n, vec![100.0, 200.0, 800.0]);
         p.lags = lags::every_origin(&[&traj], None, 1e-6).unwrap();
         let b = peaks_table(&[&traj], &p).unwrap();
         let ta = col(&b, "tau_alpha");
@@ -421,6 +432,7 @@ mod tests {
         let p = Params {
             a,
             n: vec![n],
+            fractions: Vec::new(),
             lags: lags_used,
             rel_tol: 1e-6,
             variance: Variance::default(),

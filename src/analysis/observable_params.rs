@@ -154,9 +154,14 @@ impl ObservableParams for chi4::Params {
         })
     }
     fn check(&self, kind: &str) -> Result<()> {
-        if self.n.is_empty() {
+        if self.n.is_empty() && self.fractions.is_empty() {
             anyhow::bail!(
-                "parameters of analysis `{kind}`: `n` (sub-box particle numbers) is empty; give at least one, e.g. n: [100, 400]"
+                "parameters of analysis `{kind}`: no sub-box size; give `n` (particle numbers, e.g. n: [100, 400]) or `fractions` (of the box, e.g. fractions: [0.25, 1])"
+            );
+        }
+        if let Some(f) = self.fractions.iter().find(|f| !(**f > 0.0 && **f <= 1.0)) {
+            anyhow::bail!(
+                "parameters of analysis `{kind}`: `fractions` holds {f}, not a fraction of the box in (0, 1]"
             );
         }
         Ok(())

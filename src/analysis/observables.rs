@@ -178,7 +178,7 @@ fn at_every_origin<P: ObservableParams + Clone>(trajs: &[&Trajectory], p: &P) ->
 
 fn chi4_pooled(trajs: &[&Trajectory], p: &chi4::Params) -> Result<chi4::Params> {
     let mut p = at_every_origin(trajs, p)?;
-    chi4::clamp_sizes(&mut p, trajs.first().map_or(0, |t| t.n()));
+    chi4::resolve_sizes(&mut p, trajs.first().map_or(0, |t| t.n()));
     Ok(p)
 }
 
@@ -611,6 +611,7 @@ mod tests {
             &chi4::Params {
                 a: 0.6,
                 n: vec![1e6],
+                fractions: Vec::new(),
                 lags: None,
                 rel_tol: 1e-6,
                 variance: chi4::Variance::default(),

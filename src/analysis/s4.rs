@@ -676,6 +676,7 @@ mod tests {
             &chi4::Params {
                 a: 0.6,
                 n: vec![traj.n() as f64],
+                fractions: Vec::new(),
                 lags: Some(vec![1.0]),
                 rel_tol: 1e-6,
                 variance: chi4::Variance::default(),
@@ -710,6 +711,7 @@ mod tests {
             &chi4::Params {
                 a: 0.6,
                 n: vec![50.0, 200.0],
+                fractions: Vec::new(),
                 lags: Some(vec![1.0]),
                 rel_tol: 1e-6,
                 variance: chi4::Variance::default(),
@@ -782,6 +784,7 @@ mod tests {
                 &chi4::Params {
                     a: 0.6,
                     n: vec![n_sub],
+                    fractions: Vec::new(),
                     lags: Some(vec![1.0]),
                     rel_tol: 1e-6,
                     variance: chi4::Variance::PerReplica,
@@ -908,6 +911,7 @@ mod tests {
             &chi4::Params {
                 a: 0.6,
                 n: vec![400.0, 1600.0],
+                fractions: Vec::new(),
                 lags: Some(vec![1.0]),
                 rel_tol: 1e-6,
                 variance: chi4::Variance::default(),
