@@ -429,6 +429,53 @@ fn collapse_finds_three_parameters_of_cluster_scaling() {
     assert!(r.quality.s < 2.0, "S = {}", r.quality.s);
 }
 
+/// S is continuous where a point crosses the end of another curve's range. Fig.
+/// 13's grid: integer cluster sizes and phi_c - phi of 0.06 and 0.03, so at
+/// rho = 1 the first point of phi = 0.76 lines up with the second of 0.79, which
+/// enters 0.76's range for rho > 1. With whole comparisons from the range's end
+/// S stepped there (by about a tenth on the ci data), and the minimum of S sat
+/// on the step's edge at rho = 1 whatever the data.
+#[test]
+fn collapse_quality_is_continuous_where_a_point_enters_a_range() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let curves: Vec<Curve> = [0.76, 0.79]
+        .iter()
+        .map(|&phi: &f64| {
+            let n_star = (0.82 - phi).powf(-1.0 / 1.63);
+            let x: Vec<f64> = (1..=12).map(f64::from).collect();
+            let y_true: Vec<f64> = x
+                .iter()
+                .map(|n| n.powf(-1.8) * (-n / n_star).exp())
+                .collect();
+            let sigma: Vec<f64> = y_true.iter().map(|y| 0.05 * y).collect();
+            let y = y_true
+                .iter()
+                .zip(&sigma)
+                .map(|(y, s)| y + s * gauss(&mut rng))
+                .collect();
+            Curve {
+                label: format!("phi={phi}"),
+                param: phi,
+                x,
+                y,
+                sigma,
+            }
+        })
+        .collect();
+    let rescale = |p: &[f64], c: &Curve, n: f64, y: f64, s: f64| {
+        let f = n.powf(p[0]);
+        (n * (0.82 - c.param).powf(1.0 / p[1]), y * f, s * f)
+    };
+    let s_at = |rho: f64| quality(&curves, &rescale, &[1.8, rho]).unwrap().s;
+    let (below, at, above) = (s_at(1.0 - 1e-9), s_at(1.0), s_at(1.0 + 1e-9));
+    for (side, v) in [("below", below), ("above", above)] {
+        assert!(
+            (v - at).abs() < 1e-6 * at,
+            "S {side} rho = 1: {v}, at it {at}: a step where a point enters a range"
+        );
+    }
+}
+
 #[test]
 fn collapse_quality_is_bad_for_wrong_exponent() {
     let mut rng = ChaCha8Rng::seed_from_u64(15);

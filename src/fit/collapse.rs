@@ -11,6 +11,15 @@
 //! chi-square of the points about their common (master) curve; S divides it by
 //! its expectation, so S ~ 1 for a collapse within the errors.
 //!
+//! A comparison enters with a weight that rises linearly from 0 at the end of
+//! the other curve's range to 1 at its next point, so that S is continuous in
+//! the parameters. With full weight from the end on, a point crossing into
+//! another curve's range switches a comparison on at once and S steps; the
+//! minimum then sits on a step's edge, which the grid of the data fixes (with
+//! phi_c held and phi differences in ratios 2 and 3/2, the first cluster sizes
+//! 1, 2, 3 line up at rho = 1 and ln 1.5 / ln 2), not the data's values, and
+//! the curvature there says nothing of the error.
+//!
 //! The parameters minimise S (grid scan, then Nelder-Mead within the bounds).
 //! Their covariance is 2 H^-1 with H the Hessian of that chi-square at the
 //! minimum, multiplied by S when S > 1 (scatter beyond the errors).
@@ -136,8 +145,10 @@ fn rescaled(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Vec<Log
         .collect()
 }
 
-/// Linear interpolation of `c` at ln X = `x`: (ln Y, variance), if `c` spans `x`.
-fn interpolate(c: &LogCurve, x: f64) -> Option<(f64, f64)> {
+/// Linear interpolation of `c` at ln X = `x`: (ln Y, variance, weight), if `c`
+/// spans `x`. The weight tapers the comparison to 0 at either end of `c`'s range
+/// over its end interval (module doc): 1 from the second point to the last but one.
+fn interpolate(c: &LogCurve, x: f64) -> Option<(f64, f64, f64)> {
     let n = c.lx.len();
     if n < 2 || x < c.lx[0] || x > c.lx[n - 1] {
         return None;
@@ -147,7 +158,16 @@ fn interpolate(c: &LogCurve, x: f64) -> Option<(f64, f64)> {
     let t = if x1 > x0 { (x - x0) / (x1 - x0) } else { 0.0 };
     let y = (1.0 - t) * c.ly[k - 1] + t * c.ly[k];
     let var = ((1.0 - t) * c.ls[k - 1]).powi(2) + (t * c.ls[k]).powi(2);
-    Some((y, var))
+    // From 0 at the end `from` to 1 at the next point `to` (either side).
+    let ramp = |from: f64, to: f64| {
+        if to != from {
+            ((x - from) / (to - from)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    };
+    let w = ramp(c.lx[0], c.lx[1]).min(ramp(c.lx[n - 1], c.lx[n - 2]));
+    Some((y, var, w))
 }
 
 /// Collapse quality at parameters `p`. Fails (naming the curves) when the
@@ -181,22 +201,23 @@ pub fn quality(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Qual
     let (mut chi2, mut expected, mut comparisons) = (0.0, 0.0, 0usize);
     for (a, ca) in logs.iter().enumerate() {
         for j in 0..ca.lx.len() {
-            let (mut sum, mut m) = (0.0, 0usize);
+            // m: the comparisons' summed weight (their number where all are whole).
+            let (mut sum, mut m) = (0.0, 0.0);
             for (b, cb) in logs.iter().enumerate() {
                 if a == b {
                     continue;
                 }
-                if let Some((y, var)) = interpolate(cb, ca.lx[j]) {
-                    sum += (ca.ly[j] - y).powi(2) / (ca.ls[j].powi(2) + var);
-                    m += 1;
+                if let Some((y, var, w)) = interpolate(cb, ca.lx[j]) {
+                    sum += w * (ca.ly[j] - y).powi(2) / (ca.ls[j].powi(2) + var);
+                    m += w;
+                    comparisons += 1;
                     let (ra, rb) = (find(&mut root, a), find(&mut root, b));
                     root[ra] = rb;
                 }
             }
-            if m > 0 {
-                chi2 += sum / (m + 1) as f64;
-                expected += m as f64 / (m + 1) as f64;
-                comparisons += m;
+            if m > 0.0 {
+                chi2 += sum / (m + 1.0);
+                expected += m / (m + 1.0);
             }
         }
     }
@@ -205,7 +226,7 @@ pub fn quality(curves: &[Curve], rescale: Rescale<'_>, p: &[f64]) -> Result<Qual
         .filter(|&c| find(&mut root, c) != r0)
         .map(|c| curves[c].label.as_str())
         .collect();
-    if comparisons == 0 || !apart.is_empty() {
+    if comparisons == 0 || expected <= 0.0 || !apart.is_empty() {
         return Err(FitError::unreliable(
             FORM,
             format!(
