@@ -13,6 +13,8 @@
 //!   refits at that value plus and minus its error.
 //! - [`leverage`]: a fit one point carries, and an error at least the
 //!   delete-one-point jackknife's when it does.
+//! - [`x_errors`]: errors in x carried into y's by the model's slope
+//!   (effective variance).
 //!
 //! Everything works on plain numbers and on a `refit` closure; reading and
 //! writing tables is the stages' business.
@@ -22,3 +24,4 @@ pub mod leverage;
 pub mod pooling;
 pub mod replicas;
 pub mod scatter;
+pub mod x_errors;

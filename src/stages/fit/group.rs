@@ -19,6 +19,7 @@ use crate::fit::uncertainty::replicas::{
     FitPoints, Refits, Replicas, covariance_method, mean_jackknife, replica_errors,
 };
 use crate::fit::uncertainty::scatter::{clean, relative_scatter, widened};
+use crate::fit::uncertainty::x_errors::effective_variance;
 use crate::fit::{Data, FitResult};
 use crate::pipeline::StageCtx;
 use crate::stages::tables::{Columns, pick};
@@ -69,6 +70,10 @@ pub(super) fn fit_group(
     let scatter = model_scatter(ctx, p, x, y, &pts.s, &fixed_ref);
     let m_scatter = scatter.map_or(0.0, |(m, _)| m);
     let s = widened(&pts.s, y, m_scatter);
+    let s = match &p.x_err {
+        Some(_) => carried_x_errors(p, x, y, &s, &pts.s_x, &fixed_ref)?,
+        None => s,
+    };
     if let FitForm::Value = p.form {
         // Rows whose x has replica samples too (a lag t = m tau_alpha,
         // remeasured in each replica sample) are not at a fixed x.
@@ -166,6 +171,29 @@ struct GroupPoints {
     x: Vec<f64>,
     y: Vec<f64>,
     s: Vec<f64>,
+    /// The errors of x of the cleaned points (`x_err`; empty without it).
+    s_x: Vec<f64>,
+}
+
+/// The y errors `s` widened by the x errors `s_x` through the model's slope
+/// (`x_err`, effective variance).
+fn carried_x_errors(
+    p: &FitParams,
+    x: &[f64],
+    y: &[f64],
+    s: &[f64],
+    s_x: &[f64],
+    fixed: &[(&str, f64)],
+) -> Result<Vec<f64>> {
+    let form = p
+        .form
+        .named()
+        .ok_or_else(|| anyhow::anyhow!("fit: `x_err` needs a named form"))?;
+    let fit = |e: &[f64]| fit_data(p, Some(form), Data::new(x, y, e), fixed);
+    let model = |params: &[f64], v: f64| (form.model)(params, fixed, v);
+    // A fit that fails here fails again on the errors of y, where its failure
+    // becomes the table's note as any other's.
+    Ok(effective_variance(x, s, s_x, fit, model).map_or_else(|_| s.to_vec(), |(e, _)| e))
 }
 
 /// The points of `rows` of `c` for fit `p`; logs how many were dropped for a
@@ -184,6 +212,11 @@ fn group_points(ctx: &StageCtx, p: &FitParams, c: &Columns, rows: &[usize]) -> R
     let jk = replica_columns(c, &used_rows, &p.x, &p.y);
     let one_unit = unit_columns(c, &used_rows, &p.y);
     let raw = (pick(&x, &used), pick(&y, &used), pick(&s, &used));
+    // The x errors of the points `clean` keeps (finite x and y).
+    let s_x = match &p.x_err {
+        Some(e) => pick(&pick(c.col(e)?, rows), &used),
+        None => Vec::new(),
+    };
     let cleaned = clean(&x, &y, &s);
     if cleaned.dropped > 0 {
         ctx.log(format!(
@@ -199,6 +232,7 @@ fn group_points(ctx: &StageCtx, p: &FitParams, c: &Columns, rows: &[usize]) -> R
         x: cleaned.x,
         y: cleaned.y,
         s: cleaned.s,
+        s_x,
     })
 }
 
@@ -438,6 +472,11 @@ fn diagnostic_rows(
     rows: &mut Vec<(String, f64, f64)>,
     method: &mut String,
 ) {
+    if let Some(xe) = &p.x_err {
+        method.push_str(&format!(
+            "; each y error widened in quadrature by the model's slope times the x error `{xe}` (effective variance)"
+        ));
+    }
     match scatter {
         Some((m, alone)) => {
             rows.push((p.quantity_name("reduced_chi2"), alone, f64::NAN));

@@ -104,6 +104,13 @@ impl StageKind for Fit {
                 "fit: `scatter: {sc}`: the only model scatter is `relative`, for a named form with `y_err` (without y_err the errors are scaled to the scatter already)"
             );
         }
+        if let Some(xe) = &p.x_err
+            && (p.y_err.is_none() || form.is_none())
+        {
+            bail!(
+                "fit: `x_err: {xe}` widens the y errors by the model's slope: it needs a named form and `y_err`"
+            );
+        }
         let name = p.form.name();
         if crate::fit::catalogue::HOLD_NONE.contains(&name)
             && !(p.fixed.is_empty() && p.fixed_from.is_empty())

@@ -116,6 +116,12 @@ pub struct FitParams {
     /// Column of 1-sigma errors of y; without it the errors are scaled to the scatter.
     #[serde(default)]
     pub y_err: Option<String>,
+    /// Column of 1-sigma errors of x (a named form, with `y_err`): each y error
+    /// is widened in quadrature by the model's slope times it, the slope taken
+    /// from the fit and the fit repeated (effective variance,
+    /// `fit::uncertainty::x_errors`).
+    #[serde(default)]
+    pub x_err: Option<String>,
     #[serde(default, rename = "where")]
     pub filter: Where,
     #[serde(default)]
