@@ -1279,7 +1279,17 @@ fn errors_inside_params_point_at_the_key_or_value_with_a_snippet() {
         "figtoy",
     );
     assert!(
-        e.contains("figtoy.yaml:7:10:") && e.contains("is empty"),
+        e.contains("figtoy.yaml:7:10:") && e.contains("no sub-box size"),
+        "{e}"
+    );
+    // A sub-box as a fraction of the box must be one.
+    let e = plan_error(
+        "pipelines/figtoy.yaml",
+        "description: d\nstages:\n  - name: s\n    kind: chi4_peaks\n    gather: [toy_sweep]\n    params:\n      fractions: [0.25, 1.5]\n",
+        "figtoy",
+    );
+    assert!(
+        e.contains("figtoy.yaml:7:") && e.contains("`fractions` holds 1.5"),
         "{e}"
     );
     // Experiment params: the same three classes.
