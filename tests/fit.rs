@@ -382,26 +382,31 @@ fn collapse_finds_two_exponents_with_xi_from_a_power_law() {
     assert!(r.quality.s < 2.0, "S = {}", r.quality.s);
 }
 
-#[test]
-fn collapse_finds_three_parameters_of_cluster_scaling() {
-    // Fig. 13: P(Nc) = Nc^-kappa exp(-Nc/N*), N* = (phi_c - phi)^(-1/rho); collapse
-    // P Nc^kappa against Nc/N* with kappa, rho and phi_c all unknown.
-    let (kappa, rho, phi_c) = (1.8, 1.63, 0.82);
-    let mut rng = ChaCha8Rng::seed_from_u64(20);
-    let curves: Vec<Curve> = [0.70, 0.73, 0.76, 0.78, 0.79]
-        .iter()
-        .map(|&phi: &f64| {
+/// Fig. 13's cluster sizes: (kappa, rho, phi_c) of the synthetic curves.
+const CLUSTERS: (f64, f64, f64) = (1.8, 1.63, 0.82);
+
+/// P(Nc) = Nc^-kappa exp(-Nc/N*), N* = (phi_c - phi)^(-1/rho) (`CLUSTERS`), at the
+/// sizes `sizes(N*)` of each phi, with Gaussian noise of `rel_err` times P.
+fn cluster_curves(
+    rng: &mut ChaCha8Rng,
+    phis: &[f64],
+    rel_err: f64,
+    sizes: impl Fn(f64) -> Vec<f64>,
+) -> Vec<Curve> {
+    let (kappa, rho, phi_c) = CLUSTERS;
+    phis.iter()
+        .map(|&phi| {
             let n_star = (phi_c - phi).powf(-1.0 / rho);
-            let x = logspace(1.0, 5.0 * n_star, 20);
+            let x = sizes(n_star);
             let y_true: Vec<f64> = x
                 .iter()
                 .map(|n| n.powf(-kappa) * (-n / n_star).exp())
                 .collect();
-            let sigma: Vec<f64> = y_true.iter().map(|y| 0.03 * y).collect();
+            let sigma: Vec<f64> = y_true.iter().map(|y| rel_err * y).collect();
             let y = y_true
                 .iter()
                 .zip(&sigma)
-                .map(|(y, s)| y + s * gauss(&mut rng))
+                .map(|(y, s)| y + s * gauss(rng))
                 .collect();
             Curve {
                 label: format!("phi={phi}"),
@@ -411,7 +416,18 @@ fn collapse_finds_three_parameters_of_cluster_scaling() {
                 sigma,
             }
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn collapse_finds_three_parameters_of_cluster_scaling() {
+    // Fig. 13: P(Nc) = Nc^-kappa exp(-Nc/N*), N* = (phi_c - phi)^(-1/rho); collapse
+    // P Nc^kappa against Nc/N* with kappa, rho and phi_c all unknown.
+    let (kappa, rho, phi_c) = CLUSTERS;
+    let mut rng = ChaCha8Rng::seed_from_u64(20);
+    let curves = cluster_curves(&mut rng, &[0.70, 0.73, 0.76, 0.78, 0.79], 0.03, |n_star| {
+        logspace(1.0, 5.0 * n_star, 20)
+    });
     let rescale = |p: &[f64], c: &Curve, n: f64, y: f64, s: f64| {
         let f = n.powf(p[0]);
         (n * (p[2] - c.param).powf(1.0 / p[1]), y * f, s * f)
@@ -438,30 +454,9 @@ fn collapse_finds_three_parameters_of_cluster_scaling() {
 #[test]
 fn collapse_quality_is_continuous_where_a_point_enters_a_range() {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
-    let curves: Vec<Curve> = [0.76, 0.79]
-        .iter()
-        .map(|&phi: &f64| {
-            let n_star = (0.82 - phi).powf(-1.0 / 1.63);
-            let x: Vec<f64> = (1..=12).map(f64::from).collect();
-            let y_true: Vec<f64> = x
-                .iter()
-                .map(|n| n.powf(-1.8) * (-n / n_star).exp())
-                .collect();
-            let sigma: Vec<f64> = y_true.iter().map(|y| 0.05 * y).collect();
-            let y = y_true
-                .iter()
-                .zip(&sigma)
-                .map(|(y, s)| y + s * gauss(&mut rng))
-                .collect();
-            Curve {
-                label: format!("phi={phi}"),
-                param: phi,
-                x,
-                y,
-                sigma,
-            }
-        })
-        .collect();
+    let curves = cluster_curves(&mut rng, &[0.76, 0.79], 0.05, |_| {
+        (1..=12).map(f64::from).collect()
+    });
     let rescale = |p: &[f64], c: &Curve, n: f64, y: f64, s: f64| {
         let f = n.powf(p[0]);
         (n * (0.82 - c.param).powf(1.0 / p[1]), y * f, s * f)
