@@ -67,13 +67,15 @@ pub(super) fn fit_group(
     let fixed_ref: Vec<(&str, f64)> = fixed.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     // `scatter: relative`: s_m and the reduced chi^2 of the errors alone; the
     // fit, its refits and its range scan then weight by the widened errors.
-    let scatter = model_scatter(ctx, p, x, y, &pts.s, &fixed_ref);
-    let m_scatter = scatter.map_or(0.0, |(m, _)| m);
-    let s = widened(&pts.s, y, m_scatter);
-    let s = match &p.x_err {
-        Some(_) => carried_x_errors(p, x, y, &s, &pts.s_x, &fixed_ref)?,
-        None => s,
+    // `x_err`: the y errors widened by x's first, so that a model scatter is
+    // the misfit beyond both.
+    let s_xy = match &p.x_err {
+        Some(_) => carried_x_errors(p, x, y, &pts.s, &pts.s_x, &fixed_ref)?,
+        None => pts.s.clone(),
     };
+    let scatter = model_scatter(ctx, p, x, y, &s_xy, &fixed_ref);
+    let m_scatter = scatter.map_or(0.0, |(m, _)| m);
+    let s = widened(&s_xy, y, m_scatter);
     if let FitForm::Value = p.form {
         // Rows whose x has replica samples too (a lag t = m tau_alpha,
         // remeasured in each replica sample) are not at a fixed x.
