@@ -86,7 +86,7 @@ all-figures:
 # plan convergence-tau ... convergence-eps --profile small`), too slow for CI;
 # their ci versions (a few small N) are built and gated by `make test`.
 convergence:
-	$(REPRO) figure convergence-tau convergence-exponents convergence-cutoff convergence-intruder convergence-collapse convergence-eps --profile $(PROFILE) $(JOBS_FLAG)
+	$(REPRO) figure convergence-tau convergence-exponents convergence-chi4-box convergence-cutoff convergence-intruder convergence-collapse convergence-eps --profile $(PROFILE) $(JOBS_FLAG)
 
 # The gallery and key-number table of the built figures: results/REPORT.md and
 # results/report/index.html (docs/report-PROFILE.md too with DOCS=1).
