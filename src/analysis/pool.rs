@@ -243,6 +243,17 @@ pub struct LeftOut {
     pub replica: usize,
 }
 
+/// The delete-one jackknife variance of one unit's refits of a number:
+/// (r - 1)/r times their sum of squares about their mean (0 under two).
+pub fn jackknife_variance(thetas: &[f64]) -> f64 {
+    let r = thetas.len() as f64;
+    if thetas.len() < 2 {
+        return 0.0;
+    }
+    let mean = thetas.iter().sum::<f64>() / r;
+    (r - 1.0) / r * thetas.iter().map(|t| (t - mean).powi(2)).sum::<f64>()
+}
+
 /// A replica jackknife: the standard errors and every refit's numbers.
 #[derive(Clone, Debug)]
 pub struct Jackknife {
@@ -277,9 +288,8 @@ pub fn replica_jackknife_with(
         }
         var.resize(thetas[0].len(), 0.0);
         for (p, v) in var.iter_mut().enumerate() {
-            let mean = thetas.iter().map(|t| t[p]).sum::<f64>() / r as f64;
-            let ss: f64 = thetas.iter().map(|t| (t[p] - mean).powi(2)).sum();
-            *v += (r as f64 - 1.0) / r as f64 * ss;
+            let column: Vec<f64> = thetas.iter().map(|t| t[p]).collect();
+            *v += jackknife_variance(&column);
         }
         Some(())
     };

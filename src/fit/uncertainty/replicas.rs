@@ -14,6 +14,17 @@ use crate::analysis::pool::{self, LeftOut};
 /// A number's jackknife refits by (unit bits, replica left out).
 pub type Refits = BTreeMap<(u64, usize), f64>;
 
+/// The variance a number's replica refits carry: the delete-one jackknife
+/// variance summed over the units left out, as the fit that made them
+/// combines them.
+pub fn refits_variance(refits: &Refits) -> f64 {
+    let mut by_unit: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+    for (&(unit, _), &v) in refits {
+        by_unit.entry(unit).or_default().push(v);
+    }
+    by_unit.values().map(|t| pool::jackknife_variance(t)).sum()
+}
+
 /// Replica jackknife inputs of a fit's points: the unit of every point, and the
 /// leave-one-out samples of x (empty when x is a key such as phi) and of y.
 pub type Replicas = (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>);

@@ -40,8 +40,9 @@ pub(super) struct Group {
 
 /// The numbers a fit takes from other fits (`fixed_from`): the replica refits
 /// of those whose fit has them (its jackknife refits them with the same replica
-/// left out), and the value and quoted error of those whose fit has none (held,
-/// their error passed on by [`held_shifts`]).
+/// left out), and the value and quoted error of those whose fit has none, or
+/// the part of it their refits do not carry (held, their error passed on by
+/// [`held_shifts`]).
 #[derive(Default)]
 pub(super) struct TakenNumbers {
     pub refits: Vec<(String, Refits)>,
@@ -432,8 +433,9 @@ fn leverage_floor(
     max_leverage
 }
 
-/// A number held at another fit's value, that fit without replica refits:
-/// its error passed on by refits at its value +- that error.
+/// A number held at another fit's value: its error (all of it when that fit
+/// has no replica refits, else the part they do not carry) passed on by
+/// refits at its value +- that error.
 fn held_errors(
     fg: &Fitting,
     f: &FitResult,
@@ -459,7 +461,7 @@ fn held_errors(
                 row.2 = e;
             }
             method.push_str(&format!(
-                "; {name} held at {value:.6} +- {err:.2e} (from another fit without replica refits): each error adds in quadrature half the change between the refits at {name} +- {err:.2e}"
+                "; {name} held at {value:.6} +- {err:.2e} (its fit's quoted error, or the part of it its replica refits do not carry): each error adds in quadrature half the change between the refits at {name} +- {err:.2e}"
             ));
         }
     }

@@ -11,7 +11,12 @@ use super::params::{FitForm, FitParams};
 use super::pooling::pool_one_unit_errors;
 use super::quantities::same_columns;
 use super::{ERROR_METHOD, JACKKNIFE_FILE};
+
+/// The share of a taken number's quoted variance its replica refits may leave
+/// out before the rest is passed on (rounding between the two is not a rest).
+const HELD_REST: f64 = 0.01;
 use crate::fit::catalogue;
+use crate::fit::uncertainty::replicas::refits_variance;
 use crate::pipeline::registry::typed;
 use crate::pipeline::{Artifact, Output, StageCtx, StageKind};
 use crate::stages::tables::{Columns, inputs_of, source_stages};
@@ -140,7 +145,17 @@ impl StageKind for Fit {
                 taken.unreliable = Some(why);
             }
             match from.jackknife("fit", inputs)? {
-                Some(r) => taken.refits.push((name.clone(), r)),
+                Some(r) => {
+                    // Its refits carry the replicas' share of its error; what its
+                    // fit quotes beyond them (a model scatter, a pooled error) is
+                    // passed on as a held number's, or the held number and all
+                    // fitted with it would quote the replica spread alone.
+                    let rest = err * err - refits_variance(&r);
+                    if err.is_finite() && rest > HELD_REST * err * err {
+                        taken.held.push((name.clone(), value, rest.sqrt()));
+                    }
+                    taken.refits.push((name.clone(), r));
+                }
                 None => taken.held.push((name.clone(), value, err)),
             }
         }
