@@ -5,7 +5,7 @@
 //! and draws column `y` against `x`, one series per distinct value of `group`
 //! (e.g. one curve per phi) or a single series.
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use serde_json::Value;
 
@@ -123,6 +123,15 @@ pub struct Layer {
     /// A grouped layer's curves stacked apart: see [`Offset`].
     #[serde(default)]
     pub offset: Option<Offset>,
+    /// A name for this layer, for a fit layer's `points`.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// On a fit layer: the `name` of the layer whose points its line is
+    /// judged against (runs of residual signs). Default: every point series
+    /// of its group value, which mixes curves when ungrouped layers of one
+    /// panel draw several (two drives at one eta).
+    #[serde(default)]
+    pub points: Option<String>,
 }
 
 /// Curves of one quantity that overlap (P(t)/P̄ of every phi about 1) drawn
@@ -607,18 +616,28 @@ fn residual_signs(fit: &Series, data: &[&Series], ps: &PanelSpec) -> Vec<(f64, b
 /// it in runs too long for chance ([`RUNS_LEVEL`]): its form misses their
 /// shape (a straight line through a curve that turns). A curve is judged
 /// against the marked points of its own group value (or the ungrouped ones).
-fn systematic(all: &[Series], ps: &PanelSpec) -> Vec<String> {
+fn systematic(
+    all: &[Series],
+    names: &[(Option<String>, Option<String>)],
+    ps: &PanelSpec,
+) -> Vec<String> {
     let axis = if ps.x.label.is_empty() {
         "x"
     } else {
         &ps.x.label
     };
     let mut out = vec![];
-    for fit in all.iter().filter(|s| s.fit) {
+    for (i, fit) in all.iter().enumerate().filter(|(_, s)| s.fit) {
+        let against = names.get(i).and_then(|n| n.1.as_ref());
         let data: Vec<&Series> = all
             .iter()
-            .filter(|s| !s.fit && matches!(s.style, Style::Points | Style::LinePoints))
-            .filter(|s| s.group == fit.group)
+            .enumerate()
+            .filter(|(_, s)| !s.fit && matches!(s.style, Style::Points | Style::LinePoints))
+            .filter(|(j, s)| match against {
+                Some(w) => names.get(*j).and_then(|n| n.0.as_ref()) == Some(w),
+                None => s.group == fit.group,
+            })
+            .map(|(_, s)| s)
             .collect();
         let signs = residual_signs(fit, &data, ps);
         // Runs are counted in order of x: with several points at one x (a
@@ -736,6 +755,8 @@ fn build(
     let mut panels = Vec::new();
     for (k, ps) in p.panels.iter().enumerate() {
         let mut all = Vec::new();
+        // Per series: its layer's `name` and, for a fit, the `points` it is judged against.
+        let mut names: Vec<(Option<String>, Option<String>)> = Vec::new();
         let mut notes = ps
             .notes
             .iter()
@@ -758,10 +779,26 @@ fn build(
                 .collect();
             notes.extend(missing(&layer, &ps.legend_title, &drawn));
             notes.extend(arrow_key(&layer, &c)?);
+            names.extend(
+                drawn
+                    .iter()
+                    .map(|_| (layer.name.clone(), layer.points.clone())),
+            );
             all.extend(drawn);
         }
+        if let Some(want) = ps
+            .layers
+            .iter()
+            .filter_map(|l| l.points.as_ref())
+            .find(|w| !ps.layers.iter().any(|l| l.name.as_ref() == Some(*w)))
+        {
+            bail!(
+                "plot: panel {}: `points: {want}` names no layer of the panel (give that layer `name: {want}`)",
+                k + 1
+            );
+        }
         // Fitted layers only: a guide of the paper (`curves`) is not ours to judge.
-        notes.extend(systematic(&all, ps));
+        notes.extend(systematic(&all, &names, ps));
         for c in &ps.curves {
             // A fitted value at full precision: `fill` with a `:value` key.
             let value = |t: &str| -> Result<f64> {

@@ -507,7 +507,7 @@ fn line_through(y: &[f64]) -> Vec<String> {
     let ps: super::PanelSpec =
         serde_json::from_value(serde_json::json!({"x": {"label": "φ"}, "y": {}, "layers": []}))
             .unwrap();
-    super::systematic(&all, &ps)
+    super::systematic(&all, &[], &ps)
 }
 
 /// A straight line through a parabola misses its points systematically (a
@@ -569,7 +569,7 @@ fn a_scatter_with_tied_x_is_not_judged_by_runs() {
         .collect();
     let line = curve(&[0.0, 30.0]);
     assert_eq!(
-        super::systematic(&[points(x, y), line.clone()], &ps).len(),
+        super::systematic(&[points(x, y), line.clone()], &[], &ps).len(),
         1
     );
     // The same signs at six x, four points each: no note.
@@ -577,7 +577,59 @@ fn a_scatter_with_tied_x_is_not_judged_by_runs() {
     let y: Vec<f64> = (0..24)
         .map(|i| x[i] + if i < 12 { 1.0 } else { -1.0 })
         .collect();
-    assert!(super::systematic(&[points(x, y), line], &ps).is_empty());
+    assert!(super::systematic(&[points(x, y), line], &[], &ps).is_empty());
+}
+
+/// Two ungrouped point series in one panel (one eta at two drives) and a
+/// line fitted to one of them that misses its points in long runs: judged
+/// against every point of the panel, the other series' points, which lie on
+/// both sides in turn, break the runs and hide the miss; judged against the
+/// layer its `points` names, it is flagged.
+#[test]
+fn a_fit_is_judged_against_the_layer_it_names() {
+    let x: Vec<f64> = (0..16).map(|i| 1.0 + i as f64).collect();
+    // Its own points: above the line over the middle, below at both ends.
+    let own: Vec<f64> = x
+        .iter()
+        .map(|&x| x + if (4.0..=12.0).contains(&x) { 1.0 } else { -1.0 })
+        .collect();
+    // The other series at x + 0.5: alternating sides.
+    let xo: Vec<f64> = x.iter().map(|&x| x + 0.5).collect();
+    let other: Vec<f64> = xo
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| x + if i % 2 == 0 { 2.0 } else { -2.0 })
+        .collect();
+    let pts = |x: &[f64], y: Vec<f64>| crate::plot::Series {
+        x: x.to_vec(),
+        y,
+        style: crate::plot::Style::Points,
+        ..Default::default()
+    };
+    let line = crate::plot::Series {
+        label: "fit".into(),
+        x: vec![0.0, 20.0],
+        y: vec![0.0, 20.0],
+        fit: true,
+        ..Default::default()
+    };
+    let all = [pts(&x, own), pts(&xo, other), line];
+    let ps: super::PanelSpec =
+        serde_json::from_value(serde_json::json!({"x": {"label": "F"}, "y": {}, "layers": []}))
+            .unwrap();
+    assert!(super::systematic(&all, &[], &ps).is_empty());
+    let names = [
+        (Some("hot".to_string()), None),
+        (Some("cold".to_string()), None),
+        (None, Some("hot".to_string())),
+    ];
+    let notes = super::systematic(&all, &names, &ps);
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("fit misses its points systematically over F"),
+        "{}",
+        notes[0]
+    );
 }
 
 /// A compare table gathered by the plot: one verdict line per paper value,
