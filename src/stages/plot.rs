@@ -754,6 +754,17 @@ fn build(
     let shared_scale = auto_scales.into_iter().min_by(f64::total_cmp);
     let mut panels = Vec::new();
     for (k, ps) in p.panels.iter().enumerate() {
+        if let Some(want) = ps
+            .layers
+            .iter()
+            .filter_map(|l| l.points.as_ref())
+            .find(|w| !ps.layers.iter().any(|l| l.name.as_ref() == Some(*w)))
+        {
+            bail!(
+                "plot: panel {}: `points: {want}` names no layer of the panel (give that layer `name: {want}`)",
+                k + 1
+            );
+        }
         let mut all = Vec::new();
         // Per series: its layer's `name` and, for a fit, the `points` it is judged against.
         let mut names: Vec<(Option<String>, Option<String>)> = Vec::new();
@@ -785,17 +796,6 @@ fn build(
                     .map(|_| (layer.name.clone(), layer.points.clone())),
             );
             all.extend(drawn);
-        }
-        if let Some(want) = ps
-            .layers
-            .iter()
-            .filter_map(|l| l.points.as_ref())
-            .find(|w| !ps.layers.iter().any(|l| l.name.as_ref() == Some(*w)))
-        {
-            bail!(
-                "plot: panel {}: `points: {want}` names no layer of the panel (give that layer `name: {want}`)",
-                k + 1
-            );
         }
         // Fitted layers only: a guide of the paper (`curves`) is not ours to judge.
         notes.extend(systematic(&all, &names, ps));

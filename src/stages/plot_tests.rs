@@ -632,6 +632,24 @@ fn a_fit_is_judged_against_the_layer_it_names() {
     );
 }
 
+/// A fit layer's `points` that names no layer of its panel is an error that
+/// names the panel and the name, before any table is read.
+#[test]
+fn points_naming_no_layer_is_an_error() {
+    let yaml = r#"
+panels:
+  - x: {label: "F"}
+    y: {label: "v"}
+    layers:
+      - {from: hot, x: force, y: v, name: hot}
+      - {from: fits, file: curve.parquet, x: force, y: v, points: cold}
+"#;
+    let v: serde_json::Value = serde_saphyr::from_str(yaml).unwrap();
+    let p: super::PlotParams = serde_json::from_value(v).unwrap();
+    let e = super::figure(&p, &[]).unwrap_err().to_string();
+    assert!(e.contains("panel 1") && e.contains("`points: cold`"), "{e}");
+}
+
 /// A compare table gathered by the plot: one verdict line per paper value,
 /// the short reason given in `short` where the verdict is not agree, the
 /// first clause of the reason otherwise, none where it agrees unless a short
