@@ -471,6 +471,36 @@ fn collapse_quality_is_continuous_where_a_point_enters_a_range() {
     }
 }
 
+/// S has no cusp where the points of several curves line up. Fig. 13's grid:
+/// integer cluster sizes and phi_c - phi of 0.12, 0.08, 0.06, 0.04 and 0.03,
+/// so at rho = 1 the sizes of every phi fall on one another. Interpolating
+/// with independent errors, whose variance is smallest midway between two
+/// points, S had a kink there (on these curves its slope jumped from -242 to
+/// -66), a minimum on curves whose misfit is systematic: the default
+/// profile's sweep put rho exactly on 1 at N = 1000, its error from the
+/// cusp's curvature. What remains is the kink of the piecewise-linear
+/// interpolation of noisy points (-149 to -119): the one-sided slopes at
+/// rho = 1 must agree within a third.
+#[test]
+fn collapse_quality_has_no_cusp_where_the_points_of_curves_line_up() {
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    let curves = cluster_curves(&mut rng, &[0.70, 0.74, 0.76, 0.78, 0.79], 0.03, |_| {
+        (1..=12).map(f64::from).collect()
+    });
+    let rescale = |p: &[f64], c: &Curve, n: f64, y: f64, s: f64| {
+        let f = n.powf(p[0]);
+        (n * (0.82 - c.param).powf(1.0 / p[1]), y * f, s * f)
+    };
+    let s_at = |rho: f64| quality(&curves, &rescale, &[1.8, rho]).unwrap().s;
+    let h = 1e-6;
+    let (below, at, above) = (s_at(1.0 - h), s_at(1.0), s_at(1.0 + h));
+    let (left, right) = ((at - below) / h, (above - at) / h);
+    assert!(
+        (right - left).abs() < 0.5 * (left.abs() + right.abs()) / 3.0,
+        "the slope of S jumps from {left} to {right} at rho = 1, where the points line up"
+    );
+}
+
 #[test]
 fn collapse_quality_is_bad_for_wrong_exponent() {
     let mut rng = ChaCha8Rng::seed_from_u64(15);

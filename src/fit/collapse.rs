@@ -9,7 +9,7 @@
 //! both errors. With K curves overlapping at a point, the K(K-1) ordered
 //! comparisons there are weighted 1/K, which makes the sum equal to the
 //! chi-square of the points about their common (master) curve; S divides it by
-//! its expectation, so S ~ 1 for a collapse within the errors.
+//! its expectation, so S ~ 1 for a collapse within the errors (below).
 //!
 //! A comparison enters with a weight that rises linearly from 0 at the end of
 //! the other curve's range to 1 at its next point, so that S is continuous in
@@ -19,6 +19,18 @@
 //! phi_c held and phi differences in ratios 2 and 3/2, the first cluster sizes
 //! 1, 2, 3 line up at rho = 1 and ln 1.5 / ln 2), not the data's values, and
 //! the curvature there says nothing of the error.
+//!
+//! The interpolated value carries the weighted mean of its two points' errors,
+//! as for errors fully correlated along a curve: neighbouring points of one
+//! measured curve come from the same runs (P(Nc) at adjacent sizes, chi4 of
+//! nested sub-boxes). With the independent-error form (1 - t)^2 s0^2 + t^2 s1^2,
+//! which halves the variance midway between points, S dips wherever the points
+//! of two curves line up, and on curves whose misfit is systematic those dips
+//! are its minima: on the default profile's cluster sizes (integer Nc) the best
+//! rho of fig13's collapse sat on such alignments, exactly on rho = 1 at N =
+//! 1000 in the sweep in N, with errors from the curvature of a cusp. For
+//! independent errors this form puts S of a collapse within the errors below
+//! 1 where the points of the curves do not line up.
 //!
 //! The parameters minimise S (grid scan, then Nelder-Mead within the bounds).
 //! Their covariance is 2 H^-1 with H the Hessian of that chi-square at the
@@ -157,7 +169,10 @@ fn interpolate(c: &LogCurve, x: f64) -> Option<(f64, f64, f64)> {
     let (x0, x1) = (c.lx[k - 1], c.lx[k]);
     let t = if x1 > x0 { (x - x0) / (x1 - x0) } else { 0.0 };
     let y = (1.0 - t) * c.ly[k - 1] + t * c.ly[k];
-    let var = ((1.0 - t) * c.ls[k - 1]).powi(2) + (t * c.ls[k]).powi(2);
+    // The two points' errors taken as fully correlated (module doc): the
+    // interpolated error is their weighted mean, not the smaller
+    // sqrt((1 - t)^2 s0^2 + t^2 s1^2) of independent errors.
+    let var = ((1.0 - t) * c.ls[k - 1] + t * c.ls[k]).powi(2);
     // From 0 at the end `from` to 1 at the next point `to` (either side).
     let ramp = |from: f64, to: f64| {
         if to != from {
