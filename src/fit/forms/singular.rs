@@ -213,15 +213,21 @@ fn fit_singular(s: &Singular, data: Data<'_>, fixed: Fixed<'_>) -> Result<FitRes
         e => e,
     })?;
     let (c, dc) = fit.get(s.names[1]).expect("singular point is a parameter");
+    let held = fixed_value(fixed, s.names[1]).is_some();
     if let Some(why) = on_last_point(data.x, c) {
         // A free power law on the last point is also what VFT-shaped data give:
         // say which of the two the data resemble (a VFT fit never recurses here).
+        // A held divergence was not fitted here: the comparison belongs to the
+        // free fit it came from, so a held one only says where it lies.
         let shape = match s.form {
-            "power_law_offset" => format!("; {}", DivergenceShape::of(data, &fit)),
+            "power_law_offset" if !held => format!("; {}", DivergenceShape::of(data, &fit)),
             _ => String::new(),
         };
-        fit.warnings
-            .push(format!("{UNRELIABLE}{} = {c:.4}: {why}{shape}", s.names[1]));
+        let held = if held { " (held)" } else { "" };
+        fit.warnings.push(format!(
+            "{UNRELIABLE}{} = {c:.4}{held}: {why}{shape}",
+            s.names[1]
+        ));
     } else if c - max < 3.0 * dc {
         fit.warnings.push(format!(
             "{} = {c} is within 3 sigma ({dc:.2e}) of max(phi) = {max}: the divergence is not \
@@ -459,6 +465,25 @@ mod tests {
             let w = f.warnings.join("; ");
             assert!(w.starts_with(UNRELIABLE) && w.contains("VFT-shaped"), "{w}");
         }
+    }
+
+    /// A phi_c held from another fit (fig17's gamma_xi takes fig4's) on the
+    /// last point is flagged as held, without the free fit's comparison with
+    /// the VFT: the held fit's chi^2 is not a free power law's.
+    #[test]
+    fn a_held_phi_c_on_the_last_point_says_held_and_compares_nothing() {
+        let (x, y, s) = exact(vft_tau, 0.805);
+        let d = Data::new(&x, &y, &s);
+        let free = power_law_offset(d, &[]).unwrap();
+        let c = free.value("phi_c");
+        let held = power_law_offset(d, &[("phi_c", c)]).unwrap();
+        let w = held.warnings.join("; ");
+        assert!(
+            w.starts_with(UNRELIABLE) && w.contains("(held)") && !w.contains("chi^2"),
+            "{w}"
+        );
+        let w = free.warnings.join("; ");
+        assert!(!w.contains("(held)") && w.contains("VFT-shaped: "), "{w}");
     }
 
     /// The converse: power-law data with phi_c = 0.82 (three steps beyond
